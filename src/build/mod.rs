@@ -1,0 +1,79 @@
+//! Building a [`LightTree`]: validate the lights, bound them, build a binary tree with the
+//! binned SAOH ([`saoh`]), collapse it to 4-wide nodes ([`collapse`]).
+
+pub(crate) mod collapse;
+pub(crate) mod saoh;
+
+use crate::error::BuildError;
+use crate::light::{Light, MAX_TOTAL_ENERGY};
+use crate::tree::{LightTree, LEAF_BIT};
+use alloc::vec::Vec;
+use saoh::{BinTree, Prim};
+
+/// Options of the build.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct BuildOptions {
+    /// SAOH buckets per axis, clamped to 12..=64.
+    pub buckets: usize,
+}
+
+impl Default for BuildOptions {
+    fn default() -> Self {
+        BuildOptions { buckets: 12 }
+    }
+}
+
+/// Validates every light and returns the ones with positive energy, bounded.
+pub(crate) fn prepare(lights: &[Light]) -> Result<Vec<Prim>, BuildError> {
+    if lights.len() >= (LEAF_BIT - 1) as usize {
+        return Err(BuildError::TooManyLights {
+            count: lights.len(),
+        });
+    }
+    let mut prims = Vec::with_capacity(lights.len());
+    let mut total = 0.0f64;
+    for (i, l) in lights.iter().enumerate() {
+        l.validate(i)?;
+        let bounds = l.bounds();
+        if bounds.energy > 0.0 {
+            total += f64::from(bounds.energy);
+            prims.push(Prim {
+                centroid: bounds.aabb.center(),
+                bounds,
+                light: i as u32,
+            });
+        }
+    }
+    if total > f64::from(MAX_TOTAL_ENERGY) {
+        return Err(BuildError::TotalEnergyTooLarge);
+    }
+    Ok(prims)
+}
+
+/// The binary SAOH tree of `lights` (empty when no light has energy).
+pub(crate) fn binary(lights: &[Light], opts: &BuildOptions) -> Result<BinTree, BuildError> {
+    let mut prims = prepare(lights)?;
+    if prims.is_empty() {
+        return Ok(BinTree { nodes: Vec::new() });
+    }
+    Ok(saoh::build(&mut prims, opts.buckets.clamp(12, 64)))
+}
+
+impl LightTree {
+    /// Builds the tree with default options. Lights of zero energy (zero power or area) are
+    /// accepted and never sampled; an empty slice gives a tree that samples nothing.
+    pub fn build(lights: &[Light]) -> Result<LightTree, BuildError> {
+        LightTree::build_with(lights, &BuildOptions::default())
+    }
+
+    /// Builds the tree with `opts`.
+    pub fn build_with(lights: &[Light], opts: &BuildOptions) -> Result<LightTree, BuildError> {
+        let bin = binary(lights, opts)?;
+        let tree = collapse::collapse(&bin, lights.len())?;
+        #[cfg(debug_assertions)]
+        if let Err(e) = tree.validate() {
+            panic!("manylights: internal error, built tree fails validation: {e}");
+        }
+        Ok(tree)
+    }
+}

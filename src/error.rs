@@ -1,0 +1,247 @@
+//! Errors of the core: what was wrong, with the light's index and the field.
+
+use core::fmt;
+
+/// The field of a [`crate::Light`] that failed validation.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum LightField {
+    /// `position` of a point or spot light.
+    Position,
+    /// `direction` of a spot light.
+    Direction,
+    /// `center` of a sphere or disk light.
+    Center,
+    /// `normal` of a disk light.
+    Normal,
+    /// `radius` of a sphere or disk light.
+    Radius,
+    /// One of the three `vertices` of a triangle light (0, 1 or 2).
+    Vertex(u8),
+    /// `intensity` of a point or spot light.
+    Intensity,
+    /// `radiance` of an area light.
+    Radiance,
+    /// `half_angle` of a spot light.
+    HalfAngle,
+    /// `falloff_start` of a spot light.
+    FalloffStart,
+}
+
+impl LightField {
+    /// The field's name as written in the API.
+    pub fn name(self) -> &'static str {
+        match self {
+            LightField::Position => "position",
+            LightField::Direction => "direction",
+            LightField::Center => "center",
+            LightField::Normal => "normal",
+            LightField::Radius => "radius",
+            LightField::Vertex(0) => "vertices[0]",
+            LightField::Vertex(1) => "vertices[1]",
+            LightField::Vertex(_) => "vertices[2]",
+            LightField::Intensity => "intensity",
+            LightField::Radiance => "radiance",
+            LightField::HalfAngle => "half_angle",
+            LightField::FalloffStart => "falloff_start",
+        }
+    }
+}
+
+/// What is wrong with a light's field.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Problem {
+    /// NaN or infinite.
+    NotFinite,
+    /// Negative where only non-negative values make sense (power, radiance).
+    Negative,
+    /// Zero or negative where a positive value is required (radius).
+    NotPositive,
+    /// A direction or normal of zero length.
+    ZeroLength,
+    /// Outside the documented range (coordinates beyond ±1e15, spot angles outside (0, π]).
+    OutOfRange,
+    /// The light's energy (power) exceeds [`crate::MAX_LIGHT_ENERGY`].
+    EnergyTooLarge,
+}
+
+impl Problem {
+    fn describe(self) -> &'static str {
+        match self {
+            Problem::NotFinite => "is NaN or infinite",
+            Problem::Negative => "is negative",
+            Problem::NotPositive => "must be positive",
+            Problem::ZeroLength => "has zero length",
+            Problem::OutOfRange => "is out of range",
+            Problem::EnergyTooLarge => "gives an energy above MAX_LIGHT_ENERGY",
+        }
+    }
+}
+
+/// Why a [`crate::LightTree`] could not be built.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum BuildError {
+    /// Light `index` has a bad `field`; `value` is the offending number (a vector's first bad
+    /// component, or its length).
+    InvalidLight {
+        /// Index of the light in the slice passed to the build.
+        index: usize,
+        /// The field that is wrong.
+        field: LightField,
+        /// What is wrong with it.
+        problem: Problem,
+        /// The offending value.
+        value: f32,
+    },
+    /// More lights than the tree can index (2³¹ − 2).
+    TooManyLights {
+        /// The number passed.
+        count: usize,
+    },
+    /// The lights' energies add up beyond [`crate::MAX_TOTAL_ENERGY`].
+    TotalEnergyTooLarge,
+    /// The collapsed tree is deeper than the 31 levels a 64-bit path can encode.
+    TooDeep {
+        /// The depth reached.
+        depth: u32,
+    },
+}
+
+impl fmt::Display for BuildError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match *self {
+            BuildError::InvalidLight {
+                index,
+                field,
+                problem,
+                value,
+            } => write!(
+                f,
+                "light {index}: field `{}` {} (got {value})",
+                field.name(),
+                problem.describe()
+            ),
+            BuildError::TooManyLights { count } => {
+                write!(f, "{count} lights: at most 2147483646 are supported")
+            }
+            BuildError::TotalEnergyTooLarge => {
+                write!(f, "the lights' total energy exceeds MAX_TOTAL_ENERGY")
+            }
+            BuildError::TooDeep { depth } => {
+                write!(f, "tree depth {depth} exceeds the 31 levels a path can encode")
+            }
+        }
+    }
+}
+
+impl core::error::Error for BuildError {}
+
+/// Why bytes given to [`crate::LightTree::from_bytes`] were rejected.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum FormatError {
+    /// Shorter than the header or than the arrays the header announces.
+    Truncated,
+    /// Not a manylights tree (bad magic) or a different format version or byte order.
+    BadHeader,
+    /// Bytes left over after the arrays the header announces.
+    TrailingBytes,
+    /// The arrays decode but break an invariant of the tree.
+    Invalid(ValidationError),
+}
+
+impl fmt::Display for FormatError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            FormatError::Truncated => write!(f, "tree bytes are truncated"),
+            FormatError::BadHeader => write!(f, "not a manylights tree of this format version"),
+            FormatError::TrailingBytes => write!(f, "tree bytes have trailing data"),
+            FormatError::Invalid(e) => write!(f, "tree bytes decode to an invalid tree: {e}"),
+        }
+    }
+}
+
+impl core::error::Error for FormatError {}
+
+/// An invariant of a [`crate::LightTree`] that does not hold (see
+/// [`crate::LightTree::validate`]).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum ValidationError {
+    /// A child index points outside the node array, or a node is referenced twice.
+    BadChild {
+        /// The node holding the slot.
+        node: u32,
+        /// The slot (0..4).
+        slot: u8,
+    },
+    /// A node exists that no slot references.
+    UnreachableNode {
+        /// The node.
+        node: u32,
+    },
+    /// A leaf slot names a light index out of range, or a light appears twice.
+    BadLeaf {
+        /// The node holding the slot.
+        node: u32,
+        /// The slot.
+        slot: u8,
+    },
+    /// A slot has a non-finite or negative number, or an empty slot carries energy.
+    BadNumber {
+        /// The node holding the slot.
+        node: u32,
+        /// The slot.
+        slot: u8,
+    },
+    /// An internal slot's energy is not the sum of its children's.
+    EnergyMismatch {
+        /// The node holding the slot.
+        node: u32,
+        /// The slot.
+        slot: u8,
+    },
+    /// A slot's sphere or cone does not contain a light below it.
+    BoundsViolation {
+        /// The light that escapes.
+        light: u32,
+        /// The depth (0 = root) of the slot that fails to contain it.
+        level: u32,
+    },
+    /// A light's stored path does not lead to its leaf.
+    BadPath {
+        /// The light.
+        light: u32,
+    },
+    /// The tree is deeper than 31 levels.
+    TooDeep,
+    /// The recorded statistics (depth, counts) disagree with the arrays.
+    BadStats,
+}
+
+impl fmt::Display for ValidationError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match *self {
+            ValidationError::BadChild { node, slot } => {
+                write!(f, "node {node} slot {slot}: bad or shared child index")
+            }
+            ValidationError::UnreachableNode { node } => write!(f, "node {node} is unreachable"),
+            ValidationError::BadLeaf { node, slot } => {
+                write!(f, "node {node} slot {slot}: bad or repeated light index")
+            }
+            ValidationError::BadNumber { node, slot } => {
+                write!(f, "node {node} slot {slot}: non-finite or negative value")
+            }
+            ValidationError::EnergyMismatch { node, slot } => {
+                write!(f, "node {node} slot {slot}: energy is not the sum of its children")
+            }
+            ValidationError::BoundsViolation { light, level } => {
+                write!(f, "light {light} escapes the bounds of its ancestor at level {level}")
+            }
+            ValidationError::BadPath { light } => {
+                write!(f, "light {light}: stored path does not lead to it")
+            }
+            ValidationError::TooDeep => write!(f, "tree deeper than 31 levels"),
+            ValidationError::BadStats => write!(f, "statistics disagree with the arrays"),
+        }
+    }
+}
+
+impl core::error::Error for ValidationError {}

@@ -1,0 +1,228 @@
+//! Traditional light importance, TL (Conty & Kulla, "Importance Function"; Liu et al. 2019
+//! Eqn. 6 with the G and E terms; MATH.md section 4):
+//!
+//! ```text
+//! θu  = asin(min(r/d, 1))            (π when x is inside the bounding sphere)
+//! θ'  = max(0, θ − θo − θu)          θ = angle between the cone axis and the direction cluster → x
+//! θi' = max(0, θi − θu)              θi = angle between n and the direction x → cluster
+//! I   = E · cos θ' · cos θi' / max(d², d_min²)     and 0 when θ' ≥ θe or θi' ≥ π/2
+//! ```
+//!
+//! Cosines of differences come from the subtraction identity (no `acos`). Choices made here:
+//! - `d_min = r / 2` ([`DISTANCE_CLAMP_FRACTION`]): clusters around x are not ranked by a
+//!   distance that means nothing inside them; `d²` also never drops below [`MIN_DISTANCE2`]
+//!   (x on a point light), which with the energy caps of the build keeps importances finite.
+//! - Conservative under f32 rounding: a cluster within [`COS_SLACK`] of a zero boundary
+//!   keeps a small positive importance ([`COS_FLOOR`] as its cosine) instead of 0.
+//! - The receiver is reflective (cos θi' clamped at 0), transmissive (|cos θi|), or
+//!   omnidirectional (no cosine; a medium or a point with no normal).
+
+use super::Importance;
+use crate::math;
+use crate::tree::{Node4, SlotBounds};
+use glam::Vec3;
+use wide::{f32x4, i32x4};
+
+/// `d_min = DISTANCE_CLAMP_FRACTION · r`.
+pub const DISTANCE_CLAMP_FRACTION: f32 = 0.5;
+/// Floor of the squared distance.
+pub const MIN_DISTANCE2: f32 = 1e-12;
+/// A cosine this far past a zero boundary still counts as inside it.
+pub const COS_SLACK: f32 = 2e-6;
+/// The cosine used for a cluster at the boundary.
+pub const COS_FLOOR: f32 = 1e-6;
+
+const CLAMP2: f32 = DISTANCE_CLAMP_FRACTION * DISTANCE_CLAMP_FRACTION;
+
+/// How the shading point receives light.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Receiver {
+    /// Only from the side of the normal.
+    Reflective,
+    /// From both sides of the surface.
+    Transmissive,
+    /// From every direction (no normal).
+    Omnidirectional,
+}
+
+/// TL importance at one shading point.
+#[derive(Clone, Copy, Debug)]
+pub struct TlImportance {
+    position: Vec3,
+    normal: Vec3,
+    receiver: Receiver,
+}
+
+impl TlImportance {
+    /// A reflective surface point. `normal` is normalised here; a zero or non-finite normal
+    /// makes the point omnidirectional.
+    #[inline]
+    pub fn new(position: Vec3, normal: Vec3) -> TlImportance {
+        TlImportance::with_receiver(position, normal, Receiver::Reflective)
+    }
+
+    /// A point with the given kind of receiver.
+    #[inline]
+    pub fn with_receiver(position: Vec3, normal: Vec3, receiver: Receiver) -> TlImportance {
+        let l2 = normal.length_squared();
+        let (normal, receiver) = if l2 > 0.0 && l2.is_finite() {
+            (normal * (1.0 / math::sqrt(l2)), receiver)
+        } else {
+            (Vec3::ZERO, Receiver::Omnidirectional)
+        };
+        TlImportance {
+            position,
+            normal,
+            receiver,
+        }
+    }
+
+    /// The shading position.
+    pub fn position(&self) -> Vec3 {
+        self.position
+    }
+
+    /// The unit normal (zero for an omnidirectional point).
+    pub fn normal(&self) -> Vec3 {
+        self.normal
+    }
+
+    /// The kind of receiver.
+    pub fn receiver(&self) -> Receiver {
+        self.receiver
+    }
+
+    /// The scalar reference: the importance of one cluster.
+    pub fn eval(&self, b: &SlotBounds) -> f32 {
+        let p = self.position;
+        let (vx, vy, vz) = (b.center.x - p.x, b.center.y - p.y, b.center.z - p.z);
+        let d2 = vx * vx + vy * vy + vz * vz;
+        let r2 = b.radius * b.radius;
+        let d2c = d2.max(CLAMP2 * r2).max(MIN_DISTANCE2);
+        let inside = d2 <= r2;
+        let inv_d = 1.0 / math::sqrt(d2.max(MIN_DISTANCE2));
+        let (wx, wy, wz) = (vx * inv_d, vy * inv_d, vz * inv_d);
+        let sin_u = (b.radius * inv_d).min(1.0);
+        let cos_u = math::sqrt((1.0 - sin_u * sin_u).max(0.0));
+
+        // Receiver: cos θi' = cos(max(0, θi − θu)).
+        let n = self.normal;
+        let mut cos_i = n.x * wx + n.y * wy + n.z * wz;
+        if self.receiver == Receiver::Transmissive {
+            cos_i = cos_i.abs();
+        }
+        let sin_i = math::sqrt((1.0 - cos_i * cos_i).max(0.0));
+        let mut cos_ip = if cos_i >= cos_u {
+            1.0
+        } else {
+            cos_i * cos_u + sin_i * sin_u
+        };
+        if self.receiver == Receiver::Omnidirectional || inside {
+            cos_ip = 1.0;
+        }
+
+        // Emitter: cos θ' = cos(max(0, θ − θo − θu)).
+        let a = b.axis;
+        let cos_t = -(a.x * wx + a.y * wy + a.z * wz);
+        let sin_t = math::sqrt((1.0 - cos_t * cos_t).max(0.0));
+        let c1 = cos_t * b.cos_o + sin_t * b.sin_o;
+        let s1 = (sin_t * b.cos_o - cos_t * b.sin_o).max(0.0);
+        let mut cos_tp = if c1 >= cos_u {
+            1.0
+        } else {
+            c1 * cos_u + s1 * sin_u
+        };
+        if cos_t >= b.cos_o || inside {
+            cos_tp = 1.0;
+        }
+
+        if cos_tp <= b.cos_e - COS_SLACK || cos_ip <= -COS_SLACK {
+            return 0.0;
+        }
+        b.energy * cos_tp.max(COS_FLOOR) * cos_ip.max(COS_FLOOR) / d2c
+    }
+}
+
+#[inline(always)]
+fn low16(v: i32x4) -> f32x4 {
+    (v & i32x4::splat(0xFFFF)).round_float()
+}
+
+#[inline(always)]
+fn high16(v: i32x4) -> f32x4 {
+    (v.unbounded_shr_scalar(16) & i32x4::splat(0xFFFF)).round_float()
+}
+
+impl Importance for TlImportance {
+    /// The 4-wide twin of [`TlImportance::eval`], operation for operation.
+    #[inline]
+    fn eval4(&self, node: &Node4) -> f32x4 {
+        let zero = f32x4::ZERO;
+        let one = f32x4::ONE;
+        let two = f32x4::splat(2.0);
+        let p = self.position;
+        let vx = f32x4::new(node.center_x) - f32x4::splat(p.x);
+        let vy = f32x4::new(node.center_y) - f32x4::splat(p.y);
+        let vz = f32x4::new(node.center_z) - f32x4::splat(p.z);
+        let d2 = vx * vx + vy * vy + vz * vz;
+        let radius = f32x4::new(node.radius);
+        let r2 = radius * radius;
+        let min_d2 = f32x4::splat(MIN_DISTANCE2);
+        let d2c = d2.max(f32x4::splat(CLAMP2) * r2).max(min_d2);
+        let inside = d2.simd_le(r2);
+        let inv_d = one / d2.max(min_d2).sqrt();
+        let (wx, wy, wz) = (vx * inv_d, vy * inv_d, vz * inv_d);
+        let sin_u = (radius * inv_d).min(one);
+        let cos_u = (one - sin_u * sin_u).max(zero).sqrt();
+
+        // Receiver.
+        let n = self.normal;
+        let mut cos_i = f32x4::splat(n.x) * wx + f32x4::splat(n.y) * wy + f32x4::splat(n.z) * wz;
+        if self.receiver == Receiver::Transmissive {
+            cos_i = cos_i.abs();
+        }
+        let sin_i = (one - cos_i * cos_i).max(zero).sqrt();
+        let cos_ip = cos_i
+            .simd_ge(cos_u)
+            .select(one, cos_i * cos_u + sin_i * sin_u);
+        let cos_ip = if self.receiver == Receiver::Omnidirectional {
+            one
+        } else {
+            inside.select(one, cos_ip)
+        };
+
+        // Cone axis (octahedral decode) and angles.
+        let q = i32x4::new(bytemuck::cast(node.axis));
+        let scale = f32x4::splat(2.0 / 65535.0);
+        let x = low16(q) * scale - one;
+        let y = high16(q) * scale - one;
+        let z = one - x.abs() - y.abs();
+        let t = (-z).max(zero);
+        let x = x.simd_ge(zero).select(x - t, x + t);
+        let y = y.simd_ge(zero).select(y - t, y + t);
+        let inv = one / (x * x + y * y + z * z).sqrt();
+        let (ax, ay, az) = (x * inv, y * inv, z * inv);
+        let qa = i32x4::new(bytemuck::cast(node.angles));
+        let qscale = f32x4::splat(1.0 / 65535.0);
+        let so = low16(qa) * qscale;
+        let cos_o = one - two * so * so;
+        let sin_o = two * so * (one - so * so).max(zero).sqrt();
+        let se = high16(qa) * qscale;
+        let cos_e = one - two * se * se;
+
+        // Emitter.
+        let cos_t = -(ax * wx + ay * wy + az * wz);
+        let sin_t = (one - cos_t * cos_t).max(zero).sqrt();
+        let c1 = cos_t * cos_o + sin_t * sin_o;
+        let s1 = (sin_t * cos_o - cos_t * sin_o).max(zero);
+        let cos_tp = c1.simd_ge(cos_u).select(one, c1 * cos_u + s1 * sin_u);
+        let cos_tp = (cos_t.simd_ge(cos_o) | inside).select(one, cos_tp);
+
+        let slack = f32x4::splat(COS_SLACK);
+        let floor = f32x4::splat(COS_FLOOR);
+        let dead = cos_tp.simd_le(cos_e - slack) | cos_ip.simd_le(-slack);
+        let energy = f32x4::new(node.energy);
+        let value = energy * cos_tp.max(floor) * cos_ip.max(floor) / d2c;
+        dead.select(zero, value)
+    }
+}

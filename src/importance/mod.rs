@@ -1,0 +1,27 @@
+//! Cluster importances: how much a cluster of lights may contribute at a shading point.
+//!
+//! An importance is set up once per shading point, then evaluated for the four slots of a
+//! [`Node4`] at once ([`Importance::eval4`]). Every importance also has a readable scalar form,
+//! and tests hold the two equal lane by lane. Importances are conservative: a cluster holding a
+//! light that can contribute at the shading point gets a positive value.
+
+pub mod conty_kulla;
+
+pub use conty_kulla::TlImportance;
+
+use crate::tree::Node4;
+use wide::f32x4;
+
+/// A per-shading-point importance, evaluated four slots at a time.
+pub trait Importance {
+    /// The importances of the four slots of `node` (0 for empty slots). Never negative or
+    /// NaN for a shading point with finite coordinates.
+    fn eval4(&self, node: &Node4) -> f32x4;
+}
+
+impl<I: Importance + ?Sized> Importance for &I {
+    #[inline(always)]
+    fn eval4(&self, node: &Node4) -> f32x4 {
+        (**self).eval4(node)
+    }
+}

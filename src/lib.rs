@@ -1,0 +1,53 @@
+//! # manylights
+//!
+//! Picks, for a point being shaded, which of thousands to millions of lights to sample, with
+//! exactly known probabilities.
+//!
+//! Lights ([`Light`]) are built into a [`LightTree`] with the SAOH heuristic and packed into
+//! flat 4-wide [`Node4`] arrays. At a shading point an [`Importance`] (here the classic
+//! [`TlImportance`] of Conty & Kulla) ranks the four children of a node at once in f32x4
+//! lanes, and [`LightTree::sample`] descends the tree with one uniform number, reporting the
+//! light's probability; [`LightTree::pmf`] gives that same probability for any light.
+//!
+//! ```
+//! use manylights::{Light, LightTree, TlImportance};
+//! use glam::Vec3;
+//!
+//! let lights = [
+//!     Light::Point { position: Vec3::new(0.0, 0.0, 2.0), intensity: 1.0 },
+//!     Light::Sphere { center: Vec3::new(3.0, 0.0, 1.0), radius: 0.5, radiance: 2.0 },
+//! ];
+//! let tree = LightTree::build(&lights)?;
+//! let at = TlImportance::new(Vec3::ZERO, Vec3::Z);
+//! let s = tree.sample(&at, 0.3).expect("both lights are above the horizon");
+//! assert_eq!(s.pmf, tree.pmf(&at, s.light));
+//! # Ok::<(), manylights::BuildError>(())
+//! ```
+//!
+//! The crate is `no_std` (it needs `alloc`) and has no `unsafe` code.
+
+#![no_std]
+#![forbid(unsafe_code)]
+#![deny(missing_docs)]
+
+extern crate alloc;
+
+pub mod baseline;
+pub mod bounds;
+pub mod build;
+pub mod error;
+pub mod importance;
+pub mod light;
+mod math;
+pub mod quantize;
+pub mod sample;
+pub mod tree;
+
+pub use build::BuildOptions;
+pub use error::{BuildError, FormatError, LightField, Problem, ValidationError};
+pub use importance::conty_kulla::Receiver;
+pub use importance::{Importance, TlImportance};
+pub use light::{Light, MAX_COORDINATE, MAX_LIGHT_ENERGY, MAX_TOTAL_ENERGY};
+pub use sample::LightSample;
+pub use tree::{LightTree, Node4, NodeStats, Slot, SlotBounds, TreeStats};
+pub use wide::f32x4;

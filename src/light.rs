@@ -1,0 +1,547 @@
+//! The light model: point, spot, sphere, disk and triangle lights, their validation, and the
+//! bounds the tree is built from (Conty & Kulla, "Orientation bounds": box, orientation cone,
+//! energy).
+//!
+//! What a light may hold, decided once:
+//! - coordinates finite with magnitude ≤ [`MAX_COORDINATE`];
+//! - intensity and radiance finite and ≥ 0 (zero is accepted: the light is never sampled);
+//! - radii finite and > 0; directions and normals finite and non-zero (normalised here);
+//! - a spot's `half_angle` θs in (0, π], its `falloff_start` θf in [0, θs];
+//! - a degenerate triangle (zero area) is accepted and never sampled;
+//! - a light's energy at most [`MAX_LIGHT_ENERGY`], all of them together at most
+//!   [`MAX_TOTAL_ENERGY`], so that importances cannot overflow f32.
+
+use crate::bounds::{Aabb, Cone, LightBounds, Sphere};
+use crate::error::{BuildError, LightField, Problem};
+use crate::math;
+use core::f32::consts::{FRAC_PI_2, PI};
+use glam::Vec3;
+
+/// Largest accepted coordinate magnitude.
+pub const MAX_COORDINATE: f32 = 1e15;
+/// Largest accepted energy of one light (see [`Light::energy`]).
+pub const MAX_LIGHT_ENERGY: f32 = 1e24;
+/// Largest accepted sum of all lights' energies.
+pub const MAX_TOTAL_ENERGY: f32 = 1e26;
+
+/// One light. Powers are radiometric: `intensity` in W/sr, `radiance` in W/(m²·sr).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Light {
+    /// Isotropic point light.
+    Point {
+        /// Position.
+        position: Vec3,
+        /// Radiant intensity.
+        intensity: f32,
+    },
+    /// Spot light: intensity `intensity` inside `falloff_start`, falling to 0 at `half_angle`.
+    Spot {
+        /// Position.
+        position: Vec3,
+        /// Direction of the cone's axis (need not be unit length).
+        direction: Vec3,
+        /// Radiant intensity on the axis.
+        intensity: f32,
+        /// Cone half-angle θs in radians, in (0, π].
+        half_angle: f32,
+        /// Angle θf where the falloff starts, in [0, θs].
+        falloff_start: f32,
+    },
+    /// Spherical area light of uniform radiance.
+    Sphere {
+        /// Centre.
+        center: Vec3,
+        /// Radius (> 0).
+        radius: f32,
+        /// Emitted radiance.
+        radiance: f32,
+    },
+    /// Disk area light of uniform radiance.
+    Disk {
+        /// Centre.
+        center: Vec3,
+        /// Normal: the emitting side when one-sided (need not be unit length).
+        normal: Vec3,
+        /// Radius (> 0).
+        radius: f32,
+        /// Emitted radiance.
+        radiance: f32,
+        /// Emits on both sides.
+        two_sided: bool,
+    },
+    /// Triangle area light of uniform radiance; one-sided lights emit on the side of
+    /// `(v1 − v0) × (v2 − v0)`.
+    Triangle {
+        /// Vertices.
+        vertices: [Vec3; 3],
+        /// Emitted radiance.
+        radiance: f32,
+        /// Emits on both sides.
+        two_sided: bool,
+    },
+}
+
+fn invalid(index: usize, field: LightField, problem: Problem, value: f32) -> BuildError {
+    BuildError::InvalidLight {
+        index,
+        field,
+        problem,
+        value,
+    }
+}
+
+fn check_point(index: usize, field: LightField, p: Vec3) -> Result<(), BuildError> {
+    for v in p.to_array() {
+        if !v.is_finite() {
+            return Err(invalid(index, field, Problem::NotFinite, v));
+        }
+        if v.abs() > MAX_COORDINATE {
+            return Err(invalid(index, field, Problem::OutOfRange, v));
+        }
+    }
+    Ok(())
+}
+
+fn check_power(index: usize, field: LightField, v: f32) -> Result<(), BuildError> {
+    if !v.is_finite() {
+        return Err(invalid(index, field, Problem::NotFinite, v));
+    }
+    if v < 0.0 {
+        return Err(invalid(index, field, Problem::Negative, v));
+    }
+    Ok(())
+}
+
+fn check_radius(index: usize, v: f32) -> Result<(), BuildError> {
+    if !v.is_finite() {
+        return Err(invalid(index, LightField::Radius, Problem::NotFinite, v));
+    }
+    if v <= 0.0 {
+        return Err(invalid(index, LightField::Radius, Problem::NotPositive, v));
+    }
+    if v > MAX_COORDINATE {
+        return Err(invalid(index, LightField::Radius, Problem::OutOfRange, v));
+    }
+    Ok(())
+}
+
+fn check_direction(index: usize, field: LightField, d: Vec3) -> Result<Vec3, BuildError> {
+    for v in d.to_array() {
+        if !v.is_finite() {
+            return Err(invalid(index, field, Problem::NotFinite, v));
+        }
+    }
+    // Normalise in f64 so that tiny but non-zero vectors survive.
+    let l = math::sqrt64(
+        f64::from(d.x).powi(2) + f64::from(d.y).powi(2) + f64::from(d.z).powi(2),
+    );
+    if l.is_nan() || l <= 0.0 {
+        return Err(invalid(index, field, Problem::ZeroLength, 0.0));
+    }
+    let n = Vec3::new(
+        (f64::from(d.x) / l) as f32,
+        (f64::from(d.y) / l) as f32,
+        (f64::from(d.z) / l) as f32,
+    );
+    Ok(n.normalize())
+}
+
+/// Smallest sphere around a triangle: the midpoint of the longest edge for an obtuse or right
+/// triangle, the circumcentre otherwise. Computed in f64 and rounded outwards.
+fn triangle_sphere(v: &[Vec3; 3]) -> Sphere {
+    let p = v.map(|p| [f64::from(p.x), f64::from(p.y), f64::from(p.z)]);
+    let sub = |a: [f64; 3], b: [f64; 3]| [a[0] - b[0], a[1] - b[1], a[2] - b[2]];
+    let dot = |a: [f64; 3], b: [f64; 3]| a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
+    let cross = |a: [f64; 3], b: [f64; 3]| {
+        [
+            a[1] * b[2] - a[2] * b[1],
+            a[2] * b[0] - a[0] * b[2],
+            a[0] * b[1] - a[1] * b[0],
+        ]
+    };
+    let mut centre = [0.0f64; 3];
+    let mut found = false;
+    for i in 0..3 {
+        let (a, b, c) = (p[i], p[(i + 1) % 3], p[(i + 2) % 3]);
+        // Angle at c is ≥ 90° when (a − c)·(b − c) ≤ 0: the longest edge is ab.
+        if dot(sub(a, c), sub(b, c)) <= 0.0 {
+            centre = [(a[0] + b[0]) * 0.5, (a[1] + b[1]) * 0.5, (a[2] + b[2]) * 0.5];
+            found = true;
+            break;
+        }
+    }
+    if !found {
+        let (a, b) = (sub(p[1], p[0]), sub(p[2], p[0]));
+        let axb = cross(a, b);
+        let den = 2.0 * dot(axb, axb);
+        if den > 0.0 {
+            let t1 = cross(axb, a);
+            let t2 = cross(b, axb);
+            let (sa, sb) = (dot(a, a), dot(b, b));
+            for k in 0..3 {
+                centre[k] = p[0][k] + (sb * t1[k] + sa * t2[k]) / den;
+            }
+        } else {
+            centre = [
+                (p[0][0] + p[1][0] + p[2][0]) / 3.0,
+                (p[0][1] + p[1][1] + p[2][1]) / 3.0,
+                (p[0][2] + p[1][2] + p[2][2]) / 3.0,
+            ];
+        }
+    }
+    sphere_around(centre, &p)
+}
+
+/// The sphere centred at `centre` (rounded to f32) holding all `points`, radius rounded up.
+fn sphere_around(centre: [f64; 3], points: &[[f64; 3]]) -> Sphere {
+    let c = Vec3::new(centre[0] as f32, centre[1] as f32, centre[2] as f32);
+    let cf = [f64::from(c.x), f64::from(c.y), f64::from(c.z)];
+    let mut r2 = 0.0f64;
+    for q in points {
+        let d2 = (q[0] - cf[0]).powi(2) + (q[1] - cf[1]).powi(2) + (q[2] - cf[2]).powi(2);
+        r2 = r2.max(d2);
+    }
+    Sphere {
+        center: c,
+        radius: outward(math::sqrt64(r2)),
+    }
+}
+
+/// Round a non-negative f64 length up to an f32 with a little relative slack.
+pub(crate) fn outward(r: f64) -> f32 {
+    let r = r * (1.0 + 1e-6);
+    let f = r as f32;
+    if f64::from(f) < r {
+        math::next_up(f)
+    } else {
+        f
+    }
+}
+
+impl Light {
+    /// Checks every field; `index` is the light's position in the caller's list, used in the
+    /// error.
+    pub fn validate(&self, index: usize) -> Result<(), BuildError> {
+        match *self {
+            Light::Point {
+                position,
+                intensity,
+            } => {
+                check_point(index, LightField::Position, position)?;
+                check_power(index, LightField::Intensity, intensity)?;
+            }
+            Light::Spot {
+                position,
+                direction,
+                intensity,
+                half_angle,
+                falloff_start,
+            } => {
+                check_point(index, LightField::Position, position)?;
+                check_direction(index, LightField::Direction, direction)?;
+                check_power(index, LightField::Intensity, intensity)?;
+                if !half_angle.is_finite() {
+                    return Err(invalid(index, LightField::HalfAngle, Problem::NotFinite, half_angle));
+                }
+                if !(half_angle > 0.0 && half_angle <= PI) {
+                    return Err(invalid(index, LightField::HalfAngle, Problem::OutOfRange, half_angle));
+                }
+                if !falloff_start.is_finite() {
+                    return Err(invalid(
+                        index,
+                        LightField::FalloffStart,
+                        Problem::NotFinite,
+                        falloff_start,
+                    ));
+                }
+                if !(0.0..=half_angle).contains(&falloff_start) {
+                    return Err(invalid(
+                        index,
+                        LightField::FalloffStart,
+                        Problem::OutOfRange,
+                        falloff_start,
+                    ));
+                }
+            }
+            Light::Sphere {
+                center,
+                radius,
+                radiance,
+            } => {
+                check_point(index, LightField::Center, center)?;
+                check_radius(index, radius)?;
+                check_power(index, LightField::Radiance, radiance)?;
+            }
+            Light::Disk {
+                center,
+                normal,
+                radius,
+                radiance,
+                ..
+            } => {
+                check_point(index, LightField::Center, center)?;
+                check_direction(index, LightField::Normal, normal)?;
+                check_radius(index, radius)?;
+                check_power(index, LightField::Radiance, radiance)?;
+            }
+            Light::Triangle {
+                vertices, radiance, ..
+            } => {
+                for (k, v) in vertices.iter().enumerate() {
+                    check_point(index, LightField::Vertex(k as u8), *v)?;
+                }
+                check_power(index, LightField::Radiance, radiance)?;
+            }
+        }
+        let e = self.energy_f64();
+        if e > f64::from(MAX_LIGHT_ENERGY) {
+            let field = match self {
+                Light::Point { .. } | Light::Spot { .. } => LightField::Intensity,
+                _ => LightField::Radiance,
+            };
+            return Err(invalid(index, field, Problem::EnergyTooLarge, e as f32));
+        }
+        Ok(())
+    }
+
+    /// Emitting area (0 for point and spot lights).
+    pub fn area(&self) -> f32 {
+        self.area_f64() as f32
+    }
+
+    fn area_f64(&self) -> f64 {
+        match *self {
+            Light::Point { .. } | Light::Spot { .. } => 0.0,
+            Light::Sphere { radius, .. } => 4.0 * core::f64::consts::PI * f64::from(radius).powi(2),
+            Light::Disk { radius, .. } => core::f64::consts::PI * f64::from(radius).powi(2),
+            Light::Triangle { vertices, .. } => {
+                let a = (vertices[1] - vertices[0]).as_dvec3();
+                let b = (vertices[2] - vertices[0]).as_dvec3();
+                0.5 * a.cross(b).length()
+            }
+        }
+    }
+
+    fn energy_f64(&self) -> f64 {
+        let pi = core::f64::consts::PI;
+        match *self {
+            Light::Point { intensity, .. } => 4.0 * pi * f64::from(intensity),
+            Light::Spot {
+                intensity,
+                half_angle,
+                ..
+            } => 2.0 * pi * (1.0 - libm::cos(f64::from(half_angle))) * f64::from(intensity),
+            Light::Sphere { radiance, .. } => f64::from(radiance) * pi * self.area_f64(),
+            Light::Disk {
+                radiance,
+                two_sided,
+                ..
+            }
+            | Light::Triangle {
+                radiance,
+                two_sided,
+                ..
+            } => {
+                let sides = if two_sided { 2.0 } else { 1.0 };
+                sides * f64::from(radiance) * pi * self.area_f64()
+            }
+        }
+    }
+
+    /// Emitted power (MATH.md section 1): 4πI for points, 2π(1 − cos θs)·I for spots (an upper
+    /// bound of the flux with falloff), L·π·A per emitting side for area lights.
+    /// Valid only for a light that passed [`Light::validate`].
+    pub fn energy(&self) -> f32 {
+        self.energy_f64() as f32
+    }
+
+    /// The light's bounds: box, tight bounding sphere, orientation cone and energy.
+    /// Valid only for a light that passed [`Light::validate`].
+    pub fn bounds(&self) -> LightBounds {
+        let energy = self.energy();
+        let (aabb, sphere, cone) = match *self {
+            Light::Point { position, .. } => (
+                Aabb::point(position),
+                Sphere {
+                    center: position,
+                    radius: 0.0,
+                },
+                Cone::SPHERE,
+            ),
+            Light::Spot {
+                position,
+                direction,
+                half_angle,
+                ..
+            } => {
+                let axis = direction.normalize();
+                // Emission within θs of the axis. Beyond π/2 the spread is carried by θo so that
+                // θe stays ≤ π/2 and cos θ' > 0 wherever the importance is positive.
+                let cone = if half_angle > FRAC_PI_2 {
+                    Cone {
+                        axis,
+                        theta_o: half_angle - FRAC_PI_2,
+                        theta_e: FRAC_PI_2,
+                    }
+                } else {
+                    Cone {
+                        axis,
+                        theta_o: 0.0,
+                        theta_e: half_angle,
+                    }
+                };
+                (
+                    Aabb::point(position),
+                    Sphere {
+                        center: position,
+                        radius: 0.0,
+                    },
+                    cone,
+                )
+            }
+            Light::Sphere { center, radius, .. } => {
+                let r = Vec3::splat(radius);
+                (
+                    Aabb {
+                        min: center - r,
+                        max: center + r,
+                    },
+                    Sphere { center, radius },
+                    Cone::SPHERE,
+                )
+            }
+            Light::Disk {
+                center,
+                normal,
+                radius,
+                two_sided,
+                ..
+            } => {
+                let n = normal.normalize();
+                // Half-extent of a disk along axis k is R·sqrt(1 − n_k²).
+                let e = Vec3::new(
+                    math::sin_from_cos(n.x),
+                    math::sin_from_cos(n.y),
+                    math::sin_from_cos(n.z),
+                ) * radius
+                    * (1.0 + 1e-6);
+                let cone = if two_sided {
+                    Cone::SPHERE
+                } else {
+                    Cone {
+                        axis: n,
+                        theta_o: 0.0,
+                        theta_e: FRAC_PI_2,
+                    }
+                };
+                (
+                    Aabb {
+                        min: center - e,
+                        max: center + e,
+                    },
+                    Sphere { center, radius },
+                    cone,
+                )
+            }
+            Light::Triangle {
+                vertices,
+                two_sided,
+                ..
+            } => {
+                let aabb = Aabb::point(vertices[0])
+                    .grow(vertices[1])
+                    .grow(vertices[2]);
+                let n = (vertices[1] - vertices[0]).cross(vertices[2] - vertices[0]);
+                let cone = if two_sided || !(n.length_squared() > 0.0) {
+                    Cone::SPHERE
+                } else {
+                    Cone {
+                        axis: n.normalize(),
+                        theta_o: 0.0,
+                        theta_e: FRAC_PI_2,
+                    }
+                };
+                (aabb, triangle_sphere(&vertices), cone)
+            }
+        };
+        LightBounds {
+            aabb,
+            sphere,
+            cone,
+            energy,
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn triangle_sphere_holds_vertices() {
+        let cases = [
+            [Vec3::ZERO, Vec3::X, Vec3::Y],
+            [Vec3::ZERO, Vec3::X * 10.0, Vec3::new(5.0, 0.1, 0.0)],
+            [Vec3::ZERO, Vec3::X, Vec3::new(0.5, 0.8, 0.3)],
+            [Vec3::ONE, Vec3::ONE, Vec3::ONE],
+        ];
+        for v in cases {
+            let s = triangle_sphere(&v);
+            for p in v {
+                assert!(
+                    (p - s.center).length() <= s.radius * (1.0 + 1e-6) + 1e-7,
+                    "{v:?}: {s:?}"
+                );
+            }
+            // Never larger than the centroid sphere.
+            let g = (v[0] + v[1] + v[2]) / 3.0;
+            let rg = v.iter().map(|p| (*p - g).length()).fold(0.0, f32::max);
+            assert!(s.radius <= rg * 1.0001 + 1e-6, "{v:?}: {s:?} vs {rg}");
+        }
+    }
+
+    #[test]
+    fn validation_names_index_and_field() {
+        let l = Light::Sphere {
+            center: Vec3::ZERO,
+            radius: -1.0,
+            radiance: 1.0,
+        };
+        let e = l.validate(7).unwrap_err();
+        assert_eq!(
+            e,
+            BuildError::InvalidLight {
+                index: 7,
+                field: LightField::Radius,
+                problem: Problem::NotPositive,
+                value: -1.0
+            }
+        );
+        let s = alloc::format!("{e}");
+        assert!(s.contains("light 7") && s.contains("radius"), "{s}");
+    }
+
+    #[test]
+    fn energies() {
+        let p = Light::Point {
+            position: Vec3::ZERO,
+            intensity: 2.0,
+        };
+        assert!((p.energy() - 8.0 * PI).abs() < 1e-4);
+        let d = Light::Disk {
+            center: Vec3::ZERO,
+            normal: Vec3::Z,
+            radius: 1.0,
+            radiance: 1.0,
+            two_sided: true,
+        };
+        assert!((d.energy() - 2.0 * PI * PI).abs() < 1e-4);
+        let t = Light::Triangle {
+            vertices: [Vec3::ZERO, Vec3::X, Vec3::X * 2.0],
+            radiance: 5.0,
+            two_sided: false,
+        };
+        assert_eq!(t.energy(), 0.0);
+        assert!(t.validate(0).is_ok());
+    }
+}

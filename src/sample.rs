@@ -1,0 +1,178 @@
+//! Sampling a light by tree descent with one warped uniform number, and the exact pmf of any
+//! light (the forum post that introduced light-tree sampling; MATH.md section 12).
+//!
+//! At a node the four slot importances `I_k` are computed at once; slot k is chosen with
+//! probability `I_k / ΣI`, the pmf is multiplied by that ratio and `u` is rescaled into the
+//! chosen interval. [`LightTree::pmf`] recomputes the same ratios along the light's stored
+//! path, so it returns exactly the pmf [`LightTree::sample`] reported.
+//!
+//! Two cases, decided once:
+//! - ΣI = 0 (or not finite) at the root: no light is returned and every pmf is 0.
+//! - ΣI = 0 below the root (a cluster's importance bounds its lights but is not the sum of its
+//!   children's, so a positive slot can hold four zero children): the node falls back to its
+//!   slots' energies, so the pmfs of all lights still sum to 1. Conservativeness guarantees no
+//!   contributing light is under such a node.
+//!
+//! Precision: `u` loses bits at every level; pass a second uniform number for the point on the
+//! light rather than reusing what is left of `u`.
+
+use crate::importance::Importance;
+use crate::tree::{path_len, LightTree, Node4, Slot};
+
+/// A sampled light and the probability of having chosen it.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct LightSample {
+    /// Index of the light in the slice the tree was built from.
+    pub light: u32,
+    /// Probability of this choice (> 0).
+    pub pmf: f32,
+}
+
+/// The largest f32 below 1.
+pub const ONE_MINUS_EPSILON: f32 = 1.0 - f32::EPSILON / 2.0;
+
+/// Clamps `u` into [0, 1) (NaN becomes 0).
+#[inline(always)]
+pub(crate) fn sanitize(u: f32) -> f32 {
+    if u >= 0.0 {
+        u.min(ONE_MINUS_EPSILON)
+    } else {
+        0.0
+    }
+}
+
+/// Selection weights at a node: the importances, or the energies below the root when the
+/// importances are all zero. `None` at the root when nothing is sampled.
+#[inline(always)]
+pub(crate) fn weights<I: Importance + ?Sized>(
+    imp: &I,
+    node: &Node4,
+    root: bool,
+) -> Option<([f32; 4], f32)> {
+    let w = imp.eval4(node).to_array();
+    let sum = w[0] + w[1] + w[2] + w[3];
+    if sum > 0.0 && sum < f32::INFINITY {
+        return Some((w, sum));
+    }
+    if root {
+        return None;
+    }
+    let e = node.energy;
+    Some((e, e[0] + e[1] + e[2] + e[3]))
+}
+
+/// Picks slot k with probability `w[k] / sum` from `u` in [0, 1) and returns it with `u`
+/// rescaled into [0, 1). A slot of weight 0 is never picked.
+#[inline(always)]
+pub(crate) fn pick(w: [f32; 4], sum: f32, u: f32) -> (usize, f32) {
+    let t = u * sum;
+    let mut acc = 0.0;
+    let mut last = (0, 0.0);
+    for (k, &wk) in w.iter().enumerate() {
+        if wk > 0.0 {
+            let next = acc + wk;
+            if t < next {
+                return (k, ((t - acc) / wk).clamp(0.0, ONE_MINUS_EPSILON));
+            }
+            last = (k, acc);
+            acc = next;
+        }
+    }
+    // Rounding put t at or past the last boundary: take the last positive slot.
+    let (k, before) = last;
+    (k, ((t - before) / w[k]).clamp(0.0, ONE_MINUS_EPSILON))
+}
+
+impl LightTree {
+    /// Samples a light at the shading point of `imp` with the uniform number `u` in [0, 1)
+    /// (clamped into it). `None` when no light can contribute (the root's importance is 0).
+    #[inline]
+    pub fn sample<I: Importance + ?Sized>(&self, imp: &I, u: f32) -> Option<LightSample> {
+        let mut u = sanitize(u);
+        let mut node = self.nodes.first()?;
+        let (mut w, mut sum) = weights(imp, node, true)?;
+        let mut pmf = 1.0f32;
+        loop {
+            let (k, next_u) = pick(w, sum, u);
+            pmf *= w[k] / sum;
+            u = next_u;
+            match node.slot(k) {
+                Slot::Light(light) => return Some(LightSample { light, pmf }),
+                Slot::Node(c) => {
+                    node = self.nodes.get(c as usize)?;
+                    (w, sum) = weights(imp, node, false)?;
+                }
+                Slot::Empty => return None,
+            }
+        }
+    }
+
+    /// The probability that [`LightTree::sample`] returns `light` at the shading point of
+    /// `imp`: exactly the pmf it reports. 0 for lights not in the tree or out of range.
+    pub fn pmf<I: Importance + ?Sized>(&self, imp: &I, light: u32) -> f32 {
+        let Some(&path) = self.paths.get(light as usize) else {
+            return 0.0;
+        };
+        let levels = path_len(path);
+        let mut index = 0usize;
+        let mut pmf = 1.0f32;
+        for level in 0..levels {
+            let k = ((path >> (2 * (levels - 1 - level))) & 3) as usize;
+            let Some(node) = self.nodes.get(index) else {
+                return 0.0;
+            };
+            let Some((w, sum)) = weights(imp, node, level == 0) else {
+                return 0.0;
+            };
+            pmf *= w[k] / sum;
+            match node.slot(k) {
+                Slot::Node(c) => index = c as usize,
+                Slot::Light(l) if l == light && level + 1 == levels => return pmf,
+                _ => return 0.0,
+            }
+        }
+        0.0
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn pick_never_takes_zero_slots() {
+        let cases = [
+            [0.0, 1.0, 0.0, 2.0],
+            [3.0, 0.0, 0.0, 0.0],
+            [0.0, 0.0, 0.0, 1e-30],
+            [1e-30, 1e30, 0.0, 0.0],
+        ];
+        for w in cases {
+            let sum = w[0] + w[1] + w[2] + w[3];
+            for u in [0.0, 1e-9, 0.25, 0.5, 0.999, ONE_MINUS_EPSILON] {
+                let (k, u2) = pick(w, sum, u);
+                assert!(w[k] > 0.0, "w={w:?} u={u} picked {k}");
+                assert!((0.0..1.0).contains(&u2), "w={w:?} u={u}: u'={u2}");
+            }
+        }
+    }
+
+    #[test]
+    fn pick_warps_uniformly() {
+        let w = [1.0, 2.0, 0.0, 1.0];
+        let (k, u2) = pick(w, 4.0, 0.5);
+        assert_eq!(k, 1);
+        assert!((u2 - 0.5).abs() < 1e-6);
+        let (k, u2) = pick(w, 4.0, 0.875);
+        assert_eq!(k, 3);
+        assert!((u2 - 0.5).abs() < 1e-6);
+    }
+
+    #[test]
+    fn sanitize_clamps() {
+        assert_eq!(sanitize(f32::NAN), 0.0);
+        assert_eq!(sanitize(-1.0), 0.0);
+        assert_eq!(sanitize(1.0), ONE_MINUS_EPSILON);
+        assert!(ONE_MINUS_EPSILON < 1.0);
+    }
+}
