@@ -2,33 +2,42 @@
 //! orientation cones (Conty & Kulla, "Orientation bounds"), with the cone union and the
 //! orientation measure M_Ω used by the SAOH build.
 
-use crate::math;
+use crate::math::{self, Exact, Fast, Trig};
 use core::f32::consts::{FRAC_PI_2, PI};
-use glam::Vec3;
+use glam::{Vec3, Vec3A};
 
-/// Axis-aligned bounding box. An empty box has `min > max`.
+/// Axis-aligned bounding box, held in 16-byte lanes so unions are one SIMD min and max. An
+/// empty box has `min > max`.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Aabb {
     /// Lower corner.
-    pub min: Vec3,
+    pub min: Vec3A,
     /// Upper corner.
-    pub max: Vec3,
+    pub max: Vec3A,
 }
 
 impl Aabb {
     /// The empty box (the identity of [`Aabb::union`]).
     pub const EMPTY: Aabb = Aabb {
-        min: Vec3::splat(f32::INFINITY),
-        max: Vec3::splat(f32::NEG_INFINITY),
+        min: Vec3A::splat(f32::INFINITY),
+        max: Vec3A::splat(f32::NEG_INFINITY),
     };
+
+    /// The box with corners `min` and `max`.
+    pub fn new(min: Vec3, max: Vec3) -> Aabb {
+        Aabb {
+            min: min.into(),
+            max: max.into(),
+        }
+    }
 
     /// The box of one point.
     pub fn point(p: Vec3) -> Aabb {
-        Aabb { min: p, max: p }
+        Aabb::new(p, p)
     }
 
     /// Smallest box holding both.
-    #[inline]
+    #[inline(always)]
     pub fn union(self, o: Aabb) -> Aabb {
         Aabb {
             min: self.min.min(o.min),
@@ -37,8 +46,9 @@ impl Aabb {
     }
 
     /// Smallest box holding `self` and `p`.
-    #[inline]
+    #[inline(always)]
     pub fn grow(self, p: Vec3) -> Aabb {
+        let p = Vec3A::from(p);
         Aabb {
             min: self.min.min(p),
             max: self.max.max(p),
@@ -53,13 +63,13 @@ impl Aabb {
     /// `max - min` (zero for an empty box).
     #[inline]
     pub fn extent(&self) -> Vec3 {
-        (self.max - self.min).max(Vec3::ZERO)
+        (self.max - self.min).max(Vec3A::ZERO).into()
     }
 
     /// Centre of the box.
     #[inline]
     pub fn center(&self) -> Vec3 {
-        (self.min + self.max) * 0.5
+        ((self.min + self.max) * 0.5).into()
     }
 
     /// The spatial measure M_A of the SAOH: surface area, or the diagonal length for a box of
@@ -95,7 +105,12 @@ pub struct Cone {
 /// The angle between two unit vectors, accurate also when they are nearly (anti)parallel,
 /// where `acos` of the dot product loses half the digits.
 pub fn angle_between(a: Vec3, b: Vec3) -> f32 {
-    libm::atan2f(a.cross(b).length(), a.dot(b))
+    angle_with::<Exact>(a, b)
+}
+
+#[inline]
+fn angle_with<T: Trig>(a: Vec3, b: Vec3) -> f32 {
+    T::atan2(a.cross(b).length(), a.dot(b))
 }
 
 /// Angle added to a union's θo to absorb the rounding of the rotated axis (radians).
@@ -117,6 +132,17 @@ impl Cone {
 
     /// Smallest cone (by the construction of MATH.md section 2) holding both.
     pub fn union(self, b: Cone) -> Cone {
+        self.union_with::<Exact>(b)
+    }
+
+    /// [`Cone::union`] with polynomial trigonometry: for the SAOH's bucket estimates only.
+    #[inline]
+    pub(crate) fn union_fast(self, b: Cone) -> Cone {
+        self.union_with::<Fast>(b)
+    }
+
+    #[inline]
+    fn union_with<T: Trig>(self, b: Cone) -> Cone {
         let theta_e = self.theta_e.max(b.theta_e);
         if self.is_sphere() || b.is_sphere() {
             return Cone {
@@ -131,7 +157,7 @@ impl Cone {
             (b, self)
         };
         let cos_d = big.axis.dot(small.axis);
-        let d = angle_between(big.axis, small.axis);
+        let d = angle_with::<T>(big.axis, small.axis);
         if (d + small.theta_o).min(PI) <= big.theta_o {
             return Cone { theta_e, ..big };
         }
@@ -151,7 +177,7 @@ impl Cone {
         } else {
             big.axis.any_orthonormal_vector()
         };
-        let (s, c) = math::sin_cos(phi);
+        let (s, c) = T::sin_cos(phi);
         let axis = (big.axis * c + perp * s).normalize();
         Cone {
             axis,
@@ -175,14 +201,25 @@ impl Cone {
     /// `2π(1 − cos θo) + π/2 · (2 θw sin θo − cos(θo − 2θw) − 2 θo sin θo + cos θo)`,
     /// `θw = min(θo + θe, π)`.
     pub fn measure(&self) -> f32 {
+        self.measure_with::<Exact>()
+    }
+
+    /// [`Cone::measure`] with polynomial trigonometry: for the SAOH's bucket estimates only.
+    #[inline]
+    pub(crate) fn measure_fast(&self) -> f32 {
+        self.measure_with::<Fast>()
+    }
+
+    #[inline]
+    fn measure_with<T: Trig>(&self) -> f32 {
         if self.is_sphere() {
             // θw = π, sin θo = 0, cos(θo − 2θw) = cos(−π) = −1: the whole sphere.
             return 4.0 * PI;
         }
         let theta_o = self.theta_o;
         let theta_w = (theta_o + self.theta_e).min(PI);
-        let (sin_o, cos_o) = math::sin_cos(theta_o);
-        let cos_ow = math::cos(theta_o - 2.0 * theta_w);
+        let (sin_o, cos_o) = T::sin_cos(theta_o);
+        let cos_ow = T::sin_cos(theta_o - 2.0 * theta_w).1;
         2.0 * PI * (1.0 - cos_o)
             + FRAC_PI_2 * (2.0 * theta_w * sin_o - cos_ow - 2.0 * theta_o * sin_o + cos_o)
     }

@@ -402,10 +402,7 @@ impl Light {
             Light::Sphere { center, radius, .. } => {
                 let r = Vec3::splat(radius);
                 (
-                    Aabb {
-                        min: center - r,
-                        max: center + r,
-                    },
+                    Aabb::new(center - r, center + r),
                     Sphere { center, radius },
                     Cone::SPHERE,
                 )
@@ -435,10 +432,7 @@ impl Light {
                     }
                 };
                 (
-                    Aabb {
-                        min: center - e,
-                        max: center + e,
-                    },
+                    Aabb::new(center - e, center + e),
                     Sphere { center, radius },
                     cone,
                 )

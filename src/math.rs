@@ -60,3 +60,98 @@ pub fn next_up(x: f32) -> f32 {
         f32::from_bits(bits - 1)
     }
 }
+
+/// The trigonometry the cone algebra needs, so one implementation of it serves both the exact
+/// bounds ([`Exact`]) and the SAOH's bucket estimates ([`Fast`]).
+pub trait Trig {
+    /// atan2(y, x).
+    fn atan2(y: f32, x: f32) -> f32;
+    /// (sin x, cos x).
+    fn sin_cos(x: f32) -> (f32, f32);
+}
+
+/// libm: correctly rounded to within an ulp or two.
+pub struct Exact;
+
+impl Trig for Exact {
+    #[inline]
+    fn atan2(y: f32, x: f32) -> f32 {
+        libm::atan2f(y, x)
+    }
+    #[inline]
+    fn sin_cos(x: f32) -> (f32, f32) {
+        libm::sincosf(x)
+    }
+}
+
+/// Polynomial approximations (absolute error below 2e-5), for heuristics only: the SAOH
+/// compares bucket costs with them, while every bound stored in a tree uses [`Exact`].
+pub struct Fast;
+
+impl Trig for Fast {
+    #[inline]
+    fn atan2(y: f32, x: f32) -> f32 {
+        use core::f32::consts::{FRAC_PI_2, PI};
+        let (ax, ay) = (x.abs(), y.abs());
+        let (num, den) = if ax >= ay { (ay, ax) } else { (ax, ay) };
+        if den == 0.0 {
+            return 0.0;
+        }
+        let t = num / den;
+        let t2 = t * t;
+        // Minimax polynomial of atan on [0, 1], |error| < 1e-5.
+        let mut r = t
+            * (0.999_866_0
+                + t2 * (-0.330_299_5 + t2 * (0.180_141_0 + t2 * (-0.085_133_0 + t2 * 0.020_835_1))));
+        if ay > ax {
+            r = FRAC_PI_2 - r;
+        }
+        if x < 0.0 {
+            r = PI - r;
+        }
+        if y < 0.0 {
+            -r
+        } else {
+            r
+        }
+    }
+    #[inline]
+    fn sin_cos(x: f32) -> (f32, f32) {
+        use core::f32::consts::{FRAC_PI_2, PI, TAU};
+        // Reduce to [-π, π], then to [-π/2, π/2] with a sign on the cosine.
+        let mut a = x - TAU * libm::floorf((x + PI) / TAU);
+        let mut cos_sign = 1.0;
+        if a > FRAC_PI_2 {
+            a = PI - a;
+            cos_sign = -1.0;
+        } else if a < -FRAC_PI_2 {
+            a = -PI - a;
+            cos_sign = -1.0;
+        }
+        let a2 = a * a;
+        let s = a * (1.0 + a2 * (-1.0 / 6.0 + a2 * (1.0 / 120.0 + a2 * (-1.0 / 5040.0 + a2 / 362_880.0))));
+        let c = 1.0
+            + a2 * (-0.5 + a2 * (1.0 / 24.0 + a2 * (-1.0 / 720.0 + a2 * (1.0 / 40320.0 - a2 / 3_628_800.0))));
+        (s, cos_sign * c)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn fast_trig_is_close() {
+        for i in -2000..=2000 {
+            let x = i as f32 * 0.005;
+            let (s, c) = Fast::sin_cos(x);
+            let (es, ec) = Exact::sin_cos(x);
+            assert!((s - es).abs() < 2e-5 && (c - ec).abs() < 2e-5, "x={x}: {s} {c}");
+            for j in -20..=20 {
+                let y = j as f32 * 0.37;
+                let (a, e) = (Fast::atan2(y, x), Exact::atan2(y, x));
+                assert!((a - e).abs() < 2e-5, "atan2({y}, {x}) = {a}, expected {e}");
+            }
+        }
+    }
+}

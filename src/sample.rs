@@ -17,7 +17,7 @@
 //! light rather than reusing what is left of `u`.
 
 use crate::importance::Importance;
-use crate::tree::{path_len, LightTree, Node4, Slot};
+use crate::tree::{path_len, LightTree, Node4, Slot, LEAF_BIT};
 
 /// A sampled light and the probability of having chosen it.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -62,25 +62,44 @@ pub(crate) fn weights<I: Importance + ?Sized>(
 }
 
 /// Picks slot k with probability `w[k] / sum` from `u` in [0, 1) and returns it with `u`
-/// rescaled into [0, 1). A slot of weight 0 is never picked.
+/// rescaled into [0, 1). A slot of weight 0 is never picked. Branch-free: k counts the
+/// prefix sums at or below `u · sum` (a zero-weight slot repeats its predecessor's prefix sum,
+/// so it is skipped), clamped to the last positive slot against rounding.
 #[inline(always)]
 pub(crate) fn pick(w: [f32; 4], sum: f32, u: f32) -> (usize, f32) {
     let t = u * sum;
-    let mut acc = 0.0;
-    let mut last = (0, 0.0);
-    for (k, &wk) in w.iter().enumerate() {
-        if wk > 0.0 {
-            let next = acc + wk;
-            if t < next {
-                return (k, ((t - acc) / wk).clamp(0.0, ONE_MINUS_EPSILON));
+    let c0 = w[0];
+    let c1 = c0 + w[1];
+    let c2 = c1 + w[2];
+    let k = usize::from(t >= c0) + usize::from(t >= c1) + usize::from(t >= c2);
+    let last = if w[3] > 0.0 {
+        3
+    } else if w[2] > 0.0 {
+        2
+    } else if w[1] > 0.0 {
+        1
+    } else {
+        0
+    };
+    let k = k.min(last);
+    let before = [0.0, c0, c1, c2][k];
+    (k, ((t - before) / w[k]).clamp(0.0, ONE_MINUS_EPSILON))
+}
+
+/// Loads the first word of each cache line of the child nodes of `node`, so that their memory
+/// latency overlaps the evaluation of `node` (the core has no `unsafe`, so no prefetch
+/// intrinsic). Returns a value to be fed to `black_box`.
+#[inline(always)]
+fn touch_children(nodes: &[Node4], node: &Node4) -> u32 {
+    let mut t = 0u32;
+    for &c in &node.child {
+        if c & LEAF_BIT == 0 {
+            if let Some(n) = nodes.get(c as usize) {
+                t ^= n.center_x[0].to_bits() ^ n.energy[0].to_bits();
             }
-            last = (k, acc);
-            acc = next;
         }
     }
-    // Rounding put t at or past the last boundary: take the last positive slot.
-    let (k, before) = last;
-    (k, ((t - before) / w[k]).clamp(0.0, ONE_MINUS_EPSILON))
+    t
 }
 
 impl LightTree {
@@ -90,6 +109,7 @@ impl LightTree {
     pub fn sample<I: Importance + ?Sized>(&self, imp: &I, u: f32) -> Option<LightSample> {
         let mut u = sanitize(u);
         let mut node = self.nodes.first()?;
+        let mut touched = touch_children(&self.nodes, node);
         let (mut w, mut sum) = weights(imp, node, true)?;
         let mut pmf = 1.0f32;
         loop {
@@ -97,9 +117,13 @@ impl LightTree {
             pmf *= w[k] / sum;
             u = next_u;
             match node.slot(k) {
-                Slot::Light(light) => return Some(LightSample { light, pmf }),
+                Slot::Light(light) => {
+                    core::hint::black_box(touched);
+                    return Some(LightSample { light, pmf });
+                }
                 Slot::Node(c) => {
                     node = self.nodes.get(c as usize)?;
+                    touched ^= touch_children(&self.nodes, node);
                     (w, sum) = weights(imp, node, false)?;
                 }
                 Slot::Empty => return None,

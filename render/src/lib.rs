@@ -1,1 +1,5 @@
+//! The std side of manylights: the test renderer and the project's instruments, shared by the
+//! `mlrender` binary and the core's benches.
 
+pub mod bench;
+pub mod random_scene;

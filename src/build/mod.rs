@@ -56,7 +56,7 @@ pub(crate) fn binary(lights: &[Light], opts: &BuildOptions) -> Result<BinTree, B
     if prims.is_empty() {
         return Ok(BinTree { nodes: Vec::new() });
     }
-    Ok(saoh::build(&mut prims, opts.buckets.clamp(12, 64)))
+    Ok(saoh::build(&mut prims, opts.buckets.clamp(12, saoh::MAX_BUCKETS)))
 }
 
 impl LightTree {

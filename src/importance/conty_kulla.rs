@@ -51,11 +51,13 @@ pub struct TlImportance {
     position: Vec3,
     normal: Vec3,
     receiver: Receiver,
+    /// False for a non-finite position: every importance is then 0 (nothing is sampled).
+    valid: bool,
 }
 
 impl TlImportance {
     /// A reflective surface point. `normal` is normalised here; a zero or non-finite normal
-    /// makes the point omnidirectional.
+    /// makes the point omnidirectional; a non-finite position makes every importance 0.
     #[inline]
     pub fn new(position: Vec3, normal: Vec3) -> TlImportance {
         TlImportance::with_receiver(position, normal, Receiver::Reflective)
@@ -74,6 +76,7 @@ impl TlImportance {
             position,
             normal,
             receiver,
+            valid: position.is_finite(),
         }
     }
 
@@ -94,6 +97,9 @@ impl TlImportance {
 
     /// The scalar reference: the importance of one cluster.
     pub fn eval(&self, b: &SlotBounds) -> f32 {
+        if !self.valid {
+            return 0.0;
+        }
         let p = self.position;
         let (vx, vy, vz) = (b.center.x - p.x, b.center.y - p.y, b.center.z - p.z);
         let d2 = vx * vx + vy * vy + vz * vz;
@@ -158,6 +164,9 @@ impl Importance for TlImportance {
     #[inline]
     fn eval4(&self, node: &Node4) -> f32x4 {
         let zero = f32x4::ZERO;
+        if !self.valid {
+            return zero;
+        }
         let one = f32x4::ONE;
         let two = f32x4::splat(2.0);
         let p = self.position;
@@ -168,12 +177,12 @@ impl Importance for TlImportance {
         let radius = f32x4::new(node.radius);
         let r2 = radius * radius;
         let min_d2 = f32x4::splat(MIN_DISTANCE2);
-        let d2c = d2.max(f32x4::splat(CLAMP2) * r2).max(min_d2);
+        let d2c = d2.fast_max(f32x4::splat(CLAMP2) * r2).fast_max(min_d2);
         let inside = d2.simd_le(r2);
-        let inv_d = one / d2.max(min_d2).sqrt();
+        let inv_d = one / d2.fast_max(min_d2).sqrt();
         let (wx, wy, wz) = (vx * inv_d, vy * inv_d, vz * inv_d);
-        let sin_u = (radius * inv_d).min(one);
-        let cos_u = (one - sin_u * sin_u).max(zero).sqrt();
+        let sin_u = (radius * inv_d).fast_min(one);
+        let cos_u = (one - sin_u * sin_u).fast_max(zero).sqrt();
 
         // Receiver.
         let n = self.normal;
@@ -181,7 +190,7 @@ impl Importance for TlImportance {
         if self.receiver == Receiver::Transmissive {
             cos_i = cos_i.abs();
         }
-        let sin_i = (one - cos_i * cos_i).max(zero).sqrt();
+        let sin_i = (one - cos_i * cos_i).fast_max(zero).sqrt();
         let cos_ip = cos_i
             .simd_ge(cos_u)
             .select(one, cos_i * cos_u + sin_i * sin_u);
@@ -197,7 +206,7 @@ impl Importance for TlImportance {
         let x = low16(q) * scale - one;
         let y = high16(q) * scale - one;
         let z = one - x.abs() - y.abs();
-        let t = (-z).max(zero);
+        let t = (-z).fast_max(zero);
         let x = x.simd_ge(zero).select(x - t, x + t);
         let y = y.simd_ge(zero).select(y - t, y + t);
         let inv = one / (x * x + y * y + z * z).sqrt();
@@ -206,15 +215,15 @@ impl Importance for TlImportance {
         let qscale = f32x4::splat(1.0 / 65535.0);
         let so = low16(qa) * qscale;
         let cos_o = one - two * so * so;
-        let sin_o = two * so * (one - so * so).max(zero).sqrt();
+        let sin_o = two * so * (one - so * so).fast_max(zero).sqrt();
         let se = high16(qa) * qscale;
         let cos_e = one - two * se * se;
 
         // Emitter.
         let cos_t = -(ax * wx + ay * wy + az * wz);
-        let sin_t = (one - cos_t * cos_t).max(zero).sqrt();
+        let sin_t = (one - cos_t * cos_t).fast_max(zero).sqrt();
         let c1 = cos_t * cos_o + sin_t * sin_o;
-        let s1 = (sin_t * cos_o - cos_t * sin_o).max(zero);
+        let s1 = (sin_t * cos_o - cos_t * sin_o).fast_max(zero);
         let cos_tp = c1.simd_ge(cos_u).select(one, c1 * cos_u + s1 * sin_u);
         let cos_tp = (cos_t.simd_ge(cos_o) | inside).select(one, cos_tp);
 
@@ -222,7 +231,7 @@ impl Importance for TlImportance {
         let floor = f32x4::splat(COS_FLOOR);
         let dead = cos_tp.simd_le(cos_e - slack) | cos_ip.simd_le(-slack);
         let energy = f32x4::new(node.energy);
-        let value = energy * cos_tp.max(floor) * cos_ip.max(floor) / d2c;
+        let value = energy * cos_tp.fast_max(floor) * cos_ip.fast_max(floor) / d2c;
         dead.select(zero, value)
     }
 }

@@ -1,0 +1,156 @@
+//! `mlrender bench`: build time, memory and single-threaded sampling throughput of the 4-wide
+//! tree against the binary scalar baseline, measured in one run, plus the exactness of the
+//! pmfs.
+
+use crate::random_scene::{self, ShadingPoint};
+use manylights::baseline::BinaryLightTree;
+use manylights::{LightTree, TlImportance};
+use serde_json::json;
+use std::hint::black_box;
+use std::time::Instant;
+
+/// What to measure.
+#[derive(Clone, Copy, Debug)]
+pub struct BenchConfig {
+    /// Number of lights.
+    pub lights: usize,
+    /// Number of shading points (one sample each).
+    pub points: usize,
+    /// Seed of the scene, the points and the uniform numbers.
+    pub seed: u64,
+    /// Timed repetitions of each sampling loop; the fastest is kept.
+    pub repeats: usize,
+}
+
+/// Throughput of one pass over the shading points, in million samples per second.
+fn time_pass(points: &[ShadingPoint], us: &[f32], mut f: impl FnMut(&TlImportance, f32) -> f32) -> (f64, f64) {
+    let t = Instant::now();
+    let mut acc = 0.0f64;
+    for (p, &u) in points.iter().zip(us) {
+        let imp = TlImportance::new(p.position, p.normal);
+        acc += f64::from(f(black_box(&imp), black_box(u)));
+    }
+    let s = t.elapsed().as_secs_f64();
+    (points.len() as f64 / s / 1e6, acc)
+}
+
+/// Runs the benchmark; returns the JSON report (also the source of the human table).
+pub fn run(cfg: &BenchConfig) -> serde_json::Value {
+    let lights = random_scene::lights(cfg.lights, cfg.seed);
+    let points = random_scene::shading_points(cfg.points, cfg.seed);
+    let us = random_scene::uniforms(cfg.points, cfg.seed);
+
+    let t = Instant::now();
+    let tree = LightTree::build(&lights).expect("the bench scene is valid");
+    let build_ms = t.elapsed().as_secs_f64() * 1e3;
+    let t = Instant::now();
+    let baseline = BinaryLightTree::build(&lights).expect("the bench scene is valid");
+    let baseline_build_ms = t.elapsed().as_secs_f64() * 1e3;
+    let stats = tree.stats();
+
+    // Alternate the two samplers so that both see the same machine state; keep the best.
+    let mut tl = 0.0f64;
+    let mut base = 0.0f64;
+    let mut checksum = 0.0;
+    for _ in 0..cfg.repeats.max(1) {
+        let (r, c) = time_pass(&points, &us, |imp, u| tree.sample(imp, u).map_or(0.0, |s| s.pmf));
+        tl = tl.max(r);
+        checksum += c;
+        let (r, c) = time_pass(&points, &us, |imp, u| {
+            baseline.sample(imp, u).map_or(0.0, |s| s.pmf)
+        });
+        base = base.max(r);
+        checksum += c;
+    }
+    black_box(checksum);
+
+    // The samples once more, kept for the pmf queries.
+    let samples: Vec<Option<manylights::LightSample>> = points
+        .iter()
+        .zip(&us)
+        .map(|(p, &u)| tree.sample(&TlImportance::new(p.position, p.normal), u))
+        .collect();
+    let returned = samples.iter().filter(|s| s.is_some()).count();
+    let mut pmf_rate = 0.0f64;
+    let mut max_rel = 0.0f64;
+    for _ in 0..cfg.repeats.max(1) {
+        let t = Instant::now();
+        let mut acc = 0.0f64;
+        let mut n = 0usize;
+        for (p, s) in points.iter().zip(&samples) {
+            if let Some(s) = s {
+                let imp = TlImportance::new(p.position, p.normal);
+                let q = tree.pmf(black_box(&imp), black_box(s.light));
+                acc += f64::from(q);
+                n += 1;
+                let rel = (f64::from(q) - f64::from(s.pmf)).abs() / f64::from(q).max(f64::MIN_POSITIVE);
+                max_rel = max_rel.max(rel);
+            }
+        }
+        black_box(acc);
+        pmf_rate = pmf_rate.max(n as f64 / t.elapsed().as_secs_f64() / 1e6);
+    }
+
+    // Sum of every light's pmf at 100 shading points.
+    let pmf_sum_max_err = if cfg.lights <= 100_000 {
+        let mut worst = 0.0f64;
+        for p in points.iter().take(100) {
+            let imp = TlImportance::new(p.position, p.normal);
+            let sum: f64 = (0..cfg.lights as u32).map(|l| f64::from(tree.pmf(&imp, l))).sum();
+            if sum > 0.0 {
+                worst = worst.max((sum - 1.0).abs());
+            }
+        }
+        Some(worst)
+    } else {
+        None
+    };
+
+    json!({
+        "lights": cfg.lights,
+        "points": cfg.points,
+        "seed": cfg.seed,
+        "build_ms": build_ms,
+        "baseline_build_ms": baseline_build_ms,
+        "bytes_per_light": stats.bytes_per_light,
+        "baseline_bytes_per_light": baseline.bytes() as f64 / cfg.lights.max(1) as f64,
+        "nodes": stats.nodes,
+        "mean_fill": stats.mean_fill,
+        "depth": stats.depth,
+        "tl_msamples_per_s": tl,
+        "baseline_msamples_per_s": base,
+        "speedup": tl / base,
+        "pmf_mqueries_per_s": pmf_rate,
+        "pmf_max_rel_err": max_rel,
+        "pmf_sum_max_err": pmf_sum_max_err,
+        "returned_fraction": returned as f64 / cfg.points.max(1) as f64,
+    })
+}
+
+/// The report as a human-readable table.
+pub fn table(r: &serde_json::Value) -> String {
+    let f = |k: &str| r[k].as_f64().map_or("-".to_string(), |v| format!("{v:.4}"));
+    let rows = [
+        ("lights", "lights"),
+        ("shading points", "points"),
+        ("build (ms)", "build_ms"),
+        ("baseline build (ms)", "baseline_build_ms"),
+        ("bytes per light", "bytes_per_light"),
+        ("baseline bytes per light", "baseline_bytes_per_light"),
+        ("nodes", "nodes"),
+        ("mean slots filled", "mean_fill"),
+        ("depth", "depth"),
+        ("4-wide TL (Msamples/s)", "tl_msamples_per_s"),
+        ("binary baseline (Msamples/s)", "baseline_msamples_per_s"),
+        ("speedup", "speedup"),
+        ("pmf queries (M/s)", "pmf_mqueries_per_s"),
+        ("pmf max rel. error", "pmf_max_rel_err"),
+        ("pmf sum max error", "pmf_sum_max_err"),
+        ("points with a sample", "returned_fraction"),
+    ];
+    let mut s = String::from("| measure | value |\n|---|---|\n");
+    for (name, key) in rows {
+        s.push_str(&format!("| {name} | {} |\n", f(key)));
+    }
+    s
+}

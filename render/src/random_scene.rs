@@ -1,0 +1,118 @@
+//! The random many-light scene of `mlrender bench` and the criterion benches.
+//!
+//! N lights with centres uniform in [-100, 100]³ and power uniform in [0.1, 10]: 40 % points,
+//! 20 % spots (random direction, half-angle uniform in [10°, 60°]), 20 % spheres (radius
+//! uniform in [0.1, 1]), 20 % one-sided triangles (edges of about 0.1 to 2, random
+//! orientation). Each light's intensity or radiance is set so that its power is the drawn one.
+//! Shading points are uniform in the same cube with uniformly random normals.
+
+use glam::Vec3;
+use manylights::Light;
+use rand::{Rng, SeedableRng};
+use rand_pcg::Pcg64Mcg;
+use std::f32::consts::PI;
+
+/// Half the side of the scene cube.
+pub const HALF_EXTENT: f32 = 100.0;
+
+/// A uniformly random unit vector.
+pub fn unit_vector(rng: &mut impl Rng) -> Vec3 {
+    let z = rng.random_range(-1.0f32..=1.0);
+    let phi = rng.random_range(0.0..2.0 * PI);
+    let s = (1.0 - z * z).max(0.0).sqrt();
+    Vec3::new(s * phi.cos(), s * phi.sin(), z)
+}
+
+fn in_cube(rng: &mut impl Rng) -> Vec3 {
+    Vec3::new(
+        rng.random_range(-HALF_EXTENT..HALF_EXTENT),
+        rng.random_range(-HALF_EXTENT..HALF_EXTENT),
+        rng.random_range(-HALF_EXTENT..HALF_EXTENT),
+    )
+}
+
+/// The bench scene's `n` lights, from `seed`.
+pub fn lights(n: usize, seed: u64) -> Vec<Light> {
+    let mut rng = Pcg64Mcg::seed_from_u64(seed);
+    (0..n)
+        .map(|i| {
+            let c = in_cube(&mut rng);
+            let power = rng.random_range(0.1f32..10.0);
+            // Interleave the kinds so every prefix of the list has the same mix.
+            match i % 10 {
+                0..=3 => Light::Point {
+                    position: c,
+                    intensity: power / (4.0 * PI),
+                },
+                4 | 5 => {
+                    let half_angle = rng.random_range(10.0f32..60.0).to_radians();
+                    Light::Spot {
+                        position: c,
+                        direction: unit_vector(&mut rng),
+                        intensity: power / (2.0 * PI * (1.0 - half_angle.cos())),
+                        half_angle,
+                        falloff_start: half_angle * 0.8,
+                    }
+                }
+                6 | 7 => {
+                    let radius = rng.random_range(0.1f32..1.0);
+                    Light::Sphere {
+                        center: c,
+                        radius,
+                        radiance: power / (PI * 4.0 * PI * radius * radius),
+                    }
+                }
+                _ => {
+                    // A roughly equilateral triangle of edge `size`, randomly oriented.
+                    let size = rng.random_range(0.1f32..2.0);
+                    let n = unit_vector(&mut rng);
+                    let u = n.any_orthonormal_vector();
+                    let v = n.cross(u);
+                    let r = size / 3f32.sqrt();
+                    let phase = rng.random_range(0.0..2.0 * PI);
+                    let vertices = [0.0f32, 1.0, 2.0].map(|k| {
+                        let a = phase + k * 2.0 * PI / 3.0 + rng.random_range(-0.2f32..0.2);
+                        c + (u * a.cos() + v * a.sin()) * r
+                    });
+                    let t = Light::Triangle {
+                        vertices,
+                        radiance: 1.0,
+                        two_sided: false,
+                    };
+                    let area = t.area().max(1e-12);
+                    Light::Triangle {
+                        vertices,
+                        radiance: power / (PI * area),
+                        two_sided: false,
+                    }
+                }
+            }
+        })
+        .collect()
+}
+
+/// A shading point: position and unit normal.
+#[derive(Clone, Copy, Debug)]
+pub struct ShadingPoint {
+    /// Position.
+    pub position: Vec3,
+    /// Unit normal.
+    pub normal: Vec3,
+}
+
+/// `m` shading points uniform in the cube with uniform normals, from `seed`.
+pub fn shading_points(m: usize, seed: u64) -> Vec<ShadingPoint> {
+    let mut rng = Pcg64Mcg::seed_from_u64(seed ^ 0x5eed_0f_90_1475);
+    (0..m)
+        .map(|_| ShadingPoint {
+            position: in_cube(&mut rng),
+            normal: unit_vector(&mut rng),
+        })
+        .collect()
+}
+
+/// `m` uniform numbers in [0, 1), from `seed`.
+pub fn uniforms(m: usize, seed: u64) -> Vec<f32> {
+    let mut rng = Pcg64Mcg::seed_from_u64(seed ^ 0x0u64.wrapping_sub(0x1234_5678));
+    (0..m).map(|_| rng.random::<f32>()).collect()
+}
