@@ -1,1 +1,81 @@
-fn main() {}
+//! Sampling throughput of the 4-wide tree against the binary scalar baseline (same build, same
+//! TL importance, measured in one group so the ratio is read from one run), and build time.
+//! Scene: the random scene of `mlrender bench` (fixed seed).
+
+use criterion::{criterion_group, criterion_main, BenchmarkId, Criterion, Throughput};
+use manylights::baseline::BinaryLightTree;
+use manylights::{LightTree, TlImportance};
+use manylights_render::random_scene;
+use std::hint::black_box;
+
+const POINTS: usize = 4096;
+
+fn sampling(c: &mut Criterion) {
+    let mut group = c.benchmark_group("sample");
+    group.throughput(Throughput::Elements(POINTS as u64));
+    let points = random_scene::shading_points(POINTS, 7);
+    let us = random_scene::uniforms(POINTS, 7);
+    for n in [1_000usize, 100_000, 1_000_000] {
+        let lights = random_scene::lights(n, 7);
+        let tree = LightTree::build(&lights).unwrap();
+        let binary = BinaryLightTree::build(&lights).unwrap();
+        group.bench_with_input(BenchmarkId::new("4-wide", n), &n, |b, _| {
+            b.iter(|| {
+                let mut acc = 0.0f32;
+                for (p, &u) in points.iter().zip(&us) {
+                    let imp = TlImportance::new(p.position, p.normal);
+                    acc += tree
+                        .sample(black_box(&imp), black_box(u))
+                        .map_or(0.0, |s| s.pmf);
+                }
+                acc
+            })
+        });
+        group.bench_with_input(BenchmarkId::new("binary", n), &n, |b, _| {
+            b.iter(|| {
+                let mut acc = 0.0f32;
+                for (p, &u) in points.iter().zip(&us) {
+                    let imp = TlImportance::new(p.position, p.normal);
+                    acc += binary
+                        .sample(black_box(&imp), black_box(u))
+                        .map_or(0.0, |s| s.pmf);
+                }
+                acc
+            })
+        });
+        group.bench_with_input(BenchmarkId::new("4-wide pmf", n), &n, |b, _| {
+            let queries: Vec<(TlImportance, u32)> = points
+                .iter()
+                .zip(&us)
+                .filter_map(|(p, &u)| {
+                    let imp = TlImportance::new(p.position, p.normal);
+                    tree.sample(&imp, u).map(|s| (imp, s.light))
+                })
+                .collect();
+            b.iter(|| {
+                let mut acc = 0.0f32;
+                for (imp, light) in &queries {
+                    acc += tree.pmf(black_box(imp), black_box(*light));
+                }
+                acc
+            })
+        });
+    }
+    group.finish();
+}
+
+fn build(c: &mut Criterion) {
+    let mut group = c.benchmark_group("build");
+    group.sample_size(10);
+    for n in [1_000usize, 100_000, 1_000_000] {
+        let lights = random_scene::lights(n, 7);
+        group.throughput(Throughput::Elements(n as u64));
+        group.bench_with_input(BenchmarkId::new("4-wide", n), &lights, |b, lights| {
+            b.iter(|| LightTree::build(black_box(lights)).unwrap())
+        });
+    }
+    group.finish();
+}
+
+criterion_group!(benches, sampling, build);
+criterion_main!(benches);

@@ -70,7 +70,10 @@ impl BinaryLightTree {
     }
 
     /// Builds with `opts`.
-    pub fn build_with(lights: &[Light], opts: &BuildOptions) -> Result<BinaryLightTree, BuildError> {
+    pub fn build_with(
+        lights: &[Light],
+        opts: &BuildOptions,
+    ) -> Result<BinaryLightTree, BuildError> {
         let bin = binary(lights, opts)?;
         let mut paths = vec![0u64; lights.len()];
         let nodes: Vec<BinaryNode> = bin
@@ -115,7 +118,8 @@ impl BinaryLightTree {
 
     /// Bytes of all arrays (nodes and paths).
     pub fn bytes(&self) -> usize {
-        core::mem::size_of_val(self.nodes.as_slice()) + core::mem::size_of_val(self.paths.as_slice())
+        core::mem::size_of_val(self.nodes.as_slice())
+            + core::mem::size_of_val(self.paths.as_slice())
     }
 
     /// Importances of the two children of inner node `i`, or their energies below the root

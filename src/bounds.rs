@@ -237,9 +237,9 @@ pub struct Sphere {
 impl Sphere {
     /// Whether `self` contains `inner`, with absolute slack `tol`.
     pub fn contains(&self, inner: &Sphere, tol: f32) -> bool {
-        let d = f64::from(self.center.x - inner.center.x).powi(2)
-            + f64::from(self.center.y - inner.center.y).powi(2)
-            + f64::from(self.center.z - inner.center.z).powi(2);
+        let d = math::sq(f64::from(self.center.x - inner.center.x))
+            + math::sq(f64::from(self.center.y - inner.center.y))
+            + math::sq(f64::from(self.center.z - inner.center.z));
         math::sqrt64(d) + f64::from(inner.radius) <= f64::from(self.radius) + f64::from(tol)
     }
 }

@@ -127,7 +127,10 @@ impl fmt::Display for BuildError {
                 write!(f, "the lights' total energy exceeds MAX_TOTAL_ENERGY")
             }
             BuildError::TooDeep { depth } => {
-                write!(f, "tree depth {depth} exceeds the 31 levels a path can encode")
+                write!(
+                    f,
+                    "tree depth {depth} exceeds the 31 levels a path can encode"
+                )
             }
         }
     }
@@ -230,10 +233,16 @@ impl fmt::Display for ValidationError {
                 write!(f, "node {node} slot {slot}: non-finite or negative value")
             }
             ValidationError::EnergyMismatch { node, slot } => {
-                write!(f, "node {node} slot {slot}: energy is not the sum of its children")
+                write!(
+                    f,
+                    "node {node} slot {slot}: energy is not the sum of its children"
+                )
             }
             ValidationError::BoundsViolation { light, level } => {
-                write!(f, "light {light} escapes the bounds of its ancestor at level {level}")
+                write!(
+                    f,
+                    "light {light} escapes the bounds of its ancestor at level {level}"
+                )
             }
             ValidationError::BadPath { light } => {
                 write!(f, "light {light}: stored path does not lead to it")

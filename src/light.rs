@@ -133,7 +133,7 @@ fn check_direction(index: usize, field: LightField, d: Vec3) -> Result<Vec3, Bui
     }
     // Normalise in f64 so that tiny but non-zero vectors survive.
     let l = math::sqrt64(
-        f64::from(d.x).powi(2) + f64::from(d.y).powi(2) + f64::from(d.z).powi(2),
+        math::sq(f64::from(d.x)) + math::sq(f64::from(d.y)) + math::sq(f64::from(d.z)),
     );
     if l.is_nan() || l <= 0.0 {
         return Err(invalid(index, field, Problem::ZeroLength, 0.0));
@@ -165,7 +165,11 @@ fn triangle_sphere(v: &[Vec3; 3]) -> Sphere {
         let (a, b, c) = (p[i], p[(i + 1) % 3], p[(i + 2) % 3]);
         // Angle at c is ≥ 90° when (a − c)·(b − c) ≤ 0: the longest edge is ab.
         if dot(sub(a, c), sub(b, c)) <= 0.0 {
-            centre = [(a[0] + b[0]) * 0.5, (a[1] + b[1]) * 0.5, (a[2] + b[2]) * 0.5];
+            centre = [
+                (a[0] + b[0]) * 0.5,
+                (a[1] + b[1]) * 0.5,
+                (a[2] + b[2]) * 0.5,
+            ];
             found = true;
             break;
         }
@@ -198,7 +202,7 @@ fn sphere_around(centre: [f64; 3], points: &[[f64; 3]]) -> Sphere {
     let cf = [f64::from(c.x), f64::from(c.y), f64::from(c.z)];
     let mut r2 = 0.0f64;
     for q in points {
-        let d2 = (q[0] - cf[0]).powi(2) + (q[1] - cf[1]).powi(2) + (q[2] - cf[2]).powi(2);
+        let d2 = math::sq(q[0] - cf[0]) + math::sq(q[1] - cf[1]) + math::sq(q[2] - cf[2]);
         r2 = r2.max(d2);
     }
     Sphere {
@@ -241,10 +245,20 @@ impl Light {
                 check_direction(index, LightField::Direction, direction)?;
                 check_power(index, LightField::Intensity, intensity)?;
                 if !half_angle.is_finite() {
-                    return Err(invalid(index, LightField::HalfAngle, Problem::NotFinite, half_angle));
+                    return Err(invalid(
+                        index,
+                        LightField::HalfAngle,
+                        Problem::NotFinite,
+                        half_angle,
+                    ));
                 }
                 if !(half_angle > 0.0 && half_angle <= PI) {
-                    return Err(invalid(index, LightField::HalfAngle, Problem::OutOfRange, half_angle));
+                    return Err(invalid(
+                        index,
+                        LightField::HalfAngle,
+                        Problem::OutOfRange,
+                        half_angle,
+                    ));
                 }
                 if !falloff_start.is_finite() {
                     return Err(invalid(
@@ -312,12 +326,19 @@ impl Light {
     fn area_f64(&self) -> f64 {
         match *self {
             Light::Point { .. } | Light::Spot { .. } => 0.0,
-            Light::Sphere { radius, .. } => 4.0 * core::f64::consts::PI * f64::from(radius).powi(2),
-            Light::Disk { radius, .. } => core::f64::consts::PI * f64::from(radius).powi(2),
+            Light::Sphere { radius, .. } => {
+                4.0 * core::f64::consts::PI * math::sq(f64::from(radius))
+            }
+            Light::Disk { radius, .. } => core::f64::consts::PI * math::sq(f64::from(radius)),
             Light::Triangle { vertices, .. } => {
-                let a = (vertices[1] - vertices[0]).as_dvec3();
-                let b = (vertices[2] - vertices[0]).as_dvec3();
-                0.5 * a.cross(b).length()
+                let d = |k: usize, i: usize| f64::from(vertices[k][i]) - f64::from(vertices[0][i]);
+                let (a, b) = ([d(1, 0), d(1, 1), d(1, 2)], [d(2, 0), d(2, 1), d(2, 2)]);
+                let c = [
+                    a[1] * b[2] - a[2] * b[1],
+                    a[2] * b[0] - a[0] * b[2],
+                    a[0] * b[1] - a[1] * b[0],
+                ];
+                0.5 * math::sqrt64(math::sq(c[0]) + math::sq(c[1]) + math::sq(c[2]))
             }
         }
     }
@@ -442,11 +463,9 @@ impl Light {
                 two_sided,
                 ..
             } => {
-                let aabb = Aabb::point(vertices[0])
-                    .grow(vertices[1])
-                    .grow(vertices[2]);
+                let aabb = Aabb::point(vertices[0]).grow(vertices[1]).grow(vertices[2]);
                 let n = (vertices[1] - vertices[0]).cross(vertices[2] - vertices[0]);
-                let cone = if two_sided || !(n.length_squared() > 0.0) {
+                let cone = if two_sided || n.length_squared() <= 0.0 {
                     Cone::SPHERE
                 } else {
                     Cone {

@@ -8,16 +8,16 @@ pub fn sqrt(x: f32) -> f32 {
     libm::sqrtf(x)
 }
 
+/// `x²` (f64).
+#[inline(always)]
+pub fn sq(x: f64) -> f64 {
+    x * x
+}
+
 /// Square root (f64).
 #[inline(always)]
 pub fn sqrt64(x: f64) -> f64 {
     libm::sqrt(x)
-}
-
-/// Arc cosine with the argument clamped to [-1, 1] (never NaN for finite input).
-#[inline]
-pub fn acos_clamped(x: f32) -> f32 {
-    libm::acosf(x.clamp(-1.0, 1.0))
 }
 
 /// Sine and cosine.
@@ -101,8 +101,8 @@ impl Trig for Fast {
         let t2 = t * t;
         // Minimax polynomial of atan on [0, 1], |error| < 1e-5.
         let mut r = t
-            * (0.999_866_0
-                + t2 * (-0.330_299_5 + t2 * (0.180_141_0 + t2 * (-0.085_133_0 + t2 * 0.020_835_1))));
+            * (0.999_866
+                + t2 * (-0.330_299_5 + t2 * (0.180_141 + t2 * (-0.085_133 + t2 * 0.020_835_1))));
         if ay > ax {
             r = FRAC_PI_2 - r;
         }
@@ -129,9 +129,13 @@ impl Trig for Fast {
             cos_sign = -1.0;
         }
         let a2 = a * a;
-        let s = a * (1.0 + a2 * (-1.0 / 6.0 + a2 * (1.0 / 120.0 + a2 * (-1.0 / 5040.0 + a2 / 362_880.0))));
+        let s = a
+            * (1.0
+                + a2 * (-1.0 / 6.0 + a2 * (1.0 / 120.0 + a2 * (-1.0 / 5040.0 + a2 / 362_880.0))));
         let c = 1.0
-            + a2 * (-0.5 + a2 * (1.0 / 24.0 + a2 * (-1.0 / 720.0 + a2 * (1.0 / 40320.0 - a2 / 3_628_800.0))));
+            + a2 * (-0.5
+                + a2 * (1.0 / 24.0
+                    + a2 * (-1.0 / 720.0 + a2 * (1.0 / 40320.0 - a2 / 3_628_800.0))));
         (s, cos_sign * c)
     }
 }
@@ -146,7 +150,10 @@ mod tests {
             let x = i as f32 * 0.005;
             let (s, c) = Fast::sin_cos(x);
             let (es, ec) = Exact::sin_cos(x);
-            assert!((s - es).abs() < 2e-5 && (c - ec).abs() < 2e-5, "x={x}: {s} {c}");
+            assert!(
+                (s - es).abs() < 2e-5 && (c - ec).abs() < 2e-5,
+                "x={x}: {s} {c}"
+            );
             for j in -20..=20 {
                 let y = j as f32 * 0.37;
                 let (a, e) = (Fast::atan2(y, x), Exact::atan2(y, x));

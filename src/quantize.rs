@@ -15,7 +15,11 @@ const Q: f32 = 65535.0;
 /// Encodes a unit vector octahedrally (16 bits per coordinate, rounded to nearest).
 pub fn encode_axis(a: Vec3) -> u32 {
     let l1 = a.x.abs() + a.y.abs() + a.z.abs();
-    let (mut x, mut y) = if l1 > 0.0 { (a.x / l1, a.y / l1) } else { (0.0, 0.0) };
+    let (mut x, mut y) = if l1 > 0.0 {
+        (a.x / l1, a.y / l1)
+    } else {
+        (0.0, 0.0)
+    };
     if a.z < 0.0 {
         let (ox, oy) = (x, y);
         x = (1.0 - oy.abs()) * sign(ox);

@@ -23,7 +23,11 @@ pub struct BenchConfig {
 }
 
 /// Throughput of one pass over the shading points, in million samples per second.
-fn time_pass(points: &[ShadingPoint], us: &[f32], mut f: impl FnMut(&TlImportance, f32) -> f32) -> (f64, f64) {
+fn time_pass(
+    points: &[ShadingPoint],
+    us: &[f32],
+    mut f: impl FnMut(&TlImportance, f32) -> f32,
+) -> (f64, f64) {
     let t = Instant::now();
     let mut acc = 0.0f64;
     for (p, &u) in points.iter().zip(us) {
@@ -53,7 +57,9 @@ pub fn run(cfg: &BenchConfig) -> serde_json::Value {
     let mut base = 0.0f64;
     let mut checksum = 0.0;
     for _ in 0..cfg.repeats.max(1) {
-        let (r, c) = time_pass(&points, &us, |imp, u| tree.sample(imp, u).map_or(0.0, |s| s.pmf));
+        let (r, c) = time_pass(&points, &us, |imp, u| {
+            tree.sample(imp, u).map_or(0.0, |s| s.pmf)
+        });
         tl = tl.max(r);
         checksum += c;
         let (r, c) = time_pass(&points, &us, |imp, u| {
@@ -83,7 +89,8 @@ pub fn run(cfg: &BenchConfig) -> serde_json::Value {
                 let q = tree.pmf(black_box(&imp), black_box(s.light));
                 acc += f64::from(q);
                 n += 1;
-                let rel = (f64::from(q) - f64::from(s.pmf)).abs() / f64::from(q).max(f64::MIN_POSITIVE);
+                let rel =
+                    (f64::from(q) - f64::from(s.pmf)).abs() / f64::from(q).max(f64::MIN_POSITIVE);
                 max_rel = max_rel.max(rel);
             }
         }
@@ -96,7 +103,9 @@ pub fn run(cfg: &BenchConfig) -> serde_json::Value {
         let mut worst = 0.0f64;
         for p in points.iter().take(100) {
             let imp = TlImportance::new(p.position, p.normal);
-            let sum: f64 = (0..cfg.lights as u32).map(|l| f64::from(tree.pmf(&imp, l))).sum();
+            let sum: f64 = (0..cfg.lights as u32)
+                .map(|l| f64::from(tree.pmf(&imp, l)))
+                .sum();
             if sum > 0.0 {
                 worst = worst.max((sum - 1.0).abs());
             }

@@ -4,7 +4,11 @@ use clap::{Parser, Subcommand};
 use manylights_render::bench;
 
 #[derive(Parser)]
-#[command(name = "mlrender", version, about = "Test renderer and instruments of manylights")]
+#[command(
+    name = "mlrender",
+    version,
+    about = "Test renderer and instruments of manylights"
+)]
 struct Cli {
     #[command(subcommand)]
     command: Command,

@@ -102,7 +102,7 @@ pub struct ShadingPoint {
 
 /// `m` shading points uniform in the cube with uniform normals, from `seed`.
 pub fn shading_points(m: usize, seed: u64) -> Vec<ShadingPoint> {
-    let mut rng = Pcg64Mcg::seed_from_u64(seed ^ 0x5eed_0f_90_1475);
+    let mut rng = Pcg64Mcg::seed_from_u64(seed ^ 0x5eed_0f90_1475);
     (0..m)
         .map(|_| ShadingPoint {
             position: in_cube(&mut rng),
@@ -113,6 +113,6 @@ pub fn shading_points(m: usize, seed: u64) -> Vec<ShadingPoint> {
 
 /// `m` uniform numbers in [0, 1), from `seed`.
 pub fn uniforms(m: usize, seed: u64) -> Vec<f32> {
-    let mut rng = Pcg64Mcg::seed_from_u64(seed ^ 0x0u64.wrapping_sub(0x1234_5678));
+    let mut rng = Pcg64Mcg::seed_from_u64(seed ^ 0xa5a5_1234_5678_9abc);
     (0..m).map(|_| rng.random::<f32>()).collect()
 }

@@ -56,7 +56,10 @@ pub(crate) fn binary(lights: &[Light], opts: &BuildOptions) -> Result<BinTree, B
     if prims.is_empty() {
         return Ok(BinTree { nodes: Vec::new() });
     }
-    Ok(saoh::build(&mut prims, opts.buckets.clamp(12, saoh::MAX_BUCKETS)))
+    Ok(saoh::build(
+        &mut prims,
+        opts.buckets.clamp(12, saoh::MAX_BUCKETS),
+    ))
 }
 
 impl LightTree {

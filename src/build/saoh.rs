@@ -270,9 +270,21 @@ fn choose_split(
     let limit = 1usize.checked_shl(remaining).unwrap_or(usize::MAX);
 
     let scale = Vec3::new(
-        if ext.x > 0.0 { buckets as f32 / ext.x } else { 0.0 },
-        if ext.y > 0.0 { buckets as f32 / ext.y } else { 0.0 },
-        if ext.z > 0.0 { buckets as f32 / ext.z } else { 0.0 },
+        if ext.x > 0.0 {
+            buckets as f32 / ext.x
+        } else {
+            0.0
+        },
+        if ext.y > 0.0 {
+            buckets as f32 / ext.y
+        } else {
+            0.0
+        },
+        if ext.z > 0.0 {
+            buckets as f32 / ext.z
+        } else {
+            0.0
+        },
     );
     let axes: [bool; 3] = [ext.x > 0.0, ext.y > 0.0, ext.z > 0.0];
     for bins in ctx.bins.iter_mut() {
@@ -400,7 +412,8 @@ fn sweep_split(prims: &mut [Prim], depth: u32, geo: Aabb) -> (Split, f32) {
                 *o = i as u8;
             }
             order[..n].sort_by(|&a, &b| {
-                prims[usize::from(a)].centroid[axis].total_cmp(&prims[usize::from(b)].centroid[axis])
+                prims[usize::from(a)].centroid[axis]
+                    .total_cmp(&prims[usize::from(b)].centroid[axis])
             });
             let kr = if node_ext[axis] > 0.0 {
                 max_ext / node_ext[axis]

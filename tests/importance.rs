@@ -1,0 +1,544 @@
+//! The TL importance: the 4-wide `eval4` against the scalar `eval` lane by lane, the scalar
+//! `eval` against the formula of MATH.md section 4 computed in f64, and conservativeness
+//! (every light that can contribute at a point has a positive pmf).
+
+mod common;
+
+use common::{
+    close, contributes, point_on_light, proptest_config, random_normal, styled_scene, Rng,
+    SceneSpec, Where, RECEIVERS,
+};
+use glam::{DVec3, Vec3};
+use manylights::baseline::BinaryLightTree;
+use manylights::{Importance, Light, LightTree, Node4, SlotBounds, TlImportance};
+use proptest::prelude::{any, prop_oneof, Strategy};
+use proptest::test_runner::TestCaseError;
+
+// ---------------------------------------------------------------------------------------------
+// SIMD vs scalar
+// ---------------------------------------------------------------------------------------------
+
+/// `eval4(node)` lane k equals `eval(&node.bounds(k))`: the two are written operation for
+/// operation alike, so any difference is a bug; the tolerance (1e-5 relative plus 1e-30
+/// absolute, for subnormal results) only allows for a compiler reordering nothing here
+/// depends on. Also checks the documented range: never negative or NaN, 0 for empty slots.
+fn check_lanes(imp: &TlImportance, node: &Node4) -> Result<(), String> {
+    let wide = imp.eval4(node).to_array();
+    for (k, &w) in wide.iter().enumerate() {
+        let b = node.bounds(k);
+        let s = imp.eval(&b);
+        if !(w >= 0.0 && s >= 0.0) {
+            return Err(format!(
+                "lane {k}: eval4 {w}, eval {s} for {b:?} at {imp:?}"
+            ));
+        }
+        if !close(f64::from(w), f64::from(s), 1e-5, 1e-30) {
+            return Err(format!(
+                "lane {k}: eval4 {w} vs eval {s} for {b:?} at {imp:?}"
+            ));
+        }
+        if node.energy[k] == 0.0 && w != 0.0 {
+            return Err(format!("lane {k}: zero-energy slot has importance {w}"));
+        }
+    }
+    Ok(())
+}
+
+/// Shading points that stress one node: inside a slot's bounding sphere (at its centre, at
+/// random depths, on its surface), behind a one-sided emitter of the scene, on a light, exactly
+/// at a point light, in the scene, far away.
+fn stress_points(rng: &mut Rng, node: &Node4, lights: &[Light], half: f32) -> Vec<Vec3> {
+    let mut xs = Vec::new();
+    for k in 0..4 {
+        let b = node.bounds(k);
+        xs.push(b.center);
+        xs.push(b.center + rng.unit() * b.radius * rng.f32());
+        xs.push(b.center + rng.unit() * b.radius);
+        xs.push(b.center + rng.unit() * b.radius * 1.001);
+    }
+    for _ in 0..2 {
+        let l = &lights[rng.below(lights.len())];
+        xs.push(point_on_light(rng, l));
+        // Behind (or in front of) an emitter, near and far.
+        let (c, m) = match *l {
+            Light::Disk { center, normal, .. } => (center, normal.normalize()),
+            Light::Triangle { vertices, .. } => (
+                (vertices[0] + vertices[1] + vertices[2]) / 3.0,
+                (vertices[1] - vertices[0])
+                    .cross(vertices[2] - vertices[0])
+                    .normalize_or_zero(),
+            ),
+            Light::Spot {
+                position,
+                direction,
+                ..
+            } => (position, direction.normalize()),
+            Light::Point { position, .. }
+            | Light::Sphere {
+                center: position, ..
+            } => (position, rng.unit()),
+        };
+        let t = half * rng.log_range(1e-4, 10.0);
+        xs.push(c - m * t);
+        xs.push(c + m * t);
+    }
+    xs.push(rng.in_cube(half));
+    xs.push(rng.unit() * half * rng.log_range(10.0, 1e4));
+    xs
+}
+
+fn check_tree_lanes(
+    lights: &[Light],
+    half: f32,
+    rng: &mut Rng,
+    max_nodes: usize,
+) -> Result<(), String> {
+    let tree = LightTree::build(lights).map_err(|e| e.to_string())?;
+    let nodes = tree.nodes();
+    if nodes.is_empty() {
+        return Ok(());
+    }
+    for _ in 0..max_nodes.min(nodes.len()) {
+        let node = &nodes[rng.below(nodes.len())];
+        for x in stress_points(rng, node, lights, half) {
+            for receiver in RECEIVERS {
+                let imp = TlImportance::with_receiver(x, random_normal(rng), receiver);
+                check_lanes(&imp, node)?;
+            }
+        }
+    }
+    Ok(())
+}
+
+fn scene_size() -> impl Strategy<Value = usize> {
+    prop_oneof![3 => 1usize..=8, 2 => 9usize..=500, 1 => 501usize..=3000]
+}
+
+proptest::proptest! {
+    #![proptest_config(proptest_config(160, 0x5349_4d44))]
+
+    /// Property 4 on random nodes of trees built from random scenes (all styles, including
+    /// all lights at one point, i.e. clusters of zero radius).
+    #[test]
+    fn eval4_matches_scalar_on_built_trees(n in scene_size(), seed in any::<u64>()) {
+        let (lights, half) = styled_scene(seed, n);
+        let mut rng = Rng::new(seed ^ 0x4);
+        check_tree_lanes(&lights, half, &mut rng, 24).map_err(TestCaseError::fail)?;
+    }
+}
+
+/// Property 4 on hand-made clusters: coincident point lights (a zero-radius cluster), one-sided
+/// disks all facing +z seen from below and above, and coincident one-sided triangles.
+#[test]
+fn eval4_matches_scalar_on_degenerate_clusters() {
+    let mut rng = Rng::new(0xDE6);
+    let c = Vec3::new(1.0, -2.0, 3.0);
+    let points: Vec<Light> = (0..40)
+        .map(|i| Light::Point {
+            position: c,
+            intensity: 1.0 + i as f32,
+        })
+        .collect();
+    let disks: Vec<Light> = (0..64)
+        .map(|i| Light::Disk {
+            center: Vec3::new((i % 8) as f32, (i / 8) as f32, 0.0),
+            normal: Vec3::Z,
+            radius: 0.3,
+            radiance: 1.0,
+            two_sided: false,
+        })
+        .collect();
+    let triangles: Vec<Light> = (0..16)
+        .map(|_| Light::Triangle {
+            vertices: [c, c + Vec3::X, c + Vec3::Y],
+            radiance: 2.0,
+            two_sided: false,
+        })
+        .collect();
+    for lights in [&points, &disks, &triangles] {
+        check_tree_lanes(lights, 8.0, &mut rng, 100).unwrap();
+        // And the points right at the cluster centre / the shared position, all receivers.
+        let tree = LightTree::build(lights).unwrap();
+        for node in tree.nodes() {
+            for x in [c, Vec3::new(3.5, 3.5, -0.01), Vec3::new(3.5, 3.5, 0.01)] {
+                for receiver in RECEIVERS {
+                    for n in [Vec3::Z, -Vec3::Z, Vec3::X, Vec3::ZERO] {
+                        let imp = TlImportance::with_receiver(x, n, receiver);
+                        check_lanes(&imp, node).unwrap();
+                    }
+                }
+            }
+        }
+    }
+}
+
+/// Property 4 on synthetic nodes whose every field is random — any axis and angle bits, radii
+/// from 0 to huge, energies over 40 decades, empty slots — so the whole input domain of the
+/// decode is covered, not only what the build produces.
+#[test]
+fn eval4_matches_scalar_on_random_nodes() {
+    let mut rng = Rng::new(0x5EED);
+    for _ in 0..20_000 {
+        let x = rng.in_cube(10.0);
+        let mut node = Node4::EMPTY;
+        for k in 0..4 {
+            if rng.chance(0.15) {
+                continue; // empty slot
+            }
+            let c = match rng.below(4) {
+                0 => x,
+                1 => x + rng.unit() * rng.log_range(1e-6, 1e-2),
+                _ => x + rng.unit() * rng.log_range(1e-3, 1e3),
+            };
+            node.center_x[k] = c.x;
+            node.center_y[k] = c.y;
+            node.center_z[k] = c.z;
+            node.radius[k] = match rng.below(4) {
+                0 => 0.0,
+                _ => rng.log_range(1e-6, 1e3),
+            };
+            node.energy[k] = rng.log_range(1e-20, 1e20);
+            node.axis[k] = rng.next_u64() as u32;
+            node.angles[k] = match rng.below(4) {
+                0 => 0xFFFF_FFFF,
+                1 => (rng.next_u64() as u32) & 0xFFFF_0000,
+                _ => rng.next_u64() as u32,
+            };
+            node.child[k] = 0x8000_0000 | k as u32;
+        }
+        for receiver in RECEIVERS {
+            let imp = TlImportance::with_receiver(x, random_normal(&mut rng), receiver);
+            check_lanes(&imp, &node).unwrap();
+        }
+    }
+}
+
+// ---------------------------------------------------------------------------------------------
+// The scalar importance against MATH.md section 4, in f64
+// ---------------------------------------------------------------------------------------------
+
+/// MATH.md section 4 in f64, with acos/asin, from decoded bounds:
+/// θu = asin(min(r/d, 1)) (π inside the sphere), θ = ∠(a, −ωi), θ' = max(0, θ − θo − θu),
+/// θi = ∠(n, ωi), θi' = max(0, θi − θu), I = E·cos θ'·cos θi' / max(d², (r/2)², 1e-12), zero when
+/// θ' ≥ θe or (reflective) θi' ≥ π/2; |cos θi| for a transmissive receiver; no receiver term
+/// for an omnidirectional one. Returns (I, distance of the decision to the nearest zero
+/// boundary in radians).
+fn tl_reference(imp: &TlImportance, b: &SlotBounds) -> (f64, f64) {
+    use std::f64::consts::{FRAC_PI_2, PI};
+    let x = imp.position().as_dvec3();
+    let c = b.center.as_dvec3();
+    let v = c - x;
+    let d = v.length();
+    let r = f64::from(b.radius);
+    let inside = d <= r;
+    let theta_u = if inside { PI } else { (r / d).min(1.0).asin() };
+    let w = if d > 0.0 { v / d } else { DVec3::ZERO };
+    let a = b.axis.as_dvec3().normalize();
+    let theta = a.dot(-w).clamp(-1.0, 1.0).acos();
+    let theta_o = f64::from(b.sin_o).atan2(f64::from(b.cos_o));
+    let theta_e = f64::from(b.cos_e).clamp(-1.0, 1.0).acos();
+    let theta_p = (theta - theta_o - theta_u).max(0.0);
+    let mut margin = (theta_p - theta_e).abs();
+    if theta_p >= theta_e {
+        return (0.0, margin);
+    }
+    let n = imp.normal().as_dvec3();
+    let cos_i = match imp.receiver() {
+        manylights::Receiver::Omnidirectional => 1.0,
+        _ if inside => 1.0,
+        receiver => {
+            let mut ci = n.dot(w).clamp(-1.0, 1.0);
+            if receiver == manylights::Receiver::Transmissive {
+                ci = ci.abs();
+            }
+            let theta_ip = (ci.acos() - theta_u).max(0.0);
+            margin = margin.min((theta_ip - FRAC_PI_2).abs());
+            if theta_ip >= FRAC_PI_2 {
+                return (0.0, margin);
+            }
+            theta_ip.cos()
+        }
+    };
+    let d2 = (d * d).max(0.25 * r * r).max(1e-12);
+    (f64::from(b.energy) * theta_p.cos() * cos_i / d2, margin)
+}
+
+/// `TlImportance::eval` follows the formula of MATH.md section 4 (computed independently in
+/// f64 with acos/asin, on the decoded bounds): zero exactly when the formula is zero and
+/// within 2e-3 relative otherwise, wherever the decision is at least 1e-3 rad from a zero
+/// boundary and the point is not within 1e-4·r of the sphere's surface (where f32 rounding may
+/// legitimately decide either way, or the 2e-6 cosine slack keeps a floor value).
+///
+/// Tolerance: the f32 evaluation computes the cosines with ~10 roundings (≤ 1e-6 absolute);
+/// away from a boundary by ≥ 1e-3 rad each cosine factor is ≥ sin(1e-3) ≈ 1e-3, so each
+/// factor is within 1e-3 relative, the product within 2e-3.
+#[test]
+fn eval_matches_math_md_formula() {
+    let mut rng = Rng::new(0xF0);
+    let mut compared = 0;
+    let mut zeros = 0;
+    for _ in 0..200_000 {
+        let x = rng.in_cube(10.0);
+        let c = x + rng.unit() * rng.log_range(1e-2, 1e2);
+        let axis = rng.unit();
+        let theta_o = match rng.below(4) {
+            0 => 0.0,
+            1 => std::f32::consts::PI,
+            _ => std::f32::consts::PI * rng.f32(),
+        };
+        let theta_e = match rng.below(3) {
+            0 => std::f32::consts::FRAC_PI_2,
+            _ => std::f32::consts::FRAC_PI_2 * rng.f32(),
+        };
+        // A node written with the crate's own quantisation and decoded, so the reference sees
+        // exactly the bounds eval sees.
+        let cone = manylights::bounds::Cone {
+            axis,
+            theta_o,
+            theta_e,
+        };
+        let (qa, qe) = manylights::quantize::encode_cone(&cone);
+        let mut node = Node4::EMPTY;
+        node.center_x[0] = c.x;
+        node.center_y[0] = c.y;
+        node.center_z[0] = c.z;
+        node.radius[0] = match rng.below(3) {
+            0 => 0.0,
+            _ => rng.log_range(1e-3, 50.0),
+        };
+        node.energy[0] = rng.log_range(1e-3, 1e3);
+        node.axis[0] = qa;
+        node.angles[0] = qe;
+        node.child[0] = 0x8000_0000;
+        let b = node.bounds(0);
+        let receiver = RECEIVERS[rng.below(3)];
+        let imp = TlImportance::with_receiver(x, rng.unit(), receiver);
+        let (reference, margin) = tl_reference(&imp, &b);
+        let d = (b.center - x).as_dvec3().length();
+        let r = f64::from(b.radius);
+        if margin < 1e-3 || (d - r).abs() <= 1e-4 * r.max(d) {
+            continue;
+        }
+        let got = f64::from(imp.eval(&b));
+        if reference == 0.0 {
+            zeros += 1;
+            assert_eq!(got, 0.0, "formula gives 0, eval {got}: {b:?} at {imp:?}");
+        } else {
+            compared += 1;
+            assert!(
+                close(got, reference, 2e-3, 0.0),
+                "eval {got} vs formula {reference}: {b:?} at {imp:?}"
+            );
+        }
+    }
+    // Not vacuous: most draws are decided away from a boundary, both ways.
+    assert!(compared > 50_000 && zeros > 20_000, "{compared} / {zeros}");
+}
+
+// ---------------------------------------------------------------------------------------------
+// Conservativeness
+// ---------------------------------------------------------------------------------------------
+
+/// Property 5 at `points` random shading points of one scene: every light of positive energy
+/// whose unoccluded contribution is positive (`common::contributes`, in f64 from the light's
+/// geometry, every deciding cosine above 1e-4) has a positive pmf in both trees.
+///
+/// Margin: the importance is computed in f32 from f32 geometry; the cosines it compares with
+/// a zero boundary carry ~1e-6 of rounding (and the crate already keeps a 2e-6 cosine slack
+/// for that). A light whose deciding cosine is within 1e-4 of 0 is skipped: two orders of
+/// magnitude above the rounding, and far below any cosine a renderer cares about.
+fn check_conservative(
+    lights: &[Light],
+    half: f32,
+    rng: &mut Rng,
+    points: usize,
+) -> Result<usize, String> {
+    let tree = LightTree::build(lights).map_err(|e| e.to_string())?;
+    let bin = BinaryLightTree::build(lights).map_err(|e| e.to_string())?;
+    let mut checked = 0;
+    for i in 0..points {
+        let kind = [
+            Where::Inside,
+            Where::Far,
+            Where::OnLight,
+            Where::AtPointLight,
+        ][i % 4];
+        let x = common::shading_point(rng, lights, half, kind);
+        let n = random_normal(rng);
+        for receiver in RECEIVERS {
+            let imp = TlImportance::with_receiver(x, n, receiver);
+            // What the API made of the normal (zero → omnidirectional).
+            let (n, receiver) = (imp.normal(), imp.receiver());
+            for (l, light) in lights.iter().enumerate() {
+                if light.energy() <= 0.0 || !contributes(light, x, n, receiver, 1e-4) {
+                    continue;
+                }
+                checked += 1;
+                let p = tree.pmf(&imp, l as u32);
+                let pb = bin.pmf(&imp, l as u32);
+                if !(p > 0.0 && pb > 0.0) {
+                    return Err(format!(
+                        "light {l} {light:?} contributes at {imp:?} but has pmf {p} \
+                         (LightTree) / {pb} (BinaryLightTree)"
+                    ));
+                }
+            }
+        }
+    }
+    Ok(checked)
+}
+
+proptest::proptest! {
+    #![proptest_config(proptest_config(160, 0x434f_4e53))]
+
+    /// Property 5 over random scenes of 1 to 3,000 lights of all kinds and styles.
+    #[test]
+    fn contributing_lights_have_positive_pmf(n in scene_size(), seed in any::<u64>()) {
+        let (lights, half) = styled_scene(seed, n);
+        let mut rng = Rng::new(seed ^ 0xC0);
+        let points = if n > 500 { 4 } else { 12 };
+        check_conservative(&lights, half, &mut rng, points).map_err(TestCaseError::fail)?;
+    }
+}
+
+/// Property 5 on scenes built to sit near the boundaries: one-sided emitters and spots seen
+/// almost edge-on, shading points just above the horizon of a light. Asserts the test is not
+/// vacuous (many contributing pairs checked).
+#[test]
+fn contributing_lights_have_positive_pmf_near_boundaries() {
+    let mut rng = Rng::new(0xB0);
+    let mut checked = 0;
+    for _ in 0..40 {
+        let spec = SceneSpec {
+            half: 10.0,
+            zero_energy: 0.0,
+            kinds: [0, 2, 0, 1, 1],
+            ..SceneSpec::default()
+        };
+        let mut lights = common::random_scene(&mut rng, 60, &spec);
+        // Flatten half of the scene into the plane z = 0 with normals in the plane's normal:
+        // from a point in that plane every one of them is exactly edge-on (skipped by the
+        // margin) and from just above or below it nearly so.
+        for l in lights.iter_mut().step_by(2) {
+            match l {
+                Light::Disk { center, normal, .. } => {
+                    center.z = 0.0;
+                    *normal = Vec3::Z;
+                }
+                Light::Triangle { vertices, .. } => {
+                    for v in vertices.iter_mut() {
+                        v.z = 0.0;
+                    }
+                }
+                Light::Spot {
+                    position,
+                    direction,
+                    ..
+                } => {
+                    position.z = 0.0;
+                    direction.z = 0.0;
+                    if direction.length_squared() == 0.0 {
+                        *direction = Vec3::X;
+                    }
+                }
+                _ => {}
+            }
+        }
+        let tree = LightTree::build(&lights).unwrap();
+        let bin = BinaryLightTree::build(&lights).unwrap();
+        for _ in 0..12 {
+            let mut x = rng.in_cube(10.0);
+            x.z = [0.0, 1e-3, -1e-3, 0.05, -0.05][rng.below(5)];
+            let n = [Vec3::Z, -Vec3::Z, Vec3::X, rng.unit()][rng.below(4)];
+            for receiver in RECEIVERS {
+                let imp = TlImportance::with_receiver(x, n, receiver);
+                for (l, light) in lights.iter().enumerate() {
+                    if light.energy() > 0.0
+                        && contributes(light, x, imp.normal(), imp.receiver(), 1e-4)
+                    {
+                        checked += 1;
+                        let (p, pb) = (tree.pmf(&imp, l as u32), bin.pmf(&imp, l as u32));
+                        assert!(
+                            p > 0.0 && pb > 0.0,
+                            "light {l} {light:?} contributes at {imp:?}: pmf {p} / {pb}"
+                        );
+                    }
+                }
+            }
+        }
+    }
+    assert!(checked > 10_000, "only {checked} contributing pairs");
+}
+
+/// The predicate itself, on cases decided by hand (so that a wrong predicate cannot make the
+/// conservativeness tests vacuous).
+#[test]
+fn contribution_predicate_sanity() {
+    use manylights::Receiver::{Omnidirectional as O, Reflective as R, Transmissive as T};
+    let disk = |two_sided| Light::Disk {
+        center: Vec3::ZERO,
+        normal: Vec3::Z,
+        radius: 1.0,
+        radiance: 1.0,
+        two_sided,
+    };
+    let up = Vec3::Z;
+    // In front of a one-sided disk, facing it / facing away / transmissive.
+    assert!(contributes(&disk(false), Vec3::Z, -up, R, 1e-4));
+    assert!(!contributes(&disk(false), Vec3::Z, up, R, 1e-4));
+    assert!(contributes(&disk(false), Vec3::Z, up, T, 1e-4));
+    // Behind it: only a two-sided disk reaches.
+    assert!(!contributes(&disk(false), -Vec3::Z, up, O, 1e-4));
+    assert!(contributes(&disk(true), -Vec3::Z, up, R, 1e-4));
+    // Beside it, the normal tilted: the disk's rim is above the horizon.
+    let x = Vec3::new(3.0, 0.0, 0.5);
+    let n = Vec3::new(-0.1, 0.0, 1.0).normalize();
+    assert!(!contributes(&disk(false), x, n, R, 1e-4)); // all of the disk is below the horizon
+    let n = Vec3::new(-1.0, 0.0, 0.1).normalize();
+    assert!(contributes(&disk(false), x, n, R, 1e-4));
+    // A sphere below the horizon but poking above it.
+    let s = Light::Sphere {
+        center: Vec3::new(0.0, 0.0, -0.5),
+        radius: 1.0,
+        radiance: 1.0,
+    };
+    assert!(contributes(&s, Vec3::new(5.0, 0.0, 0.0), up, R, 1e-4));
+    assert!(!contributes(&s, Vec3::new(5.0, 0.0, 0.6), up, R, 1e-4));
+    assert!(!contributes(&s, Vec3::ZERO, up, O, 1e-4)); // inside
+                                                        // A spot of half-angle 100° pointing up lights a point slightly below its plane.
+    let spot = Light::Spot {
+        position: Vec3::ZERO,
+        direction: Vec3::Z,
+        intensity: 1.0,
+        half_angle: 100f32.to_radians(),
+        falloff_start: 0.0,
+    };
+    assert!(contributes(
+        &spot,
+        Vec3::new(1.0, 0.0, -0.1),
+        Vec3::X * -1.0,
+        R,
+        1e-4
+    ));
+    assert!(!contributes(
+        &spot,
+        Vec3::new(1.0, 0.0, -0.5),
+        Vec3::X * -1.0,
+        R,
+        1e-4
+    ));
+    // A point light exactly at the shading point does not count.
+    let p = Light::Point {
+        position: Vec3::ONE,
+        intensity: 1.0,
+    };
+    assert!(!contributes(&p, Vec3::ONE, up, O, 1e-4));
+    // A triangle facing +z, seen from above by a receiver looking down.
+    let t = Light::Triangle {
+        vertices: [Vec3::ZERO, Vec3::X, Vec3::Y],
+        radiance: 1.0,
+        two_sided: false,
+    };
+    assert!(contributes(&t, Vec3::new(0.2, 0.2, 1.0), -up, R, 1e-4));
+    assert!(!contributes(&t, Vec3::new(0.2, 0.2, -1.0), up, R, 1e-4));
+}
