@@ -35,6 +35,7 @@ extern crate alloc;
 pub mod baseline;
 pub mod bounds;
 pub mod build;
+pub mod cut;
 pub mod error;
 pub mod importance;
 pub mod light;
@@ -44,6 +45,7 @@ pub mod sample;
 pub mod tree;
 
 pub use build::BuildOptions;
+pub use cut::{Cluster, LightCut, SplitOptions, CUT_CAPACITY};
 pub use error::{BuildError, FormatError, LightField, Problem, ValidationError};
 pub use importance::conty_kulla::Receiver;
 pub use importance::{Importance, TlImportance};

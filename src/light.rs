@@ -131,19 +131,30 @@ fn check_direction(index: usize, field: LightField, d: Vec3) -> Result<Vec3, Bui
             return Err(invalid(index, field, Problem::NotFinite, v));
         }
     }
-    // Normalise in f64 so that tiny but non-zero vectors survive.
-    let l = math::sqrt64(
-        math::sq(f64::from(d.x)) + math::sq(f64::from(d.y)) + math::sq(f64::from(d.z)),
-    );
-    if l.is_nan() || l <= 0.0 {
-        return Err(invalid(index, field, Problem::ZeroLength, 0.0));
+    unit_f64([f64::from(d.x), f64::from(d.y), f64::from(d.z)])
+        .ok_or_else(|| invalid(index, field, Problem::ZeroLength, 0.0))
+}
+
+/// The unit vector of `v`, normalised in f64 so that tiny and huge f32 vectors survive;
+/// `None` for a zero or non-finite vector.
+fn unit_f64(v: [f64; 3]) -> Option<Vec3> {
+    let l = math::sqrt64(math::sq(v[0]) + math::sq(v[1]) + math::sq(v[2]));
+    if !(l > 0.0 && l < f64::INFINITY) {
+        return None;
     }
-    let n = Vec3::new(
-        (f64::from(d.x) / l) as f32,
-        (f64::from(d.y) / l) as f32,
-        (f64::from(d.z) / l) as f32,
-    );
-    Ok(n.normalize())
+    let n = Vec3::new((v[0] / l) as f32, (v[1] / l) as f32, (v[2] / l) as f32);
+    Some(n.normalize())
+}
+
+/// `(v1 − v0) × (v2 − v0)` in f64.
+fn triangle_normal(v: &[Vec3; 3]) -> [f64; 3] {
+    let d = |k: usize, i: usize| f64::from(v[k][i]) - f64::from(v[0][i]);
+    let (a, b) = ([d(1, 0), d(1, 1), d(1, 2)], [d(2, 0), d(2, 1), d(2, 2)]);
+    [
+        a[1] * b[2] - a[2] * b[1],
+        a[2] * b[0] - a[0] * b[2],
+        a[0] * b[1] - a[1] * b[0],
+    ]
 }
 
 /// Smallest sphere around a triangle: the midpoint of the longest edge for an obtuse or right
@@ -331,13 +342,7 @@ impl Light {
             }
             Light::Disk { radius, .. } => core::f64::consts::PI * math::sq(f64::from(radius)),
             Light::Triangle { vertices, .. } => {
-                let d = |k: usize, i: usize| f64::from(vertices[k][i]) - f64::from(vertices[0][i]);
-                let (a, b) = ([d(1, 0), d(1, 1), d(1, 2)], [d(2, 0), d(2, 1), d(2, 2)]);
-                let c = [
-                    a[1] * b[2] - a[2] * b[1],
-                    a[2] * b[0] - a[0] * b[2],
-                    a[0] * b[1] - a[1] * b[0],
-                ];
+                let c = triangle_normal(&vertices);
                 0.5 * math::sqrt64(math::sq(c[0]) + math::sq(c[1]) + math::sq(c[2]))
             }
         }
@@ -395,7 +400,7 @@ impl Light {
                 half_angle,
                 ..
             } => {
-                let axis = direction.normalize();
+                let axis = unit_f64(direction.as_ref().map(f64::from)).unwrap_or(Vec3::Z);
                 // Emission within θs of the axis. Beyond π/2 the spread is carried by θo so that
                 // θe stays ≤ π/2 and cos θ' > 0 wherever the importance is positive.
                 let cone = if half_angle > FRAC_PI_2 {
@@ -435,7 +440,7 @@ impl Light {
                 two_sided,
                 ..
             } => {
-                let n = normal.normalize();
+                let n = unit_f64(normal.as_ref().map(f64::from)).unwrap_or(Vec3::Z);
                 // Half-extent of a disk along axis k is R·sqrt(1 − n_k²).
                 let e = Vec3::new(
                     math::sin_from_cos(n.x),
@@ -464,15 +469,13 @@ impl Light {
                 ..
             } => {
                 let aabb = Aabb::point(vertices[0]).grow(vertices[1]).grow(vertices[2]);
-                let n = (vertices[1] - vertices[0]).cross(vertices[2] - vertices[0]);
-                let cone = if two_sided || n.length_squared() <= 0.0 {
-                    Cone::SPHERE
-                } else {
-                    Cone {
-                        axis: n.normalize(),
+                let cone = match unit_f64(triangle_normal(&vertices)) {
+                    Some(axis) if !two_sided => Cone {
+                        axis,
                         theta_o: 0.0,
                         theta_e: FRAC_PI_2,
-                    }
+                    },
+                    _ => Cone::SPHERE,
                 };
                 (aabb, triangle_sphere(&vertices), cone)
             }

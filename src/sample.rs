@@ -107,8 +107,20 @@ impl LightTree {
     /// (clamped into it). `None` when no light can contribute (the root's importance is 0).
     #[inline]
     pub fn sample<I: Importance + ?Sized>(&self, imp: &I, u: f32) -> Option<LightSample> {
+        self.descend_from(imp, 0, u)
+    }
+
+    /// Descends from node `start` as [`LightTree::sample`] does from the root (ΣI = 0 at
+    /// `start` returns `None`); the pmf is relative to `start`'s subtree.
+    #[inline]
+    pub(crate) fn descend_from<I: Importance + ?Sized>(
+        &self,
+        imp: &I,
+        start: usize,
+        u: f32,
+    ) -> Option<LightSample> {
         let mut u = sanitize(u);
-        let mut node = self.nodes.first()?;
+        let mut node = self.nodes.get(start)?;
         let mut touched = touch_children(&self.nodes, node);
         let (mut w, mut sum) = weights(imp, node, true)?;
         let mut pmf = 1.0f32;
@@ -137,15 +149,28 @@ impl LightTree {
         let Some(&path) = self.paths.get(light as usize) else {
             return 0.0;
         };
+        self.pmf_from(imp, 0, path, 0, light)
+    }
+
+    /// The pmf of `light` (whose path is `path`) relative to node `start`, which its path
+    /// reaches after `from_level` levels: [`LightTree::descend_from`]'s pmf for it.
+    pub(crate) fn pmf_from<I: Importance + ?Sized>(
+        &self,
+        imp: &I,
+        start: usize,
+        path: u64,
+        from_level: u32,
+        light: u32,
+    ) -> f32 {
         let levels = path_len(path);
-        let mut index = 0usize;
+        let mut index = start;
         let mut pmf = 1.0f32;
-        for level in 0..levels {
+        for level in from_level..levels {
             let k = ((path >> (2 * (levels - 1 - level))) & 3) as usize;
             let Some(node) = self.nodes.get(index) else {
                 return 0.0;
             };
-            let Some((w, sum)) = weights(imp, node, level == 0) else {
+            let Some((w, sum)) = weights(imp, node, level == from_level) else {
                 return 0.0;
             };
             pmf *= w[k] / sum;

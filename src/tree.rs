@@ -132,14 +132,15 @@ impl Node4 {
 
 /// Statistics of one node's whole cluster, for split sampling's variance heuristic
 /// (Conty & Kulla, "Predicted variance"): the number of lights and the variance of their
-/// energies (the mean is the cluster energy over the count).
+/// energies relative to their squared mean (the mean is the cluster energy over the count;
+/// the variance is `energy_rel_variance · mean²`).
 #[repr(C)]
 #[derive(Clone, Copy, Debug, PartialEq, Pod, Zeroable)]
 pub struct NodeStats {
     /// Lights under the node.
     pub count: u32,
-    /// Population variance of their energies.
-    pub energy_variance: f32,
+    /// Population variance of their energies over the squared mean energy.
+    pub energy_rel_variance: f32,
 }
 
 /// Size and shape of a built tree.
@@ -412,7 +413,8 @@ impl LightTree {
             return Err(ValidationError::BadStats);
         }
         let st = &self.node_stats[index as usize];
-        if st.count != count || !st.energy_variance.is_finite() || st.energy_variance < 0.0 {
+        if st.count != count || !st.energy_rel_variance.is_finite() || st.energy_rel_variance < 0.0
+        {
             return Err(ValidationError::BadStats);
         }
         Ok(count)

@@ -477,9 +477,8 @@ fn invalid_spot_angles_are_reported() {
     check_tree(&LightTree::build(&ok).unwrap(), &ok);
 }
 
-/// Any field may hold any bit pattern: the build returns Ok (and then a valid tree whose
-/// sampling is consistent) or an `InvalidLight` error naming the first light that
-/// `Light::validate` rejects — never a panic. Both builds agree.
+/// Any f32 at all: random bit patterns (NaN, infinities, subnormals, huge values) and the
+/// special values.
 fn wild_f32() -> impl Strategy<Value = f32> {
     prop_oneof![
         1 => any::<u32>().prop_map(f32::from_bits),
@@ -562,6 +561,10 @@ fn wild_light() -> impl Strategy<Value = Light> {
 proptest::proptest! {
     #![proptest_config(common::proptest_config(4096, 0x7769_6c64))]
 
+    /// Lights whose fields are sane except, one time in 25 per field, any f32 at all: the build
+    /// returns Ok (and then a tree that validates and samples consistently) or the error of
+    /// the first light `Light::validate` rejects (or `TotalEnergyTooLarge`) — never a panic,
+    /// and both builds agree.
     #[test]
     fn build_never_panics_on_wild_input(
         lights in proptest::collection::vec(wild_light(), 0..10),
@@ -572,12 +575,11 @@ proptest::proptest! {
         let first_bad = lights.iter().enumerate().find_map(|(i, l)| l.validate(i).err());
         match (&tree, first_bad) {
             (Err(e @ BuildError::InvalidLight { .. }), Some(v)) => {
-                // NaN values make PartialEq fail: compare the rest, then the value's bits.
+                // Compared as Debug strings: NaN values make PartialEq fail.
                 prop_assert_eq!(format!("{e:?}"), format!("{v:?}"));
             }
             (Err(BuildError::TotalEnergyTooLarge), None) => {}
             (Ok(t), None) => {
-                eprintln!("DBG ok {}", lights.len());
                 prop_assert!(t.validate().is_ok(), "{:?}", t.validate());
                 let mut rng = Rng::new(seed);
                 for _ in 0..4 {
@@ -876,20 +878,16 @@ fn corrupt_bytes_never_panic() {
 }
 
 // ---------------------------------------------------------------------------------------------
-// Known bugs in src/ (these tests fail until they are fixed)
+// Regressions: bugs these tests found, now fixed
 // ---------------------------------------------------------------------------------------------
 
-/// BUG (src/build/saoh.rs, `BinNode::energy_variance`, stored in `NodeStats` by
-/// src/build/collapse.rs `stats_of`): the population variance of a cluster's energies is
-/// computed in f64 and cast to f32, which gives +inf once it exceeds f32::MAX, i.e. when the
-/// energies of one cluster differ by more than about 1.8e19 — yet a single light may have an
-/// energy up to `MAX_LIGHT_ENERGY` = 1e24. `validate()` rejects the infinite variance
-/// (`BadStats`), so the debug build panics inside `LightTree::build` (src/build/mod.rs, the
-/// `debug_assertions` validation), and the release build returns a tree that fails
-/// `validate()` and that `from_bytes(as_bytes())` rejects.
+/// Regression: the population variance of a cluster's energies was stored as an f32 and
+/// became +inf once the energies of one cluster differed by more than about 1.8e19 (a light may
+/// have up to `MAX_LIGHT_ENERGY` = 1e24), so `validate()` rejected the built tree. It is now
+/// stored relative to the squared mean (at most count − 1).
 /// Input: two point lights, intensities 1e19 and 1 (energies 1.26e20 and 12.6).
 #[test]
-fn bug_energy_variance_overflows_f32() {
+fn energy_variance_of_wide_energy_ranges_stays_finite() {
     let lights = [
         Light::Point {
             position: Vec3::ZERO,
@@ -908,17 +906,17 @@ fn bug_energy_variance_overflows_f32() {
     let tree = match built {
         Ok(r) => r.expect("valid lights build"),
         Err(_) => {
-            panic!("BUG: LightTree::build panicked on two valid lights (energies 1.26e20, 12.6)")
+            panic!("LightTree::build panicked on two valid lights (energies 1.26e20, 12.6)")
         }
     };
     assert!(
         tree.node_stats()
             .iter()
-            .all(|s| s.energy_variance.is_finite()),
-        "BUG: infinite energy variance {:?}",
+            .all(|s| s.energy_rel_variance.is_finite()),
+        "infinite energy variance {:?}",
         tree.node_stats()
     );
-    tree.validate().expect("BUG: built tree fails validation");
+    tree.validate().expect("built tree fails validation");
     assert_eq!(LightTree::from_bytes(&tree.as_bytes()).unwrap(), tree);
 }
 
@@ -955,16 +953,12 @@ fn check_light_bounds(l: &Light) -> Result<(), String> {
     Ok(())
 }
 
-/// BUG (src/light.rs, `Light::bounds`: the spot's `direction.normalize()`, the disk's
-/// `normal.normalize()` and the one-sided triangle's `n.normalize()` of its edge cross
-/// product): `Light::validate` accepts any finite, non-zero direction or normal and
-/// normalises it in f64 "so that tiny but non-zero vectors survive", but `bounds()`
-/// normalises again in f32, where |d|² overflows for |d| ≳ 1.8e19 (the axis becomes the zero
-/// vector) and underflows for |d| ≲ 1e-19 (the axis becomes ±inf/NaN, and a disk's box
-/// collapses to its centre). Likewise a triangle with edges longer than about 4e9 (its cross
-/// product's squared length overflows) gets a zero axis.
+/// Regression: `Light::validate` accepts any finite, non-zero direction or normal, but
+/// `bounds()` used to normalise it in f32, where |d|² overflows for |d| ≳ 1.8e19 (zero axis) and
+/// underflows for |d| ≲ 1e-19 (±inf/NaN axis, a disk's box collapsed to its centre); a triangle
+/// with edges longer than about 4e9 got a zero axis. Directions are now normalised in f64.
 #[test]
-fn bug_light_bounds_of_huge_or_tiny_directions() {
+fn light_bounds_of_huge_or_tiny_directions() {
     let mut failures = Vec::new();
     for m in [1e-30f32, 1e-20, 1e-3, 1.0, 1e3, 1e18, 1e20, 1e30] {
         for d in [Vec3::new(-1.0, 0.0, 0.0), Vec3::new(0.3, -0.5, 0.8)] {
@@ -1008,15 +1002,15 @@ fn bug_light_bounds_of_huge_or_tiny_directions() {
     }
     assert!(
         failures.is_empty(),
-        "BUG: {} lights with bad bounds:\n{}",
+        "{} lights with bad bounds:\n{}",
         failures.len(),
         failures.join("\n")
     );
 }
 
-/// BUG (same root cause as `bug_light_bounds_of_huge_or_tiny_directions`): with the zero axis
-/// the quantised cone points along +z with θo ≈ 0, so the importance is not conservative —
-/// lights that shine straight at the shading point get pmf 0:
+/// Regression (same root cause as `light_bounds_of_huge_or_tiny_directions`): with the zero
+/// axis the quantised cone pointed along +z with θo ≈ 0, so the importance was not
+/// conservative — lights that shine straight at the shading point got pmf 0:
 /// - a spot at the origin with direction (0, −1e20, 0), half-angle 0.3, seen from (0, −10, 0)
 ///   (on its axis);
 /// - a one-sided disk at the origin with normal (−1e20, 0, 0), radius 0.1, seen from
@@ -1026,7 +1020,7 @@ fn bug_light_bounds_of_huge_or_tiny_directions() {
 ///
 /// Each with a point light at (0, 0, −50) so that the root has two slots.
 #[test]
-fn bug_huge_direction_loses_conservativeness() {
+fn huge_directions_stay_conservative() {
     let omni =
         |x: Vec3| TlImportance::with_receiver(x, Vec3::ZERO, manylights::Receiver::Omnidirectional);
     let cases = [
@@ -1092,7 +1086,7 @@ fn bug_huge_direction_loses_conservativeness() {
     }
     assert!(
         failures.is_empty(),
-        "BUG: contributing lights with pmf 0:\n{}",
+        "contributing lights with pmf 0:\n{}",
         failures.join("\n")
     );
 }

@@ -125,7 +125,7 @@ fn write_slot(node: &mut Node4, k: usize, b: &BinNode) {
 fn stats_of(b: &BinNode) -> NodeStats {
     NodeStats {
         count: b.count,
-        energy_variance: b.energy_variance(),
+        energy_rel_variance: b.energy_rel_variance(),
     }
 }
 

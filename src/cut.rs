@@ -1,0 +1,389 @@
+//! Light cuts: a set of disjoint clusters (tree slots) that together hold every light that can
+//! contribute at a shading point. Fixed capacity ([`CUT_CAPACITY`]), no allocation: a cut is
+//! caller-owned per-thread state, rebuilt per shading point.
+//!
+//! Two ways to build one:
+//! - **Split sampling** (Conty & Kulla, "Predicted variance"; MATH.md section 5):
+//!   [`LightCut::build_split`] opens a cluster while the variance its single sample would add is
+//!   large, and always when the shading point is inside its bounding sphere. Each cluster of the
+//!   cut is then sampled once ([`LightCut::sample_in`]) and the estimator sums the clusters'
+//!   estimates.
+//! - **BRDF-oriented light cuts** (Liu et al. 2019, section 4.1; MATH.md section 6), built by the
+//!   BRDF-oriented importance: a cluster is split when x is inside its sphere or when the BRDF
+//!   integral over its cap exceeds δ; [`LightCut::sample`] then picks one cluster by importance
+//!   and descends in it.
+//!
+//! A cut is built breadth-first from the root: a slot that wants splitting is opened unless
+//! that would overflow `max_size`, in which case it stays a cluster. Clusters whose weight is 0
+//! are left out: by conservativeness no light under them can contribute.
+//!
+//! The variance heuristic: for a cluster of N lights with energy mean E[e] and variance V[e],
+//! distances a = max(d − r, ε) and b = d + r, the inverse-square factor g has
+//! E[g] = 1/(ab) and V[g] = (b³ − a³)/(3(b − a)a³b³) − 1/(a²b²) = (b − a)²/(3a³b³), the form used
+//! here (no cancellation). The relative variance of one light's contribution is
+//! `ρ = (1 + V[e]/E[e]²)(1 + (b − a)²/(3ab)) − 1`, and the cluster is split when
+//! `ρ · (I_C / I_total)² > threshold`, with I the TL importance: its share of the estimate,
+//! squared, scales its relative variance into a share of the total's.
+
+use crate::importance::{Importance, TlImportance};
+use crate::sample::{sanitize, LightSample, ONE_MINUS_EPSILON};
+use crate::tree::{path_len, LightTree, Node4, Slot};
+
+/// `x > 0` (false for NaN).
+#[inline(always)]
+fn positive(x: f32) -> bool {
+    x > 0.0
+}
+
+/// Most clusters a cut holds.
+pub const CUT_CAPACITY: usize = 64;
+
+/// One cluster of a cut: a slot of a node, with its path from the root and its weight.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct Cluster {
+    /// The node holding the slot.
+    pub node: u32,
+    /// The slot (0..4).
+    pub slot: u8,
+    /// Path of the slot from the root, encoded as in [`LightTree::paths`].
+    pub path: u64,
+    /// Weight at the shading point (the importance the cut was built with; > 0).
+    pub weight: f32,
+    /// The split criterion's value for this cluster (BRDF integral or normalised variance).
+    pub score: f32,
+}
+
+/// Options of the split-sampling cut.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct SplitOptions {
+    /// Split while `ρ · (I_C / I_total)² > threshold`.
+    pub threshold: f32,
+    /// Most clusters (clamped to 1..=[`CUT_CAPACITY`]).
+    pub max_size: usize,
+}
+
+impl Default for SplitOptions {
+    fn default() -> Self {
+        SplitOptions {
+            threshold: 1e-3,
+            max_size: 32,
+        }
+    }
+}
+
+/// What a cut builder decides for one slot.
+#[derive(Clone, Copy, Debug, Default)]
+pub(crate) struct SlotDecision {
+    pub weight: f32,
+    pub score: f32,
+    pub split: bool,
+}
+
+/// A light cut (see the module documentation).
+#[derive(Clone, Copy, Debug)]
+pub struct LightCut {
+    clusters: [Cluster; CUT_CAPACITY],
+    len: usize,
+    total: f32,
+    max_score: f32,
+}
+
+impl Default for LightCut {
+    fn default() -> Self {
+        LightCut::new()
+    }
+}
+
+impl LightCut {
+    /// An empty cut.
+    pub const fn new() -> LightCut {
+        LightCut {
+            clusters: [Cluster {
+                node: 0,
+                slot: 0,
+                path: 0,
+                weight: 0.0,
+                score: 0.0,
+            }; CUT_CAPACITY],
+            len: 0,
+            total: 0.0,
+            max_score: 0.0,
+        }
+    }
+
+    /// The clusters.
+    pub fn clusters(&self) -> &[Cluster] {
+        &self.clusters[..self.len]
+    }
+
+    /// Number of clusters.
+    pub fn len(&self) -> usize {
+        self.len
+    }
+
+    /// Whether no cluster can contribute.
+    pub fn is_empty(&self) -> bool {
+        self.len == 0
+    }
+
+    /// Sum of the clusters' weights.
+    pub fn total_weight(&self) -> f32 {
+        self.total
+    }
+
+    /// Largest score over the cut (for BRDF-oriented cuts: IB(x), Liu et al. section 4.2).
+    pub fn max_score(&self) -> f32 {
+        self.max_score
+    }
+
+    /// Builds the cut breadth-first. `decide(node, total)` evaluates the four slots of a node;
+    /// `total` is `root_total(root)`, the importance of the whole tree at the shading point,
+    /// for criteria that normalise by it. At most `max_size` clusters.
+    pub(crate) fn build_with(
+        tree: &LightTree,
+        max_size: usize,
+        mut decide: impl FnMut(&Node4, f32) -> [SlotDecision; 4],
+        root_total: impl FnOnce(&Node4) -> f32,
+    ) -> LightCut {
+        let mut cut = LightCut::new();
+        let max_size = max_size.clamp(1, CUT_CAPACITY);
+        let Some(root) = tree.nodes.first() else {
+            return cut;
+        };
+        let total = root_total(root);
+        if !(positive(total) && total < f32::INFINITY) {
+            return cut;
+        }
+        // Clusters waiting to be opened: a ring buffer; accepted + queued ≤ max_size always.
+        let mut queue = [Cluster::default(); CUT_CAPACITY];
+        let (mut head, mut queued) = (0usize, 0usize);
+        let mut children = [(Cluster::default(), false); 4];
+        let mut open = |node_index: u32, path: u64, out: &mut [(Cluster, bool); 4]| -> usize {
+            let node = &tree.nodes[node_index as usize];
+            let d = decide(node, total);
+            let mut n = 0;
+            for (k, dk) in d.iter().enumerate() {
+                if !positive(dk.weight) || node.slot(k) == Slot::Empty {
+                    continue;
+                }
+                let inner = matches!(node.slot(k), Slot::Node(_));
+                out[n] = (
+                    Cluster {
+                        node: node_index,
+                        slot: k as u8,
+                        path: (path << 2) | k as u64,
+                        weight: dk.weight,
+                        score: dk.score,
+                    },
+                    dk.split && inner,
+                );
+                n += 1;
+            }
+            n
+        };
+        let place = |cut: &mut LightCut,
+                     queue: &mut [Cluster; CUT_CAPACITY],
+                     head: usize,
+                     queued: &mut usize,
+                     c: (Cluster, bool)| {
+            if c.1 {
+                queue[(head + *queued) % CUT_CAPACITY] = c.0;
+                *queued += 1;
+            } else {
+                cut.push(c.0);
+            }
+        };
+        let n = open(0, 1, &mut children);
+        for &c in &children[..n] {
+            place(&mut cut, &mut queue, head, &mut queued, c);
+        }
+        while queued > 0 {
+            let c = queue[head];
+            head = (head + 1) % CUT_CAPACITY;
+            queued -= 1;
+            let Slot::Node(child) = tree.nodes[c.node as usize].slot(usize::from(c.slot)) else {
+                cut.push(c);
+                continue;
+            };
+            let n = open(child, c.path, &mut children);
+            if cut.len + queued + n > max_size {
+                cut.push(c);
+                continue;
+            }
+            for &cc in &children[..n] {
+                place(&mut cut, &mut queue, head, &mut queued, cc);
+            }
+        }
+        cut
+    }
+
+    fn push(&mut self, c: Cluster) {
+        if self.len < CUT_CAPACITY {
+            self.clusters[self.len] = c;
+            self.len += 1;
+            self.total += c.weight;
+            self.max_score = self.max_score.max(c.score);
+        }
+    }
+}
+
+impl LightCut {
+    /// The split-sampling cut of Conty & Kulla at the shading point of `imp` (see the module
+    /// documentation); each cluster's weight is its TL importance.
+    pub fn build_split(tree: &LightTree, imp: &TlImportance, opts: &SplitOptions) -> LightCut {
+        let x = imp.position();
+        let threshold = opts.threshold;
+        LightCut::build_with(
+            tree,
+            opts.max_size,
+            |node, total| {
+                let w = imp.eval4(node).to_array();
+                let mut out = [SlotDecision::default(); 4];
+                for k in 0..4 {
+                    if !positive(w[k]) {
+                        continue;
+                    }
+                    let (count, variance) = match node.slot(k) {
+                        Slot::Node(c) => tree
+                            .node_stats
+                            .get(c as usize)
+                            .map_or((1, 0.0), |s| (s.count.max(1), s.energy_rel_variance)),
+                        _ => (1, 0.0),
+                    };
+                    let c = glam::Vec3::new(node.center_x[k], node.center_y[k], node.center_z[k]);
+                    let r = node.radius[k];
+                    let d = (c - x).length();
+                    let inside = d <= r;
+                    let score = if inside {
+                        f32::INFINITY
+                    } else {
+                        let a = (d - r).max(1e-6 * d.max(1.0));
+                        let b = d + r;
+                        let _ = count;
+                        let rel_e = variance;
+                        let rel_g = (b - a) * (b - a) / (3.0 * a * b);
+                        let rho = (1.0 + rel_e) * (1.0 + rel_g) - 1.0;
+                        let share = w[k] / total;
+                        rho * share * share
+                    };
+                    out[k] = SlotDecision {
+                        weight: w[k],
+                        score,
+                        split: inside || score > threshold,
+                    };
+                }
+                out
+            },
+            |root| imp.eval4(root).to_array().iter().sum(),
+        )
+    }
+
+    /// Samples a light in cluster `i` with `u`: its pmf is relative to the cluster (the
+    /// split-sampling estimator divides cluster i's contribution by it). `None` if `i` is out of
+    /// range or no light of the cluster can contribute.
+    pub fn sample_in<I: Importance + ?Sized>(
+        &self,
+        tree: &LightTree,
+        imp: &I,
+        i: usize,
+        u: f32,
+    ) -> Option<LightSample> {
+        let c = self.clusters().get(i)?;
+        tree.sample_cluster(imp, c, u)
+    }
+
+    /// The cluster holding `light` and the light's pmf within it (what
+    /// [`LightCut::sample_in`] reports for it); `None` if no cluster of the cut holds it.
+    pub fn pmf_in<I: Importance + ?Sized>(
+        &self,
+        tree: &LightTree,
+        imp: &I,
+        light: u32,
+    ) -> Option<(usize, f32)> {
+        let path = *tree.paths.get(light as usize)?;
+        let levels = path_len(path);
+        self.clusters().iter().enumerate().find_map(|(i, c)| {
+            let m = path_len(c.path);
+            (m <= levels && path >> (2 * (levels - m)) == c.path)
+                .then(|| (i, tree.pmf_cluster(imp, c, path, light)))
+        })
+    }
+
+    /// Samples one light of the whole cut: a cluster with probability weight / total, then a
+    /// light in it. The pmf is the product.
+    pub fn sample<I: Importance + ?Sized>(
+        &self,
+        tree: &LightTree,
+        imp: &I,
+        u: f32,
+    ) -> Option<LightSample> {
+        if self.len == 0 {
+            return None;
+        }
+        let t = sanitize(u) * self.total;
+        let mut acc = 0.0f32;
+        let mut chosen = self.len - 1;
+        for (i, c) in self.clusters().iter().enumerate() {
+            if t < acc + c.weight {
+                chosen = i;
+                break;
+            }
+            acc += c.weight;
+        }
+        let c = &self.clusters[chosen];
+        let before: f32 = self.clusters[..chosen].iter().map(|c| c.weight).sum();
+        let u2 = ((t - before) / c.weight).clamp(0.0, ONE_MINUS_EPSILON);
+        let s = tree.sample_cluster(imp, c, u2)?;
+        Some(LightSample {
+            light: s.light,
+            pmf: c.weight / self.total * s.pmf,
+        })
+    }
+
+    /// The probability that [`LightCut::sample`] returns `light`: exactly the pmf it reports.
+    pub fn pmf<I: Importance + ?Sized>(&self, tree: &LightTree, imp: &I, light: u32) -> f32 {
+        match self.pmf_in(tree, imp, light) {
+            Some((i, p)) => self.clusters[i].weight / self.total * p,
+            None => 0.0,
+        }
+    }
+}
+
+impl LightTree {
+    /// Samples a light under `cluster` (pmf relative to it).
+    pub fn sample_cluster<I: Importance + ?Sized>(
+        &self,
+        imp: &I,
+        cluster: &Cluster,
+        u: f32,
+    ) -> Option<LightSample> {
+        match self
+            .nodes
+            .get(cluster.node as usize)?
+            .slot(usize::from(cluster.slot) & 3)
+        {
+            Slot::Light(light) => Some(LightSample { light, pmf: 1.0 }),
+            Slot::Node(c) => self.descend_from(imp, c as usize, u),
+            Slot::Empty => None,
+        }
+    }
+
+    /// The pmf of `light` (path `path`) under `cluster`, as [`LightTree::sample_cluster`]
+    /// reports it; the caller has checked the path goes through the cluster.
+    fn pmf_cluster<I: Importance + ?Sized>(
+        &self,
+        imp: &I,
+        cluster: &Cluster,
+        path: u64,
+        light: u32,
+    ) -> f32 {
+        let Some(node) = self.nodes.get(cluster.node as usize) else {
+            return 0.0;
+        };
+        match node.slot(usize::from(cluster.slot) & 3) {
+            Slot::Light(l) if l == light => 1.0,
+            Slot::Node(c) => self.pmf_from(imp, c as usize, path, path_len(cluster.path), light),
+            _ => 0.0,
+        }
+    }
+}
