@@ -4,7 +4,7 @@
 
 use crate::random_scene::{self, ShadingPoint};
 use manylights::baseline::BinaryLightTree;
-use manylights::{LightTree, TlImportance};
+use manylights::{LightCut, LightTree, SplitOptions, TlImportance};
 use serde_json::json;
 use std::hint::black_box;
 use std::time::Instant;
@@ -98,6 +98,40 @@ pub fn run(cfg: &BenchConfig) -> serde_json::Value {
         pmf_rate = pmf_rate.max(n as f64 / t.elapsed().as_secs_f64() / 1e6);
     }
 
+    // Split sampling: build the Conty–Kulla cut, then one sample per cluster.
+    let split_opts = SplitOptions::default();
+    let mut split_rate = 0.0f64;
+    let mut split_builds = 0.0f64;
+    let mut cut_size_sum = 0usize;
+    for _ in 0..cfg.repeats.max(1) {
+        let t = Instant::now();
+        let mut acc = 0.0f64;
+        let mut n_samples = 0usize;
+        cut_size_sum = 0;
+        for (p, &u) in points.iter().zip(&us) {
+            let imp = TlImportance::new(p.position, p.normal);
+            let cut = LightCut::build_split(&tree, black_box(&imp), &split_opts);
+            cut_size_sum += cut.len();
+            for i in 0..cut.len() {
+                if let Some(s) = cut.sample_in(&tree, &imp, i, black_box(u)) {
+                    acc += f64::from(s.pmf);
+                    n_samples += 1;
+                }
+            }
+        }
+        black_box(acc);
+        split_rate = split_rate.max(n_samples as f64 / t.elapsed().as_secs_f64() / 1e6);
+        // Cut construction alone.
+        let t = Instant::now();
+        let mut sizes = 0usize;
+        for p in &points {
+            let imp = TlImportance::new(p.position, p.normal);
+            sizes += LightCut::build_split(&tree, black_box(&imp), &split_opts).len();
+        }
+        black_box(sizes);
+        split_builds = split_builds.max(points.len() as f64 / t.elapsed().as_secs_f64());
+    }
+
     // Sum of every light's pmf at 100 shading points.
     let pmf_sum_max_err = if cfg.lights <= 100_000 {
         let mut worst = 0.0f64;
@@ -133,6 +167,9 @@ pub fn run(cfg: &BenchConfig) -> serde_json::Value {
         "pmf_max_rel_err": max_rel,
         "pmf_sum_max_err": pmf_sum_max_err,
         "returned_fraction": returned as f64 / cfg.points.max(1) as f64,
+        "split_msamples_per_s": split_rate,
+        "split_cut_builds_per_s": split_builds,
+        "avg_split_cut_size": cut_size_sum as f64 / cfg.points.max(1) as f64,
     })
 }
 
@@ -156,6 +193,12 @@ pub fn table(r: &serde_json::Value) -> String {
         ("pmf max rel. error", "pmf_max_rel_err"),
         ("pmf sum max error", "pmf_sum_max_err"),
         ("points with a sample", "returned_fraction"),
+        (
+            "split sampling, cut + 1 sample/cluster (M light samples/s)",
+            "split_msamples_per_s",
+        ),
+        ("split cut builds (per s)", "split_cut_builds_per_s"),
+        ("mean split cut size", "avg_split_cut_size"),
     ];
     let mut s = String::from("| measure | value |\n|---|---|\n");
     for (name, key) in rows {

@@ -100,7 +100,79 @@ impl TlImportance {
         if !self.valid {
             return 0.0;
         }
-        let p = self.position;
+        let v = ClusterView::new(self.position, b);
+        let cos_ip = self.receiver_cos(&v);
+        if !v.emits || cos_ip <= -COS_SLACK {
+            return 0.0;
+        }
+        b.energy * v.cos_tp.max(COS_FLOOR) * cos_ip.max(COS_FLOOR) / v.d2c
+    }
+
+    /// cos θi' = cos(max(0, θi − θu)) for this receiver (1 inside the cluster).
+    #[inline]
+    fn receiver_cos(&self, v: &ClusterView) -> f32 {
+        let n = self.normal;
+        let mut cos_i = n.x * v.w.x + n.y * v.w.y + n.z * v.w.z;
+        if self.receiver == Receiver::Transmissive {
+            cos_i = cos_i.abs();
+        }
+        let sin_i = math::sqrt((1.0 - cos_i * cos_i).max(0.0));
+        let cos_ip = if cos_i >= v.cos_u {
+            1.0
+        } else {
+            cos_i * v.cos_u + sin_i * v.sin_u
+        };
+        if self.receiver == Receiver::Omnidirectional || v.inside {
+            1.0
+        } else {
+            cos_ip
+        }
+    }
+
+    #[inline(always)]
+    fn receiver_cos4(&self, v: &ClusterView4) -> f32x4 {
+        let one = f32x4::ONE;
+        if self.receiver == Receiver::Omnidirectional {
+            return one;
+        }
+        let n = self.normal;
+        let mut cos_i =
+            f32x4::splat(n.x) * v.wx + f32x4::splat(n.y) * v.wy + f32x4::splat(n.z) * v.wz;
+        if self.receiver == Receiver::Transmissive {
+            cos_i = cos_i.abs();
+        }
+        let sin_i = (one - cos_i * cos_i).fast_max(f32x4::ZERO).sqrt();
+        let cos_ip = cos_i
+            .simd_ge(v.cos_u)
+            .select(one, cos_i * v.cos_u + sin_i * v.sin_u);
+        v.inside.select(one, cos_ip)
+    }
+}
+
+/// What every importance needs to know of one cluster seen from a shading point: the clamped
+/// squared distance, the direction, the uncertainty angle θu and the emitter's orientation
+/// factor cos θ' (Conty & Kulla, "Importance Function"). The scalar reference.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct ClusterView {
+    /// `max(d², (r/2)², MIN_DISTANCE2)`.
+    pub d2c: f32,
+    /// x is inside the bounding sphere.
+    pub inside: bool,
+    /// Unit direction x → centre.
+    pub w: Vec3,
+    /// sin θu = min(r/d, 1).
+    pub sin_u: f32,
+    /// cos θu.
+    pub cos_u: f32,
+    /// cos θ' (1 inside).
+    pub cos_tp: f32,
+    /// θ' < θe (within the rounding slack): the cluster may emit towards x.
+    pub emits: bool,
+}
+
+impl ClusterView {
+    #[inline]
+    pub(crate) fn new(p: Vec3, b: &SlotBounds) -> ClusterView {
         let (vx, vy, vz) = (b.center.x - p.x, b.center.y - p.y, b.center.z - p.z);
         let d2 = vx * vx + vy * vy + vz * vz;
         let r2 = b.radius * b.radius;
@@ -110,24 +182,7 @@ impl TlImportance {
         let (wx, wy, wz) = (vx * inv_d, vy * inv_d, vz * inv_d);
         let sin_u = (b.radius * inv_d).min(1.0);
         let cos_u = math::sqrt((1.0 - sin_u * sin_u).max(0.0));
-
-        // Receiver: cos θi' = cos(max(0, θi − θu)).
-        let n = self.normal;
-        let mut cos_i = n.x * wx + n.y * wy + n.z * wz;
-        if self.receiver == Receiver::Transmissive {
-            cos_i = cos_i.abs();
-        }
-        let sin_i = math::sqrt((1.0 - cos_i * cos_i).max(0.0));
-        let mut cos_ip = if cos_i >= cos_u {
-            1.0
-        } else {
-            cos_i * cos_u + sin_i * sin_u
-        };
-        if self.receiver == Receiver::Omnidirectional || inside {
-            cos_ip = 1.0;
-        }
-
-        // Emitter: cos θ' = cos(max(0, θ − θo − θu)).
+        // cos θ' = cos(max(0, θ − θo − θu)) from the subtraction identity.
         let a = b.axis;
         let cos_t = -(a.x * wx + a.y * wy + a.z * wz);
         let sin_t = math::sqrt((1.0 - cos_t * cos_t).max(0.0));
@@ -141,12 +196,30 @@ impl TlImportance {
         if cos_t >= b.cos_o || inside {
             cos_tp = 1.0;
         }
-
-        if cos_tp <= b.cos_e - COS_SLACK || cos_ip <= -COS_SLACK {
-            return 0.0;
+        ClusterView {
+            d2c,
+            inside,
+            w: Vec3::new(wx, wy, wz),
+            sin_u,
+            cos_u,
+            cos_tp,
+            emits: cos_tp > b.cos_e - COS_SLACK,
         }
-        b.energy * cos_tp.max(COS_FLOOR) * cos_ip.max(COS_FLOOR) / d2c
     }
+}
+
+/// [`ClusterView`] for the four slots of a node, lane by lane the same operations.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct ClusterView4 {
+    pub d2c: f32x4,
+    pub inside: f32x4,
+    pub wx: f32x4,
+    pub wy: f32x4,
+    pub wz: f32x4,
+    pub sin_u: f32x4,
+    pub cos_u: f32x4,
+    pub cos_tp: f32x4,
+    pub emits: f32x4,
 }
 
 #[inline(always)]
@@ -159,17 +232,12 @@ fn high16(v: i32x4) -> f32x4 {
     (v.unbounded_shr_scalar(16) & i32x4::splat(0xFFFF)).round_float()
 }
 
-impl Importance for TlImportance {
-    /// The 4-wide twin of [`TlImportance::eval`], operation for operation.
-    #[inline]
-    fn eval4(&self, node: &Node4) -> f32x4 {
+impl ClusterView4 {
+    #[inline(always)]
+    pub(crate) fn new(p: Vec3, node: &Node4) -> ClusterView4 {
         let zero = f32x4::ZERO;
-        if !self.valid {
-            return zero;
-        }
         let one = f32x4::ONE;
         let two = f32x4::splat(2.0);
-        let p = self.position;
         let vx = f32x4::new(node.center_x) - f32x4::splat(p.x);
         let vy = f32x4::new(node.center_y) - f32x4::splat(p.y);
         let vz = f32x4::new(node.center_z) - f32x4::splat(p.z);
@@ -184,23 +252,7 @@ impl Importance for TlImportance {
         let sin_u = (radius * inv_d).fast_min(one);
         let cos_u = (one - sin_u * sin_u).fast_max(zero).sqrt();
 
-        // Receiver.
-        let n = self.normal;
-        let mut cos_i = f32x4::splat(n.x) * wx + f32x4::splat(n.y) * wy + f32x4::splat(n.z) * wz;
-        if self.receiver == Receiver::Transmissive {
-            cos_i = cos_i.abs();
-        }
-        let sin_i = (one - cos_i * cos_i).fast_max(zero).sqrt();
-        let cos_ip = cos_i
-            .simd_ge(cos_u)
-            .select(one, cos_i * cos_u + sin_i * sin_u);
-        let cos_ip = if self.receiver == Receiver::Omnidirectional {
-            one
-        } else {
-            inside.select(one, cos_ip)
-        };
-
-        // Cone axis (octahedral decode) and angles.
+        // Cone axis (octahedral decode) and angles, as `quantize::decode_*`.
         let q = i32x4::new(bytemuck::cast(node.axis));
         let scale = f32x4::splat(2.0 / 65535.0);
         let x = low16(q) * scale - one;
@@ -219,19 +271,40 @@ impl Importance for TlImportance {
         let se = high16(qa) * qscale;
         let cos_e = one - two * se * se;
 
-        // Emitter.
         let cos_t = -(ax * wx + ay * wy + az * wz);
         let sin_t = (one - cos_t * cos_t).fast_max(zero).sqrt();
         let c1 = cos_t * cos_o + sin_t * sin_o;
         let s1 = (sin_t * cos_o - cos_t * sin_o).fast_max(zero);
         let cos_tp = c1.simd_ge(cos_u).select(one, c1 * cos_u + s1 * sin_u);
         let cos_tp = (cos_t.simd_ge(cos_o) | inside).select(one, cos_tp);
+        ClusterView4 {
+            d2c,
+            inside,
+            wx,
+            wy,
+            wz,
+            sin_u,
+            cos_u,
+            cos_tp,
+            emits: cos_tp.simd_gt(cos_e - f32x4::splat(COS_SLACK)),
+        }
+    }
+}
 
-        let slack = f32x4::splat(COS_SLACK);
+impl Importance for TlImportance {
+    /// The 4-wide twin of [`TlImportance::eval`], operation for operation.
+    #[inline]
+    fn eval4(&self, node: &Node4) -> f32x4 {
+        let zero = f32x4::ZERO;
+        if !self.valid {
+            return zero;
+        }
+        let v = ClusterView4::new(self.position, node);
+        let cos_ip = self.receiver_cos4(&v);
         let floor = f32x4::splat(COS_FLOOR);
-        let dead = cos_tp.simd_le(cos_e - slack) | cos_ip.simd_le(-slack);
+        let live = v.emits & cos_ip.simd_gt(f32x4::splat(-COS_SLACK));
         let energy = f32x4::new(node.energy);
-        let value = energy * cos_tp.fast_max(floor) * cos_ip.fast_max(floor) / d2c;
-        dead.select(zero, value)
+        let value = energy * v.cos_tp.fast_max(floor) * cos_ip.fast_max(floor) / v.d2c;
+        live.select(value, zero)
     }
 }
