@@ -4,7 +4,7 @@
 
 use criterion::{criterion_group, criterion_main, BenchmarkId, Criterion, Throughput};
 use manylights::baseline::BinaryLightTree;
-use manylights::{LightTree, TlImportance};
+use manylights::{LightCut, LightTree, SplitOptions, TlImportance};
 use manylights_render::random_scene;
 use std::hint::black_box;
 
@@ -77,5 +77,25 @@ fn build(c: &mut Criterion) {
     group.finish();
 }
 
-criterion_group!(benches, sampling, build);
+fn cuts(c: &mut Criterion) {
+    let mut group = c.benchmark_group("cut");
+    group.throughput(Throughput::Elements(POINTS as u64));
+    let points = random_scene::shading_points(POINTS, 7);
+    let lights = random_scene::lights(100_000, 7);
+    let tree = LightTree::build(&lights).unwrap();
+    let opts = SplitOptions::default();
+    group.bench_function("split build, N=100000", |b| {
+        b.iter(|| {
+            let mut size = 0;
+            for p in &points {
+                let imp = TlImportance::new(p.position, p.normal);
+                size += LightCut::build_split(&tree, black_box(&imp), &opts).len();
+            }
+            size
+        })
+    });
+    group.finish();
+}
+
+criterion_group!(benches, sampling, build, cuts);
 criterion_main!(benches);

@@ -40,6 +40,7 @@ pub mod error;
 pub mod importance;
 pub mod light;
 mod math;
+pub mod mis;
 pub mod quantize;
 pub mod sample;
 pub mod tree;
