@@ -25,7 +25,7 @@
 //! `ρ · (I_C / I_total)² > threshold`, with I the TL importance: its share of the estimate,
 //! squared, scales its relative variance into a share of the total's.
 
-use crate::importance::{Importance, TlImportance};
+use crate::importance::{BlImportance, Importance, TlImportance};
 use crate::sample::{sanitize, LightSample, ONE_MINUS_EPSILON};
 use crate::tree::{path_len, LightTree, Node4, Slot};
 
@@ -34,6 +34,9 @@ use crate::tree::{path_len, LightTree, Node4, Slot};
 fn positive(x: f32) -> bool {
     x > 0.0
 }
+
+/// Fewest clusters a cut may be limited to: the root node's four slots.
+pub const MIN_CUT_SIZE: usize = 4;
 
 /// Most clusters a cut holds.
 pub const CUT_CAPACITY: usize = 64;
@@ -58,7 +61,7 @@ pub struct Cluster {
 pub struct SplitOptions {
     /// Split while `ρ · (I_C / I_total)² > threshold`.
     pub threshold: f32,
-    /// Most clusters (clamped to 1..=[`CUT_CAPACITY`]).
+    /// Most clusters (clamped to [`MIN_CUT_SIZE`]..=[`CUT_CAPACITY`]).
     pub max_size: usize,
 }
 
@@ -66,6 +69,24 @@ impl Default for SplitOptions {
     fn default() -> Self {
         SplitOptions {
             threshold: 1e-3,
+            max_size: 32,
+        }
+    }
+}
+
+/// Options of the BRDF-oriented light cut (Liu et al. 2019, section 4.1).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct CutOptions {
+    /// Split a cluster whose BRDF cap integral SC exceeds δ.
+    pub delta: f32,
+    /// Most clusters (clamped to [`MIN_CUT_SIZE`]..=[`CUT_CAPACITY`]).
+    pub max_size: usize,
+}
+
+impl Default for CutOptions {
+    fn default() -> Self {
+        CutOptions {
+            delta: 0.5,
             max_size: 32,
         }
     }
@@ -138,7 +159,8 @@ impl LightCut {
 
     /// Builds the cut breadth-first. `decide(node, total)` evaluates the four slots of a node;
     /// `total` is `root_total(root)`, the importance of the whole tree at the shading point,
-    /// for criteria that normalise by it. At most `max_size` clusters.
+    /// for criteria that normalise by it. At most `max_size` clusters (at least the root's
+    /// slots: `max_size` is clamped to [`MIN_CUT_SIZE`]..=[`CUT_CAPACITY`]).
     pub(crate) fn build_with(
         tree: &LightTree,
         max_size: usize,
@@ -146,7 +168,8 @@ impl LightCut {
         root_total: impl FnOnce(&Node4) -> f32,
     ) -> LightCut {
         let mut cut = LightCut::new();
-        let max_size = max_size.clamp(1, CUT_CAPACITY);
+        // The root's (up to four) slots are the coarsest cut there is.
+        let max_size = max_size.clamp(MIN_CUT_SIZE, CUT_CAPACITY);
         let Some(root) = tree.nodes.first() else {
             return cut;
         };
@@ -228,6 +251,36 @@ impl LightCut {
 }
 
 impl LightCut {
+    /// The BRDF-oriented light cut of Liu et al. 2019 at the shading point of `imp`: a cluster
+    /// is split when x is inside its bounding sphere or when its BRDF cap integral SC exceeds
+    /// `opts.delta`. Weights are BL importances, scores the SC values, so
+    /// [`LightCut::max_score`] is IB(x).
+    pub fn build_bl(tree: &LightTree, imp: &BlImportance, opts: &CutOptions) -> LightCut {
+        let x = imp.position();
+        let delta = opts.delta;
+        LightCut::build_with(
+            tree,
+            opts.max_size,
+            |node, _| {
+                let (w, sc) = imp.eval4_with_integrals(node);
+                let (w, sc) = (w.to_array(), sc.to_array());
+                let mut out = [SlotDecision::default(); 4];
+                for k in 0..4 {
+                    let c = glam::Vec3::new(node.center_x[k], node.center_y[k], node.center_z[k]);
+                    let r = node.radius[k];
+                    let inside = (c - x).length_squared() <= r * r;
+                    out[k] = SlotDecision {
+                        weight: w[k],
+                        score: sc[k],
+                        split: inside || sc[k] > delta,
+                    };
+                }
+                out
+            },
+            |root| imp.eval4(root).to_array().iter().sum(),
+        )
+    }
+
     /// The split-sampling cut of Conty & Kulla at the shading point of `imp` (see the module
     /// documentation); each cluster's weight is its TL importance.
     pub fn build_split(tree: &LightTree, imp: &TlImportance, opts: &SplitOptions) -> LightCut {
@@ -363,7 +416,10 @@ impl LightTree {
             .slot(usize::from(cluster.slot) & 3)
         {
             Slot::Light(light) => Some(LightSample { light, pmf: 1.0 }),
-            Slot::Node(c) => self.descend_from(imp, c as usize, u),
+            // Below the cluster's slot, whose weight was positive: a node whose four children
+            // all have importance 0 falls back to its energies, so a non-empty cut always
+            // returns a light and its pmfs sum to 1.
+            Slot::Node(c) => self.descend_from(imp, c as usize, false, u),
             Slot::Empty => None,
         }
     }
@@ -382,7 +438,9 @@ impl LightTree {
         };
         match node.slot(usize::from(cluster.slot) & 3) {
             Slot::Light(l) if l == light => 1.0,
-            Slot::Node(c) => self.pmf_from(imp, c as usize, path, path_len(cluster.path), light),
+            Slot::Node(c) => {
+                self.pmf_from(imp, c as usize, false, path, path_len(cluster.path), light)
+            }
             _ => 0.0,
         }
     }

@@ -107,22 +107,24 @@ impl LightTree {
     /// (clamped into it). `None` when no light can contribute (the root's importance is 0).
     #[inline]
     pub fn sample<I: Importance + ?Sized>(&self, imp: &I, u: f32) -> Option<LightSample> {
-        self.descend_from(imp, 0, u)
+        self.descend_from(imp, 0, true, u)
     }
 
-    /// Descends from node `start` as [`LightTree::sample`] does from the root (ΣI = 0 at
-    /// `start` returns `None`); the pmf is relative to `start`'s subtree.
+    /// Descends from node `start` as [`LightTree::sample`] does from the root; the pmf is
+    /// relative to `start`'s subtree. With `is_root`, ΣI = 0 at `start` returns `None`;
+    /// without it `start` falls back to its energies like any inner node.
     #[inline]
     pub(crate) fn descend_from<I: Importance + ?Sized>(
         &self,
         imp: &I,
         start: usize,
+        is_root: bool,
         u: f32,
     ) -> Option<LightSample> {
         let mut u = sanitize(u);
         let mut node = self.nodes.get(start)?;
         let mut touched = touch_children(&self.nodes, node);
-        let (mut w, mut sum) = weights(imp, node, true)?;
+        let (mut w, mut sum) = weights(imp, node, is_root)?;
         let mut pmf = 1.0f32;
         loop {
             let (k, next_u) = pick(w, sum, u);
@@ -149,15 +151,17 @@ impl LightTree {
         let Some(&path) = self.paths.get(light as usize) else {
             return 0.0;
         };
-        self.pmf_from(imp, 0, path, 0, light)
+        self.pmf_from(imp, 0, true, path, 0, light)
     }
 
     /// The pmf of `light` (whose path is `path`) relative to node `start`, which its path
-    /// reaches after `from_level` levels: [`LightTree::descend_from`]'s pmf for it.
+    /// reaches after `from_level` levels: [`LightTree::descend_from`]'s pmf for it (with the
+    /// same `is_root`).
     pub(crate) fn pmf_from<I: Importance + ?Sized>(
         &self,
         imp: &I,
         start: usize,
+        is_root: bool,
         path: u64,
         from_level: u32,
         light: u32,
@@ -170,7 +174,7 @@ impl LightTree {
             let Some(node) = self.nodes.get(index) else {
                 return 0.0;
             };
-            let Some((w, sum)) = weights(imp, node, level == from_level) else {
+            let Some((w, sum)) = weights(imp, node, is_root && level == from_level) else {
                 return 0.0;
             };
             pmf *= w[k] / sum;

@@ -5,8 +5,11 @@
 //! and tests hold the two equal lane by lane. Importances are conservative: a cluster holding a
 //! light that can contribute at the shading point gets a positive value.
 
+pub mod brdf_oriented;
 pub mod conty_kulla;
+pub mod sptd;
 
+pub use brdf_oriented::BlImportance;
 pub use conty_kulla::TlImportance;
 
 use crate::tree::Node4;

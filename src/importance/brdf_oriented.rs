@@ -1,0 +1,177 @@
+//! BRDF-oriented light importance, BL (Liu et al. 2019, Eqn. 6; MATH.md section 7):
+//!
+//! ```text
+//! I_BL(C) = E · cos θ' / d²  ·  B_C,      B_C = (1/|Ω_C ∩ H|) ∫_{Ω_C ∩ H} f cos θi dωi
+//! ```
+//!
+//! `Ω_C` is the cap the cluster's bounding sphere subtends at x (the whole hemisphere when x is
+//! inside it), θ' and the distance clamp are those of the TL importance. The cap integral
+//! `SC = ∫_{Ω_C ∩ H} f cos θi dωi` is exact for the Lambert lobe (the horizon-clipped form factor)
+//! and approximated by an SPTD for the GGX lobe; plastic is the weighted sum. SC also drives the
+//! light cut ([`crate::LightCut::build_bl`]): a cluster is split when SC > δ.
+//!
+//! **Staying unbiased.** The SPTD can round a tiny or grazing cap's integral to 0 while a light in
+//! it still contributes. So every BL importance carries a defensive share of the TL importance:
+//! `B_C + DEFENSIVE · (ρ/π) · cos θi'`, with ρ the material's total albedo and cos θi' TL's
+//! receiver factor. It is positive wherever TL is, so every light with a positive contribution
+//! keeps a positive pmf; at 5 % of a Lambert lobe of the same albedo it does not change the
+//! ranking of clusters the SPTD sees.
+
+use super::conty_kulla::{ClusterView, ClusterView4, COS_FLOOR, COS_SLACK};
+use super::sptd::{
+    intersection_area, intersection_area4, lambert_cap, lambert_cap4, Cap, Cap4, SptdGgx,
+};
+use super::Importance;
+use crate::material::{ShadingError, ShadingPoint, MIN_ALPHA};
+use crate::math;
+use crate::tree::{Node4, SlotBounds};
+use core::f32::consts::{FRAC_1_PI, PI};
+use glam::Vec3;
+use wide::f32x4;
+
+/// Weight of the defensive TL share (see the module documentation).
+pub const DEFENSIVE: f32 = 0.05;
+
+/// BL importance at one shading point.
+#[derive(Clone, Copy, Debug)]
+pub struct BlImportance {
+    position: Vec3,
+    /// Unit normal, on the side of ωo.
+    normal: Vec3,
+    /// Lambert weight ρd/π.
+    kd: f32,
+    /// GGX weight.
+    ks: f32,
+    ggx: SptdGgx,
+    horizon: Cap,
+    /// DEFENSIVE · ρ/π.
+    defensive: f32,
+    /// ρd + ks · (GGX albedo): SC of the whole hemisphere.
+    albedo: f32,
+}
+
+/// One cluster's BL evaluation.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct BlEval {
+    /// The importance I_BL (with the defensive share).
+    pub importance: f32,
+    /// SC = ∫ f cos over the cluster's cap ∩ H (the whole hemisphere's when x is inside).
+    pub cap_integral: f32,
+}
+
+impl BlImportance {
+    /// Sets up the importance for `sp` (validated: the error names the bad field).
+    pub fn new(sp: &ShadingPoint) -> Result<BlImportance, ShadingError> {
+        sp.validate()?;
+        let (albedo_d, specular, alpha) = sp.material.lobes();
+        let mut n = sp.normal.normalize();
+        let wo = sp.wo.normalize();
+        if n.dot(wo) < 0.0 {
+            n = -n;
+        }
+        let ggx = SptdGgx::oriented(alpha.max(MIN_ALPHA), n, wo);
+        let ks = if specular > 0.0 { specular } else { 0.0 };
+        let albedo = albedo_d + ks * ggx.albedo();
+        Ok(BlImportance {
+            position: sp.position,
+            normal: n,
+            kd: albedo_d * FRAC_1_PI,
+            ks,
+            ggx,
+            horizon: Cap::hemisphere(n),
+            defensive: DEFENSIVE * albedo * FRAC_1_PI,
+            albedo,
+        })
+    }
+
+    /// The shading position.
+    pub fn position(&self) -> Vec3 {
+        self.position
+    }
+
+    /// The unit normal, turned to the side of ωo.
+    pub fn normal(&self) -> Vec3 {
+        self.normal
+    }
+
+    /// The whole hemisphere's ∫ f cos (the material's directional albedo, as approximated).
+    pub fn albedo(&self) -> f32 {
+        self.albedo
+    }
+
+    /// The scalar reference: importance and cap integral of one cluster.
+    pub fn eval(&self, b: &SlotBounds) -> BlEval {
+        let v = ClusterView::new(self.position, b);
+        let n = self.normal;
+        let cos_omega = n.x * v.w.x + n.y * v.w.y + n.z * v.w.z;
+        let sin_i = math::sqrt((1.0 - cos_omega * cos_omega).max(0.0));
+        let cos_ip = if cos_omega >= v.cos_u {
+            1.0
+        } else {
+            cos_omega * v.cos_u + sin_i * v.sin_u
+        };
+        let cos_ip = if v.inside { 1.0 } else { cos_ip };
+        let sin_sigma = if v.inside { 1.0 } else { v.sin_u };
+        let mut sc = self.kd * lambert_cap(cos_omega, sin_sigma);
+        if self.ks > 0.0 {
+            sc += self.ks * self.ggx.integral(v.w, sin_sigma);
+        }
+        let omega = if v.inside {
+            2.0 * PI
+        } else {
+            intersection_area(&Cap::from_sin(v.w, sin_sigma), &self.horizon)
+        };
+        let avg = if omega > 0.0 { sc / omega } else { 0.0 };
+        if !v.emits || cos_ip <= -COS_SLACK {
+            return BlEval {
+                importance: 0.0,
+                cap_integral: sc,
+            };
+        }
+        let brdf = avg + self.defensive * cos_ip.max(COS_FLOOR);
+        BlEval {
+            importance: b.energy * v.cos_tp.max(COS_FLOOR) / v.d2c * brdf,
+            cap_integral: sc,
+        }
+    }
+
+    /// The 4-wide twin of [`BlImportance::eval`]: `(importances, cap integrals)`.
+    #[inline]
+    pub fn eval4_with_integrals(&self, node: &Node4) -> (f32x4, f32x4) {
+        let zero = f32x4::ZERO;
+        let one = f32x4::ONE;
+        let v = ClusterView4::new(self.position, node);
+        let n = self.normal;
+        let cos_omega =
+            f32x4::splat(n.x) * v.wx + f32x4::splat(n.y) * v.wy + f32x4::splat(n.z) * v.wz;
+        let sin_i = (one - cos_omega * cos_omega).fast_max(zero).sqrt();
+        let cos_ip = cos_omega
+            .simd_ge(v.cos_u)
+            .select(one, cos_omega * v.cos_u + sin_i * v.sin_u);
+        let cos_ip = v.inside.select(one, cos_ip);
+        let sin_sigma = v.inside.select(one, v.sin_u);
+        let mut sc = f32x4::splat(self.kd) * lambert_cap4(cos_omega, sin_sigma);
+        if self.ks > 0.0 {
+            sc += f32x4::splat(self.ks) * self.ggx.integral4(v.wx, v.wy, v.wz, sin_sigma);
+        }
+        let cap = Cap4::from_sin(v.wx, v.wy, v.wz, sin_sigma);
+        let omega = v.inside.select(
+            f32x4::splat(2.0 * PI),
+            intersection_area4(&cap, &Cap4::splat(&self.horizon)),
+        );
+        let avg = omega.simd_gt(zero).select(sc / omega, zero);
+        let floor = f32x4::splat(COS_FLOOR);
+        let brdf = avg + f32x4::splat(self.defensive) * cos_ip.fast_max(floor);
+        let live = v.emits & cos_ip.simd_gt(f32x4::splat(-COS_SLACK));
+        let energy = f32x4::new(node.energy);
+        let value = energy * v.cos_tp.fast_max(floor) / v.d2c * brdf;
+        (live.select(value, zero), sc)
+    }
+}
+
+impl Importance for BlImportance {
+    #[inline]
+    fn eval4(&self, node: &Node4) -> f32x4 {
+        self.eval4_with_integrals(node).0
+    }
+}

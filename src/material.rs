@@ -1,0 +1,229 @@
+//! What the BRDF-oriented importance knows of a surface: the material and the view.
+//!
+//! Materials: Lambert (albedo), GGX (isotropic roughness α, height-correlated Smith masking, no
+//! Fresnel in the importance, scaled by a specular weight) and plastic (a Lambert base plus a
+//! GGX layer, each with its weight). Values a host may pass, decided once: albedo and weights
+//! finite in [0, 1]; α finite in (0, 1] (it is clamped below at [`MIN_ALPHA`] where it is used);
+//! position, normal and ωo finite, normal and ωo non-zero (they are normalised).
+
+use crate::error::Problem;
+use core::fmt;
+use glam::Vec3;
+
+/// Smallest roughness used: below it GGX is a mirror that no finite table resolves.
+pub const MIN_ALPHA: f32 = 5e-3;
+
+/// A surface's reflectance.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Material {
+    /// Diffuse: f = albedo/π.
+    Lambert {
+        /// Diffuse albedo in [0, 1].
+        albedo: f32,
+    },
+    /// Glossy: f = specular · GGX(α).
+    Ggx {
+        /// Roughness α in (0, 1].
+        alpha: f32,
+        /// Weight of the lobe in [0, 1].
+        specular: f32,
+    },
+    /// Plastic: f = albedo/π + specular · GGX(α).
+    Plastic {
+        /// Diffuse albedo in [0, 1].
+        albedo: f32,
+        /// Weight of the GGX layer in [0, 1].
+        specular: f32,
+        /// Roughness α in (0, 1].
+        alpha: f32,
+    },
+}
+
+impl Material {
+    /// `(diffuse albedo, specular weight, α)`; zero weights for absent lobes.
+    pub fn lobes(&self) -> (f32, f32, f32) {
+        match *self {
+            Material::Lambert { albedo } => (albedo, 0.0, 1.0),
+            Material::Ggx { alpha, specular } => (0.0, specular, alpha),
+            Material::Plastic {
+                albedo,
+                specular,
+                alpha,
+            } => (albedo, specular, alpha),
+        }
+    }
+
+    /// Whether the material has no glossy lobe (then BRDF-oriented light sampling reduces to
+    /// TL, and the combined estimator uses TL and TB only).
+    pub fn is_diffuse_only(&self) -> bool {
+        self.lobes().1 <= 0.0
+    }
+}
+
+/// A field of a [`ShadingPoint`].
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum ShadingField {
+    /// `position`.
+    Position,
+    /// `normal`.
+    Normal,
+    /// `wo`.
+    Wo,
+    /// The material's `albedo`.
+    Albedo,
+    /// The material's `specular` weight.
+    Specular,
+    /// The material's `alpha`.
+    Alpha,
+}
+
+impl ShadingField {
+    /// The field's name as written in the API.
+    pub fn name(self) -> &'static str {
+        match self {
+            ShadingField::Position => "position",
+            ShadingField::Normal => "normal",
+            ShadingField::Wo => "wo",
+            ShadingField::Albedo => "albedo",
+            ShadingField::Specular => "specular",
+            ShadingField::Alpha => "alpha",
+        }
+    }
+}
+
+/// Why a shading point was rejected.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ShadingError {
+    /// The field that is wrong.
+    pub field: ShadingField,
+    /// What is wrong with it.
+    pub problem: Problem,
+    /// The offending value.
+    pub value: f32,
+}
+
+impl fmt::Display for ShadingError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        let what = match self.problem {
+            Problem::NotFinite => "is NaN or infinite",
+            Problem::Negative => "is negative",
+            Problem::ZeroLength => "has zero length",
+            _ => "is out of range",
+        };
+        write!(
+            f,
+            "shading point: field `{}` {what} (got {})",
+            self.field.name(),
+            self.value
+        )
+    }
+}
+
+impl core::error::Error for ShadingError {}
+
+/// A point being shaded: where, which way the surface faces, where the viewer is, and what it
+/// is made of.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ShadingPoint {
+    /// Position.
+    pub position: Vec3,
+    /// Surface normal (need not be unit length).
+    pub normal: Vec3,
+    /// Direction towards the viewer, ωo (need not be unit length).
+    pub wo: Vec3,
+    /// Material.
+    pub material: Material,
+}
+
+fn err(field: ShadingField, problem: Problem, value: f32) -> ShadingError {
+    ShadingError {
+        field,
+        problem,
+        value,
+    }
+}
+
+fn unit_range(field: ShadingField, v: f32) -> Result<(), ShadingError> {
+    if !v.is_finite() {
+        return Err(err(field, Problem::NotFinite, v));
+    }
+    if !(0.0..=1.0).contains(&v) {
+        return Err(err(field, Problem::OutOfRange, v));
+    }
+    Ok(())
+}
+
+fn direction(field: ShadingField, v: Vec3) -> Result<(), ShadingError> {
+    for c in v.to_array() {
+        if !c.is_finite() {
+            return Err(err(field, Problem::NotFinite, c));
+        }
+    }
+    if v.length_squared() <= 0.0 {
+        return Err(err(field, Problem::ZeroLength, 0.0));
+    }
+    Ok(())
+}
+
+impl ShadingPoint {
+    /// Checks every field.
+    pub fn validate(&self) -> Result<(), ShadingError> {
+        for c in self.position.to_array() {
+            if !c.is_finite() {
+                return Err(err(ShadingField::Position, Problem::NotFinite, c));
+            }
+        }
+        direction(ShadingField::Normal, self.normal)?;
+        direction(ShadingField::Wo, self.wo)?;
+        let (albedo, specular, alpha) = self.material.lobes();
+        unit_range(ShadingField::Albedo, albedo)?;
+        unit_range(ShadingField::Specular, specular)?;
+        if !alpha.is_finite() {
+            return Err(err(ShadingField::Alpha, Problem::NotFinite, alpha));
+        }
+        if !(alpha > 0.0 && alpha <= 1.0) {
+            return Err(err(ShadingField::Alpha, Problem::OutOfRange, alpha));
+        }
+        Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn validation_names_the_field() {
+        let good = ShadingPoint {
+            position: Vec3::ZERO,
+            normal: Vec3::Z,
+            wo: Vec3::new(0.3, 0.0, 1.0),
+            material: Material::Plastic {
+                albedo: 0.5,
+                specular: 0.5,
+                alpha: 0.2,
+            },
+        };
+        assert!(good.validate().is_ok());
+        let bad = ShadingPoint {
+            material: Material::Ggx {
+                alpha: 0.0,
+                specular: 1.0,
+            },
+            ..good
+        };
+        let e = bad.validate().unwrap_err();
+        assert_eq!(e.field, ShadingField::Alpha);
+        assert!(alloc::format!("{e}").contains("alpha"));
+        let bad = ShadingPoint {
+            normal: Vec3::ZERO,
+            ..good
+        };
+        assert_eq!(bad.validate().unwrap_err().field, ShadingField::Normal);
+        let bad = ShadingPoint {
+            position: Vec3::new(f32::NAN, 0.0, 0.0),
+            ..good
+        };
+        assert_eq!(bad.validate().unwrap_err().problem, Problem::NotFinite);
+    }
+}
