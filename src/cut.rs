@@ -376,7 +376,9 @@ impl LightCut {
         let t = sanitize(u) * self.total;
         let mut acc = 0.0f32;
         let mut chosen = self.len - 1;
+        let mut before = 0.0f32;
         for (i, c) in self.clusters().iter().enumerate() {
+            before = acc;
             if t < acc + c.weight {
                 chosen = i;
                 break;
@@ -384,7 +386,6 @@ impl LightCut {
             acc += c.weight;
         }
         let c = &self.clusters[chosen];
-        let before: f32 = self.clusters[..chosen].iter().map(|c| c.weight).sum();
         let u2 = ((t - before) / c.weight).clamp(0.0, ONE_MINUS_EPSILON);
         let s = tree.sample_cluster(imp, c, u2)?;
         Some(LightSample {

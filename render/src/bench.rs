@@ -4,7 +4,10 @@
 
 use crate::random_scene::{self, ShadingPoint};
 use manylights::baseline::BinaryLightTree;
-use manylights::{LightCut, LightTree, SplitOptions, TlImportance};
+use manylights::{
+    BlImportance, CutOptions, LightCut, LightTree, Material, ShadingPoint as Sp, SplitOptions,
+    TlImportance,
+};
 use serde_json::json;
 use std::hint::black_box;
 use std::time::Instant;
@@ -132,6 +135,77 @@ pub fn run(cfg: &BenchConfig) -> serde_json::Value {
         split_builds = split_builds.max(points.len() as f64 / t.elapsed().as_secs_f64());
     }
 
+    // BRDF-oriented sampling: GGX α = 0.2, ωo uniform over the hemisphere of n. Per shading
+    // point: set-up, the light cut, then the budget N = ceil(50 · IB) samples drawn from it
+    // (how the method uses a cut), and separately cut + one sample.
+    let bl_points: Vec<Sp> = points
+        .iter()
+        .zip(random_scene::shading_points(points.len(), cfg.seed ^ 0xb1))
+        .map(|(p, q)| {
+            let wo = if q.normal.dot(p.normal) < 0.0 {
+                -q.normal
+            } else {
+                q.normal
+            };
+            Sp {
+                position: p.position,
+                normal: p.normal,
+                wo: (wo + p.normal * 1e-3).normalize(),
+                material: Material::Ggx {
+                    alpha: 0.2,
+                    specular: 1.0,
+                },
+            }
+        })
+        .collect();
+    let cut_opts = CutOptions::default();
+    let mut bl_rate = 0.0f64;
+    let mut bl_single_rate = 0.0f64;
+    let mut bl_builds = 0.0f64;
+    let mut bl_cut_size = 0usize;
+    let mut bl_budget = 0usize;
+    for _ in 0..cfg.repeats.max(1) {
+        let t = Instant::now();
+        let mut acc = 0.0f64;
+        let mut n_samples = 0usize;
+        bl_cut_size = 0;
+        bl_budget = 0;
+        for (sp, &u) in bl_points.iter().zip(&us) {
+            let imp = BlImportance::new(black_box(sp)).expect("valid shading point");
+            let cut = LightCut::build_bl(&tree, &imp, &cut_opts);
+            bl_cut_size += cut.len();
+            let n = manylights::mis::sample_budget(cut.max_score(), manylights::mis::N_MAX);
+            bl_budget += n as usize;
+            for j in 0..n {
+                let uj = (u + j as f32 * 0.618_034).fract();
+                if let Some(s) = cut.sample(&tree, &imp, black_box(uj)) {
+                    acc += f64::from(s.pmf);
+                    n_samples += 1;
+                }
+            }
+        }
+        black_box(acc);
+        bl_rate = bl_rate.max(n_samples as f64 / t.elapsed().as_secs_f64() / 1e6);
+        let t = Instant::now();
+        let mut acc = 0.0f64;
+        for (sp, &u) in bl_points.iter().zip(&us) {
+            let imp = BlImportance::new(black_box(sp)).expect("valid shading point");
+            let cut = LightCut::build_bl(&tree, &imp, &cut_opts);
+            acc += cut.sample(&tree, &imp, u).map_or(0.0, |s| f64::from(s.pmf));
+        }
+        black_box(acc);
+        bl_single_rate =
+            bl_single_rate.max(bl_points.len() as f64 / t.elapsed().as_secs_f64() / 1e6);
+        let t = Instant::now();
+        let mut sizes = 0usize;
+        for sp in &bl_points {
+            let imp = BlImportance::new(black_box(sp)).expect("valid shading point");
+            sizes += LightCut::build_bl(&tree, &imp, &cut_opts).len();
+        }
+        black_box(sizes);
+        bl_builds = bl_builds.max(bl_points.len() as f64 / t.elapsed().as_secs_f64());
+    }
+
     // Sum of every light's pmf at 100 shading points.
     let pmf_sum_max_err = if cfg.lights <= 100_000 {
         let mut worst = 0.0f64;
@@ -167,6 +241,12 @@ pub fn run(cfg: &BenchConfig) -> serde_json::Value {
         "pmf_max_rel_err": max_rel,
         "pmf_sum_max_err": pmf_sum_max_err,
         "returned_fraction": returned as f64 / cfg.points.max(1) as f64,
+        "bl_msamples_per_s": bl_rate,
+        "bl_single_msamples_per_s": bl_single_rate,
+        "bl_vs_tl": bl_rate / tl,
+        "cut_builds_per_s": bl_builds,
+        "avg_cut_size": bl_cut_size as f64 / cfg.points.max(1) as f64,
+        "avg_bl_budget": bl_budget as f64 / cfg.points.max(1) as f64,
         "split_msamples_per_s": split_rate,
         "split_cut_builds_per_s": split_builds,
         "avg_split_cut_size": cut_size_sum as f64 / cfg.points.max(1) as f64,
@@ -193,6 +273,18 @@ pub fn table(r: &serde_json::Value) -> String {
         ("pmf max rel. error", "pmf_max_rel_err"),
         ("pmf sum max error", "pmf_sum_max_err"),
         ("points with a sample", "returned_fraction"),
+        (
+            "BL, GGX α=0.2: cut + budget N samples (M samples/s)",
+            "bl_msamples_per_s",
+        ),
+        (
+            "BL: cut + 1 sample (M samples/s)",
+            "bl_single_msamples_per_s",
+        ),
+        ("BL / TL throughput", "bl_vs_tl"),
+        ("BL cut builds (per s)", "cut_builds_per_s"),
+        ("mean BL cut size", "avg_cut_size"),
+        ("mean BL budget N = ceil(50 IB)", "avg_bl_budget"),
         (
             "split sampling, cut + 1 sample/cluster (M light samples/s)",
             "split_msamples_per_s",

@@ -116,10 +116,15 @@ impl BlImportance {
         if self.ks > 0.0 {
             sc += self.ks * self.ggx.integral(v.w, sin_sigma);
         }
+        let cap = Cap::from_sin(v.w, sin_sigma);
         let omega = if v.inside {
             2.0 * PI
+        } else if cos_omega >= sin_sigma {
+            2.0 * PI * cap.one_minus_cos
+        } else if cos_omega <= -sin_sigma {
+            0.0
         } else {
-            intersection_area(&Cap::from_sin(v.w, sin_sigma), &self.horizon)
+            intersection_area(&cap, &self.horizon)
         };
         let avg = if omega > 0.0 { sc / omega } else { 0.0 };
         if !v.emits || cos_ip <= -COS_SLACK {
@@ -154,10 +159,21 @@ impl BlImportance {
         if self.ks > 0.0 {
             sc += f32x4::splat(self.ks) * self.ggx.integral4(v.wx, v.wy, v.wz, sin_sigma);
         }
+        // |Ω_C ∩ H|: the whole cap above the horizon (cos ω ≥ sin σ), nothing below it
+        // (cos ω ≤ −sin σ); only straddling caps need the two-cap intersection.
         let cap = Cap4::from_sin(v.wx, v.wy, v.wz, sin_sigma);
+        let above = cos_omega.simd_ge(sin_sigma);
+        let below = cos_omega.simd_le(-sin_sigma);
+        let straddle = !(above | below | v.inside);
+        let clipped = if straddle.any() {
+            intersection_area4(&cap, &Cap4::splat(&self.horizon))
+        } else {
+            zero
+        };
+        let full = f32x4::splat(2.0 * PI) * cap.one_minus_cos;
         let omega = v.inside.select(
             f32x4::splat(2.0 * PI),
-            intersection_area4(&cap, &Cap4::splat(&self.horizon)),
+            above.select(full, below.select(zero, clipped)),
         );
         let avg = omega.simd_gt(zero).select(sc / omega, zero);
         let floor = f32x4::splat(COS_FLOOR);
