@@ -1,0 +1,83 @@
+//! SPTD evaluation (scalar vs 4-wide, four caps per call) and BRDF-oriented cut construction.
+
+use criterion::{criterion_group, criterion_main, Criterion, Throughput};
+use glam::Vec3;
+use manylights::importance::sptd::SptdGgx;
+use manylights::{BlImportance, CutOptions, LightCut, LightTree, Material, ShadingPoint};
+use manylights_render::random_scene;
+use std::hint::black_box;
+use manylights::f32x4;
+
+const CAPS: usize = 4096;
+
+fn sptd(c: &mut Criterion) {
+    let ggx = SptdGgx::oriented(0.2, Vec3::Z, Vec3::new(0.5, 0.1, 0.8));
+    let dirs: Vec<Vec3> = random_scene::shading_points(CAPS, 3)
+        .iter()
+        .map(|p| p.normal)
+        .collect();
+    let sines: Vec<f32> = random_scene::uniforms(CAPS, 3)
+        .iter()
+        .map(|u| (u * u * 0.9).max(1e-4))
+        .collect();
+    let mut group = c.benchmark_group("sptd");
+    group.throughput(Throughput::Elements(CAPS as u64));
+    group.bench_function("scalar", |b| {
+        b.iter(|| {
+            let mut acc = 0.0f32;
+            for (d, &s) in dirs.iter().zip(&sines) {
+                acc += ggx.integral(black_box(*d), black_box(s));
+            }
+            acc
+        })
+    });
+    group.bench_function("4-wide", |b| {
+        b.iter(|| {
+            let mut acc = f32x4::ZERO;
+            for (d, s) in dirs.chunks_exact(4).zip(sines.chunks_exact(4)) {
+                let ax = f32x4::new([d[0].x, d[1].x, d[2].x, d[3].x]);
+                let ay = f32x4::new([d[0].y, d[1].y, d[2].y, d[3].y]);
+                let az = f32x4::new([d[0].z, d[1].z, d[2].z, d[3].z]);
+                let sn = f32x4::new([s[0], s[1], s[2], s[3]]);
+                acc += ggx.integral4(black_box(ax), ay, az, black_box(sn));
+            }
+            acc
+        })
+    });
+    group.finish();
+}
+
+fn bl_cuts(c: &mut Criterion) {
+    let points = random_scene::shading_points(1024, 5);
+    let lights = random_scene::lights(100_000, 5);
+    let tree = LightTree::build(&lights).unwrap();
+    let sps: Vec<ShadingPoint> = points
+        .iter()
+        .map(|p| ShadingPoint {
+            position: p.position,
+            normal: p.normal,
+            wo: (p.normal + Vec3::new(0.3, -0.2, 0.1)).normalize(),
+            material: Material::Ggx {
+                alpha: 0.2,
+                specular: 1.0,
+            },
+        })
+        .collect();
+    let opts = CutOptions::default();
+    let mut group = c.benchmark_group("cut");
+    group.throughput(Throughput::Elements(sps.len() as u64));
+    group.bench_function("BL build, N=100000, GGX 0.2", |b| {
+        b.iter(|| {
+            let mut size = 0;
+            for sp in &sps {
+                let imp = BlImportance::new(black_box(sp)).unwrap();
+                size += LightCut::build_bl(&tree, &imp, &opts).len();
+            }
+            size
+        })
+    });
+    group.finish();
+}
+
+criterion_group!(benches, sptd, bl_cuts);
+criterion_main!(benches);
