@@ -32,6 +32,15 @@ use wide::f32x4;
 /// Weight of the defensive TL share (see the module documentation).
 pub const DEFENSIVE: f32 = 0.05;
 
+/// Caps with `sin σ` below this are points: their average `f cos` over the cap is its limit,
+/// `f cos` in the cap's direction (the ratio of two vanishing integrals would be 0/0, and for
+/// point and spot lights both are exactly 0).
+pub const POINT_LIMIT_SIN: f32 = 1e-3;
+
+/// Largest importance returned: the GGX lobe of a near-mirror surface times `E/d²` could
+/// otherwise overflow f32 where TL does not; four clamped lanes still sum to a finite value.
+pub const MAX_IMPORTANCE: f32 = 1e37;
+
 /// BL importance at one shading point.
 #[derive(Clone, Copy, Debug)]
 pub struct BlImportance {
@@ -99,6 +108,20 @@ impl BlImportance {
         self.albedo
     }
 
+    /// `f cos θi` in direction `w` (cosine `cos_omega` with the normal): the limit of the cap
+    /// average for a vanishing cap.
+    #[inline]
+    fn point_value(&self, w: Vec3, cos_omega: f32) -> f32 {
+        if cos_omega <= 0.0 {
+            return 0.0;
+        }
+        let mut v = self.kd * cos_omega;
+        if self.ks > 0.0 {
+            v += self.ks * self.ggx.lobe(w);
+        }
+        v
+    }
+
     /// The scalar reference: importance and cap integral of one cluster.
     pub fn eval(&self, b: &SlotBounds) -> BlEval {
         let v = ClusterView::new(self.position, b);
@@ -126,7 +149,13 @@ impl BlImportance {
         } else {
             intersection_area(&cap, &self.horizon)
         };
-        let avg = if omega > 0.0 { sc / omega } else { 0.0 };
+        let avg = if sin_sigma < POINT_LIMIT_SIN {
+            self.point_value(v.w, cos_omega)
+        } else if omega > 0.0 {
+            sc / omega
+        } else {
+            0.0
+        };
         if !v.emits || cos_ip <= -COS_SLACK {
             return BlEval {
                 importance: 0.0,
@@ -135,7 +164,7 @@ impl BlImportance {
         }
         let brdf = avg + self.defensive * cos_ip.max(COS_FLOOR);
         BlEval {
-            importance: b.energy * v.cos_tp.max(COS_FLOOR) / v.d2c * brdf,
+            importance: (b.energy * v.cos_tp.max(COS_FLOOR) / v.d2c * brdf).min(MAX_IMPORTANCE),
             cap_integral: sc,
         }
     }
@@ -176,11 +205,27 @@ impl BlImportance {
             above.select(full, below.select(zero, clipped)),
         );
         let avg = omega.simd_gt(zero).select(sc / omega, zero);
+        let small = sin_sigma.simd_lt(f32x4::splat(POINT_LIMIT_SIN));
+        let avg = if small.any() {
+            let (wx, wy, wz, c) = (
+                v.wx.to_array(),
+                v.wy.to_array(),
+                v.wz.to_array(),
+                cos_omega.to_array(),
+            );
+            let limit: [f32; 4] = core::array::from_fn(|k| {
+                self.point_value(Vec3::new(wx[k], wy[k], wz[k]), c[k])
+            });
+            small.select(f32x4::new(limit), avg)
+        } else {
+            avg
+        };
         let floor = f32x4::splat(COS_FLOOR);
         let brdf = avg + f32x4::splat(self.defensive) * cos_ip.fast_max(floor);
         let live = v.emits & cos_ip.simd_gt(f32x4::splat(-COS_SLACK));
         let energy = f32x4::new(node.energy);
-        let value = energy * v.cos_tp.fast_max(floor) / v.d2c * brdf;
+        let value = (energy * v.cos_tp.fast_max(floor) / v.d2c * brdf)
+            .fast_min(f32x4::splat(MAX_IMPORTANCE));
         (live.select(value, zero), sc)
     }
 }
