@@ -17,9 +17,9 @@
 //!    Carlo), GGX within the SPTD's documented accuracy (MIS Monte Carlo);
 //! 6. bad shading points: `BlImportance::new` names the field, never panics.
 //!
-//! Two defects of `src/importance/brdf_oriented.rs` are kept as failing tests at the end
-//! (section "Defects found"): BL of a zero-extent cluster (point and spot lights, coincident
-//! lights) ignores the BRDF, and BL overflows to +∞ where TL is finite.
+//! Two regressions are kept at the end: BL of a zero-extent cluster (point and spot lights,
+//! coincident lights) used to ignore the BRDF (it now takes the point limit `f cos`), and BL
+//! used to overflow to +∞ where TL is finite (it is now clamped to `MAX_IMPORTANCE`).
 //!
 //! Everything is seeded. Contribution is decided by `common::contributes` (f64, from the
 //! light's geometry alone) for a reflective receiver whose normal is the one BL uses (turned to
@@ -2373,7 +2373,7 @@ fn bad_shading_points_are_rejected_with_the_field() {
 }
 
 // ---------------------------------------------------------------------------------------------
-// Defects found (these tests fail until `src/importance/brdf_oriented.rs` is fixed)
+// Regressions (these tests fail until `src/importance/brdf_oriented.rs` is fixed)
 // ---------------------------------------------------------------------------------------------
 
 /// BL of a cluster of zero extent must be the limit of BL for a shrinking cluster. MATH.md
@@ -2451,12 +2451,12 @@ fn bl_of_a_point_light_is_the_limit_of_a_shrinking_sphere() {
     );
 }
 
-/// BL must stay finite wherever TL is: `TlImportance` relies on `MIN_DISTANCE2` and the build's
-/// energy caps (MAX_LIGHT_ENERGY = 1e24) to keep `E / d²` below f32's range, but BL multiplies
-/// it by the cap-averaged `f cos`, up to ~1/(4πα²) ≈ 3,000 for α = 0.005 at normal view (more
-/// at grazing view). The importance then overflows to +∞, the root's sum is not finite, and
-/// `LightTree::sample` returns `None`, every `pmf` is 0 and the BL cut is empty — although the
-/// light reaches x (so property 2 fails).
+/// Regression: BL must stay finite wherever TL is. `TlImportance` relies on `MIN_DISTANCE2` and
+/// the build's energy caps (MAX_LIGHT_ENERGY = 1e24) to keep `E / d²` below f32's range, but BL
+/// multiplies it by the cap-averaged `f cos`, up to ~1/(4πα²) ≈ 3,000 for α = 0.005 at normal
+/// view (more at grazing view). It used to overflow to +∞, so the root's sum was not finite,
+/// `LightTree::sample` returned `None`, every `pmf` was 0 and the BL cut was empty — although
+/// the light reaches x.
 ///
 /// Reproduction: a sphere light of radius 1e-8 and radiance 8e23/(4π² r²) (energy 8e23 ≤ 1e24,
 /// accepted by the build) centred at (0, 0, 1e-6); x = 0, n = +z, ωo = +z, GGX α = 0.005,

@@ -2,4 +2,8 @@
 //! `mlrender` binary and the core's benches.
 
 pub mod bench;
+pub mod estimator;
+pub mod ggx;
 pub mod random_scene;
+pub mod sptd_accuracy;
+pub mod sptd_fit;
