@@ -2,11 +2,11 @@
 
 use criterion::{criterion_group, criterion_main, Criterion, Throughput};
 use glam::Vec3;
+use manylights::f32x4;
 use manylights::importance::sptd::SptdGgx;
 use manylights::{BlImportance, CutOptions, LightCut, LightTree, Material, ShadingPoint};
 use manylights_render::random_scene;
 use std::hint::black_box;
-use manylights::f32x4;
 
 const CAPS: usize = 4096;
 

@@ -213,9 +213,8 @@ impl BlImportance {
                 v.wz.to_array(),
                 cos_omega.to_array(),
             );
-            let limit: [f32; 4] = core::array::from_fn(|k| {
-                self.point_value(Vec3::new(wx[k], wy[k], wz[k]), c[k])
-            });
+            let limit: [f32; 4] =
+                core::array::from_fn(|k| self.point_value(Vec3::new(wx[k], wy[k], wz[k]), c[k]));
             small.select(f32x4::new(limit), avg)
         } else {
             avg
