@@ -18,9 +18,7 @@
 //! ranking of clusters the SPTD sees.
 
 use super::conty_kulla::{ClusterView, ClusterView4, COS_FLOOR, COS_SLACK};
-use super::sptd::{
-    intersection_area, intersection_area4, lambert_cap, lambert_cap4, Cap, Cap4, SptdGgx,
-};
+use super::sptd::{lambert_visible, lambert_visible4, SptdGgx};
 use super::Importance;
 use crate::material::{ShadingError, ShadingPoint, MIN_ALPHA};
 use crate::math;
@@ -41,6 +39,43 @@ pub const POINT_LIMIT_SIN: f32 = 1e-3;
 /// otherwise overflow f32 where TL does not; four clamped lanes still sum to a finite value.
 pub const MAX_IMPORTANCE: f32 = 1e37;
 
+/// `(∫_{C∩H} cos, |C ∩ H|)` of a cap: closed forms for a cap wholly above the horizon
+/// (`π s² cos ω`, `2π(1 − cos σ)`) or below it (0, 0), the exact lens otherwise.
+#[inline]
+fn lambert_pair(cos_omega: f32, sin_sigma: f32) -> (f32, f32) {
+    let s = sin_sigma.max(0.0);
+    if s < 1.0 && (s - cos_omega) * (s + cos_omega) <= 0.0 {
+        if cos_omega > 0.0 {
+            let a = s * s / (1.0 + math::sqrt((1.0 - s) * (1.0 + s)));
+            (s * s * cos_omega * PI, 2.0 * (a * PI))
+        } else {
+            (0.0, 0.0)
+        }
+    } else {
+        lambert_visible(cos_omega, sin_sigma)
+    }
+}
+
+/// The 4-wide twin of [`lambert_pair`], with the same per-lane choice.
+#[inline]
+fn lambert_pair4(cos_omega: f32x4, sin_sigma: f32x4) -> (f32x4, f32x4) {
+    let zero = f32x4::ZERO;
+    let one = f32x4::ONE;
+    let pi = f32x4::splat(PI);
+    let s = sin_sigma.fast_max(zero);
+    let crossing = ((s - cos_omega) * (s + cos_omega)).simd_gt(zero) | s.simd_ge(one);
+    let above = cos_omega.simd_gt(zero);
+    let a = s * s / (one + ((one - s) * (one + s)).fast_max(zero).sqrt());
+    let l = above.select(s * s * cos_omega * pi, zero);
+    let v = above.select(f32x4::splat(2.0) * (a * pi), zero);
+    if crossing.any() {
+        let (lc, vc) = lambert_visible4(cos_omega, sin_sigma);
+        (crossing.select(lc, l), crossing.select(vc, v))
+    } else {
+        (l, v)
+    }
+}
+
 /// BL importance at one shading point.
 #[derive(Clone, Copy, Debug)]
 pub struct BlImportance {
@@ -52,7 +87,6 @@ pub struct BlImportance {
     /// GGX weight.
     ks: f32,
     ggx: SptdGgx,
-    horizon: Cap,
     /// DEFENSIVE · ρ/π.
     defensive: f32,
     /// ρd + ks · (GGX albedo): SC of the whole hemisphere.
@@ -87,7 +121,6 @@ impl BlImportance {
             kd: albedo_d * FRAC_1_PI,
             ks,
             ggx,
-            horizon: Cap::hemisphere(n),
             defensive: DEFENSIVE * albedo * FRAC_1_PI,
             albedo,
         })
@@ -135,19 +168,12 @@ impl BlImportance {
         };
         let cos_ip = if v.inside { 1.0 } else { cos_ip };
         let sin_sigma = if v.inside { 1.0 } else { v.sin_u };
-        let mut sc = self.kd * lambert_cap(cos_omega, sin_sigma);
-        if self.ks > 0.0 {
-            sc += self.ks * self.ggx.integral(v.w, sin_sigma);
-        }
-        let cap = Cap::from_sin(v.w, sin_sigma);
-        let omega = if v.inside {
-            2.0 * PI
-        } else if cos_omega >= sin_sigma {
-            2.0 * PI * cap.one_minus_cos
-        } else if cos_omega <= -sin_sigma {
-            0.0
+        let (sc, omega) = if self.ks > 0.0 {
+            let c = self.ggx.cap_integrals(v.w, sin_sigma);
+            (self.kd * c.lambert + self.ks * c.ggx, c.visible)
         } else {
-            intersection_area(&cap, &self.horizon)
+            let (l, vis) = lambert_pair(cos_omega, sin_sigma);
+            (self.kd * l, vis)
         };
         let avg = if sin_sigma < POINT_LIMIT_SIN {
             self.point_value(v.w, cos_omega)
@@ -184,26 +210,16 @@ impl BlImportance {
             .select(one, cos_omega * v.cos_u + sin_i * v.sin_u);
         let cos_ip = v.inside.select(one, cos_ip);
         let sin_sigma = v.inside.select(one, v.sin_u);
-        let mut sc = f32x4::splat(self.kd) * lambert_cap4(cos_omega, sin_sigma);
-        if self.ks > 0.0 {
-            sc += f32x4::splat(self.ks) * self.ggx.integral4(v.wx, v.wy, v.wz, sin_sigma);
-        }
-        // |Ω_C ∩ H|: the whole cap above the horizon (cos ω ≥ sin σ), nothing below it
-        // (cos ω ≤ −sin σ); only straddling caps need the two-cap intersection.
-        let cap = Cap4::from_sin(v.wx, v.wy, v.wz, sin_sigma);
-        let above = cos_omega.simd_ge(sin_sigma);
-        let below = cos_omega.simd_le(-sin_sigma);
-        let straddle = !(above | below | v.inside);
-        let clipped = if straddle.any() {
-            intersection_area4(&cap, &Cap4::splat(&self.horizon))
+        let (sc, omega) = if self.ks > 0.0 {
+            let c = self.ggx.cap_integrals4(v.wx, v.wy, v.wz, sin_sigma);
+            (
+                f32x4::splat(self.kd) * c.lambert + f32x4::splat(self.ks) * c.ggx,
+                c.visible,
+            )
         } else {
-            zero
+            let (l, vis) = lambert_pair4(cos_omega, sin_sigma);
+            (f32x4::splat(self.kd) * l, vis)
         };
-        let full = f32x4::splat(2.0 * PI) * cap.one_minus_cos;
-        let omega = v.inside.select(
-            f32x4::splat(2.0 * PI),
-            above.select(full, below.select(zero, clipped)),
-        );
         let avg = omega.simd_gt(zero).select(sc / omega, zero);
         let small = sin_sigma.simd_lt(f32x4::splat(POINT_LIMIT_SIN));
         let avg = if small.any() {

@@ -1,0 +1,643 @@
+//! `mlrender estimator`: are the estimators unbiased, and what do they cost at equal time?
+//!
+//! Direct illumination **without visibility** on synthetic configurations ([`scene`]): 1,000
+//! small sphere and disk lights around 64 shading points, materials Lambert, GGX α ∈ {0.05,
+//! 0.2, 0.6} and plastic (by default point i gets material i mod 5: 64 configurations). The
+//! exact value of each configuration comes from an independent computation ([`reference`]:
+//! every light integrated on its own, own samplers, to a relative standard error below 1e-3).
+//! Each technique of [`techniques`] then produces K independent estimates per configuration
+//! (default 100,000).
+//!
+//! Per technique and configuration:
+//! - `mean`, the per-estimate variance `var` (unbiased sample variance), the standard error
+//!   `se = sqrt(var/K)`;
+//! - `bias_sigma = (mean − exact) / sqrt(se² + se_ref²)`, with `se_ref` the reference's
+//!   standard error (it is included so that a reference error is not reported as a bias; it is
+//!   typically 1–2 orders of magnitude below `se`);
+//! - `time`: nanoseconds per estimate **including the per-shading-point set-up** (importances,
+//!   cuts: a renderer builds them at every shading point), measured single-threaded in a
+//!   separate pass after the statistics (which run in parallel over configurations and
+//!   techniques, with the set-up built once). Each technique runs for at least `time_ms` per
+//!   round, rounds interleave the techniques, and the fastest of 3 rounds is kept.
+//! - `max_share`: the largest single estimate over the sum of all estimates (a heavy-tail
+//!   diagnostic: when it is large the sample variance, hence `se`, is unreliable).
+//!
+//! Equal-time variance ratio of technique A against `tl-split` at a configuration:
+//! `(var·time)_A / (var·time)_tl-split`. `var_ratio_full_vs_tl_glossy` is its **geometric
+//! mean** over the GGX α ≤ 0.2 configurations, `var_ratio_full_vs_tl_diffuse` over the
+//! Lambert ones; arithmetic means and medians are reported next to them.
+
+pub mod reference;
+pub mod scene;
+pub mod techniques;
+
+use rand::SeedableRng;
+use rand_pcg::Pcg64Mcg;
+use rayon::prelude::*;
+use reference::Reference;
+use scene::{Config, Plan, Scene, MATERIALS};
+use serde_json::{json, Map, Value};
+use std::hint::black_box;
+use std::sync::atomic::{AtomicUsize, Ordering};
+use std::time::{Duration, Instant};
+use techniques::{LambertMode, Params, Setup, Technique};
+
+/// What to run.
+#[derive(Clone, Copy, Debug)]
+pub struct EstimatorConfig {
+    /// Seed of the scene, the reference and the estimates.
+    pub seed: u64,
+    /// Estimates per technique and configuration.
+    pub estimates: usize,
+    /// Number of lights.
+    pub lights: usize,
+    /// Number of shading points.
+    pub points: usize,
+    /// How points and materials are combined.
+    pub plan: Plan,
+    /// Relative standard error each light's reference integral must reach.
+    pub ref_target: f64,
+    /// Relative standard error the reference's total must reach.
+    pub ref_total_target: f64,
+    /// Minimum duration of one timing round per technique and configuration.
+    pub time_ms: f64,
+    /// Cut and budget parameters.
+    pub params: Params,
+}
+
+impl EstimatorConfig {
+    /// The full run: 1,000 lights, 64 points cycling through the materials, 100,000 estimates.
+    pub fn full(seed: u64) -> EstimatorConfig {
+        EstimatorConfig {
+            seed,
+            estimates: 100_000,
+            lights: 1000,
+            points: 64,
+            plan: Plan::Cycle,
+            ref_target: 1e-3,
+            ref_total_target: 1e-4,
+            time_ms: 5.0,
+            params: Params::default(),
+        }
+    }
+
+    /// The smoke run of `--quick`: 10 points (two per material), 4,000 estimates.
+    pub fn quick(seed: u64) -> EstimatorConfig {
+        EstimatorConfig {
+            estimates: 4000,
+            points: 10,
+            time_ms: 2.0,
+            ..EstimatorConfig::full(seed)
+        }
+    }
+}
+
+/// One technique at one configuration.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct TechResult {
+    /// Mean of the estimates.
+    pub mean: f64,
+    /// Per-estimate variance.
+    pub var: f64,
+    /// Standard error of the mean.
+    pub se: f64,
+    /// `(mean − exact) / sqrt(se² + se_ref²)`.
+    pub bias_sigma: f64,
+    /// Nanoseconds per estimate, single-threaded, set-up included.
+    pub time_ns: f64,
+    /// Largest estimate over the sum of the estimates.
+    pub max_share: f64,
+}
+
+/// One configuration's results.
+#[derive(Clone, Debug)]
+pub struct ConfigResult {
+    /// The configuration.
+    pub config: Config,
+    /// Its exact value.
+    pub reference: Reference,
+    /// Split cut size.
+    pub split_len: usize,
+    /// BL cut size.
+    pub bl_cut_len: usize,
+    /// IB(x).
+    pub ib: f32,
+    /// The BRDF-aware budget N.
+    pub n_mix: u32,
+    /// Per technique, in [`Technique::ALL`] order.
+    pub results: [TechResult; 7],
+}
+
+impl ConfigResult {
+    /// The result of `t`.
+    pub fn get(&self, t: Technique) -> &TechResult {
+        &self.results[Technique::ALL.iter().position(|&x| x == t).unwrap()]
+    }
+
+    /// `(var·time)_t / (var·time)_tl-split`.
+    pub fn equal_time_ratio(&self, t: Technique) -> f64 {
+        let a = self.get(t);
+        let b = self.get(Technique::TlSplit);
+        (a.var * a.time_ns) / (b.var * b.time_ns)
+    }
+}
+
+/// Running mean and variance (Welford), plus the largest value.
+#[derive(Clone, Copy, Debug, Default)]
+struct Moments {
+    n: u64,
+    mean: f64,
+    m2: f64,
+    sum: f64,
+    max: f64,
+}
+
+impl Moments {
+    fn push(&mut self, x: f64) {
+        self.n += 1;
+        let d = x - self.mean;
+        self.mean += d / self.n as f64;
+        self.m2 += d * (x - self.mean);
+        self.sum += x;
+        self.max = self.max.max(x.abs());
+    }
+
+    fn var(&self) -> f64 {
+        if self.n > 1 {
+            self.m2 / (self.n - 1) as f64
+        } else {
+            0.0
+        }
+    }
+}
+
+/// A stream of the estimates of technique `t` at configuration `c`, independent of the others.
+fn rng_for(seed: u64, config: usize, t: usize, stream: u64) -> Pcg64Mcg {
+    let s = seed
+        .wrapping_mul(0x9e37_79b9_7f4a_7c15)
+        .wrapping_add((config as u64) << 20)
+        .wrapping_add((t as u64) << 8)
+        .wrapping_add(stream);
+    Pcg64Mcg::seed_from_u64(s)
+}
+
+/// `(mean − exact)/sqrt(se² + se_ref²)`, guarding the degenerate cases.
+fn bias_sigma(mean: f64, se: f64, exact: f64, se_ref: f64) -> f64 {
+    let s = (se * se + se_ref * se_ref).sqrt();
+    let d = mean - exact;
+    if s > 0.0 {
+        d / s
+    } else if d == 0.0 {
+        0.0
+    } else {
+        f64::INFINITY.copysign(d)
+    }
+}
+
+/// Geometric mean, arithmetic mean and median of positive values (NaN when empty).
+fn summarise(v: &[f64]) -> (f64, f64, f64) {
+    if v.is_empty() {
+        return (f64::NAN, f64::NAN, f64::NAN);
+    }
+    let n = v.len() as f64;
+    let geo = (v.iter().map(|x| x.ln()).sum::<f64>() / n).exp();
+    let mean = v.iter().sum::<f64>() / n;
+    let mut s = v.to_vec();
+    s.sort_by(f64::total_cmp);
+    let med = if s.len() % 2 == 1 {
+        s[s.len() / 2]
+    } else {
+        0.5 * (s[s.len() / 2 - 1] + s[s.len() / 2])
+    };
+    (geo, mean, med)
+}
+
+fn progress(label: &str, done: &AtomicUsize, total: usize) {
+    let d = done.fetch_add(1, Ordering::Relaxed) + 1;
+    let step = (total / 10).max(1);
+    if d % step == 0 || d == total {
+        eprintln!("  {label}: {d}/{total}");
+    }
+}
+
+/// Runs the instrument; returns the per-configuration results and the JSON report.
+pub fn run(cfg: &EstimatorConfig) -> (Vec<ConfigResult>, Value) {
+    let start = Instant::now();
+    let scene = Scene::new(cfg.lights, cfg.points, cfg.plan, cfg.seed);
+    let n_cfg = scene.configs.len();
+    eprintln!(
+        "estimator: {} lights, {} configurations, {} estimates per technique",
+        cfg.lights, n_cfg, cfg.estimates
+    );
+
+    // 1. The exact values.
+    let t_ref = Instant::now();
+    let done = AtomicUsize::new(0);
+    let refs: Vec<Reference> = scene
+        .configs
+        .par_iter()
+        .enumerate()
+        .map(|(i, c)| {
+            let r = reference::reference(
+                &scene,
+                &c.sp,
+                cfg.ref_target,
+                cfg.ref_total_target,
+                cfg.seed ^ (0xfeed_0000 + i as u64),
+            );
+            progress("reference", &done, n_cfg);
+            r
+        })
+        .collect();
+    let ref_s = t_ref.elapsed().as_secs_f64();
+
+    // 2. The estimates: every (configuration, technique) pair in parallel.
+    let t_stats = Instant::now();
+    let jobs = n_cfg * Technique::ALL.len();
+    let done = AtomicUsize::new(0);
+    let stats: Vec<Moments> = (0..jobs)
+        .into_par_iter()
+        .map(|job| {
+            let (ci, ti) = (job / Technique::ALL.len(), job % Technique::ALL.len());
+            let t = Technique::ALL[ti];
+            let setup = Setup::new(&scene, &scene.configs[ci].sp, t, &cfg.params);
+            let mut rng = rng_for(cfg.seed, ci, ti, 0);
+            let mut m = Moments::default();
+            for _ in 0..cfg.estimates {
+                m.push(setup.estimate(t, &mut rng));
+            }
+            progress("estimates", &done, jobs);
+            m
+        })
+        .collect();
+    let stats_s = t_stats.elapsed().as_secs_f64();
+
+    // 3. Time per estimate, single-threaded, set-up included.
+    let t_time = Instant::now();
+    let min_round = Duration::from_secs_f64(cfg.time_ms * 1e-3);
+    let mut times = vec![f64::INFINITY; jobs];
+    for (ci, c) in scene.configs.iter().enumerate() {
+        for round in 0..3 {
+            for (ti, &t) in Technique::ALL.iter().enumerate() {
+                let mut rng = rng_for(cfg.seed, ci, ti, 1 + round);
+                let t0 = Instant::now();
+                let mut count = 0u64;
+                let mut acc = 0.0f64;
+                loop {
+                    let setup = Setup::new(&scene, black_box(&c.sp), t, &cfg.params);
+                    acc += setup.estimate(t, &mut rng);
+                    count += 1;
+                    if count % 4 == 0 && t0.elapsed() >= min_round {
+                        break;
+                    }
+                }
+                black_box(acc);
+                let ns = t0.elapsed().as_secs_f64() * 1e9 / count as f64;
+                let slot = &mut times[ci * Technique::ALL.len() + ti];
+                *slot = slot.min(ns);
+            }
+        }
+    }
+    let time_s = t_time.elapsed().as_secs_f64();
+
+    // 4. Assemble.
+    let results: Vec<ConfigResult> = scene
+        .configs
+        .iter()
+        .enumerate()
+        .map(|(ci, c)| {
+            let r = refs[ci];
+            let setup = Setup::new(&scene, &c.sp, Technique::Full, &cfg.params);
+            let mut results = [TechResult::default(); 7];
+            for (ti, out) in results.iter_mut().enumerate() {
+                let m = &stats[ci * Technique::ALL.len() + ti];
+                let var = m.var();
+                let se = (var / m.n as f64).sqrt();
+                *out = TechResult {
+                    mean: m.mean,
+                    var,
+                    se,
+                    bias_sigma: bias_sigma(m.mean, se, r.value, r.std_err),
+                    time_ns: times[ci * Technique::ALL.len() + ti],
+                    max_share: if m.sum > 0.0 { m.max / m.sum } else { 0.0 },
+                };
+            }
+            ConfigResult {
+                config: *c,
+                reference: r,
+                split_len: setup.split_len(),
+                bl_cut_len: setup.bl_cut_len(),
+                ib: setup.ib(),
+                n_mix: setup.n_mix(),
+                results,
+            }
+        })
+        .collect();
+    let report = report(cfg, &results, ref_s, stats_s, time_s, start.elapsed());
+    (results, report)
+}
+
+/// Equal-time ratios of `t` against tl-split over the configurations selected by `pick`.
+fn ratios(rs: &[ConfigResult], t: Technique, pick: impl Fn(&ConfigResult) -> bool) -> Vec<f64> {
+    rs.iter()
+        .filter(|r| pick(r))
+        .map(|r| r.equal_time_ratio(t))
+        .collect()
+}
+
+fn report(
+    cfg: &EstimatorConfig,
+    rs: &[ConfigResult],
+    ref_s: f64,
+    stats_s: f64,
+    time_s: f64,
+    total: Duration,
+) -> Value {
+    let max_bias = rs
+        .iter()
+        .flat_map(|r| r.results.iter().map(|t| t.bias_sigma.abs()))
+        .fold(0.0f64, f64::max);
+    let glossy = |r: &ConfigResult| r.config.is_glossy();
+    let diffuse = |r: &ConfigResult| r.config.is_diffuse();
+    let (g_geo, g_mean, g_med) = summarise(&ratios(rs, Technique::Full, glossy));
+    let (d_geo, d_mean, d_med) = summarise(&ratios(rs, Technique::Full, diffuse));
+
+    let mut per_tech = Map::new();
+    for (ti, &t) in Technique::ALL.iter().enumerate() {
+        let b: Vec<f64> = rs.iter().map(|r| r.results[ti].bias_sigma).collect();
+        let max_abs = b.iter().fold(0.0f64, |m, x| m.max(x.abs()));
+        let mean_abs = b.iter().map(|x| x.abs()).sum::<f64>() / b.len().max(1) as f64;
+        let above3 = b.iter().filter(|x| x.abs() > 3.0).count();
+        let rms = (b.iter().map(|x| x * x).sum::<f64>() / b.len().max(1) as f64).sqrt();
+        let mean_signed = b.iter().sum::<f64>() / b.len().max(1) as f64;
+        let time_us =
+            rs.iter().map(|r| r.results[ti].time_ns).sum::<f64>() / rs.len().max(1) as f64 * 1e-3;
+        let rel_var: Vec<f64> = rs
+            .iter()
+            .filter(|r| r.reference.value > 0.0)
+            .map(|r| r.results[ti].var / (r.reference.value * r.reference.value))
+            .collect();
+        let max_share = rs
+            .iter()
+            .map(|r| r.results[ti].max_share)
+            .fold(0.0f64, f64::max);
+        let mut by_mat = Map::new();
+        for (mi, (name, _)) in MATERIALS.iter().enumerate() {
+            let v = ratios(rs, t, |r| r.config.material == mi);
+            let (geo, _, _) = summarise(&v);
+            by_mat.insert(name.to_string(), json!(geo));
+        }
+        per_tech.insert(
+            t.name().to_string(),
+            json!({
+                "max_bias_sigma": max_abs,
+                "mean_abs_bias_sigma": mean_abs,
+                "rms_bias_sigma": rms,
+                "mean_signed_bias_sigma": mean_signed,
+                "configs_above_3_sigma": above3,
+                "time_us_per_estimate": time_us,
+                "rel_var_geomean": summarise(&rel_var).0,
+                "max_share": max_share,
+                "equal_time_vs_tl_split_geomean": Value::Object(by_mat),
+            }),
+        );
+    }
+    let worst_light = rs
+        .iter()
+        .map(|r| r.reference.worst_light_rel_se)
+        .fold(0.0f64, f64::max);
+    let worst_config = rs
+        .iter()
+        .map(|r| r.reference.std_err / r.reference.value)
+        .fold(0.0f64, f64::max);
+    let unconverged: usize = rs.iter().map(|r| r.reference.unconverged).sum();
+    let mut by_mat = Map::new();
+    for (mi, (name, _)) in MATERIALS.iter().enumerate() {
+        let sel: Vec<&ConfigResult> = rs.iter().filter(|r| r.config.material == mi).collect();
+        let k = sel.len().max(1) as f64;
+        by_mat.insert(
+            name.to_string(),
+            json!({
+                "configs": sel.len(),
+                "mean_split_cut": sel.iter().map(|r| r.split_len as f64).sum::<f64>() / k,
+                "mean_bl_cut": sel.iter().map(|r| r.bl_cut_len as f64).sum::<f64>() / k,
+                "mean_n": sel.iter().map(|r| f64::from(r.n_mix)).sum::<f64>() / k,
+            }),
+        );
+    }
+    json!({
+        "configs": rs.len(),
+        "lights": cfg.lights,
+        "points": cfg.points,
+        "plan": match cfg.plan { Plan::Cycle => "point i: material i mod 5", Plan::All => "every point x every material" },
+        "estimates": cfg.estimates,
+        "seed": cfg.seed,
+        "max_bias_sigma": max_bias,
+        "var_ratio_full_vs_tl_glossy": g_geo,
+        "var_ratio_full_vs_tl_glossy_mean": g_mean,
+        "var_ratio_full_vs_tl_glossy_median": g_med,
+        "var_ratio_full_vs_tl_diffuse": d_geo,
+        "var_ratio_full_vs_tl_diffuse_mean": d_mean,
+        "var_ratio_full_vs_tl_diffuse_median": d_med,
+        "var_ratio_aggregate": "geometric mean of (var*time)_full/(var*time)_tl-split per configuration",
+        "glossy_configs": rs.iter().filter(|r| r.config.is_glossy()).count(),
+        "diffuse_configs": rs.iter().filter(|r| r.config.is_diffuse()).count(),
+        "reference_worst_light_rel_se": worst_light,
+        "reference_worst_config_rel_se": worst_config,
+        "reference_unconverged_lights": unconverged,
+        "split_threshold": cfg.params.split.threshold,
+        "split_max_size": cfg.params.split.max_size,
+        "cut_delta": cfg.params.cut.delta,
+        "cut_max_size": cfg.params.cut.max_size,
+        "n_max": cfg.params.n_max,
+        "lambert_mode": format!("{:?}", cfg.params.lambert),
+        "power_heuristic": cfg.params.power,
+        "materials": Value::Object(by_mat),
+        "techniques": Value::Object(per_tech),
+        "reference_s": ref_s,
+        "estimates_s": stats_s,
+        "timing_s": time_s,
+        "runtime_s": total.as_secs_f64(),
+    })
+}
+
+/// The human-readable tables: per technique and material, then the worst configurations.
+pub fn table(rs: &[ConfigResult], report: &Value, verbose: bool) -> String {
+    let mut s = String::new();
+    s.push_str(&format!(
+        "{} configurations, {} lights, {} estimates per technique; reference: worst light rel. SE {:.2e}, worst configuration rel. SE {:.2e}\n\n",
+        report["configs"], report["lights"], report["estimates"],
+        report["reference_worst_light_rel_se"].as_f64().unwrap_or(f64::NAN),
+        report["reference_worst_config_rel_se"].as_f64().unwrap_or(f64::NAN),
+    ));
+    s.push_str("| material | technique | max abs bias (SE) | rms bias (SE) | rel. variance (geo) | time/estimate (µs) | equal-time var vs tl-split (geo) |\n");
+    s.push_str("|---|---|---|---|---|---|---|\n");
+    for (mi, (name, _)) in MATERIALS.iter().enumerate() {
+        let sel: Vec<&ConfigResult> = rs.iter().filter(|r| r.config.material == mi).collect();
+        if sel.is_empty() {
+            continue;
+        }
+        for (ti, &t) in Technique::ALL.iter().enumerate() {
+            let b: Vec<f64> = sel.iter().map(|r| r.results[ti].bias_sigma).collect();
+            let max_abs = b.iter().fold(0.0f64, |m, x| m.max(x.abs()));
+            let rms = (b.iter().map(|x| x * x).sum::<f64>() / b.len() as f64).sqrt();
+            let rel_var: Vec<f64> = sel
+                .iter()
+                .map(|r| r.results[ti].var / (r.reference.value * r.reference.value))
+                .collect();
+            let time =
+                sel.iter().map(|r| r.results[ti].time_ns).sum::<f64>() / sel.len() as f64 * 1e-3;
+            let ratio: Vec<f64> = sel.iter().map(|r| r.equal_time_ratio(t)).collect();
+            s.push_str(&format!(
+                "| {name} | {} | {max_abs:.2} | {rms:.2} | {:.3e} | {time:.2} | {:.3} |\n",
+                t.name(),
+                summarise(&rel_var).0,
+                summarise(&ratio).0
+            ));
+        }
+    }
+    s.push_str(&format!(
+        "\nmax |bias| = {:.2} SE; full vs tl-split at equal time (geometric mean): glossy (GGX α ≤ 0.2) {:.3}, diffuse {:.3}\n",
+        report["max_bias_sigma"].as_f64().unwrap_or(f64::NAN),
+        report["var_ratio_full_vs_tl_glossy"].as_f64().unwrap_or(f64::NAN),
+        report["var_ratio_full_vs_tl_diffuse"].as_f64().unwrap_or(f64::NAN),
+    ));
+    // The largest deviations.
+    let mut worst: Vec<(f64, usize, usize)> = rs
+        .iter()
+        .enumerate()
+        .flat_map(|(ci, r)| {
+            r.results
+                .iter()
+                .enumerate()
+                .map(move |(ti, t)| (t.bias_sigma.abs(), ci, ti))
+        })
+        .collect();
+    worst.sort_by(|a, b| b.0.total_cmp(&a.0));
+    s.push_str("\nlargest deviations:\n| config | point | material | technique | bias (SE) | mean | exact | rel. SE | max share |\n|---|---|---|---|---|---|---|---|---|\n");
+    let shown = if verbose { worst.len() } else { 8 };
+    for &(_, ci, ti) in worst.iter().take(shown) {
+        let r = &rs[ci];
+        let t = &r.results[ti];
+        s.push_str(&format!(
+            "| {ci} | {} | {} | {} | {:+.2} | {:.6e} | {:.6e} | {:.2e} | {:.2e} |\n",
+            r.config.point,
+            r.config.material_name(),
+            Technique::ALL[ti].name(),
+            t.bias_sigma,
+            t.mean,
+            r.reference.value,
+            t.se / r.reference.value,
+            t.max_share
+        ));
+    }
+    if verbose {
+        s.push_str("\nper configuration:\n| config | material | exact | split cut | BL cut | IB | N | full/tl-split (equal time) |\n|---|---|---|---|---|---|---|---|\n");
+        for (ci, r) in rs.iter().enumerate() {
+            s.push_str(&format!(
+                "| {ci} | {} | {:.5e} | {} | {} | {:.3} | {} | {:.3} |\n",
+                r.config.material_name(),
+                r.reference.value,
+                r.split_len,
+                r.bl_cut_len,
+                r.ib,
+                r.n_mix,
+                r.equal_time_ratio(Technique::Full)
+            ));
+        }
+    }
+    s
+}
+
+/// The command-line arguments of `mlrender estimator`.
+#[derive(clap::Args, Clone, Debug)]
+pub struct EstimatorArgs {
+    /// Seed of the scene, the reference and the estimates.
+    #[arg(long, default_value_t = 1)]
+    pub seed: u64,
+    /// Estimates per technique and configuration (default 100,000; 4,000 with --quick).
+    #[arg(long, value_name = "K")]
+    pub estimates: Option<usize>,
+    /// A fast smoke run: 10 shading points, 4,000 estimates.
+    #[arg(long)]
+    pub quick: bool,
+    /// Number of shading points (default 64; 10 with --quick).
+    #[arg(long)]
+    pub points: Option<usize>,
+    /// Number of lights.
+    #[arg(long, default_value_t = 1000)]
+    pub lights: usize,
+    /// Evaluate every point with every material (5× the configurations) instead of point i
+    /// with material i mod 5.
+    #[arg(long)]
+    pub all_materials: bool,
+    /// Split-sampling threshold (SplitOptions::threshold).
+    #[arg(long)]
+    pub split_threshold: Option<f32>,
+    /// Largest split cut (SplitOptions::max_size).
+    #[arg(long)]
+    pub split_max_size: Option<usize>,
+    /// BL cut δ (CutOptions::delta).
+    #[arg(long)]
+    pub cut_delta: Option<f32>,
+    /// Largest BL cut (CutOptions::max_size).
+    #[arg(long)]
+    pub cut_max_size: Option<usize>,
+    /// Nmax of the BRDF-aware budget.
+    #[arg(long)]
+    pub n_max: Option<u32>,
+    /// What `full` does at Lambert-only points.
+    #[arg(long, value_enum, default_value_t = LambertMode::TbBudget)]
+    pub lambert: LambertMode,
+    /// Power heuristic between TL and the BRDF-aware mixture (default: balance).
+    #[arg(long)]
+    pub power_heuristic: bool,
+    /// Print every configuration and every deviation.
+    #[arg(long)]
+    pub verbose: bool,
+    /// Print one JSON object as the last line of stdout.
+    #[arg(long)]
+    pub json: bool,
+}
+
+/// Runs `mlrender estimator` with `args`; returns the process exit code.
+pub fn run_cli(args: &EstimatorArgs) -> i32 {
+    let mut cfg = if args.quick {
+        EstimatorConfig::quick(args.seed)
+    } else {
+        EstimatorConfig::full(args.seed)
+    };
+    if let Some(k) = args.estimates {
+        cfg.estimates = k.max(2);
+    }
+    if let Some(p) = args.points {
+        cfg.points = p.max(1);
+    }
+    cfg.lights = args.lights.max(1);
+    if args.all_materials {
+        cfg.plan = Plan::All;
+    }
+    if let Some(v) = args.split_threshold {
+        cfg.params.split.threshold = v;
+    }
+    if let Some(v) = args.split_max_size {
+        cfg.params.split.max_size = v;
+    }
+    if let Some(v) = args.cut_delta {
+        cfg.params.cut.delta = v;
+    }
+    if let Some(v) = args.cut_max_size {
+        cfg.params.cut.max_size = v;
+    }
+    if let Some(v) = args.n_max {
+        cfg.params.n_max = v;
+    }
+    cfg.params.lambert = args.lambert;
+    cfg.params.power = args.power_heuristic;
+    let (rs, report) = run(&cfg);
+    println!("{}", table(&rs, &report, args.verbose));
+    if args.json {
+        println!("{report}");
+    }
+    0
+}

@@ -1,0 +1,548 @@
+//! The seven estimators of direct illumination without visibility, one estimate per call.
+//!
+//! Every light sample contributes `f(ωo, ωi) · L · cos θi / pdf` (the estimator of
+//! [`manylights::light_sample`]); a BRDF sample whose ray hits lights contributes the same
+//! term for every light it hits (there is no occlusion: lights do not shadow each other), each
+//! weighted for its own light point.
+//!
+//! - `uniform`: one light uniformly, a point on it by `sample_point`.
+//! - `power`: one light with probability ∝ its energy.
+//! - `tl`: one light by [`LightTree::sample`] with [`TlImportance`].
+//! - `tl-split`: the Conty–Kulla split cut ([`LightCut::build_split`]), one sample per cluster,
+//!   summed.
+//! - `bl`: one light from the BRDF-oriented cut ([`LightCut::build_bl`]).
+//! - `mis-equal`: `tl-split` plus `N = sample_budget(IB(x), 50)` BRDF-aware samples: ⌊N/2⌋ BL,
+//!   ⌊N/2⌋ TB and, for an odd N, one more that is BL or TB with probability 1/2. The TL samples
+//!   and the BRDF-aware ones are weighted by [`CombinedWeights`] with `p_ref = 1/2`; a
+//!   BRDF-aware sample y contributes `g(y) w_M(y) / (N q_ref(y))`, `q_ref = (pdf_BL + pdf_TB)/2`,
+//!   which is the expected number of BRDF-aware samples landing at y per unit measure
+//!   (`⌊N/2⌋ pdf_BL + ⌊N/2⌋ pdf_TB + [N odd] q_ref`), so the sum is unbiased wherever `q_ref`
+//!   covers `g·w_M`: neither technique alone needs to. (A deterministic split with
+//!   `n_BL pdf_BL + n_TB pdf_TB` in the denominator would need both to cover it when a count
+//!   can be 0.)
+//! - `full`: `tl-split` plus N BRDF-aware samples chosen by [`AdaptiveAllocator`]
+//!   (Algorithm 1); sample j contributes `g w_M / (N q_j)` with
+//!   `q_j = p_j pdf_BL + (1 − p_j) pdf_TB` and p_j the allocator's probability before the
+//!   sample (the derivation is in [`manylights::mis`]). Each choice takes a fresh uniform
+//!   number; [`AdaptiveAllocator::choose`] warps it and the warped number drives the chosen
+//!   technique's first dimension (it is not fed to the next choice: a TB sample's hit depends
+//!   on it, so the next choice would no longer have probability p_{j+1} given the counts).
+//!   For Lambert-only materials BL is off: TL + TB, `p_ref = 0`, and N TB samples
+//!   ([`LambertMode::TbBudget`], the default; see [`LambertMode`] for the alternatives).
+//!
+//! pdfs of a light point y on light l, for MIS: TL `split.pmf_in(l) · pdf_point(y)`, BL
+//! `bl_cut.pmf(l) · pdf_point(y)`, TB the material's solid-angle pdf of the direction. A BRDF
+//! ray is traced against all lights by walking the light tree's bounding spheres ([`trace`]).
+//! The TB "hit" the allocator counts: the ray hit at least one light with non-zero radiance.
+
+use super::scene::Scene;
+use glam::Vec3;
+use manylights::light_sample::{intersect, sample_point};
+use manylights::mis::{sample_budget, AdaptiveAllocator, CombinedWeights, Technique as Mix, N_MAX};
+use manylights::tree::Slot;
+use manylights::{
+    BlImportance, Brdf, CutOptions, Frame, LightCut, LightPoint, Material, ShadingPoint,
+    SplitOptions, TlImportance,
+};
+use rand::Rng;
+
+/// The largest f32 below 1.
+const ONE_MINUS: f32 = 1.0 - f32::EPSILON / 2.0;
+
+/// A technique.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum Technique {
+    /// One light uniformly.
+    Uniform,
+    /// One light ∝ energy.
+    Power,
+    /// Tree descent with TL importance, one sample.
+    Tl,
+    /// Split sampling, one sample per cluster.
+    TlSplit,
+    /// BRDF-oriented cut, one sample.
+    Bl,
+    /// TL split + BL/TB in equal numbers.
+    MisEqual,
+    /// TL split + BL/TB adaptively (the full method).
+    Full,
+}
+
+impl Technique {
+    /// All techniques, in report order.
+    pub const ALL: [Technique; 7] = [
+        Technique::Uniform,
+        Technique::Power,
+        Technique::Tl,
+        Technique::TlSplit,
+        Technique::Bl,
+        Technique::MisEqual,
+        Technique::Full,
+    ];
+
+    /// The name used everywhere.
+    pub fn name(self) -> &'static str {
+        match self {
+            Technique::Uniform => "uniform",
+            Technique::Power => "power",
+            Technique::Tl => "tl",
+            Technique::TlSplit => "tl-split",
+            Technique::Bl => "bl",
+            Technique::MisEqual => "mis-equal",
+            Technique::Full => "full",
+        }
+    }
+}
+
+/// What `full` does at a Lambert-only shading point.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
+pub enum LambertMode {
+    /// TL split + N = sample_budget(IB(x)) TB samples (Liu et al.: TL + TB only; the budget
+    /// as at any other point). The default.
+    TbBudget,
+    /// TL split + 1 TB sample (no BL cut is built: IB is not needed).
+    TbOne,
+    /// As at glossy points: TL split + N samples allocated adaptively between BL (which for
+    /// Lambert is TL with exact cap integrals) and TB.
+    BlTb,
+}
+
+/// Parameters of the cuts, the budget and the weights.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Params {
+    /// The split-sampling cut.
+    pub split: SplitOptions,
+    /// The BRDF-oriented cut.
+    pub cut: CutOptions,
+    /// Nmax of the budget.
+    pub n_max: u32,
+    /// `full` at Lambert-only points.
+    pub lambert: LambertMode,
+    /// Power heuristic (β = 2) instead of the balance heuristic between TL and the
+    /// BRDF-aware mixture.
+    pub power: bool,
+}
+
+impl Default for Params {
+    fn default() -> Self {
+        Params {
+            split: SplitOptions::default(),
+            cut: CutOptions::default(),
+            n_max: N_MAX,
+            lambert: LambertMode::TbBudget,
+            power: false,
+        }
+    }
+}
+
+/// A ray-vs-bounding-sphere test, conservative against f32 rounding of the stored spheres.
+#[inline(always)]
+fn may_hit(c: Vec3, r: f32, x: Vec3, d: Vec3) -> bool {
+    let v = c - x;
+    let r = r * (1.0 + 1e-4) + 1e-6 * (1.0 + c.abs().max_element());
+    let r2 = r * r;
+    let v2 = v.length_squared();
+    if v2 <= r2 {
+        return true;
+    }
+    let b = v.dot(d);
+    if b <= 0.0 {
+        return false;
+    }
+    (v - d * b).length_squared() <= r2
+}
+
+/// Calls `hit(light, point)` for every light the ray from `x` along the unit `d` reaches
+/// (no occlusion), walking the tree's bounding spheres.
+pub fn trace(scene: &Scene, x: Vec3, d: Vec3, mut hit: impl FnMut(u32, &LightPoint)) {
+    let nodes = scene.tree.nodes();
+    if nodes.is_empty() {
+        return;
+    }
+    let mut stack = [0u32; 128];
+    let mut top = 1usize;
+    while top > 0 {
+        top -= 1;
+        let node = &nodes[stack[top] as usize];
+        for k in 0..4 {
+            let slot = node.slot(k);
+            if slot == Slot::Empty {
+                continue;
+            }
+            let c = Vec3::new(node.center_x[k], node.center_y[k], node.center_z[k]);
+            if !may_hit(c, node.radius[k], x, d) {
+                continue;
+            }
+            match slot {
+                Slot::Light(l) => {
+                    if let Some(lp) = intersect(&scene.lights[l as usize], x, d) {
+                        hit(l, &lp);
+                    }
+                }
+                Slot::Node(c) => {
+                    stack[top] = c;
+                    top += 1;
+                }
+                Slot::Empty => {}
+            }
+        }
+    }
+}
+
+/// The lights a ray reaches, by brute force (for tests of [`trace`]).
+pub fn trace_brute(scene: &Scene, x: Vec3, d: Vec3) -> Vec<(u32, LightPoint)> {
+    scene
+        .lights
+        .iter()
+        .enumerate()
+        .filter_map(|(i, l)| intersect(l, x, d).map(|lp| (i as u32, lp)))
+        .collect()
+}
+
+/// Everything an estimator sets up once per shading point.
+#[derive(Clone, Debug)]
+pub struct Setup<'a> {
+    scene: &'a Scene,
+    x: Vec3,
+    frame: Frame,
+    wo: Vec3,
+    material: Material,
+    tl: TlImportance,
+    split: LightCut,
+    bl: Option<BlImportance>,
+    bl_cut: LightCut,
+    n_mix: u32,
+    /// BL takes part in `full`'s mixture (false at Lambert-only points unless
+    /// [`LambertMode::BlTb`]).
+    bl_in_full: bool,
+    power: bool,
+}
+
+/// One BRDF-aware sample's denominator `a pdf_BL + b pdf_TB`: `a = N p_j`, `b = N (1 − p_j)`
+/// for `full`'s j-th sample (p_j the allocator's BL probability before it), `a = n_BL`,
+/// `b = n_TB` for `mis-equal`.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Denominator {
+    /// Factor of pdf_BL.
+    pub a: f32,
+    /// Factor of pdf_TB.
+    pub b: f32,
+}
+
+/// What a TL sample with `g = f·L·cos` and densities `pdf_tl` (> 0), `pdf_bl`, `pdf_tb`
+/// contributes: `g · w_TL / pdf_TL`.
+#[inline]
+pub fn tl_term(g: f32, w: CombinedWeights, pdf_tl: f32, pdf_bl: f32, pdf_tb: f32) -> f32 {
+    let (w_tl, _) = w.weights(pdf_tl, pdf_bl, pdf_tb);
+    g * w_tl / pdf_tl
+}
+
+/// What a BRDF-aware sample (BL or TB) contributes: `g · w_M / (a pdf_BL + b pdf_TB)`.
+#[inline]
+pub fn mixture_term(
+    g: f32,
+    w: CombinedWeights,
+    pdf_tl: f32,
+    pdf_bl: f32,
+    pdf_tb: f32,
+    den: Denominator,
+) -> f32 {
+    let (_, w_m) = w.weights(pdf_tl, pdf_bl, pdf_tb);
+    g * w_m / (den.a * pdf_bl + den.b * pdf_tb)
+}
+
+impl<'a> Setup<'a> {
+    /// What `technique` needs at `sp` (only that, so that timing a technique with its set-up
+    /// measures its own cost).
+    pub fn new(scene: &'a Scene, sp: &ShadingPoint, technique: Technique, p: &Params) -> Self {
+        let frame = Frame::from_normal(sp.normal).expect("non-zero normal");
+        let tl = TlImportance::new(sp.position, frame.normal);
+        let needs_split = matches!(
+            technique,
+            Technique::TlSplit | Technique::MisEqual | Technique::Full
+        );
+        let diffuse = sp.material.is_diffuse_only();
+        let tb_one = diffuse && p.lambert == LambertMode::TbOne;
+        let needs_bl = match technique {
+            Technique::Bl | Technique::MisEqual => true,
+            Technique::Full => !tb_one,
+            _ => false,
+        };
+        let split = if needs_split {
+            LightCut::build_split(&scene.tree, &tl, &p.split)
+        } else {
+            LightCut::new()
+        };
+        let bl = needs_bl.then(|| BlImportance::new(sp).expect("valid shading point"));
+        let bl_cut = match &bl {
+            Some(imp) => LightCut::build_bl(&scene.tree, imp, &p.cut),
+            None => LightCut::new(),
+        };
+        let n_mix = match technique {
+            Technique::Full if tb_one => 1,
+            Technique::MisEqual | Technique::Full => sample_budget(bl_cut.max_score(), p.n_max),
+            _ => 0,
+        };
+        Setup {
+            scene,
+            x: sp.position,
+            frame,
+            wo: frame.to_local(sp.wo.normalize()),
+            material: sp.material,
+            tl,
+            split,
+            bl,
+            bl_cut,
+            n_mix,
+            bl_in_full: !diffuse || p.lambert == LambertMode::BlTb,
+            power: p.power,
+        }
+    }
+
+    /// Number of clusters of the split cut.
+    pub fn split_len(&self) -> usize {
+        self.split.len()
+    }
+
+    /// Number of clusters of the BL cut.
+    pub fn bl_cut_len(&self) -> usize {
+        self.bl_cut.len()
+    }
+
+    /// IB(x).
+    pub fn ib(&self) -> f32 {
+        self.bl_cut.max_score()
+    }
+
+    /// The BRDF-aware budget N.
+    pub fn n_mix(&self) -> u32 {
+        self.n_mix
+    }
+
+    /// `f · L · cos θi` of a light point, and the local direction.
+    #[inline]
+    fn contribution(&self, lp: &LightPoint) -> (f32, Vec3) {
+        let wi = self.frame.to_local(lp.direction);
+        if lp.radiance <= 0.0 || wi.z <= 0.0 {
+            return (0.0, wi);
+        }
+        (self.material.eval(self.wo, wi) * lp.radiance * wi.z, wi)
+    }
+
+    /// A point on `light` and its contribution divided by `pmf · pdf`.
+    #[inline]
+    fn light_term(&self, light: u32, pmf: f32, u: [f32; 2]) -> f64 {
+        let Some(lp) = sample_point(&self.scene.lights[light as usize], self.x, u) else {
+            return 0.0;
+        };
+        let (g, _) = self.contribution(&lp);
+        if g > 0.0 {
+            f64::from(g / (pmf * lp.pdf))
+        } else {
+            0.0
+        }
+    }
+
+    fn pdf_tl(&self, light: u32, point_pdf: f32) -> f32 {
+        self.split
+            .pmf_in(&self.scene.tree, &self.tl, light)
+            .map_or(0.0, |(_, p)| p * point_pdf)
+    }
+
+    fn pdf_bl(&self, light: u32, point_pdf: f32) -> f32 {
+        match &self.bl {
+            Some(imp) => self.bl_cut.pmf(&self.scene.tree, imp, light) * point_pdf,
+            None => 0.0,
+        }
+    }
+
+    /// One estimate of the reflected radiance with `technique` (which must be the one the
+    /// set-up was built for, or one needing less).
+    pub fn estimate(&self, technique: Technique, rng: &mut impl Rng) -> f64 {
+        let u2 = |rng: &mut dyn rand::RngCore| [rng.random::<f32>(), rng.random::<f32>()];
+        let lights = &self.scene.lights;
+        match technique {
+            Technique::Uniform => {
+                let n = lights.len();
+                let l = ((rng.random::<f64>() * n as f64) as usize).min(n - 1);
+                self.light_term(l as u32, 1.0 / n as f32, u2(rng))
+            }
+            Technique::Power => {
+                let u = rng.random::<f64>();
+                let cdf = &self.scene.power_cdf;
+                let l = cdf.partition_point(|&c| c <= u).min(cdf.len() - 1);
+                self.light_term(l as u32, self.scene.power_pmf[l] as f32, u2(rng))
+            }
+            Technique::Tl => match self.scene.tree.sample(&self.tl, rng.random::<f32>()) {
+                Some(s) => self.light_term(s.light, s.pmf, u2(rng)),
+                None => 0.0,
+            },
+            Technique::TlSplit => {
+                let mut sum = 0.0;
+                for i in 0..self.split.len() {
+                    let u = rng.random::<f32>();
+                    let uv = u2(rng);
+                    if let Some(s) = self.split.sample_in(&self.scene.tree, &self.tl, i, u) {
+                        sum += self.light_term(s.light, s.pmf, uv);
+                    }
+                }
+                sum
+            }
+            Technique::Bl => {
+                let imp = self.bl.as_ref().expect("set up for BL");
+                match self
+                    .bl_cut
+                    .sample(&self.scene.tree, imp, rng.random::<f32>())
+                {
+                    Some(s) => self.light_term(s.light, s.pmf, u2(rng)),
+                    None => 0.0,
+                }
+            }
+            Technique::MisEqual => self.combined(false, rng),
+            Technique::Full => self.combined(true, rng),
+        }
+    }
+
+    /// `mis-equal` (`adaptive = false`) and `full`.
+    fn combined(&self, adaptive: bool, rng: &mut impl Rng) -> f64 {
+        let bl_on = !adaptive || self.bl_in_full;
+        let n = self.n_mix;
+        let w = CombinedWeights {
+            n_tl: 1.0,
+            n_mixture: n as f32,
+            p_ref: if bl_on { 0.5 } else { 0.0 },
+            power: self.power,
+        };
+        let tree = &self.scene.tree;
+        let mut sum = 0.0f64;
+        // TL: one sample per cluster of the split cut.
+        for i in 0..self.split.len() {
+            let u = rng.random::<f32>();
+            let uv = [rng.random::<f32>(), rng.random::<f32>()];
+            let Some(s) = self.split.sample_in(tree, &self.tl, i, u) else {
+                continue;
+            };
+            let Some(lp) = sample_point(&self.scene.lights[s.light as usize], self.x, uv) else {
+                continue;
+            };
+            let (g, wi) = self.contribution(&lp);
+            if g <= 0.0 {
+                continue;
+            }
+            let pdf_tl = s.pmf * lp.pdf;
+            let pdf_bl = if bl_on {
+                self.pdf_bl(s.light, lp.pdf)
+            } else {
+                0.0
+            };
+            let pdf_tb = self.material.pdf(self.wo, wi);
+            sum += f64::from(tl_term(g, w, pdf_tl, pdf_bl, pdf_tb));
+        }
+        if n == 0 {
+            return sum;
+        }
+        let nf = n as f32;
+        if adaptive {
+            let mut alloc = AdaptiveAllocator::new(bl_on);
+            for _ in 0..n {
+                let (t, u, p) = alloc.choose(rng.random::<f32>());
+                let den = Denominator {
+                    a: nf * p,
+                    b: nf * (1.0 - p),
+                };
+                match t {
+                    Mix::Bl => sum += self.bl_sample(u, w, den, rng),
+                    Mix::Tb => {
+                        let (v, hit) = self.tb_sample(u, w, den, rng);
+                        sum += v;
+                        alloc.record_tb(hit);
+                    }
+                }
+            }
+        } else {
+            // ⌊N/2⌋ BL and ⌊N/2⌋ TB samples, and for an odd N one more that is BL or TB with
+            // probability 1/2: every sample's density in the sum is N q_ref.
+            let half = n / 2;
+            let den = Denominator {
+                a: 0.5 * nf,
+                b: 0.5 * nf,
+            };
+            for _ in 0..half {
+                let u = rng.random::<f32>();
+                sum += self.bl_sample(u, w, den, rng);
+            }
+            for _ in 0..half {
+                let u = rng.random::<f32>();
+                sum += self.tb_sample(u, w, den, rng).0;
+            }
+            if n % 2 == 1 {
+                let u = rng.random::<f32>();
+                if u < 0.5 {
+                    sum += self.bl_sample(2.0 * u, w, den, rng);
+                } else {
+                    sum += self
+                        .tb_sample((2.0 * u - 1.0).min(ONE_MINUS), w, den, rng)
+                        .0;
+                }
+            }
+        }
+        sum
+    }
+
+    /// One BL sample of the mixture, with the (warped) uniform `u`.
+    fn bl_sample(&self, u: f32, w: CombinedWeights, den: Denominator, rng: &mut impl Rng) -> f64 {
+        let imp = self.bl.as_ref().expect("set up for BL");
+        let uv = [rng.random::<f32>(), rng.random::<f32>()];
+        let Some(s) = self.bl_cut.sample(&self.scene.tree, imp, u) else {
+            return 0.0;
+        };
+        let Some(lp) = sample_point(&self.scene.lights[s.light as usize], self.x, uv) else {
+            return 0.0;
+        };
+        let (g, wi) = self.contribution(&lp);
+        if g <= 0.0 {
+            return 0.0;
+        }
+        let pdf_bl = s.pmf * lp.pdf;
+        let pdf_tl = self.pdf_tl(s.light, lp.pdf);
+        let pdf_tb = self.material.pdf(self.wo, wi);
+        f64::from(mixture_term(g, w, pdf_tl, pdf_bl, pdf_tb, den))
+    }
+
+    /// One TB sample of the mixture: its value and whether the ray hit a light with non-zero
+    /// radiance.
+    fn tb_sample(
+        &self,
+        u: f32,
+        w: CombinedWeights,
+        den: Denominator,
+        rng: &mut impl Rng,
+    ) -> (f64, bool) {
+        let v = rng.random::<f32>();
+        let Some((wi, pdf_tb)) = self.material.sample(self.wo, [u, v]) else {
+            return (0.0, false);
+        };
+        let f = self.material.eval(self.wo, wi);
+        let dir = self.frame.to_world(wi).normalize();
+        let mut sum = 0.0f64;
+        let mut hit = false;
+        trace(self.scene, self.x, dir, |light, lp| {
+            if lp.radiance <= 0.0 {
+                return;
+            }
+            hit = true;
+            let g = f * lp.radiance * wi.z;
+            if g <= 0.0 {
+                return;
+            }
+            let pdf_tl = self.pdf_tl(light, lp.pdf);
+            let pdf_bl = if w.p_ref > 0.0 || den.a > 0.0 {
+                self.pdf_bl(light, lp.pdf)
+            } else {
+                0.0
+            };
+            sum += f64::from(mixture_term(g, w, pdf_tl, pdf_bl, pdf_tb, den));
+        });
+        (sum, hit)
+    }
+}
