@@ -33,7 +33,12 @@
 //! `q_ref = p_ref·pdf_BL + (1 − p_ref)·pdf_TB`. Within the mixture no further weight is needed:
 //! the one-sample density `q_j` already is the balance heuristic between BL and TB.
 //! For Lambert-only materials BL reduces to TL (Liu et al., end of section 4.2), so only TL and
-//! TB are combined: set `p_ref = 0` and always choose TB.
+//! TB are combined: set `p_ref = 0` and always choose TB, with one BRDF sample
+//! ([`brdf_budget`]). [`technique_pdfs`] gives a light point's density under each technique.
+
+use crate::cut::LightCut;
+use crate::importance::{Importance, TlImportance};
+use crate::tree::LightTree;
 
 /// λ of Algorithm 1.
 pub const LAMBDA: f32 = 10.0;
@@ -48,6 +53,55 @@ pub fn sample_budget(ib: f32, n_max: u32) -> u32 {
     }
     let n = libm::ceilf(ib.min(1.0) * n_max as f32);
     (n as u32).clamp(1, n_max.max(1))
+}
+
+/// The number of BRDF-aware samples at a shading point of this material: the budget
+/// [`sample_budget`] for materials with a glossy lobe; one BRDF sample for diffuse-only ones.
+///
+/// For a Lambert surface BL reduces to TL, so the budget would buy only BRDF samples, which
+/// rarely hit small lights: measured with `mlrender estimator`, TL split plus ceil(50·IB) BRDF
+/// samples has 2.66× the variance of TL split at equal time on the Lambert configurations, TL
+/// split plus one BRDF sample 1.08×. Liu et al. state their sample counts over glossy shading
+/// points.
+pub fn brdf_budget(diffuse_only: bool, ib: f32, n_max: u32) -> u32 {
+    if diffuse_only {
+        1
+    } else {
+        sample_budget(ib, n_max)
+    }
+}
+
+/// The densities (solid angle) of one light point under the three techniques.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct TechniquePdfs {
+    /// TL split sampling: the light's pmf within its cluster × the point's pdf.
+    pub tl: f32,
+    /// BL: the light's pmf through the BRDF-oriented cut × the point's pdf.
+    pub bl: f32,
+    /// TB: the BRDF sampling pdf of the direction.
+    pub tb: f32,
+}
+
+/// The densities of a point on `light` under every technique, for MIS: `point_pdf` is the
+/// solid-angle pdf of the point on the light (`light_sample::pdf_point`), `brdf_pdf` the
+/// BRDF's pdf of the direction towards it. `bl` is `None` when BL is not used (diffuse-only
+/// materials). The same function serves light samples and BRDF rays that hit a light.
+pub fn technique_pdfs<B: Importance + ?Sized>(
+    tree: &LightTree,
+    split: &LightCut,
+    tl: &TlImportance,
+    bl: Option<(&LightCut, &B)>,
+    light: u32,
+    point_pdf: f32,
+    brdf_pdf: f32,
+) -> TechniquePdfs {
+    let tl_pmf = split.pmf_in(tree, tl, light).map_or(0.0, |(_, p)| p);
+    let bl_pmf = bl.map_or(0.0, |(cut, imp)| cut.pmf(tree, imp, light));
+    TechniquePdfs {
+        tl: tl_pmf * point_pdf,
+        bl: bl_pmf * point_pdf,
+        tb: brdf_pdf,
+    }
 }
 
 /// Balance-heuristic weight of technique `a` (`n_a` samples, density `pdf_a`) among
@@ -184,6 +238,12 @@ impl CombinedWeights {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn diffuse_budget_is_one_brdf_sample() {
+        assert_eq!(brdf_budget(true, 0.9, 50), 1);
+        assert_eq!(brdf_budget(false, 0.9, 50), 45);
+    }
 
     #[test]
     fn budget() {

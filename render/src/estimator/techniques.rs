@@ -27,8 +27,9 @@
 //!   number; [`AdaptiveAllocator::choose`] warps it and the warped number drives the chosen
 //!   technique's first dimension (it is not fed to the next choice: a TB sample's hit depends
 //!   on it, so the next choice would no longer have probability p_{j+1} given the counts).
-//!   For Lambert-only materials BL is off: TL + TB, `p_ref = 0`, and N TB samples
-//!   ([`LambertMode::TbBudget`], the default; see [`LambertMode`] for the alternatives).
+//!   For Lambert-only materials BL is off: TL + TB, `p_ref = 0`, and the BRDF samples
+//!   ([`LambertMode::TbOne`], the default: one BRDF sample, the core's `mis::brdf_budget`; see
+//!   [`LambertMode`] for the alternatives).
 //!
 //! pdfs of a light point y on light l, for MIS: TL `split.pmf_in(l) · pdf_point(y)`, BL
 //! `bl_cut.pmf(l) · pdf_point(y)`, TB the material's solid-angle pdf of the direction. A BRDF
@@ -38,7 +39,10 @@
 use super::scene::Scene;
 use glam::Vec3;
 use manylights::light_sample::{intersect, sample_point};
-use manylights::mis::{sample_budget, AdaptiveAllocator, CombinedWeights, Technique as Mix, N_MAX};
+use manylights::mis::{
+    brdf_budget, sample_budget, technique_pdfs, AdaptiveAllocator, CombinedWeights,
+    Technique as Mix, N_MAX,
+};
 use manylights::tree::Slot;
 use manylights::{
     BlImportance, Brdf, CutOptions, Frame, LightCut, LightPoint, Material, ShadingPoint,
@@ -98,7 +102,7 @@ impl Technique {
 #[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
 pub enum LambertMode {
     /// TL split + N = sample_budget(IB(x)) TB samples (Liu et al.: TL + TB only; the budget
-    /// as at any other point). The default.
+    /// as at any other point).
     TbBudget,
     /// TL split + 1 TB sample (no BL cut is built: IB is not needed).
     TbOne,
@@ -129,7 +133,7 @@ impl Default for Params {
             split: SplitOptions::default(),
             cut: CutOptions::default(),
             n_max: N_MAX,
-            lambert: LambertMode::TbBudget,
+            lambert: LambertMode::TbOne,
             power: false,
         }
     }
@@ -279,7 +283,7 @@ impl<'a> Setup<'a> {
             None => LightCut::new(),
         };
         let n_mix = match technique {
-            Technique::Full if tb_one => 1,
+            Technique::Full if tb_one => brdf_budget(true, 0.0, p.n_max),
             Technique::MisEqual | Technique::Full => sample_budget(bl_cut.max_score(), p.n_max),
             _ => 0,
         };
@@ -343,15 +347,35 @@ impl<'a> Setup<'a> {
         }
     }
 
+    /// TL's density of a point on `light` (through the core's [`technique_pdfs`]).
     fn pdf_tl(&self, light: u32, point_pdf: f32) -> f32 {
-        self.split
-            .pmf_in(&self.scene.tree, &self.tl, light)
-            .map_or(0.0, |(_, p)| p * point_pdf)
+        technique_pdfs::<BlImportance>(
+            &self.scene.tree,
+            &self.split,
+            &self.tl,
+            None,
+            light,
+            point_pdf,
+            0.0,
+        )
+        .tl
     }
 
+    /// BL's density of a point on `light` (0 without BL).
     fn pdf_bl(&self, light: u32, point_pdf: f32) -> f32 {
         match &self.bl {
-            Some(imp) => self.bl_cut.pmf(&self.scene.tree, imp, light) * point_pdf,
+            Some(imp) => {
+                technique_pdfs(
+                    &self.scene.tree,
+                    &LightCut::new(),
+                    &self.tl,
+                    Some((&self.bl_cut, imp)),
+                    light,
+                    point_pdf,
+                    0.0,
+                )
+                .bl
+            }
             None => 0.0,
         }
     }
