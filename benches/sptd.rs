@@ -71,7 +71,7 @@ fn bl_cuts(c: &mut Criterion) {
             let mut size = 0;
             for sp in &sps {
                 let imp = BlImportance::new(black_box(sp)).unwrap();
-                size += LightCut::build_bl(&tree, &imp, &opts).len();
+                size += LightCut::build(&tree, &imp, &opts).len();
             }
             size
         })

@@ -255,7 +255,7 @@ impl LightCut {
     /// is split when x is inside its bounding sphere or when its BRDF cap integral SC exceeds
     /// `opts.delta`. Weights are BL importances, scores the SC values, so
     /// [`LightCut::max_score`] is IB(x).
-    pub fn build_bl(tree: &LightTree, imp: &BlImportance, opts: &CutOptions) -> LightCut {
+    pub fn build(tree: &LightTree, imp: &BlImportance, opts: &CutOptions) -> LightCut {
         let x = imp.position();
         let delta = opts.delta;
         LightCut::build_with(

@@ -1,5 +1,5 @@
 //! The BRDF-oriented importance BL (`BlImportance`, MATH.md sections 7 and 8) and the light
-//! cut it builds (`LightCut::build_bl`, MATH.md section 6), sampled as a whole (`sample` /
+//! cut it builds (`LightCut::build`, MATH.md section 6), sampled as a whole (`sample` /
 //! `pmf`) or per cluster (`sample_in` / `pmf_in`), and by plain tree descent (MATH.md
 //! section 12):
 //!
@@ -227,7 +227,7 @@ fn positive(x: f32) -> bool {
     x > 0.0
 }
 
-/// The f32 test `build_bl` uses for "x is inside the slot's bounding sphere", same operations.
+/// The f32 test `build` uses for "x is inside the slot's bounding sphere", same operations.
 fn inside(node: &Node4, k: usize, x: Vec3) -> bool {
     let c = Vec3::new(node.center_x[k], node.center_y[k], node.center_z[k]);
     let r = node.radius[k];
@@ -553,10 +553,7 @@ fn check_conservative_at(
     opts: &[CutOptions],
     report: &mut ConservativeReport,
 ) -> Result<(), String> {
-    let cuts: Vec<LightCut> = opts
-        .iter()
-        .map(|o| LightCut::build_bl(tree, imp, o))
-        .collect();
+    let cuts: Vec<LightCut> = opts.iter().map(|o| LightCut::build(tree, imp, o)).collect();
     for (l, light) in lights.iter().enumerate() {
         if !reaches(light, imp) {
             continue;
@@ -909,7 +906,7 @@ fn bl_cut_chi_square_against_pmf() {
     ];
     let samples = 1_000_000usize;
     for (case, (imp, opts)) in cases.iter().enumerate() {
-        let cut = LightCut::build_bl(&tree, imp, opts);
+        let cut = LightCut::build(&tree, imp, opts);
         assert!(cut.len() >= 4, "case {case}: only {} clusters", cut.len());
         let pmfs: Vec<f64> = (0..lights.len() as u32)
             .map(|l| f64::from(cut.pmf(&tree, imp, l)))
@@ -990,7 +987,7 @@ struct CutReport {
 /// - size: at most `max_size` clamped to 4..=64 clusters; empty only for an empty tree or a
 ///   point no cluster reaches;
 /// - every cluster: a non-empty slot its path leads to; weight > 0, finite, and score, both
-///   equal to lane k of `eval4_with_integrals` of its node (what `build_bl` evaluates);
+///   equal to lane k of `eval4_with_integrals` of its node (what `build` evaluates);
 ///   `total_weight` = Σ weights, `max_score` = max score;
 /// - IB(x) = `max_score()` ∈ [0, 1.05 × albedo] (see [`SC_OVER_ALBEDO`]), and for an
 ///   energy-conserving material (ρd + ks ≤ 1) at most 1.05;
@@ -1015,7 +1012,7 @@ fn check_bl_cut(
     opts: &CutOptions,
     us: &[f32],
 ) -> Result<(LightCut, CutReport), String> {
-    let cut = LightCut::build_bl(tree, imp, opts);
+    let cut = LightCut::build(tree, imp, opts);
     let ctx = format!("at {imp:?} with {opts:?}");
     let x = imp.position();
     let n = lights.len();
@@ -1494,7 +1491,7 @@ fn bl_cut_max_size_is_clamped() {
         for _ in 0..6 {
             let (imp, _) = bl_point(&mut rng, &tree, &lights, half);
             let delta = DELTAS[rng.below(DELTAS.len())];
-            let build = |max_size| LightCut::build_bl(&tree, &imp, &CutOptions { delta, max_size });
+            let build = |max_size| LightCut::build(&tree, &imp, &CutOptions { delta, max_size });
             for small in 0..MIN_CUT_SIZE {
                 assert_eq!(build(small).clusters(), build(MIN_CUT_SIZE).clusters());
             }
@@ -1523,7 +1520,7 @@ fn bl_cut_edges() {
         let tree = LightTree::build(&lights).unwrap();
         for delta in DELTAS {
             for max_size in [0, 1, 4, 64, 1000] {
-                let cut = LightCut::build_bl(&tree, &imp, &CutOptions { delta, max_size });
+                let cut = LightCut::build(&tree, &imp, &CutOptions { delta, max_size });
                 assert!(cut.is_empty());
                 assert_eq!(cut.max_score(), 0.0);
                 assert_eq!(cut.sample(&tree, &imp, 0.5), None);
@@ -1541,7 +1538,7 @@ fn bl_cut_edges() {
             let (imp, _) = bl_point(&mut rng, &tree, &lights, half);
             for max_size in 0..=70 {
                 let delta = DELTAS[rng.below(DELTAS.len())];
-                let cut = LightCut::build_bl(&tree, &imp, &CutOptions { delta, max_size });
+                let cut = LightCut::build(&tree, &imp, &CutOptions { delta, max_size });
                 assert!(
                     cut.len() <= max_size.clamp(MIN_CUT_SIZE, CUT_CAPACITY),
                     "scene {scene}: {} clusters for max_size {max_size}",
@@ -2357,7 +2354,7 @@ fn bad_shading_points_are_rejected_with_the_field() {
                 assert!(sc.is_finite() && sc >= 0.0, "{sp:?}: SC {sc}");
             }
         }
-        let cut = LightCut::build_bl(&tree, &imp, &CutOptions::default());
+        let cut = LightCut::build(&tree, &imp, &CutOptions::default());
         if imp.albedo() == 0.0 {
             // Nothing is reflected: no light matters.
             assert!(
@@ -2491,7 +2488,7 @@ fn bl_importance_stays_finite_where_tl_is() {
         let tl = manylights::TlImportance::new(Vec3::ZERO, Vec3::Z).eval(&b);
         let bl = imp.eval(&b);
         let sample = tree.sample(&imp, 0.5);
-        let cut = LightCut::build_bl(&tree, &imp, &CutOptions::default());
+        let cut = LightCut::build(&tree, &imp, &CutOptions::default());
         if !(bl.importance.is_finite() && sample.is_some() && cut.pmf(&tree, &imp, 0) > 0.0) {
             failures.push(format!(
                 "θo = {theta_o}: energy {:e}, TL {tl:e}, BL {bl:?}, tree.sample {sample:?}, \

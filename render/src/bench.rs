@@ -172,7 +172,7 @@ pub fn run(cfg: &BenchConfig) -> serde_json::Value {
         bl_budget = 0;
         for (sp, &u) in bl_points.iter().zip(&us) {
             let imp = BlImportance::new(black_box(sp)).expect("valid shading point");
-            let cut = LightCut::build_bl(&tree, &imp, &cut_opts);
+            let cut = LightCut::build(&tree, &imp, &cut_opts);
             bl_cut_size += cut.len();
             let n = manylights::mis::sample_budget(cut.max_score(), manylights::mis::N_MAX);
             bl_budget += n as usize;
@@ -190,7 +190,7 @@ pub fn run(cfg: &BenchConfig) -> serde_json::Value {
         let mut acc = 0.0f64;
         for (sp, &u) in bl_points.iter().zip(&us) {
             let imp = BlImportance::new(black_box(sp)).expect("valid shading point");
-            let cut = LightCut::build_bl(&tree, &imp, &cut_opts);
+            let cut = LightCut::build(&tree, &imp, &cut_opts);
             acc += cut.sample(&tree, &imp, u).map_or(0.0, |s| f64::from(s.pmf));
         }
         black_box(acc);
@@ -200,7 +200,7 @@ pub fn run(cfg: &BenchConfig) -> serde_json::Value {
         let mut sizes = 0usize;
         for sp in &bl_points {
             let imp = BlImportance::new(black_box(sp)).expect("valid shading point");
-            sizes += LightCut::build_bl(&tree, &imp, &cut_opts).len();
+            sizes += LightCut::build(&tree, &imp, &cut_opts).len();
         }
         black_box(sizes);
         bl_builds = bl_builds.max(bl_points.len() as f64 / t.elapsed().as_secs_f64());

@@ -10,7 +10,7 @@
 //! - `tl`: one light by [`LightTree::sample`] with [`TlImportance`].
 //! - `tl-split`: the Conty–Kulla split cut ([`LightCut::build_split`]), one sample per cluster,
 //!   summed.
-//! - `bl`: one light from the BRDF-oriented cut ([`LightCut::build_bl`]).
+//! - `bl`: one light from the BRDF-oriented cut ([`LightCut::build`]).
 //! - `mis-equal`: `tl-split` plus `N = sample_budget(IB(x), 50)` BRDF-aware samples: ⌊N/2⌋ BL,
 //!   ⌊N/2⌋ TB and, for an odd N, one more that is BL or TB with probability 1/2. The TL samples
 //!   and the BRDF-aware ones are weighted by [`CombinedWeights`] with `p_ref = 1/2`; a
@@ -279,7 +279,7 @@ impl<'a> Setup<'a> {
         };
         let bl = needs_bl.then(|| BlImportance::new(sp).expect("valid shading point"));
         let bl_cut = match &bl {
-            Some(imp) => LightCut::build_bl(&scene.tree, imp, &p.cut),
+            Some(imp) => LightCut::build(&scene.tree, imp, &p.cut),
             None => LightCut::new(),
         };
         let n_mix = match technique {
