@@ -4,7 +4,7 @@
 
 use super::{finite, unit_square, Brdf};
 use crate::math;
-use core::f32::consts::{FRAC_1_PI, FRAC_PI_4};
+use core::f32::consts::FRAC_1_PI;
 use glam::Vec3;
 
 /// A Lambertian (perfectly diffuse) reflector.
@@ -31,19 +31,10 @@ impl Lambert {
     }
 }
 
-/// Shirley–Chiu concentric map of [0, 1)² onto the unit disk.
+/// Shirley–Chiu concentric map of [0, 1)² onto the unit disk (the disk lights' f64 map).
 fn concentric(u: [f32; 2]) -> (f32, f32) {
-    let (a, b) = (2.0 * u[0] - 1.0, 2.0 * u[1] - 1.0);
-    if a == 0.0 && b == 0.0 {
-        return (0.0, 0.0);
-    }
-    let (r, phi) = if a.abs() > b.abs() {
-        (a, FRAC_PI_4 * (b / a))
-    } else {
-        (b, 2.0 * FRAC_PI_4 - FRAC_PI_4 * (a / b))
-    };
-    let (s, c) = math::sin_cos(phi);
-    (r * c, r * s)
+    let (x, y) = crate::light_sample::disk::concentric([f64::from(u[0]), f64::from(u[1])]);
+    (x as f32, y as f32)
 }
 
 impl Brdf for Lambert {

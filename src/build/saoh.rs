@@ -383,13 +383,7 @@ fn choose_split(
             };
             let mid = n / 2;
             prims.select_nth_unstable_by(mid, |a, b| a.centroid[axis].total_cmp(&b.centroid[axis]));
-            let (l, r) = prims.split_at(mid);
-            let split = Split {
-                mid,
-                left: bounds_of(l),
-                right: bounds_of(r),
-            };
-            (split, radius)
+            (split_at(prims, mid), radius)
         }
     }
 }
@@ -458,13 +452,17 @@ fn sweep_split(prims: &mut [Prim], depth: u32, geo: Aabb) -> (Split, f32) {
         }
         None => n / 2,
     };
+    (split_at(prims, mid), radius)
+}
+
+/// The split of `prims` (already ordered) after the first `mid`, with both sides' boxes.
+fn split_at(prims: &[Prim], mid: usize) -> Split {
     let (l, r) = prims.split_at(mid);
-    let split = Split {
+    Split {
         mid,
         left: bounds_of(l),
         right: bounds_of(r),
-    };
-    (split, radius)
+    }
 }
 
 /// Moves the elements for which `left` holds to the front; returns how many there are and

@@ -21,7 +21,7 @@ fn unit_normal(normal: Vec3) -> Option<V64> {
 }
 
 /// Shirley–Chiu concentric map of [0, 1)² onto the unit disk.
-pub(super) fn concentric(u: [f64; 2]) -> (f64, f64) {
+pub(crate) fn concentric(u: [f64; 2]) -> (f64, f64) {
     let (a, b) = (2.0 * u[0] - 1.0, 2.0 * u[1] - 1.0);
     if a == 0.0 && b == 0.0 {
         return (0.0, 0.0);

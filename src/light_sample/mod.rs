@@ -45,7 +45,7 @@
 //! code as [`pdf_point`] for its `position`, so the two agree to the bit.
 
 mod delta;
-mod disk;
+pub(crate) mod disk;
 mod sphere;
 mod triangle;
 mod vec64;
