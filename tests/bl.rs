@@ -27,9 +27,14 @@
 
 mod common;
 
+use common::cut::{
+    check_cluster_pmf_sum, check_cluster_slot, check_coverage, check_disjoint, check_light_pmf,
+    check_pmf_in, cut_pmfs, cut_sample_counts, levels, lights_in_slot, positive_slots,
+};
 use common::{
-    chi2_critical, chi2_statistic, close, contributes, point_on_light, shading_point, styled_scene,
-    u_values, Rng, SceneSpec, Where, Z_999,
+    chi2_critical, chi2_skewed_statistic, chi2_statistic, close, contributes, push_emitter_points,
+    push_sphere_points, random_shading_point, shading_point, styled_scene, u_values, Rng,
+    SceneSpec, Where, Z_999,
 };
 use glam::{DVec3, Vec3};
 use manylights::cut::MIN_CUT_SIZE;
@@ -39,7 +44,6 @@ use manylights::{
     BlImportance, CutOptions, Importance, Light, LightCut, LightTree, Material, Node4, Receiver,
     ShadingPoint, Slot, CUT_CAPACITY,
 };
-use std::collections::HashSet;
 use std::f64::consts::PI;
 
 /// Cosine margin of the contribution predicate (see `tests/importance.rs`: two orders of
@@ -150,13 +154,7 @@ fn bl_point(
     half: f32,
 ) -> (BlImportance, Material) {
     if tree.is_empty() || rng.below(4) == 0 {
-        let kind = [
-            Where::Inside,
-            Where::Far,
-            Where::OnLight,
-            Where::AtPointLight,
-        ][rng.below(4)];
-        let x = shading_point(rng, lights, half, kind);
+        let x = random_shading_point(rng, lights, half);
         return random_bl_at(rng, x);
     }
     let nodes = tree.nodes();
@@ -194,80 +192,11 @@ fn reaches(light: &Light, imp: &BlImportance) -> bool {
 // Tree helpers
 // ---------------------------------------------------------------------------------------------
 
-/// Levels of a path encoded as in `LightTree::paths` (marker bit, 2 bits per level).
-fn levels(path: u64) -> u32 {
-    if path == 0 {
-        0
-    } else {
-        (63 - path.leading_zeros()) / 2
-    }
-}
-
-/// Whether path `p` is a prefix of path `q` (equal paths included).
-fn is_prefix(p: u64, q: u64) -> bool {
-    let (m, k) = (levels(p), levels(q));
-    m >= 1 && m <= k && q >> (2 * (k - m)) == p
-}
-
-/// Every light under slot `k` of node `node`, by walking the nodes (independent of paths).
-fn lights_in_slot(tree: &LightTree, node: u32, k: usize, out: &mut Vec<u32>) {
-    match tree.nodes()[node as usize].slot(k) {
-        Slot::Light(l) => out.push(l),
-        Slot::Node(c) => {
-            for j in 0..4 {
-                lights_in_slot(tree, c, j, out);
-            }
-        }
-        Slot::Empty => {}
-    }
-}
-
-/// `x > 0` (false for NaN).
-fn positive(x: f32) -> bool {
-    x > 0.0
-}
-
 /// The f32 test `build` uses for "x is inside the slot's bounding sphere", same operations.
 fn inside(node: &Node4, k: usize, x: Vec3) -> bool {
     let c = Vec3::new(node.center_x[k], node.center_y[k], node.center_z[k]);
     let r = node.radius[k];
     (c - x).length_squared() <= r * r
-}
-
-/// Number of non-empty slots of `node` with positive importance.
-fn positive_slots(imp: &impl Importance, node: &Node4) -> usize {
-    let w = imp.eval4(node).to_array();
-    (0..4)
-        .filter(|&k| node.slot(k) != Slot::Empty && w[k] > 0.0)
-        .count()
-}
-
-/// Whether no path of positive importances leads from node `node` to a light (so the cut may
-/// drop a slot holding it); counts in `bottoms` the nodes of that subtree reached by positive
-/// importances that have no slot of positive importance (each one a possible drop).
-fn dead_subtree(tree: &LightTree, imp: &impl Importance, node: u32, bottoms: &mut usize) -> bool {
-    let n = &tree.nodes()[node as usize];
-    let w = imp.eval4(n).to_array();
-    let mut any = false;
-    for (k, &wk) in w.iter().enumerate() {
-        if !positive(wk) {
-            continue;
-        }
-        match n.slot(k) {
-            Slot::Empty => {}
-            Slot::Light(_) => return false,
-            Slot::Node(c) => {
-                any = true;
-                if !dead_subtree(tree, imp, c, bottoms) {
-                    return false;
-                }
-            }
-        }
-    }
-    if !any {
-        *bottoms += 1;
-    }
-    true
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -404,37 +333,9 @@ fn stress_points(rng: &mut Rng, node: &Node4, lights: &[Light], half: f32) -> Ve
         if node.slot(k) == Slot::Empty {
             continue;
         }
-        let b = node.bounds(k);
-        xs.push(b.center);
-        xs.push(b.center + rng.unit() * b.radius * rng.f32());
-        xs.push(b.center + rng.unit() * b.radius);
-        xs.push(b.center + rng.unit() * b.radius * 1.001);
+        push_sphere_points(rng, &node.bounds(k), &mut xs);
     }
-    for _ in 0..2 {
-        let l = &lights[rng.below(lights.len())];
-        xs.push(point_on_light(rng, l));
-        let (c, m) = match *l {
-            Light::Disk { center, normal, .. } => (center, normal.normalize()),
-            Light::Triangle { vertices, .. } => (
-                (vertices[0] + vertices[1] + vertices[2]) / 3.0,
-                (vertices[1] - vertices[0])
-                    .cross(vertices[2] - vertices[0])
-                    .normalize_or_zero(),
-            ),
-            Light::Spot {
-                position,
-                direction,
-                ..
-            } => (position, direction.normalize()),
-            Light::Point { position, .. }
-            | Light::Sphere {
-                center: position, ..
-            } => (position, rng.unit()),
-        };
-        let t = half * rng.log_range(1e-4, 10.0);
-        xs.push(c - m * t);
-        xs.push(c + m * t);
-    }
+    push_emitter_points(rng, lights, half, &mut xs);
     xs.push(shading_point(rng, lights, half, Where::AtPointLight));
     xs.push(rng.in_cube(half));
     xs.push(rng.unit() * half * rng.log_range(10.0, 1e4));
@@ -908,19 +809,10 @@ fn bl_cut_chi_square_against_pmf() {
     for (case, (imp, opts)) in cases.iter().enumerate() {
         let cut = LightCut::build(&tree, imp, opts);
         assert!(cut.len() >= 4, "case {case}: only {} clusters", cut.len());
-        let pmfs: Vec<f64> = (0..lights.len() as u32)
-            .map(|l| f64::from(cut.pmf(&tree, imp, l)))
-            .collect();
+        let pmfs = cut_pmfs(&cut, &tree, imp, lights.len());
         let total: f64 = pmfs.iter().sum();
         assert!((total - 1.0).abs() <= 1e-4, "case {case}: Σ pmf = {total}");
-        let mut counts = vec![0u64; lights.len()];
-        let mut none = 0u64;
-        for _ in 0..samples {
-            match cut.sample(&tree, imp, rng.f32()) {
-                Some(s) => counts[s.light as usize] += 1,
-                None => none += 1,
-            }
-        }
+        let (counts, none) = cut_sample_counts(&cut, &tree, imp, lights.len(), samples, &mut rng);
         assert_eq!(
             none, 0,
             "case {case}: sample returned no light {none} times"
@@ -949,14 +841,7 @@ fn bl_cut_chi_square_against_pmf() {
             stat < crit,
             "case {case}: chi2 = {stat:.2} ≥ {crit:.2} (dof {dof})"
         );
-        let big = (0..exp.len())
-            .max_by(|&a, &b| exp[a].total_cmp(&exp[b]))
-            .unwrap();
-        let mut skewed = exp.clone();
-        skewed[big] *= 1.05;
-        let norm: f64 = skewed.iter().sum::<f64>() / samples as f64;
-        skewed.iter_mut().for_each(|e| *e /= norm);
-        let (skewed_stat, _) = chi2_statistic(&obs, &skewed);
+        let skewed_stat = chi2_skewed_statistic(&obs, &exp, samples);
         assert!(
             skewed_stat > crit,
             "case {case}: a 5 % error in the largest pmf goes unnoticed ({skewed_stat} ≤ {crit})"
@@ -1045,21 +930,9 @@ fn check_bl_cut(
     let mut weight_sum = 0.0f64;
     let mut max_score = 0.0f32;
     for (i, c) in clusters.iter().enumerate() {
-        ensure!(
-            (c.node as usize) < nodes.len() && c.slot < 4,
-            "cluster {i} {c:?} names no slot {ctx}"
-        );
+        check_cluster_slot(tree, i, c, &ctx)?;
         let node = &nodes[c.node as usize];
         let k = usize::from(c.slot);
-        ensure!(
-            node.slot(k) != Slot::Empty,
-            "cluster {i} {c:?} is an empty slot {ctx}"
-        );
-        ensure!(
-            tree.slot_at(c.path) == Some((c.node, k)),
-            "cluster {i} {c:?}: its path leads to {:?} {ctx}",
-            tree.slot_at(c.path)
-        );
         let (w, sc) = imp.eval4_with_integrals(node);
         let (w, sc) = (w.to_array()[k], sc.to_array()[k]);
         ensure!(
@@ -1122,77 +995,12 @@ fn check_bl_cut(
     }
 
     // Disjoint.
-    for (i, a) in clusters.iter().enumerate() {
-        for (j, b) in clusters.iter().enumerate() {
-            ensure!(
-                i == j || !is_prefix(a.path, b.path),
-                "cluster {i} {a:?} contains cluster {j} {b:?} {ctx}"
-            );
-        }
-    }
-    let mut owner: Vec<Option<usize>> = vec![None; n];
-    for (i, m) in members.iter().enumerate() {
-        for &l in m {
-            let prev = owner[l as usize].replace(i);
-            ensure!(
-                prev.is_none(),
-                "light {l} is under clusters {prev:?} and {i} {ctx}"
-            );
-        }
-    }
+    let owner = check_disjoint(clusters, &members, n, &ctx)?;
 
     // Coverage, then the inside-sphere and SC > δ rules (see `tests/cut.rs` for the
     // accounting of dropped slots).
     if !cut.is_empty() {
-        let mut ancestors: HashSet<u64> = HashSet::new();
-        let mut opened: HashSet<u32> = HashSet::from([0]);
-        for c in clusters {
-            for up in 1..levels(c.path) {
-                let p = c.path >> (2 * up);
-                let (an, ak) = tree.slot_at(p).unwrap();
-                match nodes[an as usize].slot(ak) {
-                    Slot::Node(child) => {
-                        opened.insert(child);
-                        ancestors.insert(p);
-                    }
-                    other => return Err(format!("ancestor {p:#b} of {c:?} is {other:?}")),
-                }
-            }
-        }
-        let cluster_paths: HashSet<u64> = clusters.iter().map(|c| c.path).collect();
-        let mut drops = 0usize;
-        for &o in &opened {
-            let node = &nodes[o as usize];
-            let w = imp.eval4(node).to_array();
-            let base = if o == 0 {
-                Some(1u64)
-            } else {
-                ancestors.iter().copied().find(|&p| {
-                    let (an, ak) = tree.slot_at(p).unwrap();
-                    nodes[an as usize].slot(ak) == Slot::Node(o)
-                })
-            };
-            let base = base.ok_or_else(|| format!("opened node {o} has no ancestor path"))?;
-            for (k, &wk) in w.iter().enumerate() {
-                let p = (base << 2) | k as u64;
-                if node.slot(k) == Slot::Empty
-                    || !positive(wk)
-                    || cluster_paths.contains(&p)
-                    || ancestors.contains(&p)
-                {
-                    continue;
-                }
-                let dead = match node.slot(k) {
-                    Slot::Node(child) => dead_subtree(tree, imp, child, &mut drops),
-                    _ => false,
-                };
-                ensure!(
-                    dead,
-                    "slot ({o}, {k}) (path {p:#b}) of an opened node has importance {wk} and a \
-                     path of positive importance to a light, but is in no cluster {ctx}"
-                );
-            }
-        }
+        let drops = check_coverage(tree, imp, clusters, &ctx)?;
         let room = tree.stats().sampled_lights as usize <= cap;
         for (i, c) in clusters.iter().enumerate() {
             let node = &nodes[c.node as usize];
@@ -1226,27 +1034,7 @@ fn check_bl_cut(
     }
 
     // pmf_in: the owner, a pmf in [0, 1].
-    let mut pmf_in: Vec<f32> = vec![0.0; n];
-    for l in 0..n {
-        let got = cut.pmf_in(tree, imp, l as u32);
-        match (owner[l], got) {
-            (None, None) => {}
-            (Some(i), Some((j, p))) if i == j => {
-                ensure!(
-                    p.is_finite() && (0.0..=1.0 + 1e-6).contains(&p),
-                    "light {l}: pmf_in {p} {ctx}"
-                );
-                pmf_in[l] = p;
-            }
-            _ => {
-                return Err(format!(
-                    "light {l} (path {:#b}) is under cluster {:?} but pmf_in says {got:?} {ctx}",
-                    tree.paths()[l],
-                    owner[l]
-                ))
-            }
-        }
-    }
+    let pmf_in = check_pmf_in(&cut, tree, imp, &owner, &ctx)?;
     for bad in [n as u32, u32::MAX] {
         ensure!(
             cut.pmf_in(tree, imp, bad).is_none() && cut.pmf(tree, imp, bad) == 0.0,
@@ -1256,14 +1044,7 @@ fn check_bl_cut(
 
     // Per cluster: pmfs sum to 1 or are all 0; sample_in agrees.
     for (i, m) in members.iter().enumerate() {
-        let sum: f64 = m.iter().map(|&l| f64::from(pmf_in[l as usize])).sum();
-        let dead = m.iter().all(|&l| pmf_in[l as usize] == 0.0);
-        ensure!(
-            dead || (sum - 1.0).abs() <= 1e-4,
-            "cluster {i} {:?}: pmf_in of its {} lights sum to {sum} {ctx}",
-            clusters[i],
-            m.len()
-        );
+        let (sum, dead) = check_cluster_pmf_sum(clusters, i, m, &pmf_in, &ctx)?;
         report.dead += usize::from(dead);
         for &u in us {
             match cut.sample_in(tree, imp, i, u) {
@@ -1290,17 +1071,9 @@ fn check_bl_cut(
     }
 
     // pmf = weight / total · pmf_in; sample reports pmf(); Σ pmf = 1.
-    let ctotal = f64::from(cut.total_weight());
-    for l in 0..n {
-        let p = cut.pmf(tree, imp, l as u32);
-        let expect = owner[l].map_or(0.0, |i| {
-            f64::from(clusters[i].weight) / ctotal * f64::from(pmf_in[l])
-        });
-        ensure!(
-            p.is_finite() && close(f64::from(p), expect, 1e-5, 1e-37),
-            "light {l}: pmf {p} vs weight/total·pmf_in {expect} {ctx}"
-        );
-        if common::zero_energy(&lights[l]) {
+    for (l, light) in lights.iter().enumerate() {
+        let p = check_light_pmf(&cut, tree, imp, &owner, &pmf_in, l, &ctx)?;
+        if common::zero_energy(light) {
             ensure!(p == 0.0, "zero-energy light {l} has cut pmf {p} {ctx}");
         }
         report.pmf_sum += f64::from(p);

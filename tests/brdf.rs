@@ -7,6 +7,9 @@
 //! samples use the i.i.d. formula, which overestimates their error: conservative), plus a
 //! 1e-4 absolute slack for f32 rounding. Seeds are fixed.
 
+mod common;
+
+use common::{Rng, Stats};
 use glam::{DVec3, Vec3};
 use manylights::brdf::schlick;
 use manylights::{Brdf, Frame, Ggx, Lambert, Material};
@@ -22,35 +25,6 @@ const ONE_MINUS_EPS: f32 = 1.0 - f32::EPSILON / 2.0;
 // Helpers
 // ---------------------------------------------------------------------------------------------
 
-/// SplitMix64.
-struct Rng(u64);
-
-impl Rng {
-    fn new(seed: u64) -> Rng {
-        Rng(seed ^ 0x5851_F42D_4C95_7F2D)
-    }
-    fn next(&mut self) -> u64 {
-        self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
-        let mut z = self.0;
-        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-        z ^ (z >> 31)
-    }
-    fn f32(&mut self) -> f32 {
-        (self.next() >> 40) as f32 * (1.0 / (1u64 << 24) as f32)
-    }
-    fn f64(&mut self) -> f64 {
-        (self.next() >> 11) as f64 * (1.0 / (1u64 << 53) as f64)
-    }
-    fn u2(&mut self) -> [f32; 2] {
-        [self.f32(), self.f32()]
-    }
-    /// Uniform direction on the upper hemisphere.
-    fn upper(&mut self) -> Vec3 {
-        hemisphere(self.f64(), self.f64())
-    }
-}
-
 /// The upper-hemisphere direction with cos θ = z and azimuth 2π·v (uniform in solid angle for
 /// z, v uniform).
 fn hemisphere(z: f64, v: f64) -> Vec3 {
@@ -61,27 +35,9 @@ fn hemisphere(z: f64, v: f64) -> Vec3 {
         .as_vec3()
 }
 
-#[derive(Default)]
-struct Stats {
-    n: f64,
-    s: f64,
-    s2: f64,
-}
-
-impl Stats {
-    fn add(&mut self, v: f64) {
-        assert!(v.is_finite(), "non-finite value {v}");
-        self.n += 1.0;
-        self.s += v;
-        self.s2 += v * v;
-    }
-    fn mean(&self) -> f64 {
-        self.s / self.n
-    }
-    fn se(&self) -> f64 {
-        let m = self.mean();
-        ((self.s2 / self.n - m * m).max(0.0) / (self.n - 1.0)).sqrt()
-    }
+/// Uniform direction on the upper hemisphere.
+fn upper(rng: &mut Rng) -> Vec3 {
+    hemisphere(rng.f64(), rng.f64())
 }
 
 /// The view direction at `deg` degrees from the normal, at an arbitrary azimuth.
@@ -307,7 +263,7 @@ fn eval_is_symmetric() {
     let mut rng = Rng::new(5);
     for (name, brdf) in materials() {
         for _ in 0..20_000 {
-            let (wo, wi) = (rng.upper(), rng.upper());
+            let (wo, wi) = (upper(&mut rng), upper(&mut rng));
             let (a, b) = (brdf.eval(wo, wi), brdf.eval(wi, wo));
             assert!(
                 rel(f64::from(a), f64::from(b)) <= 1e-5,
@@ -330,7 +286,7 @@ fn ggx_matches_textbook_form() {
             ((1.0 + a * a * tan2).sqrt() - 1.0) / 2.0
         };
         for _ in 0..20_000 {
-            let (wo, wi) = (rng.upper(), rng.upper());
+            let (wo, wi) = (upper(&mut rng), upper(&mut rng));
             if wo.z < 0.01 || wi.z < 0.01 {
                 continue;
             }
@@ -477,7 +433,7 @@ fn degenerate_inputs_give_none_or_zero() {
                     assert!(f.is_finite() && f >= 0.0, "{name} wo={wo}: f = {f}");
                 }
             }
-            for wi in wos.iter().copied().chain((0..50).map(|_| rng.upper())) {
+            for wi in wos.iter().copied().chain((0..50).map(|_| upper(&mut rng))) {
                 let (f, p) = (brdf.eval(wo, wi), brdf.pdf(wo, wi));
                 assert!(f.is_finite() && f >= 0.0, "{name} {wo} {wi}: f = {f}");
                 assert!(p.is_finite() && p >= 0.0, "{name} {wo} {wi}: pdf = {p}");

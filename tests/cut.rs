@@ -20,9 +20,14 @@
 
 mod common;
 
+use common::cut::{
+    check_cluster_pmf_sum, check_cluster_slot, check_coverage, check_disjoint, check_light_pmf,
+    check_pmf_in, cut_pmfs, cut_sample_counts, levels, lights_in_slot, positive_slots,
+};
 use common::{
-    chi2_critical, chi2_statistic, close, contributes, proptest_config, random_importance,
-    random_normal, styled_scene, u_values, Rng, SceneSpec, RECEIVERS, Z_999,
+    boundary_scene, chi2_critical, chi2_skewed_statistic, chi2_statistic, close, contributes,
+    proptest_config, random_importance, random_normal, ring_scene, styled_scene, u_values, Rng,
+    SceneSpec, RECEIVERS, Z_999,
 };
 use glam::{DVec3, Vec3};
 use manylights::cut::MIN_CUT_SIZE;
@@ -32,7 +37,6 @@ use manylights::{
 };
 use proptest::prelude::{any, prop_oneof, Strategy};
 use proptest::test_runner::TestCaseError;
-use std::collections::HashSet;
 
 /// Cosine margin of the contribution predicate (see `tests/importance.rs`: two orders of
 /// magnitude above the f32 rounding of the importance's cosines).
@@ -47,75 +51,6 @@ const EXTRA_U: usize = 6;
 // ---------------------------------------------------------------------------------------------
 // Helpers
 // ---------------------------------------------------------------------------------------------
-
-/// Levels of a path encoded as in `LightTree::paths` (marker bit, 2 bits per level).
-fn levels(path: u64) -> u32 {
-    if path == 0 {
-        0
-    } else {
-        (63 - path.leading_zeros()) / 2
-    }
-}
-
-/// Whether path `p` is a prefix of path `q` (equal paths included).
-fn is_prefix(p: u64, q: u64) -> bool {
-    let (m, k) = (levels(p), levels(q));
-    m >= 1 && m <= k && q >> (2 * (k - m)) == p
-}
-
-/// Every light under slot `k` of node `node`, by walking the nodes (independent of paths).
-fn lights_in_slot(tree: &LightTree, node: u32, k: usize, out: &mut Vec<u32>) {
-    match tree.nodes()[node as usize].slot(k) {
-        Slot::Light(l) => out.push(l),
-        Slot::Node(c) => {
-            for j in 0..4 {
-                lights_in_slot(tree, c, j, out);
-            }
-        }
-        Slot::Empty => {}
-    }
-}
-
-/// `x > 0` (false for NaN).
-fn positive(x: f32) -> bool {
-    x > 0.0
-}
-
-/// Whether no path of positive importances leads from node `node` to a light (so the cut may
-/// drop a slot holding it); counts in `bottoms` the nodes of that subtree reached by positive
-/// importances that have no slot of positive importance (each one a possible drop).
-fn dead_subtree(tree: &LightTree, imp: &TlImportance, node: u32, bottoms: &mut usize) -> bool {
-    let n = &tree.nodes()[node as usize];
-    let w = imp.eval4(n).to_array();
-    let mut any = false;
-    for (k, &wk) in w.iter().enumerate() {
-        if !positive(wk) {
-            continue;
-        }
-        match n.slot(k) {
-            Slot::Empty => {}
-            Slot::Light(_) => return false,
-            Slot::Node(c) => {
-                any = true;
-                if !dead_subtree(tree, imp, c, bottoms) {
-                    return false;
-                }
-            }
-        }
-    }
-    if !any {
-        *bottoms += 1;
-    }
-    true
-}
-
-/// Number of non-empty slots of `node` with positive importance.
-fn positive_slots(imp: &TlImportance, node: &Node4) -> usize {
-    let w = imp.eval4(node).to_array();
-    (0..4)
-        .filter(|&k| node.slot(k) != Slot::Empty && w[k] > 0.0)
-        .count()
-}
 
 /// The f32 test the cut uses for "x is inside the slot's bounding sphere", same operations.
 fn inside(node: &Node4, k: usize, x: Vec3) -> bool {
@@ -315,21 +250,9 @@ fn check_cut(
             "cluster {i} {c:?} has weight {} {ctx}",
             c.weight
         );
-        ensure!(
-            (c.node as usize) < nodes.len() && c.slot < 4,
-            "cluster {i} {c:?} names no slot {ctx}"
-        );
+        check_cluster_slot(tree, i, c, &ctx)?;
         let node = &nodes[c.node as usize];
         let k = usize::from(c.slot);
-        ensure!(
-            node.slot(k) != Slot::Empty,
-            "cluster {i} {c:?} is an empty slot {ctx}"
-        );
-        ensure!(
-            tree.slot_at(c.path) == Some((c.node, k)),
-            "cluster {i} {c:?}: its path leads to {:?} {ctx}",
-            tree.slot_at(c.path)
-        );
         let w = imp.eval4(node).to_array()[k];
         ensure!(
             c.weight == w,
@@ -419,57 +342,7 @@ fn check_cut(
     // `drops` times), so when the cluster was considered the count was at most len + drops;
     // opening it replaces 1 by its n_c positive children: len + drops − 1 + n_c > max_size.
     if !cut.is_empty() {
-        let mut ancestors: HashSet<u64> = HashSet::new();
-        let mut opened: HashSet<u32> = HashSet::from([0]);
-        for c in clusters {
-            for up in 1..levels(c.path) {
-                let p = c.path >> (2 * up);
-                let (an, ak) = tree.slot_at(p).unwrap();
-                match nodes[an as usize].slot(ak) {
-                    Slot::Node(child) => {
-                        opened.insert(child);
-                        ancestors.insert(p);
-                    }
-                    other => return Err(format!("ancestor {p:#b} of {c:?} is {other:?}")),
-                }
-            }
-        }
-        let cluster_paths: HashSet<u64> = clusters.iter().map(|c| c.path).collect();
-        let mut drops = 0usize;
-        for &o in &opened {
-            let node = &nodes[o as usize];
-            let w = imp.eval4(node).to_array();
-            // The path of node o: any slot's path leading into it (the root: marker 1).
-            let base = if o == 0 {
-                Some(1u64)
-            } else {
-                ancestors.iter().copied().find(|&p| {
-                    let (an, ak) = tree.slot_at(p).unwrap();
-                    nodes[an as usize].slot(ak) == Slot::Node(o)
-                })
-            };
-            let base = base.ok_or_else(|| format!("opened node {o} has no ancestor path"))?;
-            for (k, &wk) in w.iter().enumerate() {
-                let p = (base << 2) | k as u64;
-                if node.slot(k) == Slot::Empty
-                    || !positive(wk)
-                    || cluster_paths.contains(&p)
-                    || ancestors.contains(&p)
-                {
-                    continue;
-                }
-                let dead = match node.slot(k) {
-                    Slot::Node(child) => dead_subtree(tree, imp, child, &mut drops),
-                    _ => false,
-                };
-                ensure!(
-                    dead,
-                    "slot ({o}, {k}) (path {p:#b}) of an opened node has importance {} and a \
-                     path of positive importance to a light, but is in no cluster {ctx}",
-                    wk
-                );
-            }
-        }
+        let drops = check_coverage(tree, imp, clusters, &ctx)?;
         for (i, c) in clusters.iter().enumerate() {
             let node = &nodes[c.node as usize];
             let k = usize::from(c.slot);
@@ -489,47 +362,10 @@ fn check_cut(
     }
 
     // Disjoint.
-    for (i, a) in clusters.iter().enumerate() {
-        for (j, b) in clusters.iter().enumerate() {
-            ensure!(
-                i == j || !is_prefix(a.path, b.path),
-                "cluster {i} {a:?} contains cluster {j} {b:?} {ctx}"
-            );
-        }
-    }
-    let mut owner: Vec<Option<usize>> = vec![None; n];
-    for (i, m) in members.iter().enumerate() {
-        for &l in m {
-            let prev = owner[l as usize].replace(i);
-            ensure!(
-                prev.is_none(),
-                "light {l} is under clusters {prev:?} and {i} {ctx}"
-            );
-        }
-    }
+    let owner = check_disjoint(clusters, &members, n, &ctx)?;
 
     // pmf_in: the owner, a pmf in [0, 1].
-    let mut pmf_in: Vec<f32> = vec![0.0; n];
-    for l in 0..n {
-        let got = cut.pmf_in(tree, imp, l as u32);
-        match (owner[l], got) {
-            (None, None) => {}
-            (Some(i), Some((j, p))) if i == j => {
-                ensure!(
-                    p.is_finite() && (0.0..=1.0 + 1e-6).contains(&p),
-                    "light {l}: pmf_in {p} {ctx}"
-                );
-                pmf_in[l] = p;
-            }
-            _ => {
-                return Err(format!(
-                    "light {l} (path {:#b}) is under cluster {:?} but pmf_in says {got:?} {ctx}",
-                    tree.paths()[l],
-                    owner[l]
-                ))
-            }
-        }
-    }
+    let pmf_in = check_pmf_in(&cut, tree, imp, &owner, &ctx)?;
     for bad in [n as u32, u32::MAX] {
         ensure!(
             cut.pmf_in(tree, imp, bad).is_none(),
@@ -540,14 +376,7 @@ fn check_cut(
 
     // Per cluster: pmfs sum to 1 or are all 0; sample_in agrees.
     for (i, m) in members.iter().enumerate() {
-        let sum: f64 = m.iter().map(|&l| f64::from(pmf_in[l as usize])).sum();
-        let dead = m.iter().all(|&l| pmf_in[l as usize] == 0.0);
-        ensure!(
-            dead || (sum - 1.0).abs() <= 1e-4,
-            "cluster {i} {:?}: pmf_in of its {} lights sum to {sum} {ctx}",
-            clusters[i],
-            m.len()
-        );
+        let (sum, dead) = check_cluster_pmf_sum(clusters, i, m, &pmf_in, &ctx)?;
         report.dead += usize::from(dead);
         for &u in us {
             match cut.sample_in(tree, imp, i, u) {
@@ -586,16 +415,8 @@ fn check_cut(
     }
 
     // pmf = weight / total · pmf_in; sample reports pmf().
-    let ctotal = f64::from(cut.total_weight());
     for l in 0..n {
-        let p = cut.pmf(tree, imp, l as u32);
-        let expect = owner[l].map_or(0.0, |i| {
-            f64::from(clusters[i].weight) / ctotal * f64::from(pmf_in[l])
-        });
-        ensure!(
-            p.is_finite() && close(f64::from(p), expect, 1e-5, 1e-37),
-            "light {l}: pmf {p} vs weight/total·pmf_in {expect} {ctx}"
-        );
+        let p = check_light_pmf(&cut, tree, imp, &owner, &pmf_in, l, &ctx)?;
         report.pmf_sum += f64::from(p);
     }
     for &u in us {
@@ -868,29 +689,7 @@ fn cut_pmfs_sum_to_one_on_random_scenes() {
 /// `cut.sample(.., 0.85)` is `None` (1.37 % of all u are).
 #[test]
 fn cut_sample_is_some_and_pmfs_sum_to_one_with_zero_importance_cluster() {
-    let mut lights = Vec::new();
-    let tau = 2.0 * std::f32::consts::PI;
-    for i in 0..64 {
-        let phi = tau * i as f32 / 64.0;
-        lights.push(Light::Disk {
-            center: Vec3::new(phi.cos(), phi.sin(), 0.0),
-            normal: Vec3::Z,
-            radius: 0.005,
-            radiance: 1.0 + (i % 5) as f32,
-            two_sided: false,
-        });
-    }
-    for i in 0..4 {
-        lights.push(Light::Point {
-            position: Vec3::new(i as f32 - 1.5, 0.5, -30.0),
-            intensity: 1.0,
-        });
-    }
-    let imp = TlImportance::with_receiver(
-        Vec3::new(0.0, 0.0, -0.05),
-        Vec3::ZERO,
-        Receiver::Omnidirectional,
-    );
+    let (lights, imp) = ring_scene();
     let tree = LightTree::build(&lights).unwrap();
     let mut rng = Rng::new(0x121C);
     let us = u_values(&mut rng, 200);
@@ -1004,9 +803,7 @@ fn cut_chi_square_against_pmf() {
     for (case, (imp, opts)) in cases.iter().enumerate() {
         let cut = LightCut::build_split(&tree, imp, opts);
         assert!(cut.len() >= 4, "case {case}: only {} clusters", cut.len());
-        let pmfs: Vec<f64> = (0..lights.len() as u32)
-            .map(|l| f64::from(cut.pmf(&tree, imp, l)))
-            .collect();
+        let pmfs = cut_pmfs(&cut, &tree, imp, lights.len());
         let total: f64 = pmfs.iter().sum();
         assert!(total <= 1.0 + 1e-4, "case {case}: Σ pmf = {total}");
         // `sample` may return no light (see `cut_pmfs_sum_to_one_on_random_scenes`): that
@@ -1015,14 +812,7 @@ fn cut_chi_square_against_pmf() {
         let dead = (0..cut.len())
             .filter(|&i| cut.sample_in(&tree, imp, i, 0.5).is_none())
             .count();
-        let mut counts = vec![0u64; lights.len()];
-        let mut none = 0u64;
-        for _ in 0..samples {
-            match cut.sample(&tree, imp, rng.f32()) {
-                Some(s) => counts[s.light as usize] += 1,
-                None => none += 1,
-            }
-        }
+        let (counts, none) = cut_sample_counts(&cut, &tree, imp, lights.len(), samples, &mut rng);
         // Normalised so that the expected counts add up to exactly `samples`.
         let norm = total + none_mass;
         let (mut obs, mut exp) = (vec![none], vec![samples as f64 * none_mass / norm]);
@@ -1048,14 +838,7 @@ fn cut_chi_square_against_pmf() {
             stat < crit,
             "case {case}: chi2 = {stat:.2} ≥ {crit:.2} (dof {dof})"
         );
-        let big = (0..exp.len())
-            .max_by(|&a, &b| exp[a].total_cmp(&exp[b]))
-            .unwrap();
-        let mut skewed = exp.clone();
-        skewed[big] *= 1.05;
-        let norm: f64 = skewed.iter().sum::<f64>() / samples as f64;
-        skewed.iter_mut().for_each(|e| *e /= norm);
-        let (skewed_stat, _) = chi2_statistic(&obs, &skewed);
+        let skewed_stat = chi2_skewed_statistic(&obs, &exp, samples);
         assert!(
             skewed_stat > crit,
             "case {case}: a 5 % error in the largest pmf goes unnoticed ({skewed_stat} ≤ {crit})"
@@ -1076,38 +859,7 @@ fn contributing_lights_have_positive_cut_pmf_near_boundaries() {
     let mut rng = Rng::new(0xB0C);
     let mut checked = 0;
     for _ in 0..30 {
-        let spec = SceneSpec {
-            half: 10.0,
-            zero_energy: 0.0,
-            kinds: [0, 2, 0, 1, 1],
-            ..SceneSpec::default()
-        };
-        let mut lights = common::random_scene(&mut rng, 60, &spec);
-        for l in lights.iter_mut().step_by(2) {
-            match l {
-                Light::Disk { center, normal, .. } => {
-                    center.z = 0.0;
-                    *normal = Vec3::Z;
-                }
-                Light::Triangle { vertices, .. } => {
-                    for v in vertices.iter_mut() {
-                        v.z = 0.0;
-                    }
-                }
-                Light::Spot {
-                    position,
-                    direction,
-                    ..
-                } => {
-                    position.z = 0.0;
-                    direction.z = 0.0;
-                    if direction.length_squared() == 0.0 {
-                        *direction = Vec3::X;
-                    }
-                }
-                _ => {}
-            }
-        }
+        let lights = boundary_scene(&mut rng);
         let tree = LightTree::build(&lights).unwrap();
         for _ in 0..8 {
             let mut x = rng.in_cube(10.0);

@@ -5,8 +5,8 @@
 mod common;
 
 use common::{
-    close, contributes, point_on_light, proptest_config, random_normal, styled_scene, Rng,
-    SceneSpec, Where, RECEIVERS,
+    boundary_scene, close, contributes, proptest_config, push_emitter_points, push_sphere_points,
+    random_normal, styled_scene, Rng, Where, RECEIVERS,
 };
 use glam::{DVec3, Vec3};
 use manylights::baseline::BinaryLightTree;
@@ -50,38 +50,9 @@ fn check_lanes(imp: &TlImportance, node: &Node4) -> Result<(), String> {
 fn stress_points(rng: &mut Rng, node: &Node4, lights: &[Light], half: f32) -> Vec<Vec3> {
     let mut xs = Vec::new();
     for k in 0..4 {
-        let b = node.bounds(k);
-        xs.push(b.center);
-        xs.push(b.center + rng.unit() * b.radius * rng.f32());
-        xs.push(b.center + rng.unit() * b.radius);
-        xs.push(b.center + rng.unit() * b.radius * 1.001);
+        push_sphere_points(rng, &node.bounds(k), &mut xs);
     }
-    for _ in 0..2 {
-        let l = &lights[rng.below(lights.len())];
-        xs.push(point_on_light(rng, l));
-        // Behind (or in front of) an emitter, near and far.
-        let (c, m) = match *l {
-            Light::Disk { center, normal, .. } => (center, normal.normalize()),
-            Light::Triangle { vertices, .. } => (
-                (vertices[0] + vertices[1] + vertices[2]) / 3.0,
-                (vertices[1] - vertices[0])
-                    .cross(vertices[2] - vertices[0])
-                    .normalize_or_zero(),
-            ),
-            Light::Spot {
-                position,
-                direction,
-                ..
-            } => (position, direction.normalize()),
-            Light::Point { position, .. }
-            | Light::Sphere {
-                center: position, ..
-            } => (position, rng.unit()),
-        };
-        let t = half * rng.log_range(1e-4, 10.0);
-        xs.push(c - m * t);
-        xs.push(c + m * t);
-    }
+    push_emitter_points(rng, lights, half, &mut xs);
     xs.push(rng.in_cube(half));
     xs.push(rng.unit() * half * rng.log_range(10.0, 1e4));
     xs
@@ -409,41 +380,7 @@ fn contributing_lights_have_positive_pmf_near_boundaries() {
     let mut rng = Rng::new(0xB0);
     let mut checked = 0;
     for _ in 0..40 {
-        let spec = SceneSpec {
-            half: 10.0,
-            zero_energy: 0.0,
-            kinds: [0, 2, 0, 1, 1],
-            ..SceneSpec::default()
-        };
-        let mut lights = common::random_scene(&mut rng, 60, &spec);
-        // Flatten half of the scene into the plane z = 0 with normals in the plane's normal:
-        // from a point in that plane every one of them is exactly edge-on (skipped by the
-        // margin) and from just above or below it nearly so.
-        for l in lights.iter_mut().step_by(2) {
-            match l {
-                Light::Disk { center, normal, .. } => {
-                    center.z = 0.0;
-                    *normal = Vec3::Z;
-                }
-                Light::Triangle { vertices, .. } => {
-                    for v in vertices.iter_mut() {
-                        v.z = 0.0;
-                    }
-                }
-                Light::Spot {
-                    position,
-                    direction,
-                    ..
-                } => {
-                    position.z = 0.0;
-                    direction.z = 0.0;
-                    if direction.length_squared() == 0.0 {
-                        *direction = Vec3::X;
-                    }
-                }
-                _ => {}
-            }
-        }
+        let lights = boundary_scene(&mut rng);
         let tree = LightTree::build(&lights).unwrap();
         let bin = BinaryLightTree::build(&lights).unwrap();
         for _ in 0..12 {

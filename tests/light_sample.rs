@@ -6,6 +6,9 @@
 //! Every statistical tolerance is a number of standard errors computed from the samples
 //! themselves (`K_SIGMA`), plus a tiny absolute slack for f32 rounding; seeds are fixed.
 
+mod common;
+
+use common::{Rng, Stats};
 use glam::{DVec3, Vec3};
 use manylights::light_sample::{intersect, pdf_direction, pdf_point, sample_point};
 use manylights::{Light, LightPoint};
@@ -17,57 +20,6 @@ const K_SIGMA: f64 = 5.0;
 // ---------------------------------------------------------------------------------------------
 // Helpers
 // ---------------------------------------------------------------------------------------------
-
-/// SplitMix64.
-struct Rng(u64);
-
-impl Rng {
-    fn new(seed: u64) -> Rng {
-        Rng(seed ^ 0x5851_F42D_4C95_7F2D)
-    }
-    fn next(&mut self) -> u64 {
-        self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
-        let mut z = self.0;
-        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-        z ^ (z >> 31)
-    }
-    /// Uniform in [0, 1) with 24 bits.
-    fn f32(&mut self) -> f32 {
-        (self.next() >> 40) as f32 * (1.0 / (1u64 << 24) as f32)
-    }
-    /// Uniform in [0, 1) with 53 bits.
-    fn f64(&mut self) -> f64 {
-        (self.next() >> 11) as f64 * (1.0 / (1u64 << 53) as f64)
-    }
-    fn u2(&mut self) -> [f32; 2] {
-        [self.f32(), self.f32()]
-    }
-}
-
-/// Mean and standard error of a sample.
-#[derive(Default)]
-struct Stats {
-    n: f64,
-    s: f64,
-    s2: f64,
-}
-
-impl Stats {
-    fn add(&mut self, v: f64) {
-        assert!(v.is_finite(), "non-finite estimate {v}");
-        self.n += 1.0;
-        self.s += v;
-        self.s2 += v * v;
-    }
-    fn mean(&self) -> f64 {
-        self.s / self.n
-    }
-    fn se(&self) -> f64 {
-        let m = self.mean();
-        ((self.s2 / self.n - m * m).max(0.0) / (self.n - 1.0)).sqrt()
-    }
-}
 
 fn d(v: Vec3) -> DVec3 {
     v.as_dvec3()

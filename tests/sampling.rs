@@ -6,8 +6,8 @@
 mod common;
 
 use common::{
-    chi2_critical, chi2_statistic, close, contributes, proptest_config, random_importance,
-    styled_scene, u_values, zero_energy, Rng, Z_999,
+    chi2_critical, chi2_skewed_statistic, chi2_statistic, close, contributes, proptest_config,
+    random_importance, ring_scene, styled_scene, u_values, zero_energy, Rng, Z_999,
 };
 use glam::Vec3;
 use manylights::baseline::BinaryLightTree;
@@ -342,14 +342,7 @@ fn chi_square<S: Sampler>(
     // The test has power: the same counts against the pmfs with the largest one 5 % too big
     // (renormalised) are rejected. (With p ≥ 1/64 and N = 10^6 the shift is ≥ 780 counts, at
     // least six standard deviations of that bin alone.)
-    let big = (0..exp.len())
-        .max_by(|&a, &b| exp[a].total_cmp(&exp[b]))
-        .unwrap();
-    let mut skewed = exp.clone();
-    skewed[big] *= 1.05;
-    let norm: f64 = skewed.iter().sum::<f64>() / samples as f64;
-    skewed.iter_mut().for_each(|e| *e /= norm);
-    let (skewed_stat, _) = chi2_statistic(&obs, &skewed);
+    let skewed_stat = chi2_skewed_statistic(&obs, &exp, samples);
     assert!(
         skewed_stat > crit,
         "{}: a 5 % error in the largest pmf goes unnoticed ({skewed_stat} ≤ {crit})",
@@ -543,38 +536,6 @@ fn far_field_frequencies_follow_power() {
 // ---------------------------------------------------------------------------------------------
 // Zero-importance fallback (MATH.md section 12)
 // ---------------------------------------------------------------------------------------------
-
-/// 64 small one-sided disks facing +z on a unit circle in the plane z = 0, and the shading
-/// point just below the plane at the circle's centre: every disk faces away from it (zero
-/// importance), but a cluster of several disks has a bounding sphere wide enough (θu) for its
-/// cone bound to reach the point, and the root's sphere contains it. Plus four point lights far
-/// above, so the root also holds clusters that do contribute.
-fn ring_scene() -> (Vec<Light>, TlImportance) {
-    let mut lights = Vec::new();
-    let tau = 2.0 * std::f32::consts::PI;
-    for i in 0..64 {
-        let phi = tau * i as f32 / 64.0;
-        lights.push(Light::Disk {
-            center: Vec3::new(phi.cos(), phi.sin(), 0.0),
-            normal: Vec3::Z,
-            radius: 0.005,
-            radiance: 1.0 + (i % 5) as f32,
-            two_sided: false,
-        });
-    }
-    for i in 0..4 {
-        lights.push(Light::Point {
-            position: Vec3::new(i as f32 - 1.5, 0.5, -30.0),
-            intensity: 1.0,
-        });
-    }
-    let imp = TlImportance::with_receiver(
-        Vec3::new(0.0, 0.0, -0.05),
-        Vec3::ZERO,
-        Receiver::Omnidirectional,
-    );
-    (lights, imp)
-}
 
 /// Every light under node `node`.
 fn lights_under(tree: &LightTree, node: u32, out: &mut Vec<u32>) {

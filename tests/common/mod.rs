@@ -8,8 +8,10 @@
 
 #![allow(dead_code)] // each test binary uses a different subset
 
+pub mod cut;
+
 use glam::{DVec3, Vec3};
-use manylights::{Light, Receiver, TlImportance};
+use manylights::{Light, Receiver, SlotBounds, TlImportance};
 use std::f32::consts::{FRAC_PI_2, PI};
 
 // ---------------------------------------------------------------------------------------------
@@ -41,6 +43,11 @@ impl Rng {
     /// Uniform in [0, 1) with 53 random bits.
     pub fn f64(&mut self) -> f64 {
         (self.next_u64() >> 11) as f64 * (1.0 / (1u64 << 53) as f64)
+    }
+
+    /// Two uniforms in [0, 1) (f32, 24 bits each), in that order.
+    pub fn u2(&mut self) -> [f32; 2] {
+        [self.f32(), self.f32()]
     }
 
     /// Uniform integer in [0, n).
@@ -235,6 +242,47 @@ pub fn zero_energy(l: &Light) -> bool {
     }
 }
 
+/// Stress points of one slot's bounding sphere `b`, pushed onto `xs`: its centre, a point at
+/// a random depth inside, one on its surface and one just outside (1.001 radii).
+pub fn push_sphere_points(rng: &mut Rng, b: &SlotBounds, xs: &mut Vec<Vec3>) {
+    xs.push(b.center);
+    xs.push(b.center + rng.unit() * b.radius * rng.f32());
+    xs.push(b.center + rng.unit() * b.radius);
+    xs.push(b.center + rng.unit() * b.radius * 1.001);
+}
+
+/// Stress points around two random emitters of `lights`, pushed onto `xs`: for each, a point
+/// on it, then a point behind and one in front of it (along its normal or direction; a random
+/// direction for points and spheres) at a random distance of 1e-4 to 10 times `half`.
+pub fn push_emitter_points(rng: &mut Rng, lights: &[Light], half: f32, xs: &mut Vec<Vec3>) {
+    for _ in 0..2 {
+        let l = &lights[rng.below(lights.len())];
+        xs.push(point_on_light(rng, l));
+        // Behind (or in front of) an emitter, near and far.
+        let (c, m) = match *l {
+            Light::Disk { center, normal, .. } => (center, normal.normalize()),
+            Light::Triangle { vertices, .. } => (
+                (vertices[0] + vertices[1] + vertices[2]) / 3.0,
+                (vertices[1] - vertices[0])
+                    .cross(vertices[2] - vertices[0])
+                    .normalize_or_zero(),
+            ),
+            Light::Spot {
+                position,
+                direction,
+                ..
+            } => (position, direction.normalize()),
+            Light::Point { position, .. }
+            | Light::Sphere {
+                center: position, ..
+            } => (position, rng.unit()),
+        };
+        let t = half * rng.log_range(1e-4, 10.0);
+        xs.push(c - m * t);
+        xs.push(c + m * t);
+    }
+}
+
 /// A point on the light's emitting geometry (the position itself for points and spots).
 pub fn point_on_light(rng: &mut Rng, l: &Light) -> Vec3 {
     match *l {
@@ -321,15 +369,21 @@ pub fn random_normal(rng: &mut Rng) -> Vec3 {
 
 /// A random importance of each kind of shading point, normal and receiver.
 pub fn random_importance(rng: &mut Rng, lights: &[Light], half: f32) -> TlImportance {
+    let x = random_shading_point(rng, lights, half);
+    let n = random_normal(rng);
+    TlImportance::with_receiver(x, n, RECEIVERS[rng.below(3)])
+}
+
+/// A shading point of a random kind among inside the scene, far away, on a light and at a
+/// point light (see [`shading_point`]).
+pub fn random_shading_point(rng: &mut Rng, lights: &[Light], half: f32) -> Vec3 {
     let kind = [
         Where::Inside,
         Where::Far,
         Where::OnLight,
         Where::AtPointLight,
     ][rng.below(4)];
-    let x = shading_point(rng, lights, half, kind);
-    let n = random_normal(rng);
-    TlImportance::with_receiver(x, n, RECEIVERS[rng.below(3)])
+    shading_point(rng, lights, half, kind)
 }
 
 /// The u values every sampling check uses: 0, tiny ones, 0.5, the largest f32 below 1, and
@@ -604,4 +658,122 @@ pub fn proptest_config(cases: u32, seed: u64) -> proptest::test_runner::Config {
         max_shrink_iters: 200,
         ..proptest::test_runner::Config::default()
     }
+}
+
+/// The power check of a chi-square test: the statistic of the same observed counts `obs`
+/// against the expected counts `exp` (of `samples` draws) with the largest one 5 % too big
+/// (renormalised to `samples`). A test with power rejects it (the result exceeds the critical
+/// value).
+pub fn chi2_skewed_statistic(obs: &[u64], exp: &[f64], samples: usize) -> f64 {
+    let big = (0..exp.len())
+        .max_by(|&a, &b| exp[a].total_cmp(&exp[b]))
+        .unwrap();
+    let mut skewed = exp.to_vec();
+    skewed[big] *= 1.05;
+    let norm: f64 = skewed.iter().sum::<f64>() / samples as f64;
+    skewed.iter_mut().for_each(|e| *e /= norm);
+    chi2_statistic(obs, &skewed).0
+}
+
+/// Running mean and standard error of a sample of finite values.
+#[derive(Default)]
+pub struct Stats {
+    n: f64,
+    s: f64,
+    s2: f64,
+}
+
+impl Stats {
+    pub fn add(&mut self, v: f64) {
+        assert!(v.is_finite(), "non-finite value {v}");
+        self.n += 1.0;
+        self.s += v;
+        self.s2 += v * v;
+    }
+
+    pub fn mean(&self) -> f64 {
+        self.s / self.n
+    }
+
+    /// Standard error of the mean (the i.i.d. formula).
+    pub fn se(&self) -> f64 {
+        let m = self.mean();
+        ((self.s2 / self.n - m * m).max(0.0) / (self.n - 1.0)).sqrt()
+    }
+}
+
+// ---------------------------------------------------------------------------------------------
+// Fixed scenes
+// ---------------------------------------------------------------------------------------------
+
+/// 64 small one-sided disks facing +z on a unit circle in the plane z = 0, and the shading
+/// point just below the plane at the circle's centre: every disk faces away from it (zero
+/// importance), but a cluster of several disks has a bounding sphere wide enough (θu) for its
+/// cone bound to reach the point, and the root's sphere contains it. Plus four point lights far
+/// above, so the root also holds clusters that do contribute.
+pub fn ring_scene() -> (Vec<Light>, TlImportance) {
+    let mut lights = Vec::new();
+    let tau = 2.0 * std::f32::consts::PI;
+    for i in 0..64 {
+        let phi = tau * i as f32 / 64.0;
+        lights.push(Light::Disk {
+            center: Vec3::new(phi.cos(), phi.sin(), 0.0),
+            normal: Vec3::Z,
+            radius: 0.005,
+            radiance: 1.0 + (i % 5) as f32,
+            two_sided: false,
+        });
+    }
+    for i in 0..4 {
+        lights.push(Light::Point {
+            position: Vec3::new(i as f32 - 1.5, 0.5, -30.0),
+            intensity: 1.0,
+        });
+    }
+    let imp = TlImportance::with_receiver(
+        Vec3::new(0.0, 0.0, -0.05),
+        Vec3::ZERO,
+        Receiver::Omnidirectional,
+    );
+    (lights, imp)
+}
+
+/// A random scene of 60 disks, triangles and spots (no zero-energy lights) in a cube of half
+/// side 10, built to sit near the zero boundaries: every second light is flattened into the
+/// plane z = 0 with its normal (or direction) in the plane's normal, so that from a point in
+/// that plane it is exactly edge-on and from just above or below it nearly so.
+pub fn boundary_scene(rng: &mut Rng) -> Vec<Light> {
+    let spec = SceneSpec {
+        half: 10.0,
+        zero_energy: 0.0,
+        kinds: [0, 2, 0, 1, 1],
+        ..SceneSpec::default()
+    };
+    let mut lights = random_scene(rng, 60, &spec);
+    for l in lights.iter_mut().step_by(2) {
+        match l {
+            Light::Disk { center, normal, .. } => {
+                center.z = 0.0;
+                *normal = Vec3::Z;
+            }
+            Light::Triangle { vertices, .. } => {
+                for v in vertices.iter_mut() {
+                    v.z = 0.0;
+                }
+            }
+            Light::Spot {
+                position,
+                direction,
+                ..
+            } => {
+                position.z = 0.0;
+                direction.z = 0.0;
+                if direction.length_squared() == 0.0 {
+                    *direction = Vec3::X;
+                }
+            }
+            _ => {}
+        }
+    }
+    lights
 }
