@@ -2,8 +2,11 @@
 //! `mlrender` binary and the core's benches.
 
 pub mod bench;
+pub mod compare;
 pub mod estimator;
 pub mod ggx;
 pub mod random_scene;
+pub mod render;
+pub mod scene;
 pub mod sptd_accuracy;
 pub mod sptd_fit;

@@ -1,7 +1,8 @@
 //! `mlrender`: the test renderer and instruments of manylights.
 
 use clap::{Parser, Subcommand};
-use manylights_render::{bench, sptd_accuracy, sptd_fit};
+use manylights_render::estimator::techniques::Technique;
+use manylights_render::{bench, compare, render, scene, sptd_accuracy, sptd_fit};
 use std::path::PathBuf;
 
 #[derive(Parser)]
@@ -70,6 +71,100 @@ enum Command {
     /// Unbiasedness, variance and time per estimate of the estimators (uniform, power, tl,
     /// tl-split, bl, mis-equal, full) against exact values, without visibility.
     Estimator(manylights_render::estimator::EstimatorArgs),
+    /// Render a built-in scene (direct illumination) with one technique to a PNG.
+    Render {
+        /// Scene: cornell or stairs.
+        #[arg(long, default_value = "cornell")]
+        scene: String,
+        /// Number of lights (cornell only; default 1,494).
+        #[arg(long)]
+        lights: Option<usize>,
+        /// Technique: uniform, power, tl, tl-split, bl, mis-equal or full.
+        #[arg(long, default_value = "full")]
+        technique: String,
+        /// Estimates per pixel.
+        #[arg(long, default_value_t = 16)]
+        spp: usize,
+        /// Image width.
+        #[arg(long, default_value_t = 256)]
+        width: usize,
+        /// Image height.
+        #[arg(long, default_value_t = 256)]
+        height: usize,
+        /// Seed of the estimates.
+        #[arg(long, default_value_t = 1)]
+        seed: u64,
+        /// Output PNG (8-bit sRGB, values clamped to [0, 1]).
+        #[arg(short, long, default_value = "out.png")]
+        output: PathBuf,
+    },
+    /// Compute (or load) the cached reference of a scene under out/reference/ and check that
+    /// tl-split at a quarter of its spp converges to the same image average.
+    Reference {
+        /// Scene: cornell or stairs.
+        #[arg(long, default_value = "cornell")]
+        scene: String,
+        /// Number of lights (cornell only; default 1,494).
+        #[arg(long)]
+        lights: Option<usize>,
+        /// Estimates per pixel of the reference (default 1,024, 256 with --quick: the
+        /// reference `compare` uses at its default spp).
+        #[arg(long)]
+        ref_spp: Option<usize>,
+        /// Image width (default 256, 96 with --quick).
+        #[arg(long)]
+        width: Option<usize>,
+        /// Image height (default 256, 96 with --quick).
+        #[arg(long)]
+        height: Option<usize>,
+        /// The resolution and reference spp of `compare --quick`.
+        #[arg(long)]
+        quick: bool,
+        /// Seed.
+        #[arg(long, default_value_t = 1)]
+        seed: u64,
+        /// Output root folder.
+        #[arg(long, default_value = "out")]
+        out: PathBuf,
+    },
+    /// Every technique on a built-in scene at equal spp and equal time against a cached
+    /// reference (out/reference/): images, side-by-side image and RMSE table under
+    /// out/compare/<scene>-<lights>/.
+    Compare {
+        /// Scene: cornell or stairs.
+        #[arg(long, default_value = "cornell")]
+        scene: String,
+        /// Number of lights (cornell only; default 1,494).
+        #[arg(long)]
+        lights: Option<usize>,
+        /// Estimates per pixel at equal spp (default 16, 4 with --quick).
+        #[arg(long)]
+        spp: Option<usize>,
+        /// Estimates per pixel of the reference (default 64 × spp).
+        #[arg(long)]
+        ref_spp: Option<usize>,
+        /// Image width (default 256, 96 with --quick).
+        #[arg(long)]
+        width: Option<usize>,
+        /// Image height (default 256, 96 with --quick).
+        #[arg(long)]
+        height: Option<usize>,
+        /// Small resolution and sample counts.
+        #[arg(long)]
+        quick: bool,
+        /// Seed of the estimates.
+        #[arg(long, default_value_t = 1)]
+        seed: u64,
+        /// Output root folder.
+        #[arg(long, default_value = "out")]
+        out: PathBuf,
+        /// Skip the convergence plot (renders at 1, 2, 4, … 4 × spp per technique).
+        #[arg(long)]
+        no_plot: bool,
+        /// Print one JSON object as the last line of stdout.
+        #[arg(long)]
+        json: bool,
+    },
 }
 
 fn main() {
@@ -112,8 +207,174 @@ fn main() {
                 println!("{report}");
             }
         }
+        Command::Render {
+            scene,
+            lights,
+            technique,
+            spp,
+            width,
+            height,
+            seed,
+            output,
+        } => {
+            let code = run_render(
+                &scene, lights, &technique, spp, width, height, seed, &output,
+            );
+            std::process::exit(code)
+        }
+        Command::Reference {
+            scene,
+            lights,
+            ref_spp,
+            width,
+            height,
+            quick,
+            seed,
+            out,
+        } => {
+            let scene = match scene::by_name(&scene, lights) {
+                Ok(s) => s,
+                Err(e) => {
+                    eprintln!("{e}");
+                    std::process::exit(2)
+                }
+            };
+            let size = if quick { 96 } else { 256 };
+            let cfg = compare::CompareConfig {
+                width: width.unwrap_or(size),
+                height: height.unwrap_or(size),
+                spp: 1,
+                ref_spp: ref_spp.unwrap_or(if quick { 256 } else { 1024 }),
+                seed,
+                out,
+                progress: true,
+                plot: false,
+            };
+            match compare::check_reference(&scene, &cfg) {
+                Ok((img, rel, se, rmse)) => {
+                    println!(
+                        "{} ({} lights, {}x{}): reference average {:.5} (full, {} spp); tl-split at {} spp: relative difference {:.3} % (± {:.3} %), RMSE {:.5}",
+                        scene.name,
+                        scene.lights.lights.len(),
+                        img.width,
+                        img.height,
+                        img.average(),
+                        img.spp,
+                        (img.spp / 4).max(1),
+                        100.0 * rel,
+                        100.0 * se,
+                        rmse
+                    );
+                    if rel > 0.01 {
+                        eprintln!("the two techniques differ by more than 1 %");
+                        std::process::exit(1)
+                    }
+                }
+                Err(e) => {
+                    eprintln!("reference failed: {e}");
+                    std::process::exit(1)
+                }
+            }
+        }
+        Command::Compare {
+            scene,
+            lights,
+            spp,
+            ref_spp,
+            width,
+            height,
+            quick,
+            seed,
+            out,
+            no_plot,
+            json,
+        } => {
+            let scene = match scene::by_name(&scene, lights) {
+                Ok(s) => s,
+                Err(e) => {
+                    eprintln!("{e}");
+                    std::process::exit(2)
+                }
+            };
+            let size = if quick { 96 } else { 256 };
+            let spp = spp.unwrap_or(if quick { 4 } else { 16 });
+            let cfg = compare::CompareConfig {
+                width: width.unwrap_or(size),
+                height: height.unwrap_or(size),
+                spp,
+                ref_spp: ref_spp.unwrap_or(64 * spp),
+                seed,
+                out,
+                progress: true,
+                plot: !no_plot,
+            };
+            match compare::run(&scene, &cfg) {
+                Ok(report) => {
+                    println!("{}", report.table());
+                    if json {
+                        println!("{}", report.json());
+                    }
+                }
+                Err(e) => {
+                    eprintln!("compare failed: {e}");
+                    std::process::exit(1)
+                }
+            }
+        }
         Command::Estimator(args) => {
             std::process::exit(manylights_render::estimator::run_cli(&args))
         }
     }
+}
+
+#[allow(clippy::too_many_arguments)]
+fn run_render(
+    scene: &str,
+    lights: Option<usize>,
+    technique: &str,
+    spp: usize,
+    width: usize,
+    height: usize,
+    seed: u64,
+    output: &std::path::Path,
+) -> i32 {
+    let Some(technique) = Technique::from_name(technique) else {
+        eprintln!("unknown technique {technique:?}");
+        return 2;
+    };
+    let scene = match scene::by_name(scene, lights) {
+        Ok(s) => s,
+        Err(e) => {
+            eprintln!("{e}");
+            return 2;
+        }
+    };
+    let img = render::render(
+        &scene,
+        &render::RenderConfig {
+            width,
+            height,
+            spp,
+            technique,
+            seed,
+            progress: true,
+        },
+    );
+    if let Err(e) = render::write_png(output, width, height, &img.mean) {
+        eprintln!("cannot write {}: {e}", output.display());
+        return 1;
+    }
+    println!(
+        "{} {} lights {}x{} {} spp {}: {:.2} s, average {:.4}, written to {}",
+        scene.name,
+        scene.lights.lights.len(),
+        width,
+        height,
+        spp,
+        technique.name(),
+        img.seconds,
+        img.average(),
+        output.display()
+    );
+    0
 }

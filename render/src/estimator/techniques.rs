@@ -35,6 +35,10 @@
 //! `bl_cut.pmf(l) · pdf_point(y)`, TB the material's solid-angle pdf of the direction. A BRDF
 //! ray is traced against all lights by walking the light tree's bounding spheres ([`trace`]).
 //! The TB "hit" the allocator counts: the ray hit at least one light with non-zero radiance.
+//!
+//! The renderer reuses these estimators with visibility: [`Setup::with_occluder`] makes every
+//! light sample cast a shadow ray and cuts every BRDF ray at the first surface ([`Occluder`]);
+//! without it (the estimator instrument) nothing is occluded.
 
 use super::scene::Scene;
 use glam::Vec3;
@@ -83,6 +87,11 @@ impl Technique {
         Technique::MisEqual,
         Technique::Full,
     ];
+
+    /// The technique of a name (as [`Technique::name`] gives it).
+    pub fn from_name(name: &str) -> Option<Technique> {
+        Technique::ALL.into_iter().find(|t| t.name() == name)
+    }
 
     /// The name used everywhere.
     pub fn name(self) -> &'static str {
@@ -137,6 +146,19 @@ impl Default for Params {
             power: false,
         }
     }
+}
+
+/// Geometry that blocks light: the renderer's visibility (the estimator has none).
+///
+/// With an occluder, a light sample counts only if the segment from the shading point to the
+/// light point is free, and a BRDF ray reaches only the lights in front of the first surface
+/// it hits. Lights do not block each other in either case, so every technique estimates the
+/// same integral.
+pub trait Occluder: Sync + std::fmt::Debug {
+    /// Whether a surface lies on the ray from `x` along the unit `d` before distance `t`.
+    fn occluded(&self, x: Vec3, d: Vec3, t: f32) -> bool;
+    /// Distance to the first surface along the ray from `x` along the unit `d` (∞ if none).
+    fn first_hit(&self, x: Vec3, d: Vec3) -> f32;
 }
 
 /// A ray-vs-bounding-sphere test, conservative against f32 rounding of the stored spheres.
@@ -220,6 +242,7 @@ pub struct Setup<'a> {
     /// [`LambertMode::BlTb`]).
     bl_in_full: bool,
     power: bool,
+    occluder: Option<&'a dyn Occluder>,
 }
 
 /// One BRDF-aware sample's denominator `a pdf_BL + b pdf_TB`: `a = N p_j`, `b = N (1 − p_j)`
@@ -300,6 +323,22 @@ impl<'a> Setup<'a> {
             n_mix,
             bl_in_full: !diffuse || p.lambert == LambertMode::BlTb,
             power: p.power,
+            occluder: None,
+        }
+    }
+
+    /// The same set-up with visibility through `occluder` (see [`Occluder`]).
+    pub fn with_occluder(mut self, occluder: &'a dyn Occluder) -> Self {
+        self.occluder = Some(occluder);
+        self
+    }
+
+    /// Whether the light point is hidden by the occluder.
+    #[inline]
+    fn blocked(&self, lp: &LightPoint) -> bool {
+        match self.occluder {
+            Some(o) => o.occluded(self.x, lp.direction, lp.distance),
+            None => false,
         }
     }
 
@@ -340,7 +379,7 @@ impl<'a> Setup<'a> {
             return 0.0;
         };
         let (g, _) = self.contribution(&lp);
-        if g > 0.0 {
+        if g > 0.0 && !self.blocked(&lp) {
             f64::from(g / (pmf * lp.pdf))
         } else {
             0.0
@@ -450,7 +489,7 @@ impl<'a> Setup<'a> {
                 continue;
             };
             let (g, wi) = self.contribution(&lp);
-            if g <= 0.0 {
+            if g <= 0.0 || self.blocked(&lp) {
                 continue;
             }
             let pdf_tl = s.pmf * lp.pdf;
@@ -524,7 +563,7 @@ impl<'a> Setup<'a> {
             return 0.0;
         };
         let (g, wi) = self.contribution(&lp);
-        if g <= 0.0 {
+        if g <= 0.0 || self.blocked(&lp) {
             return 0.0;
         }
         let pdf_bl = s.pmf * lp.pdf;
@@ -550,8 +589,12 @@ impl<'a> Setup<'a> {
         let dir = self.frame.to_world(wi).normalize();
         let mut sum = 0.0f64;
         let mut hit = false;
+        let t_max = match self.occluder {
+            Some(o) => o.first_hit(self.x, dir),
+            None => f32::INFINITY,
+        };
         trace(self.scene, self.x, dir, |light, lp| {
-            if lp.radiance <= 0.0 {
+            if lp.radiance <= 0.0 || lp.distance >= t_max {
                 return;
             }
             hit = true;
