@@ -296,12 +296,13 @@ impl LightCut {
                     if !positive(w[k]) {
                         continue;
                     }
-                    let (count, variance) = match node.slot(k) {
+                    // V[e]/E[e]² of the cluster's energies (0 for a single light).
+                    let rel_e = match node.slot(k) {
                         Slot::Node(c) => tree
                             .node_stats
                             .get(c as usize)
-                            .map_or((1, 0.0), |s| (s.count.max(1), s.energy_rel_variance)),
-                        _ => (1, 0.0),
+                            .map_or(0.0, |s| s.energy_rel_variance),
+                        _ => 0.0,
                     };
                     let c = glam::Vec3::new(node.center_x[k], node.center_y[k], node.center_z[k]);
                     let r = node.radius[k];
@@ -312,8 +313,6 @@ impl LightCut {
                     } else {
                         let a = (d - r).max(1e-6 * d.max(1.0));
                         let b = d + r;
-                        let _ = count;
-                        let rel_e = variance;
                         let rel_g = (b - a) * (b - a) / (3.0 * a * b);
                         let rho = (1.0 + rel_e) * (1.0 + rel_g) - 1.0;
                         let share = w[k] / total;
