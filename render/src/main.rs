@@ -101,63 +101,25 @@ enum Command {
     /// Compute (or load) the cached reference of a scene under out/reference/ and check that
     /// tl-split at a quarter of its spp converges to the same image average.
     Reference {
-        /// Scene: cornell or stairs.
-        #[arg(long, default_value = "cornell")]
-        scene: String,
-        /// Number of lights (cornell only; default 1,494).
-        #[arg(long)]
-        lights: Option<usize>,
+        #[command(flatten)]
+        image: ImageArgs,
         /// Estimates per pixel of the reference (default 1,024, 256 with --quick: the
         /// reference `compare` uses at its default spp).
         #[arg(long)]
         ref_spp: Option<usize>,
-        /// Image width (default 256, 96 with --quick).
-        #[arg(long)]
-        width: Option<usize>,
-        /// Image height (default 256, 96 with --quick).
-        #[arg(long)]
-        height: Option<usize>,
-        /// The resolution and reference spp of `compare --quick`.
-        #[arg(long)]
-        quick: bool,
-        /// Seed.
-        #[arg(long, default_value_t = 1)]
-        seed: u64,
-        /// Output root folder.
-        #[arg(long, default_value = "out")]
-        out: PathBuf,
     },
     /// Every technique on a built-in scene at equal spp and equal time against a cached
     /// reference (out/reference/): images, side-by-side image and RMSE table under
     /// out/compare/<scene>-<lights>/.
     Compare {
-        /// Scene: cornell or stairs.
-        #[arg(long, default_value = "cornell")]
-        scene: String,
-        /// Number of lights (cornell only; default 1,494).
-        #[arg(long)]
-        lights: Option<usize>,
+        #[command(flatten)]
+        image: ImageArgs,
         /// Estimates per pixel at equal spp (default 16, 4 with --quick).
         #[arg(long)]
         spp: Option<usize>,
         /// Estimates per pixel of the reference (default 64 × spp).
         #[arg(long)]
         ref_spp: Option<usize>,
-        /// Image width (default 256, 96 with --quick).
-        #[arg(long)]
-        width: Option<usize>,
-        /// Image height (default 256, 96 with --quick).
-        #[arg(long)]
-        height: Option<usize>,
-        /// Small resolution and sample counts.
-        #[arg(long)]
-        quick: bool,
-        /// Seed of the estimates.
-        #[arg(long, default_value_t = 1)]
-        seed: u64,
-        /// Output root folder.
-        #[arg(long, default_value = "out")]
-        out: PathBuf,
         /// Skip the convergence plot (renders at 1, 2, 4, … 4 × spp per technique).
         #[arg(long)]
         no_plot: bool,
@@ -165,6 +127,57 @@ enum Command {
         #[arg(long)]
         json: bool,
     },
+}
+
+/// The scene and image arguments `reference` and `compare` share.
+#[derive(clap::Args)]
+struct ImageArgs {
+    /// Scene: cornell or stairs.
+    #[arg(long, default_value = "cornell")]
+    scene: String,
+    /// Number of lights (cornell only; default 1,494).
+    #[arg(long)]
+    lights: Option<usize>,
+    /// Image width (default 256, 96 with --quick).
+    #[arg(long)]
+    width: Option<usize>,
+    /// Image height (default 256, 96 with --quick).
+    #[arg(long)]
+    height: Option<usize>,
+    /// Small resolution and sample counts (those of `compare --quick`).
+    #[arg(long)]
+    quick: bool,
+    /// Seed of the estimates.
+    #[arg(long, default_value_t = 1)]
+    seed: u64,
+    /// Output root folder.
+    #[arg(long, default_value = "out")]
+    out: PathBuf,
+}
+
+impl ImageArgs {
+    /// The named scene; exits with status 2 on an unknown name or a bad light count.
+    fn scene(&self) -> scene::RenderScene {
+        scene::by_name(&self.scene, self.lights).unwrap_or_else(|e| {
+            eprintln!("{e}");
+            std::process::exit(2)
+        })
+    }
+
+    /// The render settings at `spp` with a reference of `ref_spp`.
+    fn config(&self, spp: usize, ref_spp: usize, plot: bool) -> compare::CompareConfig {
+        let size = if self.quick { 96 } else { 256 };
+        compare::CompareConfig {
+            width: self.width.unwrap_or(size),
+            height: self.height.unwrap_or(size),
+            spp,
+            ref_spp,
+            seed: self.seed,
+            out: self.out.clone(),
+            progress: true,
+            plot,
+        }
+    }
 }
 
 fn main() {
@@ -222,34 +235,10 @@ fn main() {
             );
             std::process::exit(code)
         }
-        Command::Reference {
-            scene,
-            lights,
-            ref_spp,
-            width,
-            height,
-            quick,
-            seed,
-            out,
-        } => {
-            let scene = match scene::by_name(&scene, lights) {
-                Ok(s) => s,
-                Err(e) => {
-                    eprintln!("{e}");
-                    std::process::exit(2)
-                }
-            };
-            let size = if quick { 96 } else { 256 };
-            let cfg = compare::CompareConfig {
-                width: width.unwrap_or(size),
-                height: height.unwrap_or(size),
-                spp: 1,
-                ref_spp: ref_spp.unwrap_or(if quick { 256 } else { 1024 }),
-                seed,
-                out,
-                progress: true,
-                plot: false,
-            };
+        Command::Reference { image, ref_spp } => {
+            let scene = image.scene();
+            let ref_spp = ref_spp.unwrap_or(if image.quick { 256 } else { 1024 });
+            let cfg = image.config(1, ref_spp, false);
             match compare::check_reference(&scene, &cfg) {
                 Ok((img, rel, se, rmse)) => {
                     println!(
@@ -277,37 +266,15 @@ fn main() {
             }
         }
         Command::Compare {
-            scene,
-            lights,
+            image,
             spp,
             ref_spp,
-            width,
-            height,
-            quick,
-            seed,
-            out,
             no_plot,
             json,
         } => {
-            let scene = match scene::by_name(&scene, lights) {
-                Ok(s) => s,
-                Err(e) => {
-                    eprintln!("{e}");
-                    std::process::exit(2)
-                }
-            };
-            let size = if quick { 96 } else { 256 };
-            let spp = spp.unwrap_or(if quick { 4 } else { 16 });
-            let cfg = compare::CompareConfig {
-                width: width.unwrap_or(size),
-                height: height.unwrap_or(size),
-                spp,
-                ref_spp: ref_spp.unwrap_or(64 * spp),
-                seed,
-                out,
-                progress: true,
-                plot: !no_plot,
-            };
+            let scene = image.scene();
+            let spp = spp.unwrap_or(if image.quick { 4 } else { 16 });
+            let cfg = image.config(spp, ref_spp.unwrap_or(64 * spp), !no_plot);
             match compare::run(&scene, &cfg) {
                 Ok(report) => {
                     println!("{}", report.table());
