@@ -4,30 +4,55 @@
 //! - **Reference**: the `full` technique at `ref_spp` estimates per pixel (default 64 × the
 //!   compared spp), with its own seed, cached as raw f32 under
 //!   `out/reference/<scene>-<lights>-<W>x<H>-<ref_spp>.bin` (delete the file to recompute it).
+//! - **Time** is busy time summed over the render threads ([`Image::seconds`]: each image row
+//!   timed by the CPU clock of the thread that renders it, the row times added up),
+//!   everywhere: budget, ms per spp, the equal-time renders' own times and the convergence
+//!   plot. It is about wall time × threads on idle cores; it counts neither idle threads nor
+//!   the time other processes take the cores, and does not depend on the thread count, so
+//!   that equal time stays equal on a shared, loaded machine, where wall time does not.
 //! - **Equal spp**: each technique at `spp`; RMSE against the reference.
-//! - **Equal time**: the time budget is what `full` took at `spp`; each technique then renders
-//!   again with `spp_t = max(1, round(budget / its ms per spp))` (fresh seed) and its RMSE is
-//!   reported as `rmse_equal_time`.
-//! - `mean_rel_diff`: |average of the equal-spp image − average of the reference| / average of
-//!   the reference.
+//! - **Cost model**: a render's time is affine in spp, `fixed + spp × per_spp`: `fixed` (primary
+//!   rays and the techniques' set-up at every pixel) is measured by a render at 0 spp, and
+//!   `per_spp = (time of the equal-spp render − fixed) / spp` (see [`Cost::from_times`]). Taking
+//!   `time / spp` instead would charge the fixed part to every sample and give the cheap
+//!   techniques, which then render many more spp than `spp`, up to a quarter less than their
+//!   budget at the `--quick` settings. The equal-spp render is the calibration: it is the
+//!   same scene, size and technique, and it is rendered anyway.
+//! - **Equal time**: the budget is `--time SECONDS` (busy seconds per technique) if given,
+//!   otherwise what `full` took at `spp`. Each technique renders again (fresh seed) with
+//!   `spp_t = max(1, round((budget − fixed) / per_spp))` ([`equal_time_spp`]; `full` gets `spp`
+//!   back when the budget is its own time) and its RMSE is `rmse_equal_time`; the render's
+//!   actual busy time is reported beside it (`seconds_equal_time`), so a budget missed because
+//!   of a noisy timing is visible.
+//! - `mean_rel_diff`: |average of the image − average of the reference| / average of the
+//!   reference, for the technique's image with the most spp among its equal-spp, equal-time and
+//!   convergence renders (`mean_rel_diff_spp`); `mean_rel_diff_se` is the standard error of
+//!   that difference (relative; from both images' per-pixel variances, `null` below 2 spp), so
+//!   that noise can be told from bias.
 //!
-//! Outputs under `out/compare/<scene>-<lights>/`: one PNG per technique (equal spp,
-//! `<technique>.png`), `reference.png`, `side_by_side.png` (techniques in report order, then
-//! the reference, separated by 4 black columns; below, each one's lower middle quarter
-//! magnified 2×), `convergence.svg` (unless `--no-plot`: RMSE against time, log-log, from
-//! renders at 1, 2, 4, … 4 × spp), `table.md` (the Markdown table, also printed).
+//! Outputs under `out/compare/<scene>-<lights>/`: per technique `<technique>.png` and
+//! `<technique>.exr` (equal spp) and `<technique>-equal-time.png` / `.exr`, `reference.png` /
+//! `.exr` (PNG: 8-bit sRGB clamped to [0, 1]; EXR: linear f32, R = G = B), `side_by_side.png`
+//! (equal-spp images in report order, then the reference, separated by 4 black columns; below,
+//! each one's lower middle quarter magnified 2×), `side_by_side_equal_time.png` (the same with
+//! the equal-time images), `convergence.svg` (unless `--no-plot`: RMSE against busy time,
+//! log-log, from renders at 1, 2, 4, … 4 × spp), `table.md` (the Markdown table, also printed).
 //! With `--json` the last line of stdout is
-//! `{scene, lights, resolution, spp, ref_spp, techniques: [{name, rmse_equal_spp,
-//! rmse_equal_time, spp_equal_time, ms_per_spp, mean_rel_diff}]}`.
+//! `{scene, lights, resolution, spp, ref_spp, time_budget_s, time_budget_from, dir,
+//! techniques: [{name, rmse_equal_spp, rmse_equal_time, spp_equal_time, seconds_equal_time,
+//! ms_per_spp, ms_fixed, seconds_equal_spp, mean_rel_diff, mean_rel_diff_spp,
+//! mean_rel_diff_se}]}`, techniques in the order `uniform`, `power`, `tl`, `tl-split`, `bl`,
+//! `mis-equal`, `full`; `ms_per_spp` and `ms_fixed` are the cost model's (busy milliseconds).
 
 use crate::estimator::techniques::Technique;
 use crate::render::{
-    convergence_svg, read_raw, render, side_by_side_with_crops, write_png, write_raw, Image,
-    RenderConfig,
+    convergence_svg, read_raw, render, side_by_side_with_crops, write_exr, write_png, write_raw,
+    Image, RenderConfig,
 };
 use crate::scene::RenderScene;
 use serde_json::json;
-use std::path::PathBuf;
+use std::io::{Error, ErrorKind};
+use std::path::{Path, PathBuf};
 
 /// What to compare.
 #[derive(Clone, Debug)]
@@ -49,6 +74,63 @@ pub struct CompareConfig {
     /// Also render every technique at 1, 2, 4, … 4 × spp and plot RMSE against time
     /// (`convergence.svg`).
     pub plot: bool,
+    /// Equal-time budget per technique in busy seconds (`--time`); `None`: what `full` took
+    /// at `spp`.
+    pub time: Option<f64>,
+}
+
+/// A technique's render time as `fixed + spp × per_spp` (busy seconds).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Cost {
+    /// Seconds of a render at 0 spp: primary rays and set-up at every pixel.
+    pub fixed: f64,
+    /// Seconds per estimate per pixel (whole image).
+    pub per_spp: f64,
+}
+
+impl Cost {
+    /// The cost model from the time of a render at 0 spp (`fixed`) and of one at `spp`
+    /// (`total`). When the timings are inconsistent (the 0-spp render took as long as the
+    /// other, e.g. through a scheduling hiccup, or a time is not finite) it falls back to
+    /// `fixed = 0`, `per_spp = total / spp`.
+    pub fn from_times(fixed: f64, total: f64, spp: usize) -> Cost {
+        let spp = spp.max(1) as f64;
+        if fixed.is_finite() && total.is_finite() && fixed >= 0.0 && total > fixed {
+            Cost {
+                fixed,
+                per_spp: (total - fixed) / spp,
+            }
+        } else {
+            Cost {
+                fixed: 0.0,
+                per_spp: total / spp,
+            }
+        }
+    }
+}
+
+/// The spp of an equal-time render: `max(1, round((budget − cost.fixed) / cost.per_spp))`
+/// (1 when the budget does not cover the fixed part, or the time per spp is not positive and
+/// finite).
+pub fn equal_time_spp(budget: f64, cost: Cost) -> usize {
+    let q = (budget - cost.fixed) / cost.per_spp;
+    if cost.per_spp > 0.0 && q.is_finite() && q > 1.0 {
+        // `as` saturates at usize::MAX.
+        q.round() as usize
+    } else {
+        1
+    }
+}
+
+/// Checks a `--time` value: positive and finite.
+pub fn check_time(seconds: f64) -> Result<f64, String> {
+    if seconds.is_finite() && seconds > 0.0 {
+        Ok(seconds)
+    } else {
+        Err(format!(
+            "the time budget must be a positive, finite number of seconds (got {seconds})"
+        ))
+    }
 }
 
 /// One technique's numbers.
@@ -62,10 +144,22 @@ pub struct TechReport {
     pub rmse_equal_time: f64,
     /// spp of the equal-time render.
     pub spp_equal_time: usize,
-    /// Milliseconds per spp (whole image, all threads).
+    /// Busy seconds of the equal-time render (compare with the budget).
+    pub seconds_equal_time: f64,
+    /// Busy seconds of the equal-spp render.
+    pub seconds_equal_spp: f64,
+    /// The cost model (from the 0-spp and equal-spp renders).
+    pub cost: Cost,
+    /// Busy milliseconds per spp (whole image) of the cost model.
     pub ms_per_spp: f64,
-    /// Relative difference of the image averages at equal spp.
+    /// Relative difference of the image averages (technique against reference) at
+    /// [`TechReport::mean_rel_diff_spp`].
     pub mean_rel_diff: f64,
+    /// The highest spp the technique was rendered at (of its equal-spp, equal-time and
+    /// convergence renders): the image of `mean_rel_diff`.
+    pub mean_rel_diff_spp: usize,
+    /// Standard error of `mean_rel_diff` (relative to the reference average); NaN below 2 spp.
+    pub mean_rel_diff_se: f64,
 }
 
 /// The comparison.
@@ -81,8 +175,23 @@ pub struct Report {
     pub spp: usize,
     /// Reference spp.
     pub ref_spp: usize,
+    /// Equal-time budget per technique, busy seconds.
+    pub time_budget: f64,
+    /// Whether the budget came from `--time` (otherwise: `full` at `spp`).
+    pub time_given: bool,
+    /// The folder of the images and table.
+    pub dir: PathBuf,
     /// Per technique, in [`Technique::ALL`] order.
     pub techniques: Vec<TechReport>,
+}
+
+/// A number for JSON: `null` when not finite.
+fn num(x: f64) -> serde_json::Value {
+    if x.is_finite() {
+        json!(x)
+    } else {
+        serde_json::Value::Null
+    }
 }
 
 impl Report {
@@ -94,13 +203,21 @@ impl Report {
             "resolution": [self.resolution.0, self.resolution.1],
             "spp": self.spp,
             "ref_spp": self.ref_spp,
+            "time_budget_s": num(self.time_budget),
+            "time_budget_from": if self.time_given { "--time" } else { "full" },
+            "dir": self.dir.display().to_string(),
             "techniques": self.techniques.iter().map(|t| json!({
                 "name": t.technique.name(),
-                "rmse_equal_spp": t.rmse_equal_spp,
-                "rmse_equal_time": t.rmse_equal_time,
+                "rmse_equal_spp": num(t.rmse_equal_spp),
+                "rmse_equal_time": num(t.rmse_equal_time),
                 "spp_equal_time": t.spp_equal_time,
-                "ms_per_spp": t.ms_per_spp,
-                "mean_rel_diff": t.mean_rel_diff,
+                "seconds_equal_time": num(t.seconds_equal_time),
+                "ms_per_spp": num(t.ms_per_spp),
+                "ms_fixed": num(t.cost.fixed * 1e3),
+                "seconds_equal_spp": num(t.seconds_equal_spp),
+                "mean_rel_diff": num(t.mean_rel_diff),
+                "mean_rel_diff_spp": t.mean_rel_diff_spp,
+                "mean_rel_diff_se": num(t.mean_rel_diff_se),
             })).collect::<Vec<_>>(),
         })
     }
@@ -112,47 +229,105 @@ impl Report {
             .iter()
             .find(|t| t.technique == Technique::TlSplit)
             .map(|t| (t.rmse_equal_spp, t.rmse_equal_time));
+        let budget = if self.time_given {
+            format!("{:.3} s per technique (--time)", self.time_budget)
+        } else {
+            format!(
+                "what full took at {} spp, {:.3} s",
+                self.spp, self.time_budget
+            )
+        };
         let mut s = format!(
-            "{} ({} lights, {}x{}, {} spp; reference: full at {} spp)\n\n",
+            "{} ({} lights, {}x{}, {} spp; reference: full at {} spp)\n\
+             equal time: {budget}; times are busy time summed over threads\n\n",
             self.scene, self.lights, self.resolution.0, self.resolution.1, self.spp, self.ref_spp
         );
-        s.push_str("| technique | RMSE equal spp | ×tl-split | RMSE equal time | ×tl-split | spp at equal time | ms/spp | mean rel. diff |\n");
-        s.push_str("|---|---:|---:|---:|---:|---:|---:|---:|\n");
+        s.push_str("| technique | RMSE equal spp | ×tl-split | RMSE equal time | ×tl-split | spp at equal time | s at equal time | ms/spp | mean rel. diff | ± (1 se) | at spp |\n");
+        s.push_str("|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|\n");
         for t in &self.techniques {
             let (r1, r2) = base.map_or((f64::NAN, f64::NAN), |(a, b)| {
                 (t.rmse_equal_spp / a, t.rmse_equal_time / b)
             });
             s.push_str(&format!(
-                "| {} | {:.5} | {:.3} | {:.5} | {:.3} | {} | {:.1} | {:.2} % |\n",
+                "| {} | {:.5} | {:.3} | {:.5} | {:.3} | {} | {:.3} | {:.2} | {:.2} % | {:.2} % | {} |\n",
                 t.technique.name(),
                 t.rmse_equal_spp,
                 r1,
                 t.rmse_equal_time,
                 r2,
                 t.spp_equal_time,
+                t.seconds_equal_time,
                 t.ms_per_spp,
-                100.0 * t.mean_rel_diff
+                100.0 * t.mean_rel_diff,
+                100.0 * t.mean_rel_diff_se,
+                t.mean_rel_diff_spp,
             ));
         }
         s
     }
 }
 
-/// The cached reference of `scene` (computed and stored if missing).
-pub fn reference(scene: &RenderScene, cfg: &CompareConfig) -> std::io::Result<Image> {
-    let path = cfg.out.join("reference").join(format!(
+/// Rejects a configuration `run`, `reference` or `check_reference` cannot use.
+fn validate(cfg: &CompareConfig) -> std::io::Result<()> {
+    let bad = |m: String| Error::new(ErrorKind::InvalidInput, m);
+    if cfg.width == 0 || cfg.height == 0 {
+        return Err(bad(format!("empty image {}x{}", cfg.width, cfg.height)));
+    }
+    if cfg.spp == 0 || cfg.ref_spp == 0 {
+        return Err(bad("spp and ref_spp must be at least 1".into()));
+    }
+    if let Some(t) = cfg.time {
+        check_time(t).map_err(bad)?;
+    }
+    Ok(())
+}
+
+/// Creates `dir` and checks that a file can be written in it, so that a bad output folder
+/// fails before the renders rather than after.
+fn ensure_writable(dir: &Path) -> std::io::Result<()> {
+    let ctx = |e: Error| {
+        Error::new(
+            e.kind(),
+            format!("cannot write in folder {}: {e}", dir.display()),
+        )
+    };
+    std::fs::create_dir_all(dir).map_err(ctx)?;
+    let probe = dir.join(format!(".mlrender-write-test-{}", std::process::id()));
+    std::fs::write(&probe, b"").map_err(ctx)?;
+    std::fs::remove_file(&probe).map_err(ctx)
+}
+
+/// Where [`reference()`] caches the reference of `scene` under `cfg`.
+pub fn reference_path(scene: &RenderScene, cfg: &CompareConfig) -> PathBuf {
+    cfg.out.join("reference").join(format!(
         "{}-{}-{}x{}-{}.bin",
         scene.name,
         scene.lights.lights.len(),
         cfg.width,
         cfg.height,
         cfg.ref_spp
-    ));
+    ))
+}
+
+/// The folder [`run`] writes its images and table to.
+pub fn output_dir(scene: &RenderScene, cfg: &CompareConfig) -> PathBuf {
+    cfg.out
+        .join("compare")
+        .join(format!("{}-{}", scene.name, scene.lights.lights.len()))
+}
+
+/// The cached reference of `scene` (computed and stored if missing).
+pub fn reference(scene: &RenderScene, cfg: &CompareConfig) -> std::io::Result<Image> {
+    validate(cfg)?;
+    let path = reference_path(scene, cfg);
     if let Some(img) = read_raw(&path) {
         if img.width == cfg.width && img.height == cfg.height && img.spp == cfg.ref_spp {
             eprintln!("reference: {} (cached)", path.display());
             return Ok(img);
         }
+    }
+    if let Some(dir) = path.parent() {
+        ensure_writable(dir)?;
     }
     eprintln!(
         "reference: full at {} spp -> {}",
@@ -201,14 +376,61 @@ pub fn check_reference(
     Ok((reference, rel, se, rmse))
 }
 
-/// Runs the comparison and writes its images and table.
+/// The image average of a technique's render with the most spp so far.
+#[derive(Clone, Copy, Debug)]
+struct Highest {
+    spp: usize,
+    average: f64,
+    se: f64,
+}
+
+impl Highest {
+    fn of(img: &Image) -> Highest {
+        Highest {
+            spp: img.spp,
+            average: img.average(),
+            se: if img.spp >= 2 {
+                img.average_se()
+            } else {
+                f64::NAN
+            },
+        }
+    }
+
+    /// Keeps `img` if it has more spp.
+    fn update(&mut self, img: &Image) {
+        if img.spp > self.spp {
+            *self = Highest::of(img);
+        }
+    }
+}
+
+/// Writes `img` as `<dir>/<stem>.png` and `<dir>/<stem>.exr`.
+fn write_both(dir: &Path, stem: &str, img: &Image) -> std::io::Result<()> {
+    write_png(
+        &dir.join(format!("{stem}.png")),
+        img.width,
+        img.height,
+        &img.mean,
+    )?;
+    write_exr(
+        &dir.join(format!("{stem}.exr")),
+        img.width,
+        img.height,
+        &img.mean,
+    )
+}
+
+/// Runs the comparison and writes its images and table (see the module documentation).
+/// Errors: an invalid configuration (`InvalidInput`) or an output folder or file that cannot
+/// be written (checked before the renders; the message names the path).
 pub fn run(scene: &RenderScene, cfg: &CompareConfig) -> std::io::Result<Report> {
+    validate(cfg)?;
+    let dir = output_dir(scene, cfg);
+    ensure_writable(&dir)?;
     let reference = reference(scene, cfg)?;
     let ref_avg = reference.average();
-    let dir = cfg
-        .out
-        .join("compare")
-        .join(format!("{}-{}", scene.name, scene.lights.lights.len()));
+    let ref_se = reference.average_se();
     let rc = |technique, spp, seed| RenderConfig {
         width: cfg.width,
         height: cfg.height,
@@ -217,78 +439,107 @@ pub fn run(scene: &RenderScene, cfg: &CompareConfig) -> std::io::Result<Report> 
         seed,
         progress: cfg.progress,
     };
-    let images: Vec<Image> = Technique::ALL
-        .iter()
-        .map(|&t| render(scene, &rc(t, cfg.spp, cfg.seed)))
-        .collect();
+    // Equal spp, and the cost model of each technique.
+    let mut images = Vec::new();
+    let mut costs = Vec::new();
+    for &t in &Technique::ALL {
+        let fixed = render(scene, &rc(t, 0, cfg.seed)).seconds;
+        let img = render(scene, &rc(t, cfg.spp, cfg.seed));
+        costs.push(Cost::from_times(fixed, img.seconds, cfg.spp));
+        write_both(&dir, t.name(), &img)?;
+        images.push(img);
+    }
     let full_idx = Technique::ALL
         .iter()
         .position(|&t| t == Technique::Full)
         .expect("full is a technique");
-    let budget = images[full_idx].seconds;
-    let mut techniques = Vec::new();
-    for (&t, img) in Technique::ALL.iter().zip(&images) {
-        write_png(
-            &dir.join(format!("{}.png", t.name())),
-            img.width,
-            img.height,
-            &img.mean,
-        )?;
-        let per_spp = img.seconds / cfg.spp as f64;
-        let spp_t = ((budget / per_spp).round() as usize).max(1);
+    let budget = cfg.time.unwrap_or(images[full_idx].seconds);
+    eprintln!(
+        "equal time: {budget:.3} busy s per technique ({})",
+        if cfg.time.is_some() {
+            "--time".to_string()
+        } else {
+            format!("full at {} spp", cfg.spp)
+        }
+    );
+    // Equal time.
+    let mut highest: Vec<Highest> = images.iter().map(Highest::of).collect();
+    let mut eq_images = Vec::new();
+    for (i, &t) in Technique::ALL.iter().enumerate() {
+        let spp_t = equal_time_spp(budget, costs[i]);
         let eq = render(scene, &rc(t, spp_t, cfg.seed.wrapping_add(0x5eed)));
-        techniques.push(TechReport {
-            technique: t,
-            rmse_equal_spp: img.rmse(&reference),
-            rmse_equal_time: eq.rmse(&reference),
-            spp_equal_time: spp_t,
-            ms_per_spp: per_spp * 1e3,
-            mean_rel_diff: (img.average() - ref_avg).abs() / ref_avg,
-        });
+        write_both(&dir, &format!("{}-equal-time", t.name()), &eq)?;
+        highest[i].update(&eq);
+        eq_images.push(eq);
     }
-    write_png(
-        &dir.join("reference.png"),
-        reference.width,
-        reference.height,
-        &reference.mean,
-    )?;
-    let mut all: Vec<&Image> = images.iter().collect();
-    all.push(&reference);
-    let (w, h, sbs) = side_by_side_with_crops(&all, 4);
-    write_png(&dir.join("side_by_side.png"), w, h, &sbs)?;
+    write_both(&dir, "reference", &reference)?;
+    for (name, imgs) in [
+        ("side_by_side.png", &images),
+        ("side_by_side_equal_time.png", &eq_images),
+    ] {
+        let mut all: Vec<&Image> = imgs.iter().collect();
+        all.push(&reference);
+        let (w, h, sbs) = side_by_side_with_crops(&all, 4);
+        write_png(&dir.join(name), w, h, &sbs)?;
+    }
     if cfg.plot {
         let mut series = Vec::new();
-        for &t in &Technique::ALL {
+        for (i, &t) in Technique::ALL.iter().enumerate() {
             let mut points = Vec::new();
             let mut spp = 1;
             while spp <= 4 * cfg.spp {
                 let img = render(scene, &rc(t, spp, cfg.seed.wrapping_add(0xc0 + spp as u64)));
                 points.push((img.seconds, img.rmse(&reference)));
+                highest[i].update(&img);
                 spp *= 2;
             }
             series.push((t.name(), points));
         }
         let title = format!(
-            "{} ({} lights, {}x{}): RMSE against time",
+            "{} ({} lights, {}x{}): RMSE against busy time",
             scene.name,
             scene.lights.lights.len(),
             cfg.width,
             cfg.height
         );
-        std::fs::write(
-            dir.join("convergence.svg"),
-            convergence_svg(&title, &series),
-        )?;
+        let path = dir.join("convergence.svg");
+        std::fs::write(&path, convergence_svg(&title, &series))
+            .map_err(|e| Error::new(e.kind(), format!("{}: {e}", path.display())))?;
     }
+    let techniques = Technique::ALL
+        .iter()
+        .enumerate()
+        .map(|(i, &t)| {
+            let hi = highest[i];
+            TechReport {
+                technique: t,
+                rmse_equal_spp: images[i].rmse(&reference),
+                rmse_equal_time: eq_images[i].rmse(&reference),
+                spp_equal_time: eq_images[i].spp,
+                seconds_equal_time: eq_images[i].seconds,
+                seconds_equal_spp: images[i].seconds,
+                cost: costs[i],
+                ms_per_spp: costs[i].per_spp * 1e3,
+                mean_rel_diff: (hi.average - ref_avg).abs() / ref_avg,
+                mean_rel_diff_spp: hi.spp,
+                mean_rel_diff_se: (hi.se.powi(2) + ref_se.powi(2)).sqrt() / ref_avg,
+            }
+        })
+        .collect();
     let report = Report {
         scene: scene.name.clone(),
         lights: scene.lights.lights.len(),
         resolution: (cfg.width, cfg.height),
         spp: cfg.spp,
         ref_spp: cfg.ref_spp,
+        time_budget: budget,
+        time_given: cfg.time.is_some(),
+        dir: dir.clone(),
         techniques,
     };
-    std::fs::write(dir.join("table.md"), report.table())?;
+    let path = dir.join("table.md");
+    std::fs::write(&path, report.table())
+        .map_err(|e| Error::new(e.kind(), format!("{}: {e}", path.display())))?;
     eprintln!("images and table.md in {}", dir.display());
     Ok(report)
 }

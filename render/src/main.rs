@@ -71,9 +71,10 @@ enum Command {
     /// Unbiasedness, variance and time per estimate of the estimators (uniform, power, tl,
     /// tl-split, bl, mis-equal, full) against exact values, without visibility.
     Estimator(manylights_render::estimator::EstimatorArgs),
-    /// Render a built-in scene (direct illumination) with one technique to a PNG.
+    /// Render a built-in scene (direct illumination) with one technique to a PNG, or to a
+    /// linear OpenEXR file when the output name ends in .exr.
     Render {
-        /// Scene: cornell or stairs.
+        /// Scene: cornell, exhibition, city, stairs, or a path to an .obj file (with its .mtl).
         #[arg(long, default_value = "cornell")]
         scene: String,
         /// Number of lights (cornell only; default 1,494).
@@ -83,18 +84,19 @@ enum Command {
         #[arg(long, default_value = "full")]
         technique: String,
         /// Estimates per pixel.
-        #[arg(long, default_value_t = 16)]
+        #[arg(long, default_value_t = 16, value_parser = at_least_one())]
         spp: usize,
         /// Image width.
-        #[arg(long, default_value_t = 256)]
+        #[arg(long, default_value_t = 256, value_parser = image_size())]
         width: usize,
         /// Image height.
-        #[arg(long, default_value_t = 256)]
+        #[arg(long, default_value_t = 256, value_parser = image_size())]
         height: usize,
         /// Seed of the estimates.
         #[arg(long, default_value_t = 1)]
         seed: u64,
-        /// Output PNG (8-bit sRGB, values clamped to [0, 1]).
+        /// Output image: linear 32-bit float OpenEXR (R = G = B) if the name ends in .exr,
+        /// otherwise PNG (8-bit sRGB, values clamped to [0, 1]).
         #[arg(short, long, default_value = "out.png")]
         output: PathBuf,
     },
@@ -105,20 +107,38 @@ enum Command {
         image: ImageArgs,
         /// Estimates per pixel of the reference (default 1,024, 256 with --quick: the
         /// reference `compare` uses at its default spp).
-        #[arg(long)]
+        #[arg(long, value_parser = at_least_one())]
         ref_spp: Option<usize>,
     },
     /// Every technique on a built-in scene at equal spp and equal time against a cached
-    /// reference (out/reference/): images, side-by-side image and RMSE table under
-    /// out/compare/<scene>-<lights>/.
+    /// reference (out/reference/): PNG and linear EXR images, side-by-side images with crops,
+    /// convergence plot (SVG) and RMSE table (Markdown) under out/compare/<scene>-<lights>/.
+    ///
+    /// Times are busy CPU time summed over the render threads (each image row timed by its
+    /// thread's CPU clock; about wall time × threads on idle cores, and not inflated by other
+    /// processes). The equal-time budget per technique is what `full` took at the equal spp,
+    /// or --time SECONDS; each technique then renders at
+    /// max(1, round((budget − fixed) / per-spp time)) spp, with its fixed time measured by a
+    /// render at 0 spp and its per-spp time by its equal-spp render.
     Compare {
         #[command(flatten)]
         image: ImageArgs,
         /// Estimates per pixel at equal spp (default 16, 4 with --quick).
-        #[arg(long)]
+        #[arg(long, value_parser = at_least_one())]
         spp: Option<usize>,
+        /// Equal-time budget per technique, in busy seconds summed over the render threads
+        /// (about SECONDS / threads of wall time each) instead of what `full` took at the
+        /// equal spp; the equal-spp renders keep the default spp (conflicts with --spp).
+        #[arg(
+            long,
+            value_name = "SECONDS",
+            conflicts_with = "spp",
+            allow_negative_numbers = true,
+            value_parser = parse_time
+        )]
+        time: Option<f64>,
         /// Estimates per pixel of the reference (default 64 × spp).
-        #[arg(long)]
+        #[arg(long, value_parser = at_least_one())]
         ref_spp: Option<usize>,
         /// Skip the convergence plot (renders at 1, 2, 4, … 4 × spp per technique).
         #[arg(long)]
@@ -132,17 +152,17 @@ enum Command {
 /// The scene and image arguments `reference` and `compare` share.
 #[derive(clap::Args)]
 struct ImageArgs {
-    /// Scene: cornell or stairs.
+    /// Scene: cornell, exhibition, city, stairs, or a path to an .obj file (with its .mtl).
     #[arg(long, default_value = "cornell")]
     scene: String,
     /// Number of lights (cornell only; default 1,494).
     #[arg(long)]
     lights: Option<usize>,
     /// Image width (default 256, 96 with --quick).
-    #[arg(long)]
+    #[arg(long, value_parser = image_size())]
     width: Option<usize>,
     /// Image height (default 256, 96 with --quick).
-    #[arg(long)]
+    #[arg(long, value_parser = image_size())]
     height: Option<usize>,
     /// Small resolution and sample counts (those of `compare --quick`).
     #[arg(long)]
@@ -164,8 +184,15 @@ impl ImageArgs {
         })
     }
 
-    /// The render settings at `spp` with a reference of `ref_spp`.
-    fn config(&self, spp: usize, ref_spp: usize, plot: bool) -> compare::CompareConfig {
+    /// The render settings at `spp` with a reference of `ref_spp` and an equal-time budget of
+    /// `time` busy seconds (`None`: what `full` takes at `spp`).
+    fn config(
+        &self,
+        spp: usize,
+        ref_spp: usize,
+        plot: bool,
+        time: Option<f64>,
+    ) -> compare::CompareConfig {
         let size = if self.quick { 96 } else { 256 };
         compare::CompareConfig {
             width: self.width.unwrap_or(size),
@@ -176,8 +203,28 @@ impl ImageArgs {
             out: self.out.clone(),
             progress: true,
             plot,
+            time,
         }
     }
+}
+
+/// The parser of counts that must be at least 1 (spp).
+fn at_least_one() -> clap::builder::RangedU64ValueParser<usize> {
+    clap::builder::RangedU64ValueParser::<usize>::new().range(1..)
+}
+
+/// The parser of image sizes: 1 to 16,384 pixels.
+fn image_size() -> clap::builder::RangedU64ValueParser<usize> {
+    clap::builder::RangedU64ValueParser::<usize>::new().range(1..=16_384)
+}
+
+/// The parser of `--time`: a positive, finite number of seconds.
+fn parse_time(s: &str) -> Result<f64, String> {
+    let v: f64 = s
+        .trim()
+        .parse()
+        .map_err(|_| format!("not a number of seconds: {s:?}"))?;
+    compare::check_time(v)
 }
 
 fn main() {
@@ -238,7 +285,7 @@ fn main() {
         Command::Reference { image, ref_spp } => {
             let scene = image.scene();
             let ref_spp = ref_spp.unwrap_or(if image.quick { 256 } else { 1024 });
-            let cfg = image.config(1, ref_spp, false);
+            let cfg = image.config(1, ref_spp, false, None);
             match compare::check_reference(&scene, &cfg) {
                 Ok((img, rel, se, rmse)) => {
                     println!(
@@ -268,13 +315,14 @@ fn main() {
         Command::Compare {
             image,
             spp,
+            time,
             ref_spp,
             no_plot,
             json,
         } => {
             let scene = image.scene();
             let spp = spp.unwrap_or(if image.quick { 4 } else { 16 });
-            let cfg = image.config(spp, ref_spp.unwrap_or(64 * spp), !no_plot);
+            let cfg = image.config(spp, ref_spp.unwrap_or(64 * spp), !no_plot, time);
             match compare::run(&scene, &cfg) {
                 Ok(report) => {
                     println!("{}", report.table());
@@ -327,18 +375,19 @@ fn run_render(
             progress: true,
         },
     );
-    if let Err(e) = render::write_png(output, width, height, &img.mean) {
-        eprintln!("cannot write {}: {e}", output.display());
+    if let Err(e) = render::write_image(output, width, height, &img.mean) {
+        eprintln!("cannot write the image: {e}");
         return 1;
     }
     println!(
-        "{} {} lights {}x{} {} spp {}: {:.2} s, average {:.4}, written to {}",
+        "{} {} lights {}x{} {} spp {}: {:.2} s wall ({:.2} s busy over threads), average {:.4}, written to {}",
         scene.name,
         scene.lights.lights.len(),
         width,
         height,
         spp,
         technique.name(),
+        img.wall_seconds,
         img.seconds,
         img.average(),
         output.display()

@@ -9,6 +9,18 @@
 //! the first surface. The lights themselves are not drawn (direct illumination of surfaces
 //! only). Rows run in parallel with rayon; a progress bar (indicatif, on a terminal) counts
 //! rows.
+//!
+//! **Time.** [`Image::seconds`] is the render's *busy time summed over threads*: each row is
+//! timed on the thread that renders it, by that thread's CPU clock (`CLOCK_THREAD_CPUTIME_ID`
+//! on Linux and macOS; elsewhere by the wall clock around the row), and the row times are
+//! added up. Unlike the wall-clock time ([`Image::wall_seconds`], also kept), it does not
+//! count threads idling at the end of a render (load imbalance), rayon's start-up, nor — with
+//! the CPU clock — the time a thread waits while other processes run on its core, and it does
+//! not depend on the number of threads: on a shared machine it is the stable measure. When
+//! the cores are free it is about wall time × threads.
+//!
+//! Output: [`write_png`] (8-bit sRGB, clamped), [`write_exr`] (linear f32 OpenEXR) and
+//! [`write_image`] (either, from the file extension).
 
 use crate::estimator::techniques::{Params, Setup, Technique};
 use crate::scene::RenderScene;
@@ -51,8 +63,11 @@ pub struct Image {
     pub var: Vec<f32>,
     /// Estimates per pixel.
     pub spp: usize,
-    /// Wall-clock seconds of the render.
+    /// Busy seconds of the render: the CPU time spent on its rows, summed over the threads
+    /// that rendered them (see the module documentation). 0 for an image read from disk.
     pub seconds: f64,
+    /// Wall-clock seconds of the render. 0 for an image read from disk.
+    pub wall_seconds: f64,
 }
 
 impl Image {
@@ -77,6 +92,35 @@ impl Image {
             .map(|(&a, &b)| (f64::from(a) - f64::from(b)).powi(2))
             .sum();
         (s / self.mean.len() as f64).sqrt()
+    }
+}
+
+/// CPU time of the calling thread, in seconds.
+#[cfg(any(target_os = "linux", target_os = "macos"))]
+fn thread_cpu_seconds() -> Option<f64> {
+    let mut ts = libc::timespec {
+        tv_sec: 0,
+        tv_nsec: 0,
+    };
+    // SAFETY: `ts` is a valid, writable `timespec`; `clock_gettime` only writes into it.
+    let r = unsafe { libc::clock_gettime(libc::CLOCK_THREAD_CPUTIME_ID, &mut ts) };
+    (r == 0).then_some(ts.tv_sec as f64 + ts.tv_nsec as f64 * 1e-9)
+}
+
+/// CPU time of the calling thread: not available here (rows are timed by the wall clock).
+#[cfg(not(any(target_os = "linux", target_os = "macos")))]
+fn thread_cpu_seconds() -> Option<f64> {
+    None
+}
+
+/// Times `f` on the calling thread: CPU seconds if the thread's CPU clock is available,
+/// wall-clock seconds otherwise.
+fn busy_time(f: impl FnOnce()) -> f64 {
+    let (cpu0, wall0) = (thread_cpu_seconds(), Instant::now());
+    f();
+    match (cpu0, thread_cpu_seconds()) {
+        (Some(a), Some(b)) if b >= a => b - a,
+        _ => wall0.elapsed().as_secs_f64(),
     }
 }
 
@@ -138,38 +182,45 @@ pub fn render(scene: &RenderScene, cfg: &RenderConfig) -> Image {
     let start = Instant::now();
     let mut mean = vec![0f32; w * h];
     let mut var = vec![0f32; w * h];
-    mean.par_chunks_mut(w)
-        .zip(var.par_chunks_mut(w))
+    // Busy time: each row timed on its own thread, summed (see the module documentation).
+    let busy: f64 = mean
+        .par_chunks_mut(w.max(1))
+        .zip(var.par_chunks_mut(w.max(1)))
         .enumerate()
-        .for_each(|(py, (row_m, row_v))| {
-            for px in 0..w {
-                let Some(sp) = primary(scene, px, py, w, h) else {
-                    continue;
-                };
-                let seed = cfg
-                    .seed
-                    .wrapping_mul(0x9e37_79b9_7f4a_7c15)
-                    .wrapping_add(((py * w + px) as u64) << 8)
-                    .wrapping_add(tech_index);
-                let mut rng = Pcg64Mcg::seed_from_u64(seed);
-                let setup = Setup::new(&scene.lights, &sp, cfg.technique, &params)
-                    .with_occluder(&scene.geometry);
-                let (mut m, mut m2) = (0f64, 0f64);
-                for k in 0..cfg.spp {
-                    let x = setup.estimate(cfg.technique, &mut rng);
-                    let d = x - m;
-                    m += d / (k + 1) as f64;
-                    m2 += d * (x - m);
+        .map(|(py, (row_m, row_v))| {
+            let t = busy_time(|| {
+                for px in 0..w {
+                    let Some(sp) = primary(scene, px, py, w, h) else {
+                        continue;
+                    };
+                    let seed = cfg
+                        .seed
+                        .wrapping_mul(0x9e37_79b9_7f4a_7c15)
+                        .wrapping_add(((py * w + px) as u64) << 8)
+                        .wrapping_add(tech_index);
+                    let mut rng = Pcg64Mcg::seed_from_u64(seed);
+                    let setup = Setup::new(&scene.lights, &sp, cfg.technique, &params)
+                        .with_occluder(&scene.geometry);
+                    let (mut m, mut m2) = (0f64, 0f64);
+                    for k in 0..cfg.spp {
+                        let x = setup.estimate(cfg.technique, &mut rng);
+                        let d = x - m;
+                        m += d / (k + 1) as f64;
+                        m2 += d * (x - m);
+                    }
+                    row_m[px] = m as f32;
+                    row_v[px] = if cfg.spp > 1 {
+                        (m2 / (cfg.spp - 1) as f64) as f32
+                    } else {
+                        0.0
+                    };
                 }
-                row_m[px] = m as f32;
-                row_v[px] = if cfg.spp > 1 {
-                    (m2 / (cfg.spp - 1) as f64) as f32
-                } else {
-                    0.0
-                };
-            }
+            });
             bar.inc(1);
-        });
+            t
+        })
+        .sum();
+    let wall_seconds = start.elapsed().as_secs_f64();
     bar.finish_and_clear();
     Image {
         width: w,
@@ -177,7 +228,8 @@ pub fn render(scene: &RenderScene, cfg: &RenderConfig) -> Image {
         mean,
         var,
         spp: cfg.spp,
-        seconds: start.elapsed().as_secs_f64(),
+        seconds: busy,
+        wall_seconds,
     }
 }
 
@@ -196,21 +248,100 @@ pub fn tone_map(v: f32) -> u8 {
     (s * 255.0 + 0.5) as u8
 }
 
-/// Writes grey-level values (`width × height`, row-major, linear) as an 8-bit sRGB PNG.
-pub fn write_png(path: &Path, width: usize, height: usize, values: &[f32]) -> std::io::Result<()> {
-    if let Some(dir) = path.parent() {
-        std::fs::create_dir_all(dir)?;
+/// `e` with `path` in front of its message (same kind).
+fn with_path(path: &Path, e: impl std::fmt::Display, kind: std::io::ErrorKind) -> std::io::Error {
+    std::io::Error::new(kind, format!("{}: {e}", path.display()))
+}
+
+/// Creates the parent folder of `path` (an error names the folder).
+fn create_parent(path: &Path) -> std::io::Result<()> {
+    match path.parent() {
+        Some(dir) if !dir.as_os_str().is_empty() => std::fs::create_dir_all(dir).map_err(|e| {
+            std::io::Error::new(
+                e.kind(),
+                format!("cannot create folder {}: {e}", dir.display()),
+            )
+        }),
+        _ => Ok(()),
     }
-    let file = std::fs::File::create(path)?;
-    let mut enc = png::Encoder::new(BufWriter::new(file), width as u32, height as u32);
+}
+
+/// Checks that `values` holds `width × height` values.
+fn check_size(path: &Path, width: usize, height: usize, values: &[f32]) -> std::io::Result<()> {
+    if width == 0 || height == 0 || width.checked_mul(height) != Some(values.len()) {
+        return Err(with_path(
+            path,
+            format!("{} values for a {width}x{height} image", values.len()),
+            std::io::ErrorKind::InvalidInput,
+        ));
+    }
+    Ok(())
+}
+
+/// Writes grey-level values (`width × height`, row-major, linear) as an 8-bit sRGB PNG
+/// (creating the folder if needed; errors name the file).
+pub fn write_png(path: &Path, width: usize, height: usize, values: &[f32]) -> std::io::Result<()> {
+    check_size(path, width, height, values)?;
+    let (Ok(w), Ok(h)) = (u32::try_from(width), u32::try_from(height)) else {
+        return Err(with_path(
+            path,
+            "image too large for PNG",
+            std::io::ErrorKind::InvalidInput,
+        ));
+    };
+    create_parent(path)?;
+    let file = std::fs::File::create(path).map_err(|e| with_path(path, &e, e.kind()))?;
+    let mut enc = png::Encoder::new(BufWriter::new(file), w, h);
     enc.set_color(png::ColorType::Grayscale);
     enc.set_depth(png::BitDepth::Eight);
-    let mut writer = enc.write_header().map_err(std::io::Error::other)?;
+    let other = |e| with_path(path, e, std::io::ErrorKind::Other);
+    let mut writer = enc.write_header().map_err(other)?;
     let data: Vec<u8> = values.iter().map(|&v| tone_map(v)).collect();
-    writer
-        .write_image_data(&data)
-        .map_err(std::io::Error::other)?;
+    writer.write_image_data(&data).map_err(other)?;
+    writer.finish().map_err(other)?;
     Ok(())
+}
+
+/// Writes grey-level values (`width × height`, row-major, linear) as a linear OpenEXR file:
+/// 32-bit float R, G and B channels, all three equal to the value (what every viewer opens;
+/// no tone mapping, no clamping), scan lines with lossless ZIP compression (the most widely
+/// read layout). Creates the folder if needed; errors name the file.
+pub fn write_exr(path: &Path, width: usize, height: usize, values: &[f32]) -> std::io::Result<()> {
+    use exr::prelude::{Encoding, SpecificChannels, Vec2, WritableImage};
+    check_size(path, width, height, values)?;
+    create_parent(path)?;
+    let channels = SpecificChannels::rgb(|Vec2(x, y): Vec2<usize>| {
+        let v = values[y * width + x];
+        (v, v, v)
+    });
+    exr::prelude::Image::from_encoded_channels((width, height), Encoding::SMALL_LOSSLESS, channels)
+        .write()
+        .to_file(path)
+        .map_err(|e| match e {
+            exr::error::Error::Io(io) => with_path(path, &io, io.kind()),
+            e => with_path(path, e, std::io::ErrorKind::Other),
+        })
+}
+
+/// Writes `values` with [`write_exr`] if `path` ends in `.exr` (any case), with [`write_png`]
+/// otherwise.
+pub fn write_image(
+    path: &Path,
+    width: usize,
+    height: usize,
+    values: &[f32],
+) -> std::io::Result<()> {
+    if is_exr(path) {
+        write_exr(path, width, height, values)
+    } else {
+        write_png(path, width, height, values)
+    }
+}
+
+/// Whether `path` ends in `.exr` (any case).
+pub fn is_exr(path: &Path) -> bool {
+    path.extension()
+        .is_some_and(|e| e.eq_ignore_ascii_case("exr"))
 }
 
 /// Images side by side (same height), separated by `gap` black columns.
@@ -253,8 +384,8 @@ pub fn side_by_side_with_crops(images: &[&Image], gap: usize) -> (usize, usize, 
     (w, 2 * h + gap, out)
 }
 
-/// A log-log SVG plot of RMSE against seconds, one polyline per named series of
-/// `(seconds, rmse)` points.
+/// A log-log SVG plot of RMSE against busy seconds ([`Image::seconds`]), one polyline per
+/// named series of `(seconds, rmse)` points.
 pub fn convergence_svg(title: &str, series: &[(&str, Vec<(f64, f64)>)]) -> String {
     const COLORS: [&str; 7] = [
         "#1f77b4", "#ff7f0e", "#2ca02c", "#d62728", "#9467bd", "#8c564b", "#e377c2",
@@ -308,7 +439,7 @@ pub fn convergence_svg(title: &str, series: &[(&str, Vec<(f64, f64)>)]) -> Strin
         ));
     }
     s.push_str(&format!(
-        "<text x=\"{}\" y=\"{}\" text-anchor=\"middle\">time (s)</text>\n<text x=\"16\" y=\"{}\" transform=\"rotate(-90 16 {})\" text-anchor=\"middle\">RMSE</text>\n",
+        "<text x=\"{}\" y=\"{}\" text-anchor=\"middle\">busy CPU time (s, summed over threads)</text>\n<text x=\"16\" y=\"{}\" transform=\"rotate(-90 16 {})\" text-anchor=\"middle\">RMSE</text>\n",
         (l + r) / 2.0,
         ph - 10.0,
         (t + b) / 2.0,
@@ -339,18 +470,20 @@ pub fn convergence_svg(title: &str, series: &[(&str, Vec<(f64, f64)>)]) -> Strin
 }
 
 /// Writes an image's means as raw little-endian f32 (header: width, height, spp as u64).
+/// Creates the folder if needed; errors name the file.
 pub fn write_raw(path: &Path, img: &Image) -> std::io::Result<()> {
-    if let Some(dir) = path.parent() {
-        std::fs::create_dir_all(dir)?;
-    }
-    let mut f = BufWriter::new(std::fs::File::create(path)?);
-    for v in [img.width as u64, img.height as u64, img.spp as u64] {
-        f.write_all(&v.to_le_bytes())?;
-    }
-    for &v in img.mean.iter().chain(&img.var) {
-        f.write_all(&v.to_le_bytes())?;
-    }
-    f.flush()
+    create_parent(path)?;
+    let write = || -> std::io::Result<()> {
+        let mut f = BufWriter::new(std::fs::File::create(path)?);
+        for v in [img.width as u64, img.height as u64, img.spp as u64] {
+            f.write_all(&v.to_le_bytes())?;
+        }
+        for &v in img.mean.iter().chain(&img.var) {
+            f.write_all(&v.to_le_bytes())?;
+        }
+        f.flush()
+    };
+    write().map_err(|e| with_path(path, &e, e.kind()))
 }
 
 /// Reads what [`write_raw`] wrote (None if missing or malformed).
@@ -376,5 +509,6 @@ pub fn read_raw(path: &Path) -> Option<Image> {
         var: floats[n..].to_vec(),
         spp,
         seconds: 0.0,
+        wall_seconds: 0.0,
     })
 }

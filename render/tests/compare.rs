@@ -1,0 +1,313 @@
+//! `compare::run` on a tiny configuration (stairs, 12×8, 2 spp, a 16-spp reference, the
+//! convergence plot up to 8 spp): every output file is written and readable (EXR values equal
+//! to the rendered means), the JSON lists the seven techniques in order with finite numbers;
+//! the equal-time arithmetic; bad input is an error, not a panic; the `mlrender` binary's
+//! `--time` checks and EXR output.
+
+use manylights_render::compare::{self, check_time, equal_time_spp, CompareConfig, Cost};
+use manylights_render::estimator::techniques::Technique;
+use manylights_render::render::{read_raw, render, RenderConfig};
+use manylights_render::scene;
+use std::path::{Path, PathBuf};
+use std::process::Command;
+
+const W: usize = 12;
+const H: usize = 8;
+const NAMES: [&str; 7] = [
+    "uniform",
+    "power",
+    "tl",
+    "tl-split",
+    "bl",
+    "mis-equal",
+    "full",
+];
+
+/// A fresh, empty temporary folder for one test.
+fn temp_dir(name: &str) -> PathBuf {
+    let d = std::env::temp_dir().join(format!("mlrender-test-{}-{name}", std::process::id()));
+    std::fs::remove_dir_all(&d).ok();
+    std::fs::create_dir_all(&d).unwrap();
+    d
+}
+
+fn config(out: &Path, plot: bool, time: Option<f64>) -> CompareConfig {
+    CompareConfig {
+        width: W,
+        height: H,
+        spp: 2,
+        ref_spp: 16,
+        seed: 3,
+        out: out.to_path_buf(),
+        progress: false,
+        plot,
+        time,
+    }
+}
+
+/// The R channel of an EXR file (checking R = G = B), with its size.
+fn read_exr(path: &Path) -> (usize, usize, Vec<f32>) {
+    let img = exr::prelude::read_first_rgba_layer_from_file(
+        path,
+        |size, _| (size.width(), vec![0f32; size.width() * size.height()]),
+        |(w, px): &mut (usize, Vec<f32>), pos, (r, g, b, _a): (f32, f32, f32, f32)| {
+            assert!(r.to_bits() == g.to_bits() && g.to_bits() == b.to_bits());
+            px[pos.y() * *w + pos.x()] = r;
+        },
+    )
+    .unwrap_or_else(|e| panic!("{}: {e}", path.display()));
+    let size = img.layer_data.size;
+    (
+        size.width(),
+        size.height(),
+        img.layer_data.channel_data.pixels.1,
+    )
+}
+
+fn assert_same(path: &Path, values: &[f32]) {
+    let (w, h, px) = read_exr(path);
+    assert_eq!((w, h), (W, H), "{}", path.display());
+    assert_eq!(px.len(), values.len());
+    for (a, b) in px.iter().zip(values) {
+        assert_eq!(a.to_bits(), b.to_bits(), "{}: {a} vs {b}", path.display());
+    }
+}
+
+#[test]
+fn compare_writes_every_output() {
+    let out = temp_dir("run");
+    let s = scene::stairs();
+    let cfg = config(&out, true, None);
+    let report = compare::run(&s, &cfg).expect("compare runs");
+    let dir = compare::output_dir(&s, &cfg);
+    assert_eq!(report.dir, dir);
+
+    // Images: PNG and EXR per technique (equal spp and equal time), the reference, the
+    // side-by-side images, the plot and the table.
+    let mut files = vec![
+        "reference.png".to_string(),
+        "reference.exr".to_string(),
+        "side_by_side.png".to_string(),
+        "side_by_side_equal_time.png".to_string(),
+        "convergence.svg".to_string(),
+        "table.md".to_string(),
+    ];
+    for n in NAMES {
+        for suffix in ["", "-equal-time"] {
+            files.push(format!("{n}{suffix}.png"));
+            files.push(format!("{n}{suffix}.exr"));
+        }
+    }
+    for f in &files {
+        let p = dir.join(f);
+        let len = std::fs::metadata(&p)
+            .unwrap_or_else(|e| panic!("{}: {e}", p.display()))
+            .len();
+        assert!(len > 0, "{} is empty", p.display());
+    }
+    let png = png::Decoder::new(std::io::BufReader::new(
+        std::fs::File::open(dir.join("side_by_side.png")).unwrap(),
+    ))
+    .read_info()
+    .unwrap();
+    // 8 images (7 techniques and the reference) and their crops, 4-pixel gaps.
+    assert_eq!(
+        (png.info().width, png.info().height),
+        ((8 * W + 7 * 4) as u32, (2 * H + 4) as u32)
+    );
+    let svg = std::fs::read_to_string(dir.join("convergence.svg")).unwrap();
+    assert!(svg.starts_with("<svg") && svg.trim_end().ends_with("</svg>"));
+    assert_eq!(svg.matches("<polyline").count(), 7);
+    let table = std::fs::read_to_string(dir.join("table.md")).unwrap();
+    for n in NAMES {
+        assert!(table.contains(&format!("| {n} |")), "{table}");
+    }
+
+    // EXR: the rendered means exactly (renders are deterministic for a seed).
+    for t in Technique::ALL {
+        let img = render(
+            &s,
+            &RenderConfig {
+                width: W,
+                height: H,
+                spp: cfg.spp,
+                technique: t,
+                seed: cfg.seed,
+                progress: false,
+            },
+        );
+        assert_same(&dir.join(format!("{}.exr", t.name())), &img.mean);
+    }
+    let reference = read_raw(&compare::reference_path(&s, &cfg)).expect("cached reference");
+    assert_same(&dir.join("reference.exr"), &reference.mean);
+
+    // JSON.
+    let j = report.json();
+    assert_eq!(j["scene"], "stairs");
+    assert_eq!(j["lights"], s.lights.lights.len());
+    assert_eq!(j["resolution"], serde_json::json!([W, H]));
+    assert_eq!(j["time_budget_from"], "full");
+    let techs = j["techniques"].as_array().unwrap();
+    let names: Vec<&str> = techs.iter().map(|t| t["name"].as_str().unwrap()).collect();
+    assert_eq!(names, NAMES);
+    for t in techs {
+        for key in [
+            "rmse_equal_spp",
+            "rmse_equal_time",
+            "ms_per_spp",
+            "ms_fixed",
+            "seconds_equal_time",
+            "mean_rel_diff",
+            "mean_rel_diff_se",
+        ] {
+            let v = t[key].as_f64();
+            assert!(
+                v.is_some_and(|v| v.is_finite() && v >= 0.0),
+                "{}: {key} = {}",
+                t["name"],
+                t[key]
+            );
+        }
+        // The highest spp rendered: the plot goes to 4 × 2 spp, the equal-time render may
+        // go further.
+        let spp_t = t["spp_equal_time"].as_u64().unwrap();
+        assert!(spp_t >= 1);
+        assert_eq!(t["mean_rel_diff_spp"].as_u64().unwrap(), spp_t.max(8));
+    }
+    // `full` gets its own spp back when the budget is its own time.
+    assert_eq!(techs[6]["spp_equal_time"], 2);
+
+    // A given budget, no plot: the cached reference is reused.
+    let report = compare::run(&s, &config(&out, false, Some(0.002))).expect("compare runs");
+    assert!(report.time_given);
+    assert_eq!(report.json()["time_budget_s"], 0.002);
+    assert_eq!(report.json()["time_budget_from"], "--time");
+    std::fs::remove_dir_all(&out).ok();
+}
+
+#[test]
+fn equal_time_arithmetic() {
+    let c = Cost {
+        fixed: 0.5,
+        per_spp: 0.25,
+    };
+    assert_eq!(equal_time_spp(10.5, c), 40);
+    assert_eq!(equal_time_spp(10.6, c), 40);
+    assert_eq!(equal_time_spp(10.65, c), 41);
+    // Never below 1, even when the fixed part eats the budget.
+    assert_eq!(equal_time_spp(0.6, c), 1);
+    assert_eq!(equal_time_spp(0.1, c), 1);
+    let free = Cost {
+        fixed: 0.0,
+        per_spp: 0.0,
+    };
+    assert_eq!(equal_time_spp(1.0, free), 1);
+    let nan = Cost {
+        fixed: 0.0,
+        per_spp: f64::NAN,
+    };
+    assert_eq!(equal_time_spp(1.0, nan), 1);
+
+    // The cost model from a 0-spp and a 4-spp render.
+    let c = Cost::from_times(1.0, 3.0, 4);
+    assert_eq!(
+        c,
+        Cost {
+            fixed: 1.0,
+            per_spp: 0.5
+        }
+    );
+    // A budget equal to the calibration render's time gives its spp back.
+    assert_eq!(equal_time_spp(3.0, c), 4);
+    // Inconsistent timings: the whole time per spp.
+    assert_eq!(
+        Cost::from_times(3.0, 2.0, 4),
+        Cost {
+            fixed: 0.0,
+            per_spp: 0.5
+        }
+    );
+    assert_eq!(Cost::from_times(f64::NAN, 2.0, 4).fixed, 0.0);
+
+    assert_eq!(check_time(1.5), Ok(1.5));
+    for bad in [0.0, -1.0, f64::NAN, f64::INFINITY] {
+        assert!(check_time(bad).is_err(), "{bad}");
+    }
+}
+
+#[test]
+fn bad_input_is_an_error() {
+    let out = temp_dir("bad");
+    let s = scene::stairs();
+    // An output root below a regular file cannot be created.
+    let file = out.join("file");
+    std::fs::write(&file, b"x").unwrap();
+    let e = compare::run(&s, &config(&file.join("sub"), false, None)).unwrap_err();
+    assert!(e.to_string().contains("file"), "{e}");
+    let mut cfg = config(&out, false, None);
+    cfg.spp = 0;
+    assert!(compare::run(&s, &cfg).is_err());
+    let mut cfg = config(&out, false, Some(-1.0));
+    assert!(compare::run(&s, &cfg).is_err());
+    cfg.time = None;
+    cfg.width = 0;
+    assert!(compare::run(&s, &cfg).is_err());
+    std::fs::remove_dir_all(&out).ok();
+}
+
+fn mlrender(args: &[&str]) -> std::process::Output {
+    Command::new(env!("CARGO_BIN_EXE_mlrender"))
+        .args(args)
+        .output()
+        .expect("mlrender runs")
+}
+
+#[test]
+fn cli_time_checks_and_exr_output() {
+    for args in [
+        &["compare", "--time", "0"][..],
+        &["compare", "--time", "-2"],
+        &["compare", "--time", "nan"],
+        &["compare", "--time", "inf"],
+        &["compare", "--time", "abc"],
+        &["compare", "--time", "1", "--spp", "4"],
+        &["compare", "--spp", "0"],
+        &["render", "--width", "0"],
+    ] {
+        let o = mlrender(args);
+        assert_eq!(o.status.code(), Some(2), "{args:?}");
+        assert!(!o.stderr.is_empty(), "{args:?}");
+    }
+    let o = mlrender(&["compare", "--time", "-2"]);
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(err.contains("positive"), "{err}");
+
+    let out = temp_dir("cli");
+    let exr = out.join("img.exr");
+    let (w, h) = (W.to_string(), H.to_string());
+    let base = [
+        "render",
+        "--scene",
+        "stairs",
+        "--technique",
+        "tl",
+        "--spp",
+        "2",
+        "--width",
+        &w,
+        "--height",
+        &h,
+    ];
+    let o = mlrender(&[&base[..], &["-o", exr.to_str().unwrap()]].concat());
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let (ew, eh, px) = read_exr(&exr);
+    assert_eq!((ew, eh), (W, H));
+    assert!(px.iter().all(|v| v.is_finite() && *v >= 0.0));
+    assert!(px.iter().any(|&v| v > 0.0));
+    // An output below a regular file: a message and status 1.
+    let bad = exr.join("x.png");
+    let o = mlrender(&[&base[..], &["-o", bad.to_str().unwrap()]].concat());
+    assert_eq!(o.status.code(), Some(1));
+    assert!(String::from_utf8_lossy(&o.stderr).contains("img.exr"));
+    std::fs::remove_dir_all(&out).ok();
+}
