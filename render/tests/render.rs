@@ -1,11 +1,16 @@
-//! Tiny renders (16×12) of every scene with every technique: the image average of each
-//! technique (32 spp for the split-based ones, 1,024 for the one-sample ones) agrees with a
-//! 256-spp `full` reference within a tolerance from the sample count (6 standard errors of
-//! the difference, from the per-pixel sample variances), and a cached reference round-trips.
+//! Tiny renders (16×12) of every scene (the built-in ones and a small OBJ + MTL file,
+//! `tests/data/box.obj`) with every technique: the image average of each technique (32 spp
+//! for the split-based ones, 1,024 for the one-sample ones; 4× that on `exhibition` and
+//! `city`) agrees with a 256-spp `full` reference within a tolerance from the sample count
+//! (6 standard errors of the difference, from the per-pixel sample variances), and a cached
+//! reference round-trips. The OBJ loader's
+//! materials, lights and errors are checked on that file and on small broken ones.
 
+use manylights::Material;
 use manylights_render::estimator::techniques::Technique;
 use manylights_render::render::{read_raw, render, write_raw, RenderConfig};
 use manylights_render::scene::{self, RenderScene};
+use std::path::{Path, PathBuf};
 
 const W: usize = 16;
 const H: usize = 12;
@@ -21,16 +26,37 @@ fn cfg(technique: Technique, spp: usize, seed: u64) -> RenderConfig {
     }
 }
 
-fn check_scene(scene: &RenderScene) {
+/// Estimates per pixel of the split-based techniques and of the one-sample ones.
+#[derive(Clone, Copy)]
+struct Spp {
+    split: usize,
+    one: usize,
+}
+
+/// The default: one-sample techniques are cheap, so more estimates, so that their heavy tails
+/// (a tiny light next to a wall point, picked rarely) are sampled.
+const SPP: Spp = Spp {
+    split: 32,
+    one: 1024,
+};
+
+/// For the scenes made to defeat the techniques that ignore the BRDF (`exhibition`, `city`):
+/// a glossy highlight comes from one of hundreds or thousands of lights, which `uniform`,
+/// `power`, `tl` and `tl-split` pick rarely, so 4× the estimates (about 3 s a scene in
+/// release mode).
+const GLOSSY_SPP: Spp = Spp {
+    split: 128,
+    one: 4096,
+};
+
+fn check_scene(scene: &RenderScene, spp: Spp) {
     let reference = render(scene, &cfg(Technique::Full, 256, 99));
     let ref_avg = reference.average();
     assert!(ref_avg > 0.0, "{}: black reference", scene.name);
     for t in Technique::ALL {
-        // One-sample techniques are cheap: more estimates, so that their heavy tails (a tiny
-        // light next to a wall point, picked rarely) are sampled.
         let spp = match t {
-            Technique::TlSplit | Technique::MisEqual | Technique::Full => 32,
-            _ => 1024,
+            Technique::TlSplit | Technique::MisEqual | Technique::Full => spp.split,
+            _ => spp.one,
         };
         let img = render(scene, &cfg(t, spp, 7));
         assert!(
@@ -53,12 +79,178 @@ fn check_scene(scene: &RenderScene) {
 
 #[test]
 fn cornell_every_technique_is_unbiased() {
-    check_scene(&scene::cornell(1000, 3));
+    check_scene(&scene::cornell(1000, 3), SPP);
 }
 
 #[test]
 fn stairs_every_technique_is_unbiased() {
-    check_scene(&scene::stairs());
+    check_scene(&scene::stairs(), SPP);
+}
+
+#[test]
+fn exhibition_every_technique_is_unbiased() {
+    check_scene(&scene::exhibition(), GLOSSY_SPP);
+}
+
+#[test]
+fn city_every_technique_is_unbiased() {
+    check_scene(&scene::city(), GLOSSY_SPP);
+}
+
+fn box_obj() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data/box.obj")
+}
+
+#[test]
+fn obj_every_technique_is_unbiased() {
+    check_scene(&scene::obj::load(&box_obj()).expect("box.obj loads"), SPP);
+}
+
+#[test]
+fn obj_materials_and_lights() {
+    let s = scene::obj::load(&box_obj()).expect("box.obj loads");
+    assert_eq!(s.name, "box");
+    // Floor and wall quads, two cubes; the two emissive quads are lights only.
+    assert_eq!(s.geometry.triangles.len(), 2 + 2 + 12 + 12);
+    assert_eq!(s.lights.lights.len(), 4);
+    let mut radiances: Vec<f32> = s
+        .lights
+        .lights
+        .iter()
+        .map(|l| match *l {
+            manylights::Light::Triangle {
+                radiance,
+                two_sided,
+                ..
+            } => {
+                assert!(!two_sided);
+                radiance
+            }
+            other => panic!("not a triangle light: {other:?}"),
+        })
+        .collect();
+    radiances.sort_by(f32::total_cmp);
+    for (r, want) in radiances.iter().zip([6.0, 6.0, 25.0, 25.0]) {
+        assert!((r - want).abs() < 1e-5, "radiance {r}, want {want}");
+    }
+    let has = |want: Material| s.geometry.triangles.iter().any(|t| t.material == want);
+    let lum = |r: f32, g: f32, b: f32| 0.2126 * r + 0.7152 * g + 0.0722 * b;
+    assert!(has(Material::Lambert {
+        albedo: lum(0.5, 0.5, 0.5)
+    }));
+    assert!(has(Material::Lambert {
+        albedo: lum(0.7, 0.6, 0.5)
+    }));
+    assert!(has(Material::Plastic {
+        albedo: lum(0.4, 0.4, 0.4),
+        specular: lum(0.5, 0.5, 0.5),
+        alpha: (2.0f32 / 202.0).sqrt(),
+    }));
+    assert!(has(Material::Ggx {
+        alpha: 0.3 * 0.3,
+        specular: lum(0.9, 0.9, 0.9),
+    }));
+    // The automatic camera looks at the bounding box's centre from +z.
+    let c = s.camera;
+    assert!((c.target - glam::Vec3::new(0.0, 0.6, 0.0)).length() < 1e-5);
+    assert!(c.eye.z > 1.0 && (c.eye.x, c.eye.y) == (c.target.x, c.target.y));
+    // by_name takes the path.
+    let by_path = scene::by_name(box_obj().to_str().unwrap(), None).expect("by path");
+    assert_eq!(by_path.lights.lights.len(), 4);
+}
+
+/// Writes `obj` (and `mtl`, as `<stem>.mtl`, if given) to a fresh temporary folder and
+/// returns the OBJ's path.
+fn write_obj(stem: &str, obj: &str, mtl: Option<&str>) -> PathBuf {
+    let dir = std::env::temp_dir().join(format!("mlrender-obj-{}-{stem}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    if let Some(mtl) = mtl {
+        std::fs::write(dir.join(format!("{stem}.mtl")), mtl).unwrap();
+    }
+    let path = dir.join(format!("{stem}.obj"));
+    std::fs::write(&path, format!("mtllib {stem}.mtl\n{obj}")).unwrap();
+    path
+}
+
+fn load_err(path: &Path) -> String {
+    let e = scene::obj::load(path).expect_err("must not load");
+    assert!(
+        e.contains(&path.display().to_string()),
+        "{e:?} names no file"
+    );
+    e
+}
+
+const EMITTER_MTL: &str = "newmtl grey\nKd 0.5 0.5 0.5\nnewmtl lamp\nKe 4 4 4\n";
+const FLOOR: &str = "v -1 0 -1\nv 1 0 -1\nv 1 0 1\nv -1 0 1\nusemtl grey\nf 1 4 3 2\n";
+
+#[test]
+fn obj_errors_name_the_file() {
+    let missing = Path::new("/nonexistent/mlrender/missing.obj");
+    load_err(missing);
+    assert!(scene::by_name(missing.to_str().unwrap(), None).is_err());
+
+    let no_light = write_obj("nolight", FLOOR, Some(EMITTER_MTL));
+    assert!(load_err(&no_light).contains("no light"));
+
+    let lamp = "v 0 1 0\nv 0 1 1\nv 1 1 0\nusemtl lamp\nf 5 6 7\n";
+    let no_tri = write_obj(
+        "notri",
+        &lamp.replace("f 5 6 7", "f 1 2 3"),
+        Some(EMITTER_MTL),
+    );
+    assert!(load_err(&no_tri).contains("no reflecting triangle"));
+
+    // Zero-area emitters only: a light list with no energy.
+    let flat = "v 0 1 0\nv 0 1 0\nv 1 1 0\nusemtl lamp\nf 5 6 7\n";
+    let zero = write_obj("zeroarea", &format!("{FLOOR}{flat}"), Some(EMITTER_MTL));
+    assert!(load_err(&zero).contains("no light"));
+
+    // A light the tree rejects: the message names the light, its field, object and material.
+    let far = "o far_lamp\nv 0 1 0\nv 2e15 1 1\nv 1 1 0\nusemtl lamp\nf 5 6 7\n";
+    let bad = write_obj("badlight", &format!("{FLOOR}{far}"), Some(EMITTER_MTL));
+    let e = load_err(&bad);
+    assert!(
+        e.contains("light 0")
+            && e.contains("vertices[1]")
+            && e.contains("far_lamp")
+            && e.contains("lamp"),
+        "{e}"
+    );
+
+    let blinding = write_obj(
+        "blinding",
+        &format!("{FLOOR}{lamp}"),
+        Some("newmtl grey\nKd 0.5 0.5 0.5\nnewmtl lamp\nKe 1e30 1e30 1e30\n"),
+    );
+    let e = load_err(&blinding);
+    assert!(e.contains("light 0") && e.contains("radiance"), "{e}");
+
+    let nan = write_obj(
+        "nan",
+        &format!("{FLOOR}v nan 0 0\nf 1 2 5\n"),
+        Some(EMITTER_MTL),
+    );
+    assert!(load_err(&nan).contains("not finite"));
+
+    let bad_kd = write_obj(
+        "badkd",
+        &format!("{FLOOR}{lamp}"),
+        Some("newmtl grey\nKd inf 0 0\nnewmtl lamp\nKe 4 4 4\n"),
+    );
+    assert!(load_err(&bad_kd).contains("Kd"));
+
+    let no_mtl = write_obj("nomtl", &format!("{FLOOR}{lamp}"), None);
+    load_err(&no_mtl);
+
+    let good = write_obj("good", &format!("{FLOOR}{lamp}"), Some(EMITTER_MTL));
+    let s = scene::obj::load(&good).expect("a floor and a lamp load");
+    assert_eq!((s.geometry.triangles.len(), s.lights.lights.len()), (2, 1));
+    for p in [
+        no_light, no_tri, zero, bad, blinding, nan, bad_kd, no_mtl, good,
+    ] {
+        std::fs::remove_dir_all(p.parent().unwrap()).ok();
+    }
 }
 
 #[test]
@@ -71,6 +263,18 @@ fn scenes_by_name() {
     assert_eq!(
         scene::by_name("cornell", None).unwrap().lights.lights.len(),
         scene::CORNELL_DEFAULT_LIGHTS
+    );
+    assert_eq!(
+        scene::by_name("exhibition", None)
+            .unwrap()
+            .lights
+            .lights
+            .len(),
+        scene::EXHIBITION_DISKS + scene::EXHIBITION_PANEL_TRIANGLES
+    );
+    assert_eq!(
+        scene::by_name("city", Some(5)).unwrap().lights.lights.len(),
+        scene::CITY_LIGHTS
     );
     assert!(scene::by_name("nope", None).is_err());
 }

@@ -1,0 +1,115 @@
+//! `cornell`: a Cornell box lit by many tiny sphere lights on its side walls.
+
+use super::geometry::{cuboid, quad, sphere_light, Geometry};
+use super::{Camera, LightSet, RenderScene};
+use glam::Vec3;
+use manylights::{Light, Material};
+use rand::{Rng, SeedableRng};
+use rand_pcg::Pcg64Mcg;
+
+/// Default number of lights of `cornell`.
+pub const CORNELL_DEFAULT_LIGHTS: usize = 1494;
+
+/// Radius of `cornell`'s sphere lights.
+pub const CORNELL_LIGHT_RADIUS: f32 = 0.004;
+
+/// Distance of `cornell`'s light centres from their wall (a few radii: the wall's
+/// irradiance peak under a light stays moderate).
+pub const CORNELL_WALL_GAP: f32 = 0.015;
+
+/// The Cornell box, `[0, 1]³` (open at z = 1, where the camera is), with `n_lights` tiny sphere
+/// lights at random on the left (x = 0) and right (x = 1) walls, powers log-uniform in
+/// `[0.25, 4]` × the mean, total power 12; `seed` places them.
+pub fn cornell(n_lights: usize, seed: u64) -> RenderScene {
+    let white = Material::Lambert { albedo: 0.7 };
+    let wall_l = Material::Lambert { albedo: 0.5 };
+    let floor = Material::Plastic {
+        albedo: 0.5,
+        specular: 0.5,
+        alpha: 0.08,
+    };
+    let glossy = Material::Plastic {
+        albedo: 0.3,
+        specular: 0.7,
+        alpha: 0.05,
+    };
+    let diffuse = Material::Lambert { albedo: 0.6 };
+    let v = |x, y, z| Vec3::new(x, y, z);
+    let mut t = Vec::new();
+    quad(
+        &mut t,
+        v(0., 0., 0.),
+        v(1., 0., 0.),
+        v(1., 0., 1.),
+        v(0., 0., 1.),
+        floor,
+    );
+    quad(
+        &mut t,
+        v(0., 1., 0.),
+        v(1., 1., 0.),
+        v(1., 1., 1.),
+        v(0., 1., 1.),
+        white,
+    );
+    quad(
+        &mut t,
+        v(0., 0., 0.),
+        v(1., 0., 0.),
+        v(1., 1., 0.),
+        v(0., 1., 0.),
+        white,
+    );
+    quad(
+        &mut t,
+        v(0., 0., 0.),
+        v(0., 1., 0.),
+        v(0., 1., 1.),
+        v(0., 0., 1.),
+        wall_l,
+    );
+    quad(
+        &mut t,
+        v(1., 0., 0.),
+        v(1., 1., 0.),
+        v(1., 1., 1.),
+        v(1., 0., 1.),
+        wall_l,
+    );
+    cuboid(&mut t, v(0.33, 0.3, 0.38), v(0.14, 0.3, 0.14), 0.3, diffuse);
+    cuboid(
+        &mut t,
+        v(0.68, 0.15, 0.62),
+        v(0.14, 0.15, 0.14),
+        -0.3,
+        glossy,
+    );
+
+    let mut rng = Pcg64Mcg::seed_from_u64(seed ^ 0xc0_4e11);
+    let r = CORNELL_LIGHT_RADIUS;
+    let mean_power = 12.0 / n_lights.max(1) as f32;
+    let lights: Vec<Light> = (0..n_lights)
+        .map(|i| {
+            let x = if i % 2 == 0 {
+                CORNELL_WALL_GAP
+            } else {
+                1.0 - CORNELL_WALL_GAP
+            };
+            let y = rng.random_range(0.05f32..0.95);
+            let z = rng.random_range(0.05f32..0.95);
+            let power = mean_power * rng.random_range((0.25f32).ln()..(4.0f32).ln()).exp();
+            sphere_light(v(x, y, z), r, power)
+        })
+        .collect();
+    RenderScene {
+        name: "cornell".into(),
+        geometry: Geometry::new(t),
+        lights: LightSet::with_lights(lights, Vec::new()),
+        camera: Camera {
+            eye: v(0.5, 0.5, 2.3),
+            target: v(0.5, 0.5, 0.0),
+            up: v(0.0, 1.0, 0.0),
+            fov_y: 38.0,
+        },
+    }
+}
