@@ -113,11 +113,13 @@ impl Technique {
 
 /// What `full` does at a Lambert-only shading point.
 ///
-/// Measured with `mlrender compare --quick` (power heuristic, glossy-share budget): `full`'s
-/// RMSE at equal time against TL split's was 1.095× with [`LambertMode::TbOne`] and 1.069×
-/// with [`LambertMode::TlOnly`] on `stairs`, 0.774× and 0.692× on `cornell`: next to a small
-/// sphere light a few radii from a wall, TL samples the light's cap uniformly and is nearly
-/// exact, and a cosine-distributed BRDF sample only adds variance and a ray.
+/// Measured with `mlrender compare --quick` (power heuristic, glossy-share budget, weights at
+/// a fixed p_ref = 1/2): `full`'s RMSE at equal time against TL split's was 1.095× with
+/// [`LambertMode::TbOne`] and 1.069× with [`LambertMode::TlOnly`] on `stairs`, 0.774× and
+/// 0.692× on `cornell`; `mlrender estimator --estimates 20000`: variance × time against TL
+/// split's at the Lambert configurations 1.105× with `TbOne`, 1.028× with `TlOnly`. Next to a
+/// small sphere light a few radii from a wall, TL samples the light's cap uniformly and is
+/// nearly exact, and a cosine-distributed BRDF sample only adds variance and a ray.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
 pub enum LambertMode {
     /// TL split alone (the default): the Lambert share of IB(x) asks for no BRDF-aware
