@@ -2278,3 +2278,41 @@ fn bl_importance_stays_finite_where_tl_is() {
         failures.join("\n")
     );
 }
+
+/// The glossy share that scales the BRDF-aware budget: 0 for Lambert and black materials, 1
+/// for pure GGX, the GGX part of the albedo for plastic (`ks · a_GGX / albedo`, albedo the
+/// whole hemisphere's SC).
+#[test]
+fn glossy_share_of_the_albedo() {
+    let at = |material| {
+        BlImportance::new(&ShadingPoint {
+            position: Vec3::ZERO,
+            normal: Vec3::Z,
+            wo: Vec3::new(0.3, 0.0, 1.0).normalize(),
+            material,
+        })
+        .unwrap()
+    };
+    assert_eq!(at(Material::Lambert { albedo: 0.5 }).glossy_share(), 0.0);
+    assert_eq!(at(Material::Lambert { albedo: 0.0 }).glossy_share(), 0.0);
+    assert_eq!(
+        at(Material::Ggx {
+            alpha: 0.2,
+            specular: 0.7
+        })
+        .glossy_share(),
+        1.0
+    );
+    let imp = at(Material::Plastic {
+        albedo: 0.5,
+        specular: 0.4,
+        alpha: 0.15,
+    });
+    let s = imp.glossy_share();
+    // ks · a_GGX = albedo − ρd exactly (the albedo is ρd + ks · a_GGX).
+    let expect = (imp.albedo() - 0.5) / imp.albedo();
+    assert!(
+        s > 0.0 && s < 1.0 && (s - expect).abs() < 1e-6,
+        "{s} vs {expect}"
+    );
+}

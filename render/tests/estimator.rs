@@ -2,7 +2,7 @@
 //! combined MIS + adaptive-allocation estimator on a tiny discrete problem.
 
 use glam::Vec3;
-use manylights::mis::{AdaptiveAllocator, CombinedWeights};
+use manylights::mis::{AdaptiveAllocator, CombinedWeights, SequentialWeights};
 use manylights::{Light, Material, ShadingPoint};
 use manylights_render::estimator::reference::reference;
 use manylights_render::estimator::scene::{Config, Plan, Scene};
@@ -124,7 +124,7 @@ fn every_technique_is_unbiased_on_a_small_scene() {
         let mut cases: Vec<(Technique, Params)> =
             Technique::ALL.iter().map(|&t| (t, params)).collect();
         if c.is_diffuse() {
-            for mode in [LambertMode::TbOne, LambertMode::BlTb] {
+            for mode in [LambertMode::TbOne, LambertMode::TbBudget, LambertMode::BlTb] {
                 cases.push((
                     Technique::Full,
                     Params {
@@ -134,13 +134,15 @@ fn every_technique_is_unbiased_on_a_small_scene() {
                 ));
             }
         }
-        cases.push((
-            Technique::Full,
-            Params {
-                power: true,
-                ..params
-            },
-        ));
+        for t in [Technique::MisEqual, Technique::Full] {
+            cases.push((
+                t,
+                Params {
+                    power: false,
+                    ..params
+                },
+            ));
+        }
         for (i, (t, p)) in cases.into_iter().enumerate() {
             let k = match t {
                 Technique::Uniform | Technique::Power | Technique::Tl | Technique::Bl => 200_000,
@@ -306,6 +308,61 @@ impl Problem {
         e
     }
 
+    /// E[whole estimator] of `full` with [`SequentialWeights`]: the BRDF-aware samples j..n
+    /// with the allocator in state `alloc` and the weights `sw` holding the p of the samples
+    /// before j, every branch enumerated; at the end of a branch, the TL part weighted with
+    /// that branch's p_1..p_n. `p_used(p)` is the BL probability passed to the weights for a
+    /// sample drawn with probability p (the correct one is p itself).
+    fn sequential_expectation(
+        &self,
+        sw: SequentialWeights,
+        alloc: AdaptiveAllocator,
+        j: u32,
+        p_used: &impl Fn(f32) -> f32,
+    ) -> f64 {
+        if j == sw.budget() {
+            return (0..self.f.len())
+                .filter(|&i| self.p_tl[i] > 0.0 && self.f[i] > 0.0)
+                .map(|i| {
+                    f64::from(self.p_tl[i])
+                        * f64::from(sw.tl_term(self.f[i], self.p_tl[i], self.p_bl[i], self.p_tb[i]))
+                })
+                .sum();
+        }
+        let p = alloc.p_bl();
+        let q = p_used(p);
+        let one = |pmf: &[f32]| -> f64 {
+            (0..self.f.len())
+                .filter(|&i| pmf[i] > 0.0 && self.f[i] > 0.0)
+                .map(|i| {
+                    f64::from(pmf[i])
+                        * f64::from(sw.mixture_term(
+                            self.f[i],
+                            q,
+                            self.p_tl[i],
+                            self.p_bl[i],
+                            self.p_tb[i],
+                        ))
+                })
+                .sum()
+        };
+        let mut next = sw;
+        next.record(q);
+        let (pd, qd) = (f64::from(p), 1.0 - f64::from(p));
+        let mut e = 0.0;
+        if p > 0.0 {
+            e += pd * (one(&self.p_bl) + self.sequential_expectation(next, alloc, j + 1, p_used));
+        }
+        e += qd * one(&self.p_tb);
+        let ph = self.hit_probability();
+        let (mut hit, mut miss) = (alloc, alloc);
+        hit.record_tb(true);
+        miss.record_tb(false);
+        e += qd * ph * self.sequential_expectation(next, hit, j + 1, p_used);
+        e += qd * (1.0 - ph) * self.sequential_expectation(next, miss, j + 1, p_used);
+        e
+    }
+
     /// E[mixture part] of `mis-equal`: ⌊n/2⌋ BL and ⌊n/2⌋ TB samples, and for an odd n one
     /// more that is BL or TB with probability 1/2, all with the denominator `n q_ref`.
     fn equal_expectation(&self, w: CombinedWeights, n: u32) -> f64 {
@@ -378,6 +435,52 @@ fn combined_estimator_is_exactly_unbiased_by_enumeration() {
         }
     }
     // The enumeration can tell a biased estimator from an unbiased one.
+    assert!(worst_wrong > 0.05, "{worst_wrong}");
+}
+
+/// `full`'s estimator with [`SequentialWeights`] (each BRDF-aware sample weighted against its
+/// own mixture density, TL weighted by the mean of the per-sample weights once every p_j is
+/// known): its expectation, every branch of the allocator and every sample enumerated, equals
+/// the integral, for both heuristics and with and without BL; weighting the samples with a
+/// probability other than the one they were drawn with does not.
+#[test]
+fn sequential_weights_are_exactly_unbiased_by_enumeration() {
+    let mut rng = Pcg64Mcg::seed_from_u64(2025);
+    let mut problems = 0;
+    let mut worst_wrong = 0.0f64;
+    while problems < 60 {
+        let prob = Problem::random(&mut rng, 5);
+        if prob.total() == 0.0 {
+            continue;
+        }
+        problems += 1;
+        for n in [0u32, 1, 2, 3, 7] {
+            for bl in [true, false] {
+                // Without BRDF-aware samples TL alone must cover every point.
+                let tl_covers = (0..prob.f.len()).all(|i| prob.f[i] == 0.0 || prob.p_tl[i] > 0.0);
+                if !prob.covered(bl) || (n == 0 && !tl_covers) {
+                    continue;
+                }
+                for power in [false, true] {
+                    let sw = SequentialWeights::new(n, 1.0, power);
+                    let e = prob.sequential_expectation(sw, AdaptiveAllocator::new(bl), 0, &|p| p);
+                    let rel = (e - prob.total()).abs() / prob.total();
+                    assert!(
+                        rel < 2e-5,
+                        "n={n} bl={bl} power={power}: {e} vs {}",
+                        prob.total()
+                    );
+                    if bl && n > 0 {
+                        let e =
+                            prob.sequential_expectation(sw, AdaptiveAllocator::new(bl), 0, &|_| {
+                                0.5
+                            });
+                        worst_wrong = worst_wrong.max((e - prob.total()).abs() / prob.total());
+                    }
+                }
+            }
+        }
+    }
     assert!(worst_wrong > 0.05, "{worst_wrong}");
 }
 

@@ -126,6 +126,18 @@ impl BlImportance {
         })
     }
 
+    /// The glossy lobe's share of the directional albedo at this view: `ks · a_GGX(ωo) /
+    /// (ρd + ks · a_GGX(ωo))`, in [0, 1] (0 for Lambert, 1 for pure GGX, 0 for a black
+    /// material). The diffuse share of a BRDF-oriented budget buys nothing that TL does not
+    /// already give (for a constant BRDF, BL is TL), so budgets scale with this share.
+    pub fn glossy_share(&self) -> f32 {
+        if self.albedo > 0.0 {
+            (self.ks * self.ggx.albedo() / self.albedo).clamp(0.0, 1.0)
+        } else {
+            0.0
+        }
+    }
+
     /// The shading position.
     pub fn position(&self) -> Vec3 {
         self.position

@@ -132,8 +132,8 @@ pub struct ConfigResult {
     pub n_mix: u32,
     /// Per technique, in [`Technique::ALL`] order.
     pub results: [TechResult; 7],
-    /// At Lambert points (when `full` runs with [`LambertMode::TbBudget`] or
-    /// [`LambertMode::BlTb`]): `full` with [`LambertMode::TbOne`], for comparison.
+    /// At Lambert points (when `full` runs with another [`LambertMode`]): `full` with
+    /// [`LambertMode::TbOne`] (TL split + one BRDF sample), for comparison.
     pub full_tb_one: Option<TechResult>,
 }
 
@@ -671,11 +671,11 @@ pub struct EstimatorArgs {
     #[arg(long)]
     pub n_max: Option<u32>,
     /// What `full` does at Lambert-only points.
-    #[arg(long, value_enum, default_value_t = LambertMode::TbOne)]
+    #[arg(long, value_enum, default_value_t = LambertMode::TlOnly)]
     pub lambert: LambertMode,
-    /// Power heuristic between TL and the BRDF-aware mixture (default: balance).
+    /// Balance heuristic between TL and the BRDF-aware mixture (default: power, β = 2).
     #[arg(long)]
-    pub power_heuristic: bool,
+    pub balance_heuristic: bool,
     /// Print every configuration and every deviation.
     #[arg(long)]
     pub verbose: bool,
@@ -717,7 +717,7 @@ pub fn run_cli(args: &EstimatorArgs) -> i32 {
         cfg.params.n_max = v;
     }
     cfg.params.lambert = args.lambert;
-    cfg.params.power = args.power_heuristic;
+    cfg.params.power = !args.balance_heuristic;
     let (rs, report) = run(&cfg);
     println!("{}", table(&rs, &report, args.verbose));
     if args.json {
