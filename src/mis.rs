@@ -333,7 +333,7 @@ impl SequentialWeights {
     fn tl_share(&self, pdf_tl: f32, q: f32) -> f32 {
         let a = self.n_tl * pdf_tl.max(0.0);
         let b = self.n as f32 * q.max(0.0);
-        if !(a > 0.0) {
+        if a.is_nan() || a <= 0.0 {
             return if b > 0.0 { 0.0 } else { 1.0 };
         }
         let r = if self.power {
@@ -356,7 +356,7 @@ impl SequentialWeights {
         let p = sanitize_probability(p_bl);
         let q = p * pdf_bl.max(0.0) + (1.0 - p) * pdf_tb.max(0.0);
         let n = self.n as f32;
-        if !(q > 0.0) || self.n == 0 || !(g > 0.0) {
+        if q.is_nan() || q <= 0.0 || self.n == 0 || g.is_nan() || g <= 0.0 {
             return 0.0;
         }
         let a = self.n_tl * pdf_tl.max(0.0);
@@ -390,7 +390,7 @@ impl SequentialWeights {
     /// What a TL sample of value `g` and densities `pdf_tl` (> 0), `pdf_bl`, `pdf_tb`
     /// contributes: `g·w_TL/pdf_TL` (0 if `pdf_tl` is not positive).
     pub fn tl_term(&self, g: f32, pdf_tl: f32, pdf_bl: f32, pdf_tb: f32) -> f32 {
-        if !(pdf_tl > 0.0) || !(g > 0.0) {
+        if pdf_tl.is_nan() || pdf_tl <= 0.0 || g.is_nan() || g <= 0.0 {
             return 0.0;
         }
         let v = g * self.tl_weight(pdf_tl, pdf_bl, pdf_tb) / pdf_tl;
