@@ -3,7 +3,9 @@
 //!
 //! - **Reference**: the `full` technique at `ref_spp` estimates per pixel (default 64 × the
 //!   compared spp), with its own seed, cached as raw f32 under
-//!   `out/reference/<scene>-<lights>-<W>x<H>-<ref_spp>.bin` (delete the file to recompute it).
+//!   `out/reference/<scene>-<lights>-<fingerprint>-<W>x<H>-<ref_spp>-<seed>.bin`, the fingerprint
+//!   being [`RenderScene::fingerprint`] (a changed scene never reuses a stale reference; delete
+//!   the folder to reclaim the space).
 //! - **Time** is busy time summed over the render threads ([`Image::seconds`]: each image row
 //!   timed by the CPU clock of the thread that renders it, the row times added up),
 //!   everywhere: budget, ms per spp, the equal-time renders' own times and the convergence
@@ -33,9 +35,11 @@
 //! Outputs under `out/compare/<scene>-<lights>/`: per technique `<technique>.png` and
 //! `<technique>.exr` (equal spp) and `<technique>-equal-time.png` / `.exr`, `reference.png` /
 //! `.exr` (PNG: 8-bit sRGB clamped to [0, 1]; EXR: linear f32, R = G = B), `side_by_side.png`
-//! (equal-spp images in report order, then the reference, separated by 4 black columns; below,
-//! each one's lower middle quarter magnified 2×), `side_by_side_equal_time.png` (the same with
-//! the equal-time images), `convergence.svg` (unless `--no-plot`: RMSE against busy time,
+//! (equal-spp images in report order, then the reference, separated by 4 black columns; above
+//! each, a caption strip with its name and, for a technique, its RMSE against the reference;
+//! below, each one's lower middle quarter, outlined on the image above, magnified 2×: see
+//! [`side_by_side_labelled`]), `side_by_side_equal_time.png` (the same with the equal-time
+//! images and their RMSE), `convergence.svg` (unless `--no-plot`: RMSE against busy time,
 //! log-log, from renders at 1, 2, 4, … 4 × spp), `table.md` (the Markdown table, also printed).
 //! With `--json` the last line of stdout is
 //! `{scene, lights, resolution, spp, ref_spp, time_budget_s, time_budget_from, dir,
@@ -46,7 +50,7 @@
 
 use crate::estimator::techniques::Technique;
 use crate::render::{
-    convergence_svg, read_raw, render, side_by_side_with_crops, write_exr, write_png, write_raw,
+    convergence_svg, read_raw, render, side_by_side_labelled, write_exr, write_png, write_raw,
     Image, RenderConfig,
 };
 use crate::scene::RenderScene;
@@ -300,12 +304,14 @@ fn ensure_writable(dir: &Path) -> std::io::Result<()> {
 /// Where [`reference()`] caches the reference of `scene` under `cfg`.
 pub fn reference_path(scene: &RenderScene, cfg: &CompareConfig) -> PathBuf {
     cfg.out.join("reference").join(format!(
-        "{}-{}-{}x{}-{}.bin",
+        "{}-{}-{:016x}-{}x{}-{}-{}.bin",
         scene.name,
         scene.lights.lights.len(),
+        scene.fingerprint(),
         cfg.width,
         cfg.height,
-        cfg.ref_spp
+        cfg.ref_spp,
+        cfg.seed
     ))
 }
 
@@ -405,6 +411,17 @@ impl Highest {
     }
 }
 
+/// The caption of a technique's panel in the side-by-side images: its name and its RMSE
+/// against the reference, with 4 decimals (`full 0.1003`), or 2 significant digits in
+/// scientific notation below 0.001 (`full 4.2e-5`) so that small errors keep their digits.
+fn caption(name: &str, rmse: f64) -> String {
+    if rmse.is_finite() && rmse > 0.0 && rmse < 1e-3 {
+        format!("{name} {rmse:.1e}")
+    } else {
+        format!("{name} {rmse:.4}")
+    }
+}
+
 /// Writes `img` as `<dir>/<stem>.png` and `<dir>/<stem>.exr`.
 fn write_both(dir: &Path, stem: &str, img: &Image) -> std::io::Result<()> {
     write_png(
@@ -477,9 +494,18 @@ pub fn run(scene: &RenderScene, cfg: &CompareConfig) -> std::io::Result<Report> 
         ("side_by_side.png", &images),
         ("side_by_side_equal_time.png", &eq_images),
     ] {
-        let mut all: Vec<&Image> = imgs.iter().collect();
-        all.push(&reference);
-        let (w, h, sbs) = side_by_side_with_crops(&all, 4);
+        let captions: Vec<String> = Technique::ALL
+            .iter()
+            .zip(imgs.iter())
+            .map(|(t, img)| caption(t.name(), img.rmse(&reference)))
+            .collect();
+        let mut panels: Vec<(&str, &Image)> = captions
+            .iter()
+            .map(String::as_str)
+            .zip(imgs.iter())
+            .collect();
+        panels.push(("reference", &reference));
+        let (w, h, sbs) = side_by_side_labelled(&panels, 4);
         write_png(&dir.join(name), w, h, &sbs)?;
     }
     if cfg.plot {

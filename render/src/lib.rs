@@ -4,6 +4,7 @@
 pub mod bench;
 pub mod compare;
 pub mod estimator;
+pub mod font;
 pub mod ggx;
 pub mod random_scene;
 pub mod render;

@@ -6,7 +6,8 @@
 
 use manylights_render::compare::{self, check_time, equal_time_spp, CompareConfig, Cost};
 use manylights_render::estimator::techniques::Technique;
-use manylights_render::render::{read_raw, render, RenderConfig};
+use manylights_render::font;
+use manylights_render::render::{self, read_raw, render, Image, RenderConfig};
 use manylights_render::scene;
 use std::path::{Path, PathBuf};
 use std::process::Command;
@@ -64,6 +65,20 @@ fn read_exr(path: &Path) -> (usize, usize, Vec<f32>) {
     )
 }
 
+/// An 8-bit grey-level PNG file's size and pixels.
+fn read_png(path: &Path) -> (usize, usize, Vec<u8>) {
+    let file = std::fs::File::open(path).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
+    let mut reader = png::Decoder::new(std::io::BufReader::new(file))
+        .read_info()
+        .unwrap();
+    let mut buf = vec![0; reader.output_buffer_size().unwrap()];
+    let info = reader.next_frame(&mut buf).unwrap();
+    assert_eq!(info.color_type, png::ColorType::Grayscale);
+    assert_eq!(info.bit_depth, png::BitDepth::Eight);
+    buf.truncate(info.buffer_size());
+    (info.width as usize, info.height as usize, buf)
+}
+
 fn assert_same(path: &Path, values: &[f32]) {
     let (w, h, px) = read_exr(path);
     assert_eq!((w, h), (W, H), "{}", path.display());
@@ -105,16 +120,56 @@ fn compare_writes_every_output() {
             .len();
         assert!(len > 0, "{} is empty", p.display());
     }
-    let png = png::Decoder::new(std::io::BufReader::new(
-        std::fs::File::open(dir.join("side_by_side.png")).unwrap(),
-    ))
-    .read_info()
-    .unwrap();
-    // 8 images (7 techniques and the reference) and their crops, 4-pixel gaps.
-    assert_eq!(
-        (png.info().width, png.info().height),
-        ((8 * W + 7 * 4) as u32, (2 * H + 4) as u32)
-    );
+    for name in ["side_by_side.png", "side_by_side_equal_time.png"] {
+        let (w, h, px) = read_png(&dir.join(name));
+        // 8 images (7 techniques and the reference) and their crops, 4-pixel gaps, under a
+        // caption strip: 12-pixel panels are too narrow for ×2 text, so ×1, 1 + 7 + 1 rows.
+        let strip = 9;
+        assert_eq!((w, h), (8 * W + 7 * 4, strip + 2 * H + 4), "{name}");
+        assert_eq!(render::caption_height(1), strip);
+        for i in 0..8 {
+            let x0 = i * (W + 4);
+            let caption = (0..strip).flat_map(|y| px[y * w + x0..y * w + x0 + W].to_vec());
+            assert!(
+                caption.filter(|&v| v > 0).count() >= 5,
+                "{name}: no caption above panel {i}"
+            );
+            // The margins above and below the text and the gaps beside it stay black.
+            assert!(px[x0..x0 + W].iter().all(|&v| v == 0), "{name}: panel {i}");
+            let last = (strip - 1) * w;
+            assert!(px[last + x0..last + x0 + W].iter().all(|&v| v == 0));
+            if i < 7 {
+                for y in 0..strip {
+                    let gap = y * w + x0 + W;
+                    assert!(px[gap..gap + 4].iter().all(|&v| v == 0), "{name}: gap {i}");
+                }
+            }
+        }
+        // Below the strip: the reference panel as written on its own (but for the outline of
+        // the crop region), and its crop.
+        let (rw, rh, rpx) = read_png(&dir.join("reference.png"));
+        assert_eq!((rw, rh), (W, H));
+        let (cx0, cy0, cx1, cy1) = render::crop_region(W, H);
+        let x0 = 7 * (W + 4);
+        for y in 0..H {
+            for x in 0..W {
+                let on_outline = (x == cx0 || x == cx1 || y == cy0 || y == cy1)
+                    && (cx0..=cx1).contains(&x)
+                    && (cy0..=cy1).contains(&y);
+                let v = px[(strip + y) * w + x0 + x];
+                if on_outline {
+                    assert!(v == 0 || v == 255, "{name}: outline ({x}, {y}) = {v}");
+                } else {
+                    assert_eq!(v, rpx[y * W + x], "{name}: reference ({x}, {y})");
+                }
+                let crop = px[(strip + H + 4 + y) * w + x0 + x];
+                assert_eq!(
+                    crop,
+                    rpx[(cy0 + y / 2).min(H - 1) * W + (cx0 + x / 2).min(W - 1)]
+                );
+            }
+        }
+    }
     let svg = std::fs::read_to_string(dir.join("convergence.svg")).unwrap();
     assert!(svg.starts_with("<svg") && svg.trim_end().ends_with("</svg>"));
     assert_eq!(svg.matches("<polyline").count(), 7);
@@ -183,6 +238,88 @@ fn compare_writes_every_output() {
     assert_eq!(report.json()["time_budget_s"], 0.002);
     assert_eq!(report.json()["time_budget_from"], "--time");
     std::fs::remove_dir_all(&out).ok();
+}
+
+/// A flat `width × height` image of `value`.
+fn flat(width: usize, height: usize, value: f32) -> Image {
+    Image {
+        width,
+        height,
+        mean: vec![value; width * height],
+        var: vec![0.0; width * height],
+        spp: 1,
+        seconds: 0.0,
+        wall_seconds: 0.0,
+    }
+}
+
+#[test]
+fn captions() {
+    // Every character of the captions has a glyph, all but the space with ink, and the
+    // glyphs are distinct.
+    let chars = "abcdefghijklmnopqrstuvwxyz0123456789-. ×";
+    let mut seen = Vec::new();
+    for c in chars.chars() {
+        let g = font::glyph(c).unwrap_or_else(|| panic!("no glyph for {c:?}"));
+        assert!(g.iter().all(|&row| row < 1 << font::GLYPH_W), "{c:?}");
+        assert_eq!(g.iter().all(|&row| row == 0), c == ' ', "{c:?}");
+        assert!(!seen.contains(&g), "{c:?} looks like another character");
+        seen.push(g);
+    }
+    assert_eq!(font::glyph('Q'), font::glyph('q'));
+    assert_eq!(font::glyph('é'), None);
+    assert_eq!(font::text_width("", 2), 0);
+    assert_eq!(font::text_width("full 0.1003", 1), 11 * 6 - 1);
+    assert_eq!(font::text_width("full 0.1003", 2), 2 * (11 * 6 - 1));
+    assert_eq!(font::truncate("uniform", 1, 12), "un");
+    assert_eq!(font::truncate("uniform", 1, 41), "uniform");
+    assert_eq!(font::truncate("uniform", 1, 40), "unifor");
+
+    // A black panel: the caption is the only ink, and drawn in white.
+    let dark = flat(96, 96, 0.0);
+    let long = "mis-equal 0.1003";
+    // The longest caption fits a 96-pixel panel at ×1, not at ×2; 256 pixels take ×2.
+    assert_eq!(render::caption_scale(&[(long, &dark)]), 1);
+    let wide = flat(256, 40, 0.0);
+    assert_eq!(render::caption_scale(&[(long, &wide)]), 2);
+    assert_eq!(render::caption_height(2), 18);
+    let (w, h, px) = render::side_by_side_labelled(&[(long, &dark), ("reference", &dark)], 4);
+    assert_eq!((w, h), (196, 9 + 2 * 96 + 4));
+    let ink = |x0: usize, x1: usize| -> Vec<usize> {
+        (0..9)
+            .flat_map(|y| (x0..x1).map(move |x| (x, y)))
+            .filter(|&(x, y)| px[y * w + x] > 0.0)
+            .map(|(x, _)| x)
+            .collect()
+    };
+    // The whole caption, from the left margin to the panel's edge.
+    let first = ink(0, 96);
+    assert_eq!(first.iter().min(), Some(&1));
+    assert!(first.iter().max().is_some_and(|&x| x <= 95));
+    assert!(ink(96, 100).is_empty());
+    // "reference" is centred: as much black on either side, give or take a pixel.
+    let second = ink(100, 196);
+    let (lo, hi) = (second.iter().min().unwrap(), second.iter().max().unwrap());
+    assert!((lo - 100).abs_diff(195 - hi) <= 1, "{lo}..{hi}");
+    assert!(px[..w * 9].iter().all(|&v| v == 0.0 || v == 1.0));
+    // The crop region's outline, on the top row only.
+    let (cx0, cy0, cx1, cy1) = render::crop_region(96, 96);
+    assert_eq!((cx0, cy0, cx1, cy1), (24, 48, 71, 95));
+    let top = |x: usize, y: usize| px[(9 + y) * w + x];
+    assert!((cx0..=cx1).any(|x| top(x, cy0) == 1.0));
+    assert!((cy0..=cy1).any(|y| top(cx1, y) == 1.0));
+    assert_eq!(top(cx0 + 1, cy0 + 1), 0.0);
+    assert!(px[(9 + 96) * w..].iter().all(|&v| v == 0.0));
+
+    // ×2 on wide panels; too narrow a panel cuts the caption short.
+    let (w, h, px) = render::side_by_side_labelled(&[(long, &wide)], 4);
+    assert_eq!((w, h), (256, 18 + 2 * 40 + 4));
+    assert!(px[..w * 18].contains(&1.0));
+    let narrow = flat(5, 4, 0.5);
+    let (w, h, px) = render::side_by_side_labelled(&[("uniform", &narrow)], 0);
+    assert_eq!((w, h), (5, 9 + 8));
+    assert!(px[..5 * 9].iter().all(|&v| v == 0.0));
+    assert_eq!(render::side_by_side_labelled(&[], 4), (0, 0, Vec::new()));
 }
 
 #[test]
