@@ -112,7 +112,7 @@ enum Command {
     },
     /// Every technique on a built-in scene at equal spp and equal time against a cached
     /// reference (out/reference/): PNG and linear EXR images, side-by-side images with crops,
-    /// convergence plot (SVG) and RMSE table (Markdown) under out/compare/<scene>-<lights>/.
+    /// convergence plot (SVG) and RMSE table (Markdown) under `out/compare/<scene>-<lights>/`.
     ///
     /// Times are busy CPU time summed over the render threads (each image row timed by its
     /// thread's CPU clock; about wall time × threads on idle cores, and not inflated by other

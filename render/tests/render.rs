@@ -291,3 +291,17 @@ fn raw_reference_round_trips() {
     assert_eq!(back.mean, img.mean);
     assert_eq!(back.var, img.var);
 }
+
+/// The reference cache key: the same scene gives the same fingerprint, any change of lights,
+/// geometry or camera another.
+#[test]
+fn fingerprint_tells_scenes_apart() {
+    let a = scene::cornell(1000, 3);
+    assert_eq!(a.fingerprint(), scene::cornell(1000, 3).fingerprint());
+    assert_ne!(a.fingerprint(), scene::cornell(1000, 4).fingerprint());
+    assert_ne!(a.fingerprint(), scene::cornell(1001, 3).fingerprint());
+    let mut moved = scene::cornell(1000, 3);
+    moved.camera.fov_y += 1e-3;
+    assert_ne!(a.fingerprint(), moved.fingerprint());
+    assert_ne!(scene::stairs().fingerprint(), a.fingerprint());
+}

@@ -3,7 +3,7 @@
 //! Direct illumination **without visibility** on synthetic configurations ([`scene`]): 1,000
 //! small sphere and disk lights around 64 shading points, materials Lambert, GGX α ∈ {0.05,
 //! 0.2, 0.6} and plastic (by default point i gets material i mod 5: 64 configurations). The
-//! exact value of each configuration comes from an independent computation ([`reference`]:
+//! exact value of each configuration comes from an independent computation ([`mod@reference`]:
 //! every light integrated on its own, own samplers, to a relative standard error below 1e-3,
 //! the total to below 1e-4). Each technique of [`techniques`] then produces K independent
 //! estimates per configuration (default 100,000). The full run takes about 5 minutes of two

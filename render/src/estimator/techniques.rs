@@ -7,7 +7,7 @@
 //!
 //! - `uniform`: one light uniformly, a point on it by `sample_point`.
 //! - `power`: one light with probability ∝ its energy.
-//! - `tl`: one light by [`LightTree::sample`] with [`TlImportance`].
+//! - `tl`: one light by [`manylights::LightTree::sample`] with [`TlImportance`].
 //! - `tl-split`: the Conty–Kulla split cut ([`LightCut::build_split`]), one sample per cluster,
 //!   summed.
 //! - `bl`: one light from the BRDF-oriented cut ([`LightCut::build`]).

@@ -18,8 +18,9 @@ pub const CORNELL_LIGHT_RADIUS: f32 = 0.004;
 pub const CORNELL_WALL_GAP: f32 = 0.015;
 
 /// The Cornell box, `[0, 1]³` (open at z = 1, where the camera is), with `n_lights` tiny sphere
-/// lights at random on the left (x = 0) and right (x = 1) walls, powers log-uniform in
-/// `[0.25, 4]` × the mean, total power 12; `seed` places them.
+/// lights at random on the left (x = 0) and right (x = 1) walls, powers `12/n × e^U` with U
+/// uniform in `[ln 0.25, ln 4]` (a 16:1 spread; E[e^U] = 3.75/ln 16 ≈ 1.35, so the expected
+/// total power is about 16.2 for any n); `seed` places them.
 pub fn cornell(n_lights: usize, seed: u64) -> RenderScene {
     let white = Material::Lambert { albedo: 0.7 };
     let wall_l = Material::Lambert { albedo: 0.5 };
@@ -87,7 +88,7 @@ pub fn cornell(n_lights: usize, seed: u64) -> RenderScene {
 
     let mut rng = Pcg64Mcg::seed_from_u64(seed ^ 0xc0_4e11);
     let r = CORNELL_LIGHT_RADIUS;
-    let mean_power = 12.0 / n_lights.max(1) as f32;
+    let base_power = 12.0 / n_lights.max(1) as f32;
     let lights: Vec<Light> = (0..n_lights)
         .map(|i| {
             let x = if i % 2 == 0 {
@@ -97,7 +98,7 @@ pub fn cornell(n_lights: usize, seed: u64) -> RenderScene {
             };
             let y = rng.random_range(0.05f32..0.95);
             let z = rng.random_range(0.05f32..0.95);
-            let power = mean_power * rng.random_range((0.25f32).ln()..(4.0f32).ln()).exp();
+            let power = base_power * rng.random_range((0.25f32).ln()..(4.0f32).ln()).exp();
             sphere_light(v(x, y, z), r, power)
         })
         .collect();

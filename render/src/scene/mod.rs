@@ -82,6 +82,35 @@ pub struct RenderScene {
     pub camera: Camera,
 }
 
+impl RenderScene {
+    /// A 64-bit fingerprint of everything that determines the scene's image: camera, every
+    /// triangle (vertices and material) and every light (FNV-1a over their `Debug` text, which
+    /// prints every f32 exactly). Cached references carry it in their file name, so a changed
+    /// scene never reuses a stale reference.
+    pub fn fingerprint(&self) -> u64 {
+        struct Fnv(u64);
+        impl std::fmt::Write for Fnv {
+            fn write_str(&mut self, s: &str) -> std::fmt::Result {
+                for b in s.bytes() {
+                    self.0 = (self.0 ^ u64::from(b)).wrapping_mul(0x0100_0000_01b3);
+                }
+                Ok(())
+            }
+        }
+        use std::fmt::Write as _;
+        let mut h = Fnv(0xcbf2_9ce4_8422_2325);
+        // Writing into the hasher cannot fail.
+        let _ = write!(h, "{:?}", self.camera);
+        for t in &self.geometry.triangles {
+            let _ = write!(h, "{:?}{:?}", t.v, t.material);
+        }
+        for l in &self.lights.lights {
+            let _ = write!(h, "{l:?}");
+        }
+        h.0
+    }
+}
+
 /// Whether `name` is a path to an OBJ file (it ends in `.obj`, any case).
 fn is_obj_path(name: &str) -> bool {
     Path::new(name)
