@@ -375,20 +375,26 @@ impl Problem {
     }
 }
 
+/// `count` random five-point problems with a non-zero integral, from `seed`.
+fn problems(seed: u64, count: usize) -> Vec<Problem> {
+    let mut rng = Pcg64Mcg::seed_from_u64(seed);
+    let mut out = Vec::with_capacity(count);
+    while out.len() < count {
+        let prob = Problem::random(&mut rng, 5);
+        if prob.total() != 0.0 {
+            out.push(prob);
+        }
+    }
+    out
+}
+
 /// The expectation of the combined estimator, every outcome of the allocator's choices and of
 /// the samples enumerated, equals the integral; a denominator that ignores the allocator's
 /// current p (the mixture at the reference p_ref = 1/2) does not.
 #[test]
 fn combined_estimator_is_exactly_unbiased_by_enumeration() {
-    let mut rng = Pcg64Mcg::seed_from_u64(2024);
-    let mut problems = 0;
     let mut worst_wrong = 0.0f64;
-    while problems < 60 {
-        let prob = Problem::random(&mut rng, 5);
-        if prob.total() == 0.0 {
-            continue;
-        }
-        problems += 1;
+    for prob in problems(2024, 60) {
         for n in [1u32, 2, 3, 7] {
             let nf = n as f32;
             for bl in [true, false] {
@@ -445,15 +451,8 @@ fn combined_estimator_is_exactly_unbiased_by_enumeration() {
 /// probability other than the one they were drawn with does not.
 #[test]
 fn sequential_weights_are_exactly_unbiased_by_enumeration() {
-    let mut rng = Pcg64Mcg::seed_from_u64(2025);
-    let mut problems = 0;
     let mut worst_wrong = 0.0f64;
-    while problems < 60 {
-        let prob = Problem::random(&mut rng, 5);
-        if prob.total() == 0.0 {
-            continue;
-        }
-        problems += 1;
+    for prob in problems(2025, 60) {
         for n in [0u32, 1, 2, 3, 7] {
             for bl in [true, false] {
                 // Without BRDF-aware samples TL alone must cover every point.
