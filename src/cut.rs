@@ -54,6 +54,9 @@ pub struct Cluster {
     pub weight: f32,
     /// The split criterion's value for this cluster (BRDF integral or normalised variance).
     pub score: f32,
+    /// For BRDF-oriented cuts, the glossy lobe's part of the BRDF integral over the cluster's
+    /// cap (`ks ∫ f_GGX cos`); 0 for split cuts and Lambert materials.
+    pub glossy_score: f32,
 }
 
 /// Options of the split-sampling cut.
@@ -97,6 +100,7 @@ impl Default for CutOptions {
 pub(crate) struct SlotDecision {
     pub weight: f32,
     pub score: f32,
+    pub glossy_score: f32,
     pub split: bool,
 }
 
@@ -107,6 +111,7 @@ pub struct LightCut {
     len: usize,
     total: f32,
     max_score: f32,
+    max_glossy_score: f32,
 }
 
 impl Default for LightCut {
@@ -125,10 +130,12 @@ impl LightCut {
                 path: 0,
                 weight: 0.0,
                 score: 0.0,
+                glossy_score: 0.0,
             }; CUT_CAPACITY],
             len: 0,
             total: 0.0,
             max_score: 0.0,
+            max_glossy_score: 0.0,
         }
     }
 
@@ -155,6 +162,12 @@ impl LightCut {
     /// Largest score over the cut (for BRDF-oriented cuts: IB(x), Liu et al. section 4.2).
     pub fn max_score(&self) -> f32 {
         self.max_score
+    }
+
+    /// The largest glossy part of a cluster's BRDF integral over the cut (see
+    /// [`Cluster::glossy_score`]): IB(x) of the glossy lobe alone. 0 for split cuts.
+    pub fn max_glossy_score(&self) -> f32 {
+        self.max_glossy_score
     }
 
     /// Builds the cut breadth-first. `decide(node, total)` evaluates the four slots of a node;
@@ -197,6 +210,7 @@ impl LightCut {
                         path: (path << 2) | k as u64,
                         weight: dk.weight,
                         score: dk.score,
+                        glossy_score: dk.glossy_score,
                     },
                     dk.split && inner,
                 );
@@ -246,6 +260,7 @@ impl LightCut {
             self.len += 1;
             self.total += c.weight;
             self.max_score = self.max_score.max(c.score);
+            self.max_glossy_score = self.max_glossy_score.max(c.glossy_score);
         }
     }
 }
@@ -262,8 +277,8 @@ impl LightCut {
             tree,
             opts.max_size,
             |node, _| {
-                let (w, sc) = imp.eval4_with_integrals(node);
-                let (w, sc) = (w.to_array(), sc.to_array());
+                let (w, sc, glossy) = imp.eval4_with_lobe_integrals(node);
+                let (w, sc, glossy) = (w.to_array(), sc.to_array(), glossy.to_array());
                 let mut out = [SlotDecision::default(); 4];
                 for k in 0..4 {
                     let c = glam::Vec3::new(node.center_x[k], node.center_y[k], node.center_z[k]);
@@ -272,6 +287,7 @@ impl LightCut {
                     out[k] = SlotDecision {
                         weight: w[k],
                         score: sc[k],
+                        glossy_score: glossy[k],
                         split: inside || sc[k] > delta,
                     };
                 }
@@ -321,6 +337,7 @@ impl LightCut {
                     out[k] = SlotDecision {
                         weight: w[k],
                         score,
+                        glossy_score: 0.0,
                         split: inside || score > threshold,
                     };
                 }

@@ -2279,11 +2279,22 @@ fn bl_importance_stays_finite_where_tl_is() {
     );
 }
 
-/// The glossy share that scales the BRDF-aware budget: 0 for Lambert and black materials, 1
-/// for pure GGX, the GGX part of the albedo for plastic (`ks · a_GGX / albedo`, albedo the
-/// whole hemisphere's SC).
+/// The glossy part of the cap integrals, which sizes the BRDF-aware budget: 0 for Lambert,
+/// all of SC for pure GGX, SC minus the Lambert part for plastic, lane by lane; a BL cut's
+/// `max_glossy_score` is the largest over its clusters and `brdf_budget` follows it.
 #[test]
-fn glossy_share_of_the_albedo() {
+fn glossy_part_of_the_cap_integrals() {
+    let lights: Vec<Light> = (0..300)
+        .map(|i| {
+            let t = i as f32 * 0.37;
+            Light::Sphere {
+                center: Vec3::new(3.0 * t.cos(), 3.0 * t.sin(), 0.5 + (i % 7) as f32 * 0.4),
+                radius: 0.05 + 0.01 * (i % 5) as f32,
+                radiance: 1.0 + (i % 3) as f32,
+            }
+        })
+        .collect();
+    let tree = LightTree::build(&lights).unwrap();
     let at = |material| {
         BlImportance::new(&ShadingPoint {
             position: Vec3::ZERO,
@@ -2293,26 +2304,59 @@ fn glossy_share_of_the_albedo() {
         })
         .unwrap()
     };
-    assert_eq!(at(Material::Lambert { albedo: 0.5 }).glossy_share(), 0.0);
-    assert_eq!(at(Material::Lambert { albedo: 0.0 }).glossy_share(), 0.0);
-    assert_eq!(
-        at(Material::Ggx {
-            alpha: 0.2,
-            specular: 0.7
-        })
-        .glossy_share(),
-        1.0
-    );
-    let imp = at(Material::Plastic {
-        albedo: 0.5,
-        specular: 0.4,
-        alpha: 0.15,
+    let (rho, ks, alpha) = (0.5, 0.4, 0.15);
+    let lambert = at(Material::Lambert { albedo: rho });
+    let ggx = at(Material::Ggx {
+        alpha,
+        specular: ks,
     });
-    let s = imp.glossy_share();
-    // ks · a_GGX = albedo − ρd exactly (the albedo is ρd + ks · a_GGX).
-    let expect = (imp.albedo() - 0.5) / imp.albedo();
-    assert!(
-        s > 0.0 && s < 1.0 && (s - expect).abs() < 1e-6,
-        "{s} vs {expect}"
+    let plastic = at(Material::Plastic {
+        albedo: rho,
+        specular: ks,
+        alpha,
+    });
+    for node in tree.nodes() {
+        let (_, sc_l, g_l) = lambert.eval4_with_lobe_integrals(node);
+        let (_, sc_g, g_g) = ggx.eval4_with_lobe_integrals(node);
+        let (_, sc_p, g_p) = plastic.eval4_with_lobe_integrals(node);
+        let (w2, sc2) = plastic.eval4_with_integrals(node);
+        assert_eq!(sc2.to_array(), sc_p.to_array());
+        assert_eq!(w2.to_array(), plastic.eval4(node).to_array());
+        for k in 0..4 {
+            assert_eq!(g_l.to_array()[k], 0.0);
+            assert_eq!(g_g.to_array()[k], sc_g.to_array()[k]);
+            let (s, g) = (sc_p.to_array()[k], g_p.to_array()[k]);
+            assert!(g >= 0.0 && g <= s, "{g} > {s}");
+            // The glossy part is the GGX material's integral; the rest is the Lambert part.
+            let tol = 1e-5 * s.max(1e-20);
+            assert!(
+                (g - g_g.to_array()[k]).abs() <= tol,
+                "{g} vs {}",
+                g_g.to_array()[k]
+            );
+            assert!(
+                (s - g - sc_l.to_array()[k]).abs() <= tol,
+                "{s} − {g} vs {}",
+                sc_l.to_array()[k]
+            );
+        }
+    }
+    for imp in [&lambert, &ggx, &plastic] {
+        let cut = LightCut::build(&tree, imp, &CutOptions::default());
+        let max = cut
+            .clusters()
+            .iter()
+            .map(|c| c.glossy_score)
+            .fold(0.0f32, f32::max);
+        assert_eq!(cut.max_glossy_score(), max);
+        assert!(cut.max_glossy_score() <= cut.max_score());
+        assert_eq!(
+            manylights::mis::brdf_budget(&cut, 50),
+            manylights::mis::sample_budget(max, 50)
+        );
+    }
+    assert_eq!(
+        LightCut::build(&tree, &lambert, &CutOptions::default()).max_glossy_score(),
+        0.0
     );
 }

@@ -126,18 +126,6 @@ impl BlImportance {
         })
     }
 
-    /// The glossy lobe's share of the directional albedo at this view: `ks · a_GGX(ωo) /
-    /// (ρd + ks · a_GGX(ωo))`, in [0, 1] (0 for Lambert, 1 for pure GGX, 0 for a black
-    /// material). The diffuse share of a BRDF-oriented budget buys nothing that TL does not
-    /// already give (for a constant BRDF, BL is TL), so budgets scale with this share.
-    pub fn glossy_share(&self) -> f32 {
-        if self.albedo > 0.0 {
-            (self.ks * self.ggx.albedo() / self.albedo).clamp(0.0, 1.0)
-        } else {
-            0.0
-        }
-    }
-
     /// The shading position.
     pub fn position(&self) -> Vec3 {
         self.position
@@ -210,6 +198,14 @@ impl BlImportance {
     /// The 4-wide twin of [`BlImportance::eval`]: `(importances, cap integrals)`.
     #[inline]
     pub fn eval4_with_integrals(&self, node: &Node4) -> (f32x4, f32x4) {
+        let (w, sc, _) = self.eval4_with_lobe_integrals(node);
+        (w, sc)
+    }
+
+    /// [`BlImportance::eval4_with_integrals`] plus the glossy lobe's part of each cap integral
+    /// (`ks ∫ f_GGX cos`, 0 for Lambert): `(importances, cap integrals, glossy parts)`.
+    #[inline]
+    pub fn eval4_with_lobe_integrals(&self, node: &Node4) -> (f32x4, f32x4, f32x4) {
         let zero = f32x4::ZERO;
         let one = f32x4::ONE;
         let v = ClusterView4::new(self.position, node);
@@ -222,15 +218,17 @@ impl BlImportance {
             .select(one, cos_omega * v.cos_u + sin_i * v.sin_u);
         let cos_ip = v.inside.select(one, cos_ip);
         let sin_sigma = v.inside.select(one, v.sin_u);
-        let (sc, omega) = if self.ks > 0.0 {
+        let (sc, glossy, omega) = if self.ks > 0.0 {
             let c = self.ggx.cap_integrals4(v.wx, v.wy, v.wz, sin_sigma);
+            let glossy = f32x4::splat(self.ks) * c.ggx;
             (
-                f32x4::splat(self.kd) * c.lambert + f32x4::splat(self.ks) * c.ggx,
+                f32x4::splat(self.kd) * c.lambert + glossy,
+                glossy,
                 c.visible,
             )
         } else {
             let (l, vis) = lambert_pair4(cos_omega, sin_sigma);
-            (f32x4::splat(self.kd) * l, vis)
+            (f32x4::splat(self.kd) * l, zero, vis)
         };
         let avg = omega.simd_gt(zero).select(sc / omega, zero);
         let small = sin_sigma.simd_lt(f32x4::splat(POINT_LIMIT_SIN));
@@ -253,7 +251,7 @@ impl BlImportance {
         let energy = f32x4::new(node.energy);
         let value = (energy * v.cos_tp.fast_max(floor) / v.d2c * brdf)
             .fast_min(f32x4::splat(MAX_IMPORTANCE));
-        (live.select(value, zero), sc)
+        (live.select(value, zero), sc, glossy)
     }
 }
 

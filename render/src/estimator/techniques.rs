@@ -11,8 +11,8 @@
 //! - `tl-split`: the Conty–Kulla split cut ([`LightCut::build_split`]), one sample per cluster,
 //!   summed.
 //! - `bl`: one light from the BRDF-oriented cut ([`LightCut::build`]).
-//! - `mis-equal`: `tl-split` plus `N = brdf_budget(IB(x), s, 50)` BRDF-aware samples (s the
-//!   glossy lobe's share of the albedo: none at Lambert points): ⌊N/2⌋ BL,
+//! - `mis-equal`: `tl-split` plus `N = brdf_budget(cut, 50)` BRDF-aware samples (from the
+//!   glossy lobe's part of IB(x): none at Lambert points): ⌊N/2⌋ BL,
 //!   ⌊N/2⌋ TB and, for an odd N, one more that is BL or TB with probability 1/2. The TL samples
 //!   and the BRDF-aware ones are weighted by [`CombinedWeights`] with `p_ref = 1/2`; a
 //!   BRDF-aware sample y contributes `g(y) w_M(y) / (N q_ref(y))`, `q_ref = (pdf_BL + pdf_TB)/2`,
@@ -329,10 +329,7 @@ impl<'a> Setup<'a> {
                 LambertMode::TbOne => 1,
                 LambertMode::TbBudget | LambertMode::BlTb => sample_budget(ib, p.n_max),
             },
-            Technique::MisEqual | Technique::Full => {
-                let share = bl.as_ref().map_or(0.0, BlImportance::glossy_share);
-                brdf_budget(ib, share, p.n_max)
-            }
+            Technique::MisEqual | Technique::Full => brdf_budget(&bl_cut, p.n_max),
             _ => 0,
         };
         Setup {
