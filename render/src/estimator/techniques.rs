@@ -172,8 +172,6 @@ impl Default for Params {
 pub trait Occluder: Sync + std::fmt::Debug {
     /// Whether a surface lies on the ray from `x` along the unit `d` before distance `t`.
     fn occluded(&self, x: Vec3, d: Vec3, t: f32) -> bool;
-    /// Distance to the first surface along the ray from `x` along the unit `d` (∞ if none).
-    fn first_hit(&self, x: Vec3, d: Vec3) -> f32;
 }
 
 /// A ray-vs-bounding-sphere test, conservative against f32 rounding of the stored spheres.
@@ -636,13 +634,16 @@ impl<'a> Setup<'a> {
         let dir = self.frame.to_world(wi).normalize();
         let mut sum = 0.0f64;
         let mut hit = false;
-        let t_max = match self.occluder {
-            Some(o) => o.first_hit(self.x, dir),
-            None => f32::INFINITY,
-        };
+        // The lights first, then visibility only up to each light reached: most BRDF rays miss
+        // every light and then cost no ray cast against the geometry.
         trace(self.scene, self.x, dir, |light, lp| {
-            if lp.radiance <= 0.0 || lp.distance >= t_max {
+            if lp.radiance <= 0.0 {
                 return;
+            }
+            if let Some(o) = self.occluder {
+                if o.occluded(self.x, dir, lp.distance) {
+                    return;
+                }
             }
             hit = true;
             let g = f * lp.radiance * wi.z;

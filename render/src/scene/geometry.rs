@@ -148,10 +148,6 @@ impl Occluder for Geometry {
             .traverse_iterator(&ray, &self.triangles)
             .any(|tri| tri.intersect(x, d, 0.0, t_max).is_some())
     }
-
-    fn first_hit(&self, x: Vec3, d: Vec3) -> f32 {
-        self.nearest(x, d, 0.0).map_or(f32::INFINITY, |h| h.t)
-    }
 }
 
 /// Two triangles of the quad a b c d (in order around it).
