@@ -48,8 +48,8 @@ use super::scene::Scene;
 use glam::Vec3;
 use manylights::light_sample::{intersect, sample_point};
 use manylights::mis::{
-    brdf_budget, sample_budget, technique_pdfs, AdaptiveAllocator, CombinedWeights,
-    SequentialWeights, Technique as Mix, N_MAX,
+    brdf_budget, sample_budget, AdaptiveAllocator, CombinedWeights, SequentialWeights,
+    Technique as Mix, N_MAX,
 };
 use manylights::tree::Slot;
 use manylights::{
@@ -57,6 +57,7 @@ use manylights::{
     SplitOptions, TlImportance, CUT_CAPACITY,
 };
 use rand::Rng;
+use std::cell::RefCell;
 
 /// The largest f32 below 1.
 const ONE_MINUS: f32 = 1.0 - f32::EPSILON / 2.0;
@@ -256,6 +257,41 @@ pub struct Setup<'a> {
     bl_in_full: bool,
     power: bool,
     occluder: Option<&'a dyn Occluder>,
+    /// Memo of the lights' pmfs in the split cut and in the BL cut: a shading point's estimates
+    /// query the same few lights again and again (every BRDF-aware sample needs its TL pmf,
+    /// every TL sample its BL pmf), and a pmf walks the tree with the importance at every
+    /// level. The pmfs are fixed functions of the light at this point, so the memo changes no
+    /// value.
+    memo: RefCell<PmfMemo>,
+}
+
+/// Direct-mapped memo of per-light pmfs (see [`Setup`]).
+#[derive(Clone, Debug)]
+struct PmfMemo {
+    tl: [(u32, f32); MEMO_SLOTS],
+    bl: [(u32, f32); MEMO_SLOTS],
+}
+
+/// Slots of each memo table.
+const MEMO_SLOTS: usize = 64;
+
+impl PmfMemo {
+    fn new() -> PmfMemo {
+        PmfMemo {
+            tl: [(u32::MAX, 0.0); MEMO_SLOTS],
+            bl: [(u32::MAX, 0.0); MEMO_SLOTS],
+        }
+    }
+
+    /// The value for `light` in `table`, computed by `f` and stored on a miss.
+    #[inline]
+    fn get(table: &mut [(u32, f32); MEMO_SLOTS], light: u32, f: impl FnOnce() -> f32) -> f32 {
+        let slot = &mut table[light as usize % MEMO_SLOTS];
+        if slot.0 != light {
+            *slot = (light, f());
+        }
+        slot.1
+    }
 }
 
 /// One BRDF-aware sample's denominator `a pdf_BL + b pdf_TB`: `a = N p_j`, `b = N (1 − p_j)`
@@ -344,6 +380,7 @@ impl<'a> Setup<'a> {
             bl_in_full: !diffuse || p.lambert == LambertMode::BlTb,
             power: p.power,
             occluder: None,
+            memo: RefCell::new(PmfMemo::new()),
         }
     }
 
@@ -406,34 +443,26 @@ impl<'a> Setup<'a> {
         }
     }
 
-    /// TL's density of a point on `light` (through the core's [`technique_pdfs`]).
+    /// TL's density of a point on `light`: its pmf within its cluster of the split cut × the
+    /// point's density (as the core's [`manylights::mis::technique_pdfs`] computes it; memoised).
     fn pdf_tl(&self, light: u32, point_pdf: f32) -> f32 {
-        technique_pdfs::<BlImportance>(
-            &self.scene.tree,
-            &self.split,
-            &self.tl,
-            None,
-            light,
-            point_pdf,
-            0.0,
-        )
-        .tl
+        let pmf = PmfMemo::get(&mut self.memo.borrow_mut().tl, light, || {
+            self.split
+                .pmf_in(&self.scene.tree, &self.tl, light)
+                .map_or(0.0, |(_, p)| p)
+        });
+        pmf * point_pdf
     }
 
-    /// BL's density of a point on `light` (0 without BL).
+    /// BL's density of a point on `light` (0 without BL): its pmf through the BL cut × the
+    /// point's density (memoised).
     fn pdf_bl(&self, light: u32, point_pdf: f32) -> f32 {
         match &self.bl {
             Some(imp) => {
-                technique_pdfs(
-                    &self.scene.tree,
-                    &LightCut::new(),
-                    &self.tl,
-                    Some((&self.bl_cut, imp)),
-                    light,
-                    point_pdf,
-                    0.0,
-                )
-                .bl
+                let pmf = PmfMemo::get(&mut self.memo.borrow_mut().bl, light, || {
+                    self.bl_cut.pmf(&self.scene.tree, imp, light)
+                });
+                pmf * point_pdf
             }
             None => 0.0,
         }
