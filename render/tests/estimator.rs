@@ -235,37 +235,24 @@ impl Problem {
 
     /// E[TL part]: one sample.
     fn tl_expectation(&self, w: CombinedWeights) -> f64 {
+        self.expectation(&self.p_tl, |f, tl, bl, tb| tl_term(f, w, tl, bl, tb))
+    }
+
+    /// Σ_y pmf(y) · term(f(y), pdf_TL(y), pdf_BL(y), pdf_TB(y)) over the points with pmf > 0
+    /// and f > 0: the expectation of one sample drawn with `pmf`.
+    fn expectation(&self, pmf: &[f32], term: impl Fn(f32, f32, f32, f32) -> f32) -> f64 {
         (0..self.f.len())
-            .filter(|&i| self.p_tl[i] > 0.0 && self.f[i] > 0.0)
+            .filter(|&i| pmf[i] > 0.0 && self.f[i] > 0.0)
             .map(|i| {
-                f64::from(self.p_tl[i])
-                    * f64::from(tl_term(
-                        self.f[i],
-                        w,
-                        self.p_tl[i],
-                        self.p_bl[i],
-                        self.p_tb[i],
-                    ))
+                f64::from(pmf[i])
+                    * f64::from(term(self.f[i], self.p_tl[i], self.p_bl[i], self.p_tb[i]))
             })
             .sum()
     }
 
     /// Σ_y pmf(y) · term(y) for one BRDF-aware sample with denominator `den`.
     fn one_sample(&self, pmf: &[f32], w: CombinedWeights, den: Denominator) -> f64 {
-        (0..self.f.len())
-            .filter(|&i| pmf[i] > 0.0 && self.f[i] > 0.0)
-            .map(|i| {
-                f64::from(pmf[i])
-                    * f64::from(mixture_term(
-                        self.f[i],
-                        w,
-                        self.p_tl[i],
-                        self.p_bl[i],
-                        self.p_tb[i],
-                        den,
-                    ))
-            })
-            .sum()
+        self.expectation(pmf, |f, tl, bl, tb| mixture_term(f, w, tl, bl, tb, den))
     }
 
     /// Probability that a TB sample counts as a hit (it reaches a point with f > 0).
@@ -321,30 +308,12 @@ impl Problem {
         p_used: &impl Fn(f32) -> f32,
     ) -> f64 {
         if j == sw.budget() {
-            return (0..self.f.len())
-                .filter(|&i| self.p_tl[i] > 0.0 && self.f[i] > 0.0)
-                .map(|i| {
-                    f64::from(self.p_tl[i])
-                        * f64::from(sw.tl_term(self.f[i], self.p_tl[i], self.p_bl[i], self.p_tb[i]))
-                })
-                .sum();
+            return self.expectation(&self.p_tl, |f, tl, bl, tb| sw.tl_term(f, tl, bl, tb));
         }
         let p = alloc.p_bl();
         let q = p_used(p);
         let one = |pmf: &[f32]| -> f64 {
-            (0..self.f.len())
-                .filter(|&i| pmf[i] > 0.0 && self.f[i] > 0.0)
-                .map(|i| {
-                    f64::from(pmf[i])
-                        * f64::from(sw.mixture_term(
-                            self.f[i],
-                            q,
-                            self.p_tl[i],
-                            self.p_bl[i],
-                            self.p_tb[i],
-                        ))
-                })
-                .sum()
+            self.expectation(pmf, |f, tl, bl, tb| sw.mixture_term(f, q, tl, bl, tb))
         };
         let mut next = sw;
         next.record(q);

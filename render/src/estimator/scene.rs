@@ -134,11 +134,7 @@ pub fn lights(n: usize, seed: u64) -> Vec<Light> {
             let radius = log_uniform(&mut rng, LIGHT_RADIUS);
             let power = log_uniform(&mut rng, (0.1, 10.0)) * dist;
             match i % 8 {
-                0 | 1 | 4 | 5 => Light::Sphere {
-                    center,
-                    radius,
-                    radiance: power / (PI * 4.0 * PI * radius * radius),
-                },
+                0 | 1 | 4 | 5 => crate::scene::sphere_light(center, radius, power),
                 3 => Light::Disk {
                     center,
                     normal: unit_vector(&mut rng),
@@ -156,13 +152,7 @@ pub fn lights(n: usize, seed: u64) -> Vec<Light> {
                     let normal = (to_origin * tilt.cos()
                         + (t * phi.cos() + b * phi.sin()) * tilt.sin())
                     .normalize();
-                    Light::Disk {
-                        center,
-                        normal,
-                        radius,
-                        radiance: power / (PI * PI * radius * radius),
-                        two_sided: false,
-                    }
+                    crate::scene::disk_light(center, normal, radius, power)
                 }
             }
         })

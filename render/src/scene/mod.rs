@@ -35,6 +35,7 @@ mod stairs;
 pub use city::{city, CITY_LIGHTS};
 pub use cornell::{cornell, CORNELL_DEFAULT_LIGHTS, CORNELL_LIGHT_RADIUS, CORNELL_WALL_GAP};
 pub use exhibition::{exhibition, EXHIBITION_DISKS, EXHIBITION_PANEL_TRIANGLES};
+pub(crate) use geometry::{disk_light, sphere_light};
 pub use geometry::{Geometry, Hit, Triangle};
 pub use stairs::stairs;
 
