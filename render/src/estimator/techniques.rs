@@ -491,13 +491,9 @@ impl<'a> Setup<'a> {
             },
             Technique::TlSplit => {
                 let mut sum = 0.0;
-                for i in 0..self.split.len() {
-                    let u = rng.random::<f32>();
-                    let uv = u2(rng);
-                    if let Some(s) = self.split.sample_in(&self.scene.tree, &self.tl, i, u) {
-                        sum += self.light_term(s.light, s.pmf, uv);
-                    }
-                }
+                self.tl_samples(None, rng, |g, pdf_tl, _, _| {
+                    sum += f64::from(g / pdf_tl);
+                });
                 sum
             }
             Technique::Bl => {
@@ -515,11 +511,13 @@ impl<'a> Setup<'a> {
         }
     }
 
-    /// The TL part shared by `mis-equal` and `full`: one sample per cluster of the split cut;
-    /// calls `take(g, pdf_tl, pdf_bl, pdf_tb)` for each unoccluded sample with `g > 0`.
+    /// The split-sampling part shared by `tl-split`, `mis-equal` and `full`: one sample per
+    /// cluster of the split cut; calls `take(g, pdf_tl, pdf_bl, pdf_tb)` for each unoccluded
+    /// sample with `g > 0`. The MIS densities pdf_BL (only if BL takes part) and pdf_TB are
+    /// computed only with `mis = Some(bl_on)`, and are 0 otherwise.
     fn tl_samples(
         &self,
-        bl_on: bool,
+        mis: Option<bool>,
         rng: &mut impl Rng,
         mut take: impl FnMut(f32, f32, f32, f32),
     ) {
@@ -537,12 +535,18 @@ impl<'a> Setup<'a> {
             if g <= 0.0 || self.blocked(&lp) {
                 continue;
             }
-            let pdf_bl = if bl_on {
-                self.pdf_bl(s.light, lp.pdf)
-            } else {
-                0.0
+            let (pdf_bl, pdf_tb) = match mis {
+                Some(bl_on) => (
+                    if bl_on {
+                        self.pdf_bl(s.light, lp.pdf)
+                    } else {
+                        0.0
+                    },
+                    self.material.pdf(self.wo, wi),
+                ),
+                None => (0.0, 0.0),
             };
-            take(g, s.pmf * lp.pdf, pdf_bl, self.material.pdf(self.wo, wi));
+            take(g, s.pmf * lp.pdf, pdf_bl, pdf_tb);
         }
     }
 
@@ -560,9 +564,14 @@ impl<'a> Setup<'a> {
             power: self.power,
         };
         let mut sum = 0.0f64;
-        self.tl_samples(bl_on, rng, |g, pdf_tl, pdf_bl, pdf_tb| {
-            sum += f64::from(tl_term(g, w, pdf_tl, pdf_bl, pdf_tb));
-        });
+        // Without BRDF-aware samples TL's weight is 1: no densities needed.
+        self.tl_samples(
+            (n > 0).then_some(bl_on),
+            rng,
+            |g, pdf_tl, pdf_bl, pdf_tb| {
+                sum += f64::from(tl_term(g, w, pdf_tl, pdf_bl, pdf_tb));
+            },
+        );
         if n == 0 || !bl_on {
             return sum;
         }
@@ -604,12 +613,17 @@ impl<'a> Setup<'a> {
         let n = self.n_mix;
         let mut tl = [[0f32; 4]; CUT_CAPACITY];
         let mut n_tl = 0usize;
-        self.tl_samples(bl_on, rng, |g, pdf_tl, pdf_bl, pdf_tb| {
-            if n_tl < CUT_CAPACITY {
-                tl[n_tl] = [g, pdf_tl, pdf_bl, pdf_tb];
-                n_tl += 1;
-            }
-        });
+        // Without BRDF-aware samples TL's weight is 1: no densities needed.
+        self.tl_samples(
+            (n > 0).then_some(bl_on),
+            rng,
+            |g, pdf_tl, pdf_bl, pdf_tb| {
+                if n_tl < CUT_CAPACITY {
+                    tl[n_tl] = [g, pdf_tl, pdf_bl, pdf_tb];
+                    n_tl += 1;
+                }
+            },
+        );
         let mut sw = SequentialWeights::new(n, 1.0, self.power);
         let mut sum = 0.0f64;
         let mut alloc = AdaptiveAllocator::new(bl_on);
