@@ -1,10 +1,11 @@
 //! Sampling throughput of the 4-wide tree against the binary scalar baseline (same build, same
-//! TL importance, measured in one group so the ratio is read from one run), and build time.
+//! TL importance, measured in one group so the ratio is read from one run), build time, and
+//! split sampling one descent at a time against interleaved (`sample_each`).
 //! Scene: the random scene of `mlrender bench` (fixed seed).
 
 use criterion::{criterion_group, criterion_main, BenchmarkId, Criterion, Throughput};
 use manylights::baseline::BinaryLightTree;
-use manylights::{LightCut, LightTree, SplitOptions, TlImportance};
+use manylights::{LightCut, LightTree, SplitOptions, TlImportance, CUT_CAPACITY};
 use manylights_render::random_scene;
 use std::hint::black_box;
 
@@ -92,6 +93,45 @@ fn cuts(c: &mut Criterion) {
                 size += LightCut::build_split(&tree, black_box(&imp), &opts).len();
             }
             size
+        })
+    });
+    // Split sampling at prebuilt cuts: one light per cluster, one descent at a time
+    // (`sample_in`) against four interleaved (`sample_each`); same lights, same pmfs.
+    let us = random_scene::uniforms(POINTS, 7);
+    let prepared: Vec<(TlImportance, LightCut)> = points
+        .iter()
+        .map(|p| {
+            let imp = TlImportance::new(p.position, p.normal);
+            (imp, LightCut::build_split(&tree, &imp, &opts))
+        })
+        .collect();
+    group.bench_function("split sample_in, N=100000", |b| {
+        b.iter(|| {
+            let mut acc = 0.0f32;
+            for ((imp, cut), &u) in prepared.iter().zip(&us) {
+                for i in 0..cut.len() {
+                    acc += cut
+                        .sample_in(&tree, imp, i, black_box(u))
+                        .map_or(0.0, |s| s.pmf);
+                }
+            }
+            acc
+        })
+    });
+    group.bench_function("split sample_each, N=100000", |b| {
+        b.iter(|| {
+            let mut acc = 0.0f32;
+            let mut out = [None; CUT_CAPACITY];
+            for ((imp, cut), &u) in prepared.iter().zip(&us) {
+                let u_all = [black_box(u); CUT_CAPACITY];
+                cut.sample_each(&tree, imp, &u_all[..cut.len()], &mut out[..cut.len()]);
+                acc += out[..cut.len()]
+                    .iter()
+                    .flatten()
+                    .map(|s| s.pmf)
+                    .sum::<f32>();
+            }
+            acc
         })
     });
     group.finish();

@@ -13,20 +13,25 @@
 //!   integral over its cap exceeds δ; [`LightCut::sample`] then picks one cluster by importance
 //!   and descends in it.
 //!
+//! Many queries at once: [`LightCut::sample_each`] (one light in each cluster, what split
+//! sampling needs), [`LightCut::pmf_in_each`] and [`LightCut::pmf_each`] return exactly what
+//! the one-at-a-time calls return, with the tree walks interleaved four at a time so that
+//! their dependent steps overlap.
+//!
 //! A cut is built breadth-first from the root: a slot that wants splitting is opened unless
 //! that would overflow `max_size`, in which case it stays a cluster. Clusters whose weight is 0
 //! are left out: by conservativeness no light under them can contribute.
 //!
-//! The variance heuristic: for a cluster of N lights with energy mean E[e] and variance V[e],
+//! The variance heuristic: for a cluster of N lights with energy mean E\[e\] and variance V\[e\],
 //! distances a = max(d − r, ε) and b = d + r, the inverse-square factor g has
-//! E[g] = 1/(ab) and V[g] = (b³ − a³)/(3(b − a)a³b³) − 1/(a²b²) = (b − a)²/(3a³b³), the form used
+//! E\[g\] = 1/(ab) and V\[g\] = (b³ − a³)/(3(b − a)a³b³) − 1/(a²b²) = (b − a)²/(3a³b³), the form used
 //! here (no cancellation). The relative variance of one light's contribution is
 //! `ρ = (1 + V[e]/E[e]²)(1 + (b − a)²/(3ab)) − 1`, and the cluster is split when
 //! `ρ · (I_C / I_total)² > threshold`, with I the TL importance: its share of the estimate,
 //! squared, scales its relative variance into a share of the total's.
 
 use crate::importance::{BlImportance, Importance, TlImportance};
-use crate::sample::{sanitize, LightSample, ONE_MINUS_EPSILON};
+use crate::sample::{sanitize, LightSample, LANES, ONE_MINUS_EPSILON};
 use crate::tree::{path_len, LightTree, Node4, Slot};
 
 /// `x > 0` (false for NaN).
@@ -361,6 +366,163 @@ impl LightCut {
         tree.sample_cluster(imp, c, u)
     }
 
+    /// One light in each cluster: `out[i]` gets exactly what `sample_in(tree, imp, i, u[i])`
+    /// returns, for `i < min(len, u.len(), out.len())` (what split sampling needs).
+    ///
+    /// Faster than calling [`LightCut::sample_in`] for each cluster: the descents run four at
+    /// a time, interleaved, so their dependent steps overlap.
+    ///
+    /// ```
+    /// use manylights::{Light, LightCut, LightTree, Memo, SplitOptions, TlImportance, CUT_CAPACITY};
+    /// use glam::Vec3;
+    ///
+    /// let lights: Vec<Light> = (0..200)
+    ///     .map(|i| Light::Point {
+    ///         position: Vec3::new((i % 20) as f32, (i / 20) as f32, 2.0),
+    ///         intensity: 1.0,
+    ///     })
+    ///     .collect();
+    /// let tree = LightTree::build(&lights)?;
+    /// let at = TlImportance::new(Vec3::new(3.0, 4.0, 0.0), Vec3::Z);
+    /// let cut = LightCut::build_split(&tree, &at, &SplitOptions::default());
+    /// // Many samples at this point: let the importance remember the nodes it evaluated.
+    /// let memo = Memo::new(at, &tree);
+    /// let (u, mut out) = ([0.5; CUT_CAPACITY], [None; CUT_CAPACITY]);
+    /// cut.sample_each(&tree, &memo, &u[..cut.len()], &mut out[..cut.len()]);
+    /// for (i, s) in out[..cut.len()].iter().enumerate() {
+    ///     assert_eq!(*s, cut.sample_in(&tree, &at, i, 0.5));
+    /// }
+    /// # Ok::<(), manylights::BuildError>(())
+    /// ```
+    pub fn sample_each<I: Importance + ?Sized>(
+        &self,
+        tree: &LightTree,
+        imp: &I,
+        u: &[f32],
+        out: &mut [Option<LightSample>],
+    ) {
+        let n = self.len.min(u.len()).min(out.len());
+        let mut i = 0;
+        while i < n {
+            let mut starts = [(0u32, 0f32); LANES];
+            let mut lane_of = [0usize; LANES];
+            let mut m = 0;
+            while i < n && m < LANES {
+                let c = &self.clusters[i];
+                out[i] = None;
+                match tree
+                    .nodes
+                    .get(c.node as usize)
+                    .map(|nd| nd.slot(usize::from(c.slot) & 3))
+                {
+                    Some(Slot::Light(light)) => out[i] = Some(LightSample { light, pmf: 1.0 }),
+                    Some(Slot::Node(child)) => {
+                        starts[m] = (child, u[i]);
+                        lane_of[m] = i;
+                        m += 1;
+                    }
+                    _ => {}
+                }
+                i += 1;
+            }
+            let mut got = [None; LANES];
+            tree.descend_lanes(imp, &starts[..m], &mut got[..m]);
+            for j in 0..m {
+                out[lane_of[j]] = got[j];
+            }
+        }
+    }
+
+    /// [`LightCut::pmf_in`] for many lights: `out[i]` gets exactly `pmf_in(tree, imp,
+    /// lights[i])`, for `i < min(lights.len(), out.len())`. The walks run four at a time,
+    /// interleaved (as in [`LightCut::sample_each`]).
+    pub fn pmf_in_each<I: Importance + ?Sized>(
+        &self,
+        tree: &LightTree,
+        imp: &I,
+        lights: &[u32],
+        out: &mut [Option<(usize, f32)>],
+    ) {
+        let n = lights.len().min(out.len());
+        let mut i = 0;
+        while i < n {
+            let mut walks = [(0u32, 0u64, 0u32, 0u32); LANES];
+            let mut lane_of = [0usize; LANES];
+            let mut m = 0;
+            while i < n && m < LANES {
+                let light = lights[i];
+                out[i] = None;
+                if let Some((ci, c, path)) = self.cluster_of(tree, light) {
+                    let slot = tree
+                        .nodes
+                        .get(c.node as usize)
+                        .map(|nd| nd.slot(usize::from(c.slot) & 3));
+                    match slot.unwrap_or(Slot::Empty) {
+                        Slot::Light(l) => out[i] = Some((ci, if l == light { 1.0 } else { 0.0 })),
+                        Slot::Node(child) => {
+                            out[i] = Some((ci, 0.0));
+                            walks[m] = (child, path, path_len(c.path), light);
+                            lane_of[m] = i;
+                            m += 1;
+                        }
+                        Slot::Empty => out[i] = Some((ci, 0.0)),
+                    }
+                }
+                i += 1;
+            }
+            let mut got = [0f32; LANES];
+            tree.pmf_lanes(imp, &walks[..m], &mut got[..m]);
+            for j in 0..m {
+                if let Some((_, p)) = &mut out[lane_of[j]] {
+                    *p = got[j];
+                }
+            }
+        }
+    }
+
+    /// [`LightCut::pmf`] for many lights: `out[i]` gets exactly `pmf(tree, imp, lights[i])`,
+    /// for `i < min(lights.len(), out.len())`, the walks interleaved as in
+    /// [`LightCut::pmf_in_each`].
+    pub fn pmf_each<I: Importance + ?Sized>(
+        &self,
+        tree: &LightTree,
+        imp: &I,
+        lights: &[u32],
+        out: &mut [f32],
+    ) {
+        let mut within = [None; LANES];
+        for (ls, os) in lights.chunks(LANES).zip(out.chunks_mut(LANES)) {
+            let m = ls.len().min(os.len());
+            self.pmf_in_each(tree, imp, &ls[..m], &mut within[..m]);
+            for j in 0..m {
+                os[j] = match within[j] {
+                    Some((ci, p)) => self.clusters[ci].weight / self.total * p,
+                    None => 0.0,
+                };
+            }
+        }
+    }
+
+    /// The cluster of the cut on `light`'s path, its index, and the light's path.
+    ///
+    /// A cluster's path is a prefix of the light's exactly when shifting the light's path right
+    /// by the difference of their leading zeros gives the cluster's. The clusters are disjoint,
+    /// so at most one matches; the scan has no data-dependent branch.
+    fn cluster_of(&self, tree: &LightTree, light: u32) -> Option<(usize, &Cluster, u64)> {
+        let path = *tree.paths.get(light as usize)?;
+        if path == 0 {
+            return None;
+        }
+        let lz = path.leading_zeros();
+        let mut found = usize::MAX;
+        for (i, c) in self.clusters().iter().enumerate() {
+            let shift = c.path.leading_zeros().wrapping_sub(lz);
+            let hit = c.path != 0 && shift < 64 && path >> (shift & 63) == c.path;
+            found = if hit { i } else { found };
+        }
+        self.clusters.get(found).map(|c| (found, c, path))
+    }
+
     /// The cluster holding `light` and the light's pmf within it (what
     /// [`LightCut::sample_in`] reports for it); `None` if no cluster of the cut holds it.
     pub fn pmf_in<I: Importance + ?Sized>(
@@ -369,13 +531,8 @@ impl LightCut {
         imp: &I,
         light: u32,
     ) -> Option<(usize, f32)> {
-        let path = *tree.paths.get(light as usize)?;
-        let levels = path_len(path);
-        self.clusters().iter().enumerate().find_map(|(i, c)| {
-            let m = path_len(c.path);
-            (m <= levels && path >> (2 * (levels - m)) == c.path)
-                .then(|| (i, tree.pmf_cluster(imp, c, path, light)))
-        })
+        let (i, c, path) = self.cluster_of(tree, light)?;
+        Some((i, tree.pmf_cluster(imp, c, path, light)))
     }
 
     /// Samples one light of the whole cut: a cluster with probability weight / total, then a

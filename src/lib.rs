@@ -24,6 +24,10 @@
 //! # Ok::<(), manylights::BuildError>(())
 //! ```
 //!
+//! Split sampling takes one light in each cluster of a [`LightCut`]
+//! ([`LightCut::sample_each`], the descents interleaved four at a time); a renderer that takes
+//! many samples at one shading point wraps its importance in a [`Memo`].
+//!
 //! The crate is `no_std` (it needs `alloc`) and has no `unsafe` code.
 
 #![no_std]
@@ -53,7 +57,7 @@ pub use build::BuildOptions;
 pub use cut::{Cluster, CutOptions, LightCut, SplitOptions, CUT_CAPACITY};
 pub use error::{BuildError, FormatError, LightField, Problem, ValidationError};
 pub use importance::conty_kulla::Receiver;
-pub use importance::{BlImportance, Importance, TlImportance};
+pub use importance::{BlImportance, Importance, Memo, TlImportance};
 pub use light::{Light, MAX_COORDINATE, MAX_LIGHT_ENERGY, MAX_TOTAL_ENERGY};
 pub use light_sample::LightPoint;
 pub use material::{Material, ShadingError, ShadingPoint};

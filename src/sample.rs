@@ -17,7 +17,10 @@
 //! light rather than reusing what is left of `u`.
 
 use crate::importance::Importance;
-use crate::tree::{path_len, LightTree, Node4, Slot, LEAF_BIT};
+use crate::tree::{path_len, LightTree, Node4, Slot, EMPTY_SLOT, LEAF_BIT};
+
+/// Descents [`LightTree::descend_lanes`] interleaves.
+pub(crate) const LANES: usize = 4;
 
 /// A sampled light and the probability of having chosen it.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -141,6 +144,122 @@ impl LightTree {
                     (w, sum) = weights(imp, node, false)?;
                 }
                 Slot::Empty => return None,
+            }
+        }
+    }
+
+    /// Up to [`LANES`] descents from inner nodes, interleaved: `starts[j] = (node, u)`, and
+    /// `out[j]` gets exactly what `descend_from(imp, node, false, u)` returns.
+    ///
+    /// One descent is a chain of dependent steps (a node's importances decide which node is
+    /// read next), so a core runs it far below its throughput. Taking a level of every
+    /// descent in turn gives it independent work to overlap. Each lane's step is branch-free
+    /// up to the test that its light has been reached.
+    pub(crate) fn descend_lanes<I: Importance + ?Sized>(
+        &self,
+        imp: &I,
+        starts: &[(u32, f32)],
+        out: &mut [Option<LightSample>],
+    ) {
+        let n = starts.len().min(out.len()).min(LANES);
+        let mut node = [0usize; LANES];
+        let mut u = [0f32; LANES];
+        let mut pmf = [1f32; LANES];
+        let mut live = 0u32;
+        let mut touched = 0u32;
+        for j in 0..n {
+            out[j] = None;
+            if (starts[j].0 as usize) < self.nodes.len() {
+                node[j] = starts[j].0 as usize;
+                u[j] = sanitize(starts[j].1);
+                live |= 1 << j;
+            }
+        }
+        while live != 0 {
+            for j in 0..n {
+                if live & (1 << j) == 0 {
+                    continue;
+                }
+                let nd = &self.nodes[node[j]];
+                touched ^= touch_children(&self.nodes, nd);
+                // Below the start every node has a weight (`false`: never the root case).
+                let Some((w, sum)) = weights(imp, nd, false) else {
+                    live &= !(1 << j);
+                    continue;
+                };
+                let (k, next_u) = pick(w, sum, u[j]);
+                pmf[j] *= w[k] / sum;
+                u[j] = next_u;
+                let c = nd.child[k];
+                if c & LEAF_BIT == 0 && (c as usize) < self.nodes.len() {
+                    node[j] = c as usize;
+                } else {
+                    if c != EMPTY_SLOT && c & LEAF_BIT != 0 {
+                        out[j] = Some(LightSample {
+                            light: c & !LEAF_BIT,
+                            pmf: pmf[j],
+                        });
+                    }
+                    live &= !(1 << j);
+                }
+            }
+        }
+        core::hint::black_box(touched);
+    }
+
+    /// Up to [`LANES`] pmf walks, interleaved as [`LightTree::descend_lanes`] interleaves
+    /// descents: `walks[j] = (node, path, from_level, light)`, and `out[j]` gets exactly
+    /// `pmf_from(imp, node, false, path, from_level, light)`.
+    pub(crate) fn pmf_lanes<I: Importance + ?Sized>(
+        &self,
+        imp: &I,
+        walks: &[(u32, u64, u32, u32)],
+        out: &mut [f32],
+    ) {
+        let n = walks.len().min(out.len()).min(LANES);
+        let mut node = [0usize; LANES];
+        let mut level = [0u32; LANES];
+        let mut levels = [0u32; LANES];
+        let mut live = 0u32;
+        for j in 0..n {
+            let (start, path, from, _) = walks[j];
+            out[j] = 1.0;
+            node[j] = start as usize;
+            level[j] = from;
+            levels[j] = path_len(path);
+            if from < levels[j] {
+                live |= 1 << j;
+            } else {
+                out[j] = 0.0;
+            }
+        }
+        while live != 0 {
+            for j in 0..n {
+                if live & (1 << j) == 0 {
+                    continue;
+                }
+                let (_, path, _, light) = walks[j];
+                let k = ((path >> (2 * (levels[j] - 1 - level[j]))) & 3) as usize;
+                let Some(nd) = self.nodes.get(node[j]) else {
+                    out[j] = 0.0;
+                    live &= !(1 << j);
+                    continue;
+                };
+                let Some((w, sum)) = weights(imp, nd, false) else {
+                    out[j] = 0.0;
+                    live &= !(1 << j);
+                    continue;
+                };
+                out[j] *= w[k] / sum;
+                level[j] += 1;
+                match nd.slot(k) {
+                    Slot::Node(c) if level[j] < levels[j] => node[j] = c as usize,
+                    Slot::Light(l) if l == light && level[j] == levels[j] => live &= !(1 << j),
+                    _ => {
+                        out[j] = 0.0;
+                        live &= !(1 << j);
+                    }
+                }
             }
         }
     }

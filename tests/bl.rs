@@ -28,8 +28,9 @@
 mod common;
 
 use common::cut::{
-    check_cluster_pmf_sum, check_cluster_slot, check_coverage, check_disjoint, check_light_pmf,
-    check_pmf_in, cut_pmfs, cut_sample_counts, levels, lights_in_slot, positive_slots,
+    check_batched, check_cluster_pmf_sum, check_cluster_slot, check_coverage, check_disjoint,
+    check_light_pmf, check_pmf_in, cut_pmfs, cut_sample_counts, levels, lights_in_slot,
+    positive_slots,
 };
 use common::{
     chi2_critical, chi2_skewed_statistic, chi2_statistic, close, contributes, push_emitter_points,
@@ -1041,6 +1042,7 @@ fn check_bl_cut(
             "pmf_in / pmf of index {bad}"
         );
     }
+    check_batched(&cut, tree, *imp, n, us, &ctx)?;
 
     // Per cluster: pmfs sum to 1 or are all 0; sample_in agrees.
     for (i, m) in members.iter().enumerate() {

@@ -3,7 +3,9 @@
 //!
 //! 1. structural invariants on random scenes and shading points (size bound, disjoint clusters
 //!    named by consistent paths, positive weights, `pmf_in` finding the unique cluster of a
-//!    light, per-cluster pmfs summing to 1, `sample_in` agreeing with `pmf_in`);
+//!    light, per-cluster pmfs summing to 1, `sample_in` agreeing with `pmf_in`, and the batched
+//!    `sample_each` / `pmf_in_each` / `pmf_each`, also through a `Memo`, reproducing them bit
+//!    for bit);
 //! 2. unbiasedness of the split-sampling estimator by exact enumeration;
 //! 3. `sample` / `pmf` agreement, pmfs summing to 1, and a chi-square test of `sample`;
 //! 4. conservativeness through cuts (every contributing light keeps a positive pmf);
@@ -21,8 +23,9 @@
 mod common;
 
 use common::cut::{
-    check_cluster_pmf_sum, check_cluster_slot, check_coverage, check_disjoint, check_light_pmf,
-    check_pmf_in, cut_pmfs, cut_sample_counts, levels, lights_in_slot, positive_slots,
+    check_batched, check_cluster_pmf_sum, check_cluster_slot, check_coverage, check_disjoint,
+    check_light_pmf, check_pmf_in, cut_pmfs, cut_sample_counts, levels, lights_in_slot,
+    positive_slots,
 };
 use common::{
     boundary_scene, chi2_critical, chi2_skewed_statistic, chi2_statistic, close, contributes,
@@ -373,6 +376,7 @@ fn check_cut(
         );
         ensure!(cut.pmf(tree, imp, bad) == 0.0, "pmf of index {bad}");
     }
+    check_batched(&cut, tree, *imp, n, us, &ctx)?;
 
     // Per cluster: pmfs sum to 1 or are all 0; sample_in agrees.
     for (i, m) in members.iter().enumerate() {

@@ -1,5 +1,5 @@
 //! Building a [`LightTree`]: validate the lights, bound them, build a binary tree with the
-//! binned SAOH ([`saoh`]), collapse it to 4-wide nodes ([`collapse`]).
+//! binned SAOH (module `saoh`), collapse it to 4-wide nodes (module `collapse`).
 
 pub(crate) mod collapse;
 pub(crate) mod saoh;

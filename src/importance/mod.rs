@@ -7,10 +7,12 @@
 
 pub mod brdf_oriented;
 pub mod conty_kulla;
+pub mod memo;
 pub mod sptd;
 
 pub use brdf_oriented::BlImportance;
 pub use conty_kulla::TlImportance;
+pub use memo::Memo;
 
 use crate::tree::Node4;
 use wide::f32x4;

@@ -3,7 +3,7 @@
 //! (disjointness, coverage of the opened nodes, `pmf_in` ownership).
 
 use super::Rng;
-use manylights::{Cluster, Importance, LightCut, LightTree, Node4, Slot};
+use manylights::{Cluster, Importance, LightCut, LightSample, LightTree, Memo, Node4, Slot};
 use std::collections::HashSet;
 
 macro_rules! ensure {
@@ -314,4 +314,89 @@ pub fn check_light_pmf<I: Importance>(
         "light {l}: pmf {p} vs weight/total·pmf_in {expect} {ctx}"
     );
     Ok(p)
+}
+
+/// The batched queries against the one-at-a-time ones they must reproduce bit for bit, with
+/// `imp` and with a [`Memo`] of it (whose table is reused, so the second pass reads it):
+/// - `sample_each` with every u of `us` for all clusters, and with the u varying by cluster,
+///   against `sample_in`; shorter `u` and `out` slices fill only their common prefix;
+/// - `pmf_in_each` and `pmf_each` of all `n` lights in order and reversed, plus indices `n`
+///   and `u32::MAX`, against `pmf_in` and `pmf`.
+pub fn check_batched<I: Importance + Copy>(
+    cut: &LightCut,
+    tree: &LightTree,
+    imp: I,
+    n: usize,
+    us: &[f32],
+    ctx: &str,
+) -> Result<(), String> {
+    let memo = Memo::new(imp, tree);
+    for pass in 0..2 {
+        let imp_b: &dyn Importance = if pass == 0 { &imp } else { &memo };
+        let len = cut.len();
+        for (j, &u) in us.iter().enumerate() {
+            let u_all: Vec<f32> = (0..len)
+                .map(|i| {
+                    if j % 2 == 0 {
+                        u
+                    } else {
+                        us[(i + j) % us.len()]
+                    }
+                })
+                .collect();
+            let mut out = vec![Some(LightSample { light: 7, pmf: 7.0 }); len + 2];
+            cut.sample_each(tree, imp_b, &u_all, &mut out);
+            for i in 0..len {
+                let want = cut.sample_in(tree, &imp, i, u_all[i]);
+                ensure!(
+                    out[i].map(|s| (s.light, s.pmf.to_bits()))
+                        == want.map(|s| (s.light, s.pmf.to_bits())),
+                    "pass {pass}: sample_each[{i}] (u={}) = {:?}, sample_in = {want:?} {ctx}",
+                    u_all[i],
+                    out[i]
+                );
+            }
+            ensure!(
+                out[len..]
+                    .iter()
+                    .all(|s| *s == Some(LightSample { light: 7, pmf: 7.0 })),
+                "sample_each wrote past len {ctx}"
+            );
+            if len > 1 {
+                let mut short = vec![None; len];
+                cut.sample_each(tree, imp_b, &u_all[..len / 2], &mut short);
+                ensure!(
+                    short[len / 2..].iter().all(Option::is_none)
+                        && short[..len / 2] == out[..len / 2],
+                    "sample_each with a short u slice {ctx}"
+                );
+            }
+        }
+        let mut lights: Vec<u32> = (0..n as u32).collect();
+        lights.extend([n as u32, u32::MAX]);
+        for order in 0..2 {
+            if order == 1 {
+                lights.reverse();
+            }
+            let mut within = vec![Some((99, 9.0)); lights.len()];
+            cut.pmf_in_each(tree, imp_b, &lights, &mut within);
+            let mut whole = vec![9.0f32; lights.len()];
+            cut.pmf_each(tree, imp_b, &lights, &mut whole);
+            for (k, &l) in lights.iter().enumerate() {
+                let want = cut.pmf_in(tree, &imp, l);
+                ensure!(
+                    within[k].map(|(c, p)| (c, p.to_bits())) == want.map(|(c, p)| (c, p.to_bits())),
+                    "pass {pass}: pmf_in_each of light {l} = {:?}, pmf_in = {want:?} {ctx}",
+                    within[k]
+                );
+                let want = cut.pmf(tree, &imp, l);
+                ensure!(
+                    whole[k].to_bits() == want.to_bits(),
+                    "pass {pass}: pmf_each of light {l} = {}, pmf = {want} {ctx}",
+                    whole[k]
+                );
+            }
+        }
+    }
+    Ok(())
 }
