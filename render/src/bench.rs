@@ -6,7 +6,7 @@ use crate::random_scene::{self, ShadingPoint};
 use manylights::baseline::BinaryLightTree;
 use manylights::{
     BlImportance, CutOptions, LightCut, LightTree, Material, ShadingPoint as Sp, SplitOptions,
-    TlImportance,
+    TlImportance, CUT_CAPACITY,
 };
 use serde_json::json;
 use std::hint::black_box;
@@ -104,6 +104,7 @@ pub fn run(cfg: &BenchConfig) -> serde_json::Value {
     // Split sampling: build the Conty–Kulla cut, then one sample per cluster.
     let split_opts = SplitOptions::default();
     let mut split_rate = 0.0f64;
+    let mut split_each_rate = 0.0f64;
     let mut split_builds = 0.0f64;
     let mut cut_size_sum = 0usize;
     for _ in 0..cfg.repeats.max(1) {
@@ -124,6 +125,23 @@ pub fn run(cfg: &BenchConfig) -> serde_json::Value {
         }
         black_box(acc);
         split_rate = split_rate.max(n_samples as f64 / t.elapsed().as_secs_f64() / 1e6);
+        // The same samples drawn by `sample_each` (descents interleaved four at a time).
+        let t = Instant::now();
+        let mut acc = 0.0f64;
+        let mut n_samples = 0usize;
+        let mut out = [None; CUT_CAPACITY];
+        for (p, &u) in points.iter().zip(&us) {
+            let imp = TlImportance::new(p.position, p.normal);
+            let cut = LightCut::build_split(&tree, black_box(&imp), &split_opts);
+            let u_all = [black_box(u); CUT_CAPACITY];
+            cut.sample_each(&tree, &imp, &u_all[..cut.len()], &mut out[..cut.len()]);
+            for s in out[..cut.len()].iter().flatten() {
+                acc += f64::from(s.pmf);
+                n_samples += 1;
+            }
+        }
+        black_box(acc);
+        split_each_rate = split_each_rate.max(n_samples as f64 / t.elapsed().as_secs_f64() / 1e6);
         // Cut construction alone.
         let t = Instant::now();
         let mut sizes = 0usize;
@@ -248,6 +266,8 @@ pub fn run(cfg: &BenchConfig) -> serde_json::Value {
         "avg_cut_size": bl_cut_size as f64 / cfg.points.max(1) as f64,
         "avg_bl_budget": bl_budget as f64 / cfg.points.max(1) as f64,
         "split_msamples_per_s": split_rate,
+        "split_each_msamples_per_s": split_each_rate,
+        "split_each_speedup": split_each_rate / split_rate,
         "split_cut_builds_per_s": split_builds,
         "avg_split_cut_size": cut_size_sum as f64 / cfg.points.max(1) as f64,
     })
@@ -289,6 +309,11 @@ pub fn table(r: &serde_json::Value) -> String {
             "split sampling, cut + 1 sample/cluster (M light samples/s)",
             "split_msamples_per_s",
         ),
+        (
+            "the same with sample_each (M light samples/s)",
+            "split_each_msamples_per_s",
+        ),
+        ("sample_each / sample_in", "split_each_speedup"),
         ("split cut builds (per s)", "split_cut_builds_per_s"),
         ("mean split cut size", "avg_split_cut_size"),
     ];
