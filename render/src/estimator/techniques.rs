@@ -40,6 +40,20 @@
 //! ray is traced against all lights by walking the light tree's bounding spheres ([`trace`]).
 //! The TB "hit" the allocator counts: the ray hit at least one light with non-zero radiance.
 //!
+//! How the work is ordered (none of it changes a value: images are bit-identical to computing
+//! each sample's densities on the spot, one descent at a time):
+//! - a shading point's importances are wrapped in [`Memo`]s, because every sample at the point
+//!   walks the same upper nodes again;
+//! - split sampling draws all its uniform numbers first, then descends in every cluster with
+//!   [`LightCut::sample_each`] (four descents interleaved: one descent is a chain of dependent
+//!   steps), loads each chosen light's record, and only then samples points and casts shadow
+//!   rays;
+//! - pmfs go through a per-light memo, and the ones missing are computed together
+//!   ([`LightCut::pmf_in_each`], [`LightCut::pmf_each`]): the TL samples' BL pmfs after the
+//!   shadow rays, the BRDF-aware samples' TL (and TB points' BL) pmfs once all of them are
+//!   drawn. A BRDF-aware sample's term depends only on the budget and its own p_j, so it can
+//!   be computed after the allocator has moved on.
+//!
 //! The renderer reuses these estimators with visibility: [`Setup::with_occluder`] makes every
 //! light sample cast a shadow ray and cuts every BRDF ray at the first surface ([`Occluder`]);
 //! without it (the estimator instrument) nothing is occluded.
@@ -49,12 +63,12 @@ use glam::Vec3;
 use manylights::light_sample::{intersect, sample_point};
 use manylights::mis::{
     brdf_budget, sample_budget, AdaptiveAllocator, CombinedWeights, SequentialWeights,
-    Technique as Mix, N_MAX,
+    Technique as Mix, MAX_BUDGET, N_MAX,
 };
 use manylights::tree::Slot;
 use manylights::{
-    BlImportance, Brdf, CutOptions, Frame, LightCut, LightPoint, Material, ShadingPoint,
-    SplitOptions, TlImportance, CUT_CAPACITY,
+    f32x4, BlImportance, Brdf, CutOptions, Frame, LightCut, LightPoint, Material, Memo, Node4,
+    ShadingPoint, SplitOptions, TlImportance, CUT_CAPACITY,
 };
 use rand::Rng;
 use std::cell::RefCell;
@@ -175,21 +189,35 @@ pub trait Occluder: Sync + std::fmt::Debug {
     fn occluded(&self, x: Vec3, d: Vec3, t: f32) -> bool;
 }
 
-/// A ray-vs-bounding-sphere test, conservative against f32 rounding of the stored spheres.
+/// Ray-vs-bounding-sphere tests of a node's four slots at once, conservative against f32
+/// rounding of the stored spheres: bit k of the result is set when the ray from `x` along the
+/// unit `d` may reach slot k's sphere (empty slots included; the caller skips them).
 #[inline(always)]
-fn may_hit(c: Vec3, r: f32, x: Vec3, d: Vec3) -> bool {
-    let v = c - x;
-    let r = r * (1.0 + 1e-4) + 1e-6 * (1.0 + c.abs().max_element());
+fn may_hit4(node: &Node4, x: Vec3, d: Vec3) -> u32 {
+    let (cx, cy, cz) = (
+        f32x4::new(node.center_x),
+        f32x4::new(node.center_y),
+        f32x4::new(node.center_z),
+    );
+    let (vx, vy, vz) = (
+        cx - f32x4::splat(x.x),
+        cy - f32x4::splat(x.y),
+        cz - f32x4::splat(x.z),
+    );
+    let extent = cx.abs().fast_max(cy.abs()).fast_max(cz.abs());
+    let r = f32x4::new(node.radius) * f32x4::splat(1.0 + 1e-4)
+        + f32x4::splat(1e-6) * (f32x4::ONE + extent);
     let r2 = r * r;
-    let v2 = v.length_squared();
-    if v2 <= r2 {
-        return true;
-    }
-    let b = v.dot(d);
-    if b <= 0.0 {
-        return false;
-    }
-    (v - d * b).length_squared() <= r2
+    let v2 = vx * vx + vy * vy + vz * vz;
+    let b = vx * f32x4::splat(d.x) + vy * f32x4::splat(d.y) + vz * f32x4::splat(d.z);
+    let (px, py, pz) = (
+        vx - f32x4::splat(d.x) * b,
+        vy - f32x4::splat(d.y) * b,
+        vz - f32x4::splat(d.z) * b,
+    );
+    let miss2 = px * px + py * py + pz * pz;
+    let hit = v2.simd_le(r2) | (b.simd_gt(f32x4::ZERO) & miss2.simd_le(r2));
+    hit.to_bitmask()
 }
 
 /// Calls `hit(light, point)` for every light the ray from `x` along the unit `d` reaches
@@ -204,16 +232,11 @@ pub fn trace(scene: &Scene, x: Vec3, d: Vec3, mut hit: impl FnMut(u32, &LightPoi
     while top > 0 {
         top -= 1;
         let node = &nodes[stack[top] as usize];
-        for k in 0..4 {
-            let slot = node.slot(k);
-            if slot == Slot::Empty {
-                continue;
-            }
-            let c = Vec3::new(node.center_x[k], node.center_y[k], node.center_z[k]);
-            if !may_hit(c, node.radius[k], x, d) {
-                continue;
-            }
-            match slot {
+        let mut mask = may_hit4(node, x, d);
+        while mask != 0 {
+            let k = mask.trailing_zeros() as usize;
+            mask &= mask - 1;
+            match node.slot(k) {
                 Slot::Light(l) => {
                     if let Some(lp) = intersect(&scene.lights[l as usize], x, d) {
                         hit(l, &lp);
@@ -247,9 +270,14 @@ pub struct Setup<'a> {
     frame: Frame,
     wo: Vec3,
     material: Material,
-    tl: TlImportance,
+    /// TL importance, remembering its node values (sampling and pmfs query the same nodes at
+    /// every sample of the shading point; see [`Memo`]); only for the techniques that use it
+    /// (the table costs its initialisation at every shading point; boxed, so that moving a
+    /// set-up does not copy it).
+    tl: Option<Box<Memo<'a, TlImportance>>>,
     split: LightCut,
-    bl: Option<BlImportance>,
+    /// BL importance (when a BL cut is built), likewise remembered.
+    bl: Option<Box<Memo<'a, BlImportance>>>,
     bl_cut: LightCut,
     n_mix: u32,
     /// BL takes part in `full`'s mixture (false at Lambert-only points unless
@@ -283,14 +311,17 @@ impl PmfMemo {
         }
     }
 
-    /// The value for `light` in `table`, computed by `f` and stored on a miss.
+    /// The stored value for `light`, if any.
     #[inline]
-    fn get(table: &mut [(u32, f32); MEMO_SLOTS], light: u32, f: impl FnOnce() -> f32) -> f32 {
-        let slot = &mut table[light as usize % MEMO_SLOTS];
-        if slot.0 != light {
-            *slot = (light, f());
-        }
-        slot.1
+    fn lookup(table: &[(u32, f32); MEMO_SLOTS], light: u32) -> Option<f32> {
+        let slot = &table[light as usize % MEMO_SLOTS];
+        (slot.0 == light).then_some(slot.1)
+    }
+
+    /// Stores the value for `light`.
+    #[inline]
+    fn store(table: &mut [(u32, f32); MEMO_SLOTS], light: u32, value: f32) {
+        table[light as usize % MEMO_SLOTS] = (light, value);
     }
 }
 
@@ -333,6 +364,10 @@ impl<'a> Setup<'a> {
     pub fn new(scene: &'a Scene, sp: &ShadingPoint, technique: Technique, p: &Params) -> Self {
         let frame = Frame::from_normal(sp.normal).expect("non-zero normal");
         let tl = TlImportance::new(sp.position, frame.normal);
+        let uses_tl = matches!(
+            technique,
+            Technique::Tl | Technique::TlSplit | Technique::MisEqual | Technique::Full
+        );
         let needs_split = matches!(
             technique,
             Technique::TlSplit | Technique::MisEqual | Technique::Full
@@ -372,9 +407,9 @@ impl<'a> Setup<'a> {
             frame,
             wo: frame.to_local(sp.wo.normalize()),
             material: sp.material,
-            tl,
+            tl: uses_tl.then(|| Box::new(Memo::new(tl, &scene.tree))),
             split,
-            bl,
+            bl: bl.map(|imp| Box::new(Memo::new(imp, &scene.tree))),
             bl_cut,
             n_mix,
             bl_in_full: !diffuse || p.lambert == LambertMode::BlTb,
@@ -382,6 +417,12 @@ impl<'a> Setup<'a> {
             occluder: None,
             memo: RefCell::new(PmfMemo::new()),
         }
+    }
+
+    /// The TL importance (of the techniques that use it).
+    #[inline]
+    fn tl(&self) -> &Memo<'a, TlImportance> {
+        self.tl.as_deref().expect("set up for a technique using TL")
     }
 
     /// The same set-up with visibility through `occluder` (see [`Occluder`]).
@@ -443,29 +484,32 @@ impl<'a> Setup<'a> {
         }
     }
 
-    /// TL's density of a point on `light`: its pmf within its cluster of the split cut × the
-    /// point's density (as the core's [`manylights::mis::technique_pdfs`] computes it; memoised).
-    fn pdf_tl(&self, light: u32, point_pdf: f32) -> f32 {
-        let pmf = PmfMemo::get(&mut self.memo.borrow_mut().tl, light, || {
+    /// Split-cut pmfs of `lights` within their clusters (TL's density of a point is this ×
+    /// the point's density, as the core's [`manylights::mis::technique_pdfs`] computes it).
+    /// Memoised; the ones not in the memo are computed together ([`LightCut::pmf_in_each`]).
+    fn pmfs_tl(&self, lights: &[u32], out: &mut [f32]) {
+        let mut memo = self.memo.borrow_mut();
+        memoised(&mut memo.tl, lights, out, |ls, got| {
+            let mut within = [None; BATCH];
             self.split
-                .pmf_in(&self.scene.tree, &self.tl, light)
-                .map_or(0.0, |(_, p)| p)
+                .pmf_in_each(&self.scene.tree, self.tl(), ls, &mut within[..ls.len()]);
+            for (g, w) in got.iter_mut().zip(&within) {
+                *g = w.map_or(0.0, |(_, p)| p);
+            }
         });
-        pmf * point_pdf
     }
 
-    /// BL's density of a point on `light` (0 without BL): its pmf through the BL cut × the
-    /// point's density (memoised).
-    fn pdf_bl(&self, light: u32, point_pdf: f32) -> f32 {
-        match &self.bl {
-            Some(imp) => {
-                let pmf = PmfMemo::get(&mut self.memo.borrow_mut().bl, light, || {
-                    self.bl_cut.pmf(&self.scene.tree, imp, light)
-                });
-                pmf * point_pdf
-            }
-            None => 0.0,
-        }
+    /// BL-cut pmfs of `lights` (0 without BL), memoised and batched as in
+    /// [`Setup::pmfs_tl`] ([`LightCut::pmf_each`]).
+    fn pmfs_bl(&self, lights: &[u32], out: &mut [f32]) {
+        let Some(imp) = self.bl.as_deref() else {
+            out.fill(0.0);
+            return;
+        };
+        let mut memo = self.memo.borrow_mut();
+        memoised(&mut memo.bl, lights, out, |ls, got| {
+            self.bl_cut.pmf_each(&self.scene.tree, imp, ls, got);
+        });
     }
 
     /// One estimate of the reflected radiance with `technique` (which must be the one the
@@ -485,7 +529,7 @@ impl<'a> Setup<'a> {
                 let l = cdf.partition_point(|&c| c <= u).min(cdf.len() - 1);
                 self.light_term(l as u32, self.scene.power_pmf[l] as f32, u2(rng))
             }
-            Technique::Tl => match self.scene.tree.sample(&self.tl, rng.random::<f32>()) {
+            Technique::Tl => match self.scene.tree.sample(self.tl(), rng.random::<f32>()) {
                 Some(s) => self.light_term(s.light, s.pmf, u2(rng)),
                 None => 0.0,
             },
@@ -497,7 +541,7 @@ impl<'a> Setup<'a> {
                 sum
             }
             Technique::Bl => {
-                let imp = self.bl.as_ref().expect("set up for BL");
+                let imp = self.bl.as_deref().expect("set up for BL");
                 match self
                     .bl_cut
                     .sample(&self.scene.tree, imp, rng.random::<f32>())
@@ -522,31 +566,55 @@ impl<'a> Setup<'a> {
         mut take: impl FnMut(f32, f32, f32, f32),
     ) {
         let tree = &self.scene.tree;
-        for i in 0..self.split.len() {
-            let u = rng.random::<f32>();
-            let uv = [rng.random::<f32>(), rng.random::<f32>()];
-            let Some(s) = self.split.sample_in(tree, &self.tl, i, u) else {
-                continue;
-            };
-            let Some(lp) = sample_point(&self.scene.lights[s.light as usize], self.x, uv) else {
+        let lights = &self.scene.lights;
+        let m = self.split.len();
+        let mut us = [0f32; CUT_CAPACITY];
+        let mut uvs = [[0f32; 2]; CUT_CAPACITY];
+        for i in 0..m {
+            us[i] = rng.random::<f32>();
+            uvs[i] = [rng.random::<f32>(), rng.random::<f32>()];
+        }
+        let mut chosen = [None; CUT_CAPACITY];
+        self.split
+            .sample_each(tree, self.tl(), &us[..m], &mut chosen[..m]);
+        let mut picked = [(0u32, 0f32, [0f32; 2]); CUT_CAPACITY];
+        let mut n = 0;
+        let mut touched = 0u32;
+        for i in 0..m {
+            let Some(s) = chosen[i] else { continue };
+            if let Some(l) = lights.get(s.light as usize) {
+                touched ^= first_word(l);
+            }
+            picked[n] = (s.light, s.pmf, uvs[i]);
+            n += 1;
+        }
+        std::hint::black_box(touched);
+        // The unoccluded samples with g > 0: (light, g, pdf_TL, point pdf, pdf_TB).
+        let mut kept = [(0u32, 0f32, 0f32, 0f32, 0f32); CUT_CAPACITY];
+        let mut k = 0;
+        for &(light, pmf, uv) in &picked[..n] {
+            let Some(lp) = sample_point(&lights[light as usize], self.x, uv) else {
                 continue;
             };
             let (g, wi) = self.contribution(&lp);
             if g <= 0.0 || self.blocked(&lp) {
                 continue;
             }
-            let (pdf_bl, pdf_tb) = match mis {
-                Some(bl_on) => (
-                    if bl_on {
-                        self.pdf_bl(s.light, lp.pdf)
-                    } else {
-                        0.0
-                    },
-                    self.material.pdf(self.wo, wi),
-                ),
-                None => (0.0, 0.0),
+            let pdf_tb = if mis.is_some() {
+                self.material.pdf(self.wo, wi)
+            } else {
+                0.0
             };
-            take(g, s.pmf * lp.pdf, pdf_bl, pdf_tb);
+            kept[k] = (light, g, pmf * lp.pdf, lp.pdf, pdf_tb);
+            k += 1;
+        }
+        let mut pmf_bl = [0f32; CUT_CAPACITY];
+        if mis == Some(true) {
+            let ids: [u32; CUT_CAPACITY] = core::array::from_fn(|i| kept[i].0);
+            self.pmfs_bl(&ids[..k], &mut pmf_bl[..k]);
+        }
+        for (&(_, g, pdf_tl, point_pdf, pdf_tb), &pmf) in kept[..k].iter().zip(&pmf_bl[..k]) {
+            take(g, pdf_tl, pmf * point_pdf, pdf_tb);
         }
     }
 
@@ -586,21 +654,30 @@ impl<'a> Setup<'a> {
                 b: 0.5 * nf,
             },
         );
+        let mut d = Deferred::new(wt);
+        let mut j = 0;
         for _ in 0..half {
             let u = rng.random::<f32>();
-            sum += self.bl_sample(u, wt, rng);
+            self.bl_sample(u, j, 0.5, &mut d, rng);
+            j += 1;
         }
         for _ in 0..half {
             let u = rng.random::<f32>();
-            sum += self.tb_sample(u, wt, rng).0;
+            self.tb_sample(u, j, 0.5, &mut d, rng);
+            j += 1;
         }
         if n % 2 == 1 {
             let u = rng.random::<f32>();
             if u < 0.5 {
-                sum += self.bl_sample(2.0 * u, wt, rng);
+                self.bl_sample(2.0 * u, j, 0.5, &mut d, rng);
             } else {
-                sum += self.tb_sample((2.0 * u - 1.0).min(ONE_MINUS), wt, rng).0;
+                self.tb_sample((2.0 * u - 1.0).min(ONE_MINUS), j, 0.5, &mut d, rng);
             }
+            j += 1;
+        }
+        self.settle(&mut d);
+        for &v in &d.values[..j] {
+            sum += v;
         }
         sum
     }
@@ -625,20 +702,28 @@ impl<'a> Setup<'a> {
             },
         );
         let mut sw = SequentialWeights::new(n, 1.0, self.power);
-        let mut sum = 0.0f64;
+        // A BRDF-aware sample's term depends on the budget and its own p only, so it can be
+        // computed before or after the other p are recorded: `terms` is `sw` before any.
+        let terms = sw;
+        let wt = Weighting::Sequential(&terms);
         let mut alloc = AdaptiveAllocator::new(bl_on);
-        for _ in 0..sw.budget() {
+        let mut d = Deferred::new(wt);
+        let budget = sw.budget() as usize;
+        for j in 0..budget {
             let (t, u, p) = alloc.choose(rng.random::<f32>());
-            let wt = Weighting::Sequential(&sw, p);
             match t {
-                Mix::Bl => sum += self.bl_sample(u, wt, rng),
+                Mix::Bl => self.bl_sample(u, j, p, &mut d, rng),
                 Mix::Tb => {
-                    let (v, hit) = self.tb_sample(u, wt, rng);
-                    sum += v;
+                    let hit = self.tb_sample(u, j, p, &mut d, rng);
                     alloc.record_tb(hit);
                 }
             }
             sw.record(p);
+        }
+        self.settle(&mut d);
+        let mut sum = 0.0f64;
+        for &v in &d.values[..budget] {
+            sum += v;
         }
         for &[g, pdf_tl, pdf_bl, pdf_tb] in &tl[..n_tl] {
             sum += f64::from(sw.tl_term(g, pdf_tl, pdf_bl, pdf_tb));
@@ -646,36 +731,50 @@ impl<'a> Setup<'a> {
         sum
     }
 
-    /// One BL sample of the mixture, with the (warped) uniform `u`.
-    fn bl_sample(&self, u: f32, wt: Weighting<'_>, rng: &mut impl Rng) -> f64 {
-        let imp = self.bl.as_ref().expect("set up for BL");
+    /// One BL sample of the mixture, with the (warped) uniform `u`: the `j`-th BRDF-aware
+    /// sample, drawn with BL probability `p`. Its light point waits in `d` for its TL density.
+    fn bl_sample(&self, u: f32, j: usize, p: f32, d: &mut Deferred<'_>, rng: &mut impl Rng) {
+        let imp = self.bl.as_deref().expect("set up for BL");
         let uv = [rng.random::<f32>(), rng.random::<f32>()];
         let Some(s) = self.bl_cut.sample(&self.scene.tree, imp, u) else {
-            return 0.0;
+            return;
         };
         let Some(lp) = sample_point(&self.scene.lights[s.light as usize], self.x, uv) else {
-            return 0.0;
+            return;
         };
         let (g, wi) = self.contribution(&lp);
         if g <= 0.0 || self.blocked(&lp) {
-            return 0.0;
+            return;
         }
-        let pdf_bl = s.pmf * lp.pdf;
-        let pdf_tl = self.pdf_tl(s.light, lp.pdf);
-        let pdf_tb = self.material.pdf(self.wo, wi);
-        f64::from(wt.term(g, pdf_tl, pdf_bl, pdf_tb))
+        let hit = Pending {
+            light: s.light,
+            sample: j as u16,
+            g,
+            point_pdf: lp.pdf,
+            pdf_bl: Some(s.pmf * lp.pdf),
+            pdf_tb: self.material.pdf(self.wo, wi),
+            p,
+        };
+        self.defer(d, hit);
     }
 
-    /// One TB sample of the mixture: its value and whether the ray hit a light with non-zero
-    /// radiance.
-    fn tb_sample(&self, u: f32, wt: Weighting<'_>, rng: &mut impl Rng) -> (f64, bool) {
+    /// One TB sample of the mixture (the `j`-th BRDF-aware sample, drawn with BL probability
+    /// `p`): its light points wait in `d` for their densities. Returns whether the ray hit a
+    /// light with non-zero radiance.
+    fn tb_sample(
+        &self,
+        u: f32,
+        j: usize,
+        p: f32,
+        d: &mut Deferred<'_>,
+        rng: &mut impl Rng,
+    ) -> bool {
         let v = rng.random::<f32>();
         let Some((wi, pdf_tb)) = self.material.sample(self.wo, [u, v]) else {
-            return (0.0, false);
+            return false;
         };
         let f = self.material.eval(self.wo, wi);
         let dir = self.frame.to_world(wi).normalize();
-        let mut sum = 0.0f64;
         let mut hit = false;
         // The lights first, then visibility only up to each light reached: most BRDF rays miss
         // every light and then cost no ray cast against the geometry.
@@ -693,15 +792,162 @@ impl<'a> Setup<'a> {
             if g <= 0.0 {
                 return;
             }
-            let pdf_tl = self.pdf_tl(light, lp.pdf);
-            let pdf_bl = if wt.uses_bl() {
-                self.pdf_bl(light, lp.pdf)
-            } else {
-                0.0
+            let pending = Pending {
+                light,
+                sample: j as u16,
+                g,
+                point_pdf: lp.pdf,
+                pdf_bl: None,
+                pdf_tb,
+                p,
             };
-            sum += f64::from(wt.term(g, pdf_tl, pdf_bl, pdf_tb));
+            self.defer(d, pending);
         });
-        (sum, hit)
+        hit
+    }
+
+    /// Queues a light point of a BRDF-aware sample (settling the queue first when it is full).
+    #[inline]
+    fn defer(&self, d: &mut Deferred<'_>, hit: Pending) {
+        if d.len == d.pending.len() {
+            self.settle(d);
+        }
+        d.pending[d.len] = hit;
+        d.len += 1;
+    }
+
+    /// Computes the MIS densities of every queued light point together (the tree walks of
+    /// [`Setup::pmfs_tl`] and [`Setup::pmfs_bl`] run interleaved) and adds each point's term
+    /// to its sample's value, in the order the points were found.
+    fn settle(&self, d: &mut Deferred<'_>) {
+        let (n, wt) = (d.len, d.weighting);
+        let mut lights = [0u32; PENDING];
+        let mut pmf_tl = [0f32; PENDING];
+        for (l, h) in lights.iter_mut().zip(&d.pending[..n]) {
+            *l = h.light;
+        }
+        self.pmfs_tl(&lights[..n], &mut pmf_tl[..n]);
+        // BL's pmfs of the TB points whose term needs them.
+        let mut need = [0u32; PENDING];
+        let mut at = [0usize; PENDING];
+        let mut m = 0;
+        for (i, h) in d.pending[..n].iter().enumerate() {
+            if h.pdf_bl.is_none() && wt.uses_bl(h.p) {
+                need[m] = h.light;
+                at[m] = i;
+                m += 1;
+            }
+        }
+        let mut pmf_bl = [0f32; PENDING];
+        self.pmfs_bl(&need[..m], &mut pmf_bl[..m]);
+        let mut bl_of = [0f32; PENDING];
+        for k in 0..m {
+            bl_of[at[k]] = pmf_bl[k] * d.pending[at[k]].point_pdf;
+        }
+        for (i, h) in d.pending[..n].iter().enumerate() {
+            let pdf_tl = pmf_tl[i] * h.point_pdf;
+            let pdf_bl = h.pdf_bl.unwrap_or(bl_of[i]);
+            d.values[usize::from(h.sample)] +=
+                f64::from(wt.term(h.p, h.g, pdf_tl, pdf_bl, h.pdf_tb));
+        }
+        d.len = 0;
+    }
+}
+
+/// Light points of BRDF-aware samples queued at once by [`Setup::defer`].
+const PENDING: usize = 128;
+
+/// Lights whose pmfs [`memoised`] computes in one call.
+const BATCH: usize = 64;
+
+/// A BRDF-aware sample's light point whose MIS densities are computed later, together with
+/// the others' ([`Setup::settle`]).
+#[derive(Clone, Copy, Debug, Default)]
+struct Pending {
+    light: u32,
+    /// Which BRDF-aware sample found it (its index among them).
+    sample: u16,
+    /// `f·L·cos`.
+    g: f32,
+    /// The density of the point on its light.
+    point_pdf: f32,
+    /// BL's density when the sample is BL's own (otherwise computed when settled).
+    pdf_bl: Option<f32>,
+    /// TB's density.
+    pdf_tb: f32,
+    /// The sample's BL probability.
+    p: f32,
+}
+
+/// The queue of [`Pending`] points and the values of the BRDF-aware samples so far.
+#[derive(Clone, Debug)]
+struct Deferred<'w> {
+    /// How the samples are weighted.
+    weighting: Weighting<'w>,
+    pending: [Pending; PENDING],
+    len: usize,
+    /// Each BRDF-aware sample's value (the sum of its points' terms).
+    values: [f64; MAX_BUDGET as usize + 1],
+}
+
+impl<'w> Deferred<'w> {
+    fn new(weighting: Weighting<'w>) -> Deferred<'w> {
+        Deferred {
+            weighting,
+            pending: [Pending::default(); PENDING],
+            len: 0,
+            values: [0.0; MAX_BUDGET as usize + 1],
+        }
+    }
+}
+
+/// `out[i]` = the pmf of `lights[i]`, from `table` where it holds it, otherwise computed by
+/// `compute(lights, out)` for all the missing ones at once (`BATCH` at a time) and stored.
+fn memoised(
+    table: &mut [(u32, f32); MEMO_SLOTS],
+    lights: &[u32],
+    out: &mut [f32],
+    mut compute: impl FnMut(&[u32], &mut [f32]),
+) {
+    let mut missing = [0u32; BATCH];
+    let mut at = [0usize; BATCH];
+    let mut m = 0;
+    let mut flush =
+        |missing: &[u32], at: &[usize], out: &mut [f32], table: &mut [(u32, f32); MEMO_SLOTS]| {
+            let mut got = [0f32; BATCH];
+            compute(missing, &mut got[..missing.len()]);
+            for (k, &l) in missing.iter().enumerate() {
+                out[at[k]] = got[k];
+                PmfMemo::store(table, l, got[k]);
+            }
+        };
+    for (i, &l) in lights.iter().enumerate() {
+        if let Some(p) = PmfMemo::lookup(table, l) {
+            out[i] = p;
+            continue;
+        }
+        missing[m] = l;
+        at[m] = i;
+        m += 1;
+        if m == BATCH {
+            flush(&missing[..m], &at[..m], out, table);
+            m = 0;
+        }
+    }
+    flush(&missing[..m], &at[..m], out, table);
+}
+
+/// A word of a light's record, to have it loaded.
+#[inline(always)]
+fn first_word(l: &manylights::Light) -> u32 {
+    match *l {
+        manylights::Light::Point { position, .. } | manylights::Light::Spot { position, .. } => {
+            position.x.to_bits()
+        }
+        manylights::Light::Sphere { center, .. } | manylights::Light::Disk { center, .. } => {
+            center.x.to_bits()
+        }
+        manylights::Light::Triangle { vertices, .. } => vertices[0].x.to_bits(),
     }
 }
 
@@ -710,25 +956,26 @@ impl<'a> Setup<'a> {
 enum Weighting<'w> {
     /// `mis-equal`: fixed weights against the mixture at `p_ref`, density `a pdf_BL + b pdf_TB`.
     Fixed(CombinedWeights, Denominator),
-    /// `full`: the sequential weights, and this sample's BL probability.
-    Sequential(&'w SequentialWeights, f32),
+    /// `full`: the sequential weights (the sample's BL probability is passed to each call).
+    Sequential(&'w SequentialWeights),
 }
 
 impl Weighting<'_> {
+    /// The term of a point found by a sample of BL probability `p` (ignored by `Fixed`).
     #[inline]
-    fn term(self, g: f32, pdf_tl: f32, pdf_bl: f32, pdf_tb: f32) -> f32 {
+    fn term(self, p: f32, g: f32, pdf_tl: f32, pdf_bl: f32, pdf_tb: f32) -> f32 {
         match self {
             Weighting::Fixed(w, den) => mixture_term(g, w, pdf_tl, pdf_bl, pdf_tb, den),
-            Weighting::Sequential(sw, p) => sw.mixture_term(g, p, pdf_tl, pdf_bl, pdf_tb),
+            Weighting::Sequential(sw) => sw.mixture_term(g, p, pdf_tl, pdf_bl, pdf_tb),
         }
     }
 
-    /// Whether the term needs pdf_BL.
+    /// Whether the term of a sample of BL probability `p` needs pdf_BL.
     #[inline]
-    fn uses_bl(self) -> bool {
+    fn uses_bl(self, p: f32) -> bool {
         match self {
             Weighting::Fixed(w, den) => w.p_ref > 0.0 || den.a > 0.0,
-            Weighting::Sequential(_, p) => p > 0.0,
+            Weighting::Sequential(_) => p > 0.0,
         }
     }
 }
