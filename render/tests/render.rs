@@ -279,6 +279,48 @@ fn scenes_by_name() {
     assert!(scene::by_name("nope", None).is_err());
 }
 
+/// `cornell --lights N`: 4 mm lights up to the default count, then radii shrinking as 1/√N so
+/// that the covered fraction of the walls stays that of the default scene, and lights far
+/// apart against their size; total power independent of N.
+#[test]
+fn cornell_lights_keep_their_coverage() {
+    use manylights::Light;
+    let stats = |n: usize| {
+        let s = scene::by_name("cornell", Some(n)).unwrap();
+        let mut area = 0.0f64;
+        let mut power = 0.0f64;
+        for l in &s.lights.lights {
+            let Light::Sphere {
+                radius, radiance, ..
+            } = *l
+            else {
+                panic!("cornell has sphere lights only");
+            };
+            assert_eq!(radius, scene::cornell_light_radius(n));
+            let a = std::f64::consts::PI * f64::from(radius).powi(2);
+            area += a;
+            power += 4.0 * std::f64::consts::PI * a * f64::from(radiance);
+        }
+        (area, power, s.lights.lights.len())
+    };
+    assert_eq!(
+        scene::cornell_light_radius(1000),
+        scene::CORNELL_LIGHT_RADIUS
+    );
+    assert_eq!(
+        scene::cornell_light_radius(scene::CORNELL_DEFAULT_LIGHTS),
+        scene::CORNELL_LIGHT_RADIUS
+    );
+    let (a0, p0, n0) = stats(scene::CORNELL_DEFAULT_LIGHTS);
+    let (a1, p1, n1) = stats(100_000);
+    assert_eq!((n0, n1), (scene::CORNELL_DEFAULT_LIGHTS, 100_000));
+    assert!((a1 / a0 - 1.0).abs() < 1e-3, "covered area {a0} → {a1}");
+    // Lights on 2 × 0.81 m² of wall: cross-sections cover under 5 % of it.
+    assert!(a1 < 0.05 * 1.62, "{a1}");
+    // Powers are 12/N × a log-uniform factor of mean 1.35: the totals agree to a few %.
+    assert!((p1 / p0 - 1.0).abs() < 0.05, "total power {p0} → {p1}");
+}
+
 #[test]
 fn raw_reference_round_trips() {
     let s = scene::stairs();

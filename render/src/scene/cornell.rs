@@ -10,8 +10,19 @@ use rand_pcg::Pcg64Mcg;
 /// Default number of lights of `cornell`.
 pub const CORNELL_DEFAULT_LIGHTS: usize = 1494;
 
-/// Radius of `cornell`'s sphere lights.
+/// Radius of `cornell`'s sphere lights up to [`CORNELL_DEFAULT_LIGHTS`] lights (see
+/// [`cornell_light_radius`]).
 pub const CORNELL_LIGHT_RADIUS: f32 = 0.004;
+
+/// Radius of the sphere lights of `cornell` with `n_lights` lights: [`CORNELL_LIGHT_RADIUS`] up
+/// to the default count, and `CORNELL_LIGHT_RADIUS · √(default / n)` above it, so that the
+/// lights keep covering the same small fraction of the walls (about 4.6 %) and stay tiny
+/// against their spacing. At a fixed 4 mm, 100,000 lights would cover the walls three times
+/// over and intersect each other; every BRDF ray towards a wall would hit several lights.
+pub fn cornell_light_radius(n_lights: usize) -> f32 {
+    let n = n_lights.max(1) as f32;
+    CORNELL_LIGHT_RADIUS * (CORNELL_DEFAULT_LIGHTS as f32 / n).sqrt().min(1.0)
+}
 
 /// Distance of `cornell`'s light centres from their wall (a few radii: the wall's
 /// irradiance peak under a light stays moderate).
@@ -87,7 +98,7 @@ pub fn cornell(n_lights: usize, seed: u64) -> RenderScene {
     );
 
     let mut rng = Pcg64Mcg::seed_from_u64(seed ^ 0xc0_4e11);
-    let r = CORNELL_LIGHT_RADIUS;
+    let r = cornell_light_radius(n_lights);
     let base_power = 12.0 / n_lights.max(1) as f32;
     let lights: Vec<Light> = (0..n_lights)
         .map(|i| {

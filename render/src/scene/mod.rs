@@ -5,7 +5,8 @@
 //!
 //! - `cornell` ([`cornell()`]): a Cornell box with a diffuse tall box, a glossy plastic short
 //!   box and a glossy plastic floor, lit by many tiny sphere lights on the left and right walls
-//!   (default [`CORNELL_DEFAULT_LIGHTS`]; any count places them at random on the same walls).
+//!   (default [`CORNELL_DEFAULT_LIGHTS`]; any count places them at random on the same walls,
+//!   smaller above the default count: [`cornell_light_radius`]).
 //! - `exhibition` ([`exhibition()`]): a glossy car-like body (GGX) on a turntable in a
 //!   showroom with a glossy plastic floor, lit by [`EXHIBITION_DISKS`] small one-sided disks
 //!   in rings under the ceiling and rows along the walls, all facing the car, and one large
@@ -33,7 +34,9 @@ pub mod obj;
 mod stairs;
 
 pub use city::{city, CITY_LIGHTS};
-pub use cornell::{cornell, CORNELL_DEFAULT_LIGHTS, CORNELL_LIGHT_RADIUS, CORNELL_WALL_GAP};
+pub use cornell::{
+    cornell, cornell_light_radius, CORNELL_DEFAULT_LIGHTS, CORNELL_LIGHT_RADIUS, CORNELL_WALL_GAP,
+};
 pub use exhibition::{exhibition, EXHIBITION_DISKS, EXHIBITION_PANEL_TRIANGLES};
 pub(crate) use geometry::{disk_light, sphere_light};
 pub use geometry::{Geometry, Hit, Triangle};
