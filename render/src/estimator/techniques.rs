@@ -702,28 +702,30 @@ impl<'a> Setup<'a> {
             },
         );
         let mut sw = SequentialWeights::new(n, 1.0, self.power);
-        // A BRDF-aware sample's term depends on the budget and its own p only, so it can be
-        // computed before or after the other p are recorded: `terms` is `sw` before any.
-        let terms = sw;
-        let wt = Weighting::Sequential(&terms);
-        let mut alloc = AdaptiveAllocator::new(bl_on);
-        let mut d = Deferred::new(wt);
         let budget = sw.budget() as usize;
-        for j in 0..budget {
-            let (t, u, p) = alloc.choose(rng.random::<f32>());
-            match t {
-                Mix::Bl => self.bl_sample(u, j, p, &mut d, rng),
-                Mix::Tb => {
-                    let hit = self.tb_sample(u, j, p, &mut d, rng);
-                    alloc.record_tb(hit);
-                }
-            }
-            sw.record(p);
-        }
-        self.settle(&mut d);
         let mut sum = 0.0f64;
-        for &v in &d.values[..budget] {
-            sum += v;
+        // No BRDF-aware samples (every Lambert point): no queue to set up.
+        if budget > 0 {
+            // A BRDF-aware sample's term depends on the budget and its own p only, so it can
+            // be computed before or after the other p are recorded: `terms` is `sw` before any.
+            let terms = sw;
+            let mut d = Deferred::new(Weighting::Sequential(&terms));
+            let mut alloc = AdaptiveAllocator::new(bl_on);
+            for j in 0..budget {
+                let (t, u, p) = alloc.choose(rng.random::<f32>());
+                match t {
+                    Mix::Bl => self.bl_sample(u, j, p, &mut d, rng),
+                    Mix::Tb => {
+                        let hit = self.tb_sample(u, j, p, &mut d, rng);
+                        alloc.record_tb(hit);
+                    }
+                }
+                sw.record(p);
+            }
+            self.settle(&mut d);
+            for &v in &d.values[..budget] {
+                sum += v;
+            }
         }
         for &[g, pdf_tl, pdf_bl, pdf_tb] in &tl[..n_tl] {
             sum += f64::from(sw.tl_term(g, pdf_tl, pdf_bl, pdf_tb));
@@ -821,6 +823,9 @@ impl<'a> Setup<'a> {
     /// to its sample's value, in the order the points were found.
     fn settle(&self, d: &mut Deferred<'_>) {
         let (n, wt) = (d.len, d.weighting);
+        if n == 0 {
+            return;
+        }
         let mut lights = [0u32; PENDING];
         let mut pmf_tl = [0f32; PENDING];
         for (l, h) in lights.iter_mut().zip(&d.pending[..n]) {
