@@ -48,46 +48,17 @@ pub fn cornell(n_lights: usize, seed: u64) -> RenderScene {
     let diffuse = Material::Lambert { albedo: 0.6 };
     let v = |x, y, z| Vec3::new(x, y, z);
     let mut t = Vec::new();
-    quad(
-        &mut t,
-        v(0., 0., 0.),
-        v(1., 0., 0.),
-        v(1., 0., 1.),
-        v(0., 0., 1.),
-        floor,
-    );
-    quad(
-        &mut t,
-        v(0., 1., 0.),
-        v(1., 1., 0.),
-        v(1., 1., 1.),
-        v(0., 1., 1.),
-        white,
-    );
-    quad(
-        &mut t,
-        v(0., 0., 0.),
-        v(1., 0., 0.),
-        v(1., 1., 0.),
-        v(0., 1., 0.),
-        white,
-    );
-    quad(
-        &mut t,
-        v(0., 0., 0.),
-        v(0., 1., 0.),
-        v(0., 1., 1.),
-        v(0., 0., 1.),
-        wall_l,
-    );
-    quad(
-        &mut t,
-        v(1., 0., 0.),
-        v(1., 1., 0.),
-        v(1., 1., 1.),
-        v(1., 0., 1.),
-        wall_l,
-    );
+    // Floor, ceiling, back wall, left and right walls (corners in order around each quad).
+    let walls = [
+        [v(0., 0., 0.), v(1., 0., 0.), v(1., 0., 1.), v(0., 0., 1.)],
+        [v(0., 1., 0.), v(1., 1., 0.), v(1., 1., 1.), v(0., 1., 1.)],
+        [v(0., 0., 0.), v(1., 0., 0.), v(1., 1., 0.), v(0., 1., 0.)],
+        [v(0., 0., 0.), v(0., 1., 0.), v(0., 1., 1.), v(0., 0., 1.)],
+        [v(1., 0., 0.), v(1., 1., 0.), v(1., 1., 1.), v(1., 0., 1.)],
+    ];
+    for ([a, b, c, d], m) in walls.into_iter().zip([floor, white, white, wall_l, wall_l]) {
+        quad(&mut t, a, b, c, d, m);
+    }
     cuboid(&mut t, v(0.33, 0.3, 0.38), v(0.14, 0.3, 0.14), 0.3, diffuse);
     cuboid(
         &mut t,

@@ -106,54 +106,19 @@ pub fn exhibition() -> RenderScene {
     let v = |x, y, z| Vec3::new(x, y, z);
     let (h, top) = (HALF, HEIGHT);
     let mut t = Vec::new();
-    quad(
-        &mut t,
-        v(-h, 0., -h),
-        v(h, 0., -h),
-        v(h, 0., h),
-        v(-h, 0., h),
-        floor,
-    );
-    quad(
-        &mut t,
-        v(-h, top, -h),
-        v(h, top, -h),
-        v(h, top, h),
-        v(-h, top, h),
-        ceiling,
-    );
-    quad(
-        &mut t,
-        v(-h, 0., -h),
-        v(h, 0., -h),
-        v(h, top, -h),
-        v(-h, top, -h),
-        wall,
-    );
-    quad(
-        &mut t,
-        v(-h, 0., h),
-        v(h, 0., h),
-        v(h, top, h),
-        v(-h, top, h),
-        wall,
-    );
-    quad(
-        &mut t,
-        v(-h, 0., -h),
-        v(-h, 0., h),
-        v(-h, top, h),
-        v(-h, top, -h),
-        wall,
-    );
-    quad(
-        &mut t,
-        v(h, 0., -h),
-        v(h, 0., h),
-        v(h, top, h),
-        v(h, top, -h),
-        wall,
-    );
+    // Floor, ceiling and the four walls (corners in order around each quad).
+    let sides = [
+        [v(-h, 0., -h), v(h, 0., -h), v(h, 0., h), v(-h, 0., h)],
+        [v(-h, top, -h), v(h, top, -h), v(h, top, h), v(-h, top, h)],
+        [v(-h, 0., -h), v(h, 0., -h), v(h, top, -h), v(-h, top, -h)],
+        [v(-h, 0., h), v(h, 0., h), v(h, top, h), v(-h, top, h)],
+        [v(-h, 0., -h), v(-h, 0., h), v(-h, top, h), v(-h, top, -h)],
+        [v(h, 0., -h), v(h, 0., h), v(h, top, h), v(h, top, -h)],
+    ];
+    let materials = [floor, ceiling, wall, wall, wall, wall];
+    for ([a, b, c, d], m) in sides.into_iter().zip(materials) {
+        quad(&mut t, a, b, c, d, m);
+    }
 
     // Turntable and car.
     let deck = 0.12;
