@@ -410,18 +410,14 @@ impl LightCut {
             while i < n && m < LANES {
                 let c = &self.clusters[i];
                 out[i] = None;
-                match tree
-                    .nodes
-                    .get(c.node as usize)
-                    .map(|nd| nd.slot(usize::from(c.slot) & 3))
-                {
-                    Some(Slot::Light(light)) => out[i] = Some(LightSample { light, pmf: 1.0 }),
-                    Some(Slot::Node(child)) => {
+                match tree.slot_of(c) {
+                    Slot::Light(light) => out[i] = Some(LightSample { light, pmf: 1.0 }),
+                    Slot::Node(child) => {
                         starts[m] = (child, u[i]);
                         lane_of[m] = i;
                         m += 1;
                     }
-                    _ => {}
+                    Slot::Empty => {}
                 }
                 i += 1;
             }
@@ -453,19 +449,16 @@ impl LightCut {
                 let light = lights[i];
                 out[i] = None;
                 if let Some((ci, c, path)) = self.cluster_of(tree, light) {
-                    let slot = tree
-                        .nodes
-                        .get(c.node as usize)
-                        .map(|nd| nd.slot(usize::from(c.slot) & 3));
-                    match slot.unwrap_or(Slot::Empty) {
-                        Slot::Light(l) => out[i] = Some((ci, if l == light { 1.0 } else { 0.0 })),
+                    // A cluster that is a node takes the walk; otherwise the single-light
+                    // answer of `pmf_cluster`.
+                    match tree.slot_of(c) {
                         Slot::Node(child) => {
                             out[i] = Some((ci, 0.0));
                             walks[m] = (child, path, path_len(c.path), light);
                             lane_of[m] = i;
                             m += 1;
                         }
-                        Slot::Empty => out[i] = Some((ci, 0.0)),
+                        _ => out[i] = Some((ci, tree.pmf_cluster(imp, c, path, light))),
                     }
                 }
                 i += 1;
@@ -577,6 +570,14 @@ impl LightCut {
 }
 
 impl LightTree {
+    /// What `cluster`'s slot holds ([`Slot::Empty`] for a cluster naming no node of this tree).
+    #[inline]
+    fn slot_of(&self, cluster: &Cluster) -> Slot {
+        self.nodes
+            .get(cluster.node as usize)
+            .map_or(Slot::Empty, |n| n.slot(usize::from(cluster.slot) & 3))
+    }
+
     /// Samples a light under `cluster` (pmf relative to it).
     pub fn sample_cluster<I: Importance + ?Sized>(
         &self,
@@ -584,11 +585,7 @@ impl LightTree {
         cluster: &Cluster,
         u: f32,
     ) -> Option<LightSample> {
-        match self
-            .nodes
-            .get(cluster.node as usize)?
-            .slot(usize::from(cluster.slot) & 3)
-        {
+        match self.slot_of(cluster) {
             Slot::Light(light) => Some(LightSample { light, pmf: 1.0 }),
             // Below the cluster's slot, whose weight was positive: a node whose four children
             // all have importance 0 falls back to its energies, so a non-empty cut always
@@ -607,10 +604,7 @@ impl LightTree {
         path: u64,
         light: u32,
     ) -> f32 {
-        let Some(node) = self.nodes.get(cluster.node as usize) else {
-            return 0.0;
-        };
-        match node.slot(usize::from(cluster.slot) & 3) {
+        match self.slot_of(cluster) {
             Slot::Light(l) if l == light => 1.0,
             Slot::Node(c) => {
                 self.pmf_from(imp, c as usize, false, path, path_len(cluster.path), light)
