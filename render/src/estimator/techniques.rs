@@ -688,44 +688,45 @@ impl<'a> Setup<'a> {
     fn full(&self, rng: &mut impl Rng) -> f64 {
         let bl_on = self.bl.is_some() && self.bl_in_full;
         let n = self.n_mix;
+        let mut sw = SequentialWeights::new(n, 1.0, self.power);
+        if n == 0 {
+            // No BRDF-aware samples (every Lambert point): TL split, each term weighted 1,
+            // summed as the samples come.
+            let mut sum = 0.0f64;
+            self.tl_samples(None, rng, |g, pdf_tl, _, _| {
+                sum += f64::from(sw.tl_term(g, pdf_tl, 0.0, 0.0));
+            });
+            return sum;
+        }
         let mut tl = [[0f32; 4]; CUT_CAPACITY];
         let mut n_tl = 0usize;
-        // Without BRDF-aware samples TL's weight is 1: no densities needed.
-        self.tl_samples(
-            (n > 0).then_some(bl_on),
-            rng,
-            |g, pdf_tl, pdf_bl, pdf_tb| {
-                if n_tl < CUT_CAPACITY {
-                    tl[n_tl] = [g, pdf_tl, pdf_bl, pdf_tb];
-                    n_tl += 1;
-                }
-            },
-        );
-        let mut sw = SequentialWeights::new(n, 1.0, self.power);
+        self.tl_samples(Some(bl_on), rng, |g, pdf_tl, pdf_bl, pdf_tb| {
+            if n_tl < CUT_CAPACITY {
+                tl[n_tl] = [g, pdf_tl, pdf_bl, pdf_tb];
+                n_tl += 1;
+            }
+        });
         let budget = sw.budget() as usize;
-        let mut sum = 0.0f64;
-        // No BRDF-aware samples (every Lambert point): no queue to set up.
-        if budget > 0 {
-            // A BRDF-aware sample's term depends on the budget and its own p only, so it can
-            // be computed before or after the other p are recorded: `terms` is `sw` before any.
-            let terms = sw;
-            let mut d = Deferred::new(Weighting::Sequential(&terms));
-            let mut alloc = AdaptiveAllocator::new(bl_on);
-            for j in 0..budget {
-                let (t, u, p) = alloc.choose(rng.random::<f32>());
-                match t {
-                    Mix::Bl => self.bl_sample(u, j, p, &mut d, rng),
-                    Mix::Tb => {
-                        let hit = self.tb_sample(u, j, p, &mut d, rng);
-                        alloc.record_tb(hit);
-                    }
+        // A BRDF-aware sample's term depends on the budget and its own p only, so it can be
+        // computed before or after the other p are recorded: `terms` is `sw` before any.
+        let terms = sw;
+        let mut d = Deferred::new(Weighting::Sequential(&terms));
+        let mut alloc = AdaptiveAllocator::new(bl_on);
+        for j in 0..budget {
+            let (t, u, p) = alloc.choose(rng.random::<f32>());
+            match t {
+                Mix::Bl => self.bl_sample(u, j, p, &mut d, rng),
+                Mix::Tb => {
+                    let hit = self.tb_sample(u, j, p, &mut d, rng);
+                    alloc.record_tb(hit);
                 }
-                sw.record(p);
             }
-            self.settle(&mut d);
-            for &v in &d.values[..budget] {
-                sum += v;
-            }
+            sw.record(p);
+        }
+        self.settle(&mut d);
+        let mut sum = 0.0f64;
+        for &v in &d.values[..budget] {
+            sum += v;
         }
         for &[g, pdf_tl, pdf_bl, pdf_tb] in &tl[..n_tl] {
             sum += f64::from(sw.tl_term(g, pdf_tl, pdf_bl, pdf_tb));
@@ -860,7 +861,7 @@ impl<'a> Setup<'a> {
 }
 
 /// Light points of BRDF-aware samples queued at once by [`Setup::defer`].
-const PENDING: usize = 128;
+const PENDING: usize = 32;
 
 /// Lights whose pmfs [`memoised`] computes in one call.
 const BATCH: usize = 64;
