@@ -152,7 +152,7 @@ pub fn power(n_a: f32, pdf_a: f32, others: &[(f32, f32)]) -> f32 {
 
 /// Which BRDF-aware technique a sample uses.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum Technique {
+pub enum Mixture {
     /// BRDF-oriented light sampling through the cut.
     Bl,
     /// BRDF sampling.
@@ -191,19 +191,19 @@ impl AdaptiveAllocator {
 
     /// Chooses the technique of the next sample from `u` in [0, 1) and returns it with `u`
     /// warped back into [0, 1) (`u/p` or `(u − p)/(1 − p)`) and the probability `p` of BL.
-    pub fn choose(&self, u: f32) -> (Technique, f32, f32) {
+    pub fn choose(&self, u: f32) -> (Mixture, f32, f32) {
         let p = self.p_bl();
         let u = crate::sample::sanitize(u);
         if u < p {
             (
-                Technique::Bl,
+                Mixture::Bl,
                 (u / p).min(crate::sample::ONE_MINUS_EPSILON),
                 p,
             )
         } else {
             let rest = 1.0 - p;
             (
-                Technique::Tb,
+                Mixture::Tb,
                 ((u - p) / rest).clamp(0.0, crate::sample::ONE_MINUS_EPSILON),
                 p,
             )
@@ -256,6 +256,18 @@ impl CombinedWeights {
             (0.0, 0.0)
         }
     }
+}
+
+/// A sample's term `g · num / den` in the form an estimator evaluates it, with the density
+/// `pdf` it was drawn with: the MIS weight is `num · pdf / den`.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Factors {
+    /// Multiplies the sample's value.
+    pub num: f32,
+    /// Divides it.
+    pub den: f32,
+    /// The sampling density.
+    pub pdf: f32,
 }
 
 /// The most BRDF-aware samples per shading point [`SequentialWeights`] can record
@@ -347,24 +359,50 @@ impl SequentialWeights {
     /// a point of value `g` (`f·L·cos`) and densities `pdf_tl`, `pdf_bl`, `pdf_tb` (0 if the
     /// sample's mixture density there is 0).
     pub fn mixture_term(&self, g: f32, p_bl: f32, pdf_tl: f32, pdf_bl: f32, pdf_tb: f32) -> f32 {
-        let p = sanitize_probability(p_bl);
-        let q = p * pdf_bl.max(0.0) + (1.0 - p) * pdf_tb.max(0.0);
-        let n = self.n as f32;
-        if q.is_nan() || q <= 0.0 || self.n == 0 || g.is_nan() || g <= 0.0 {
+        if g.is_nan() || g <= 0.0 {
             return 0.0;
         }
-        let a = self.n_tl * pdf_tl.max(0.0);
-        let b = n * q;
-        let v = if self.power {
-            g * b / (a * a + b * b)
-        } else {
-            g / (a + b)
+        let Some(f) = self.mixture_factors(p_bl, pdf_tl, pdf_bl, pdf_tb) else {
+            return 0.0;
         };
+        let v = g * f.num / f.den;
         if v.is_finite() {
             v
         } else {
             0.0
         }
+    }
+
+    /// [`SequentialWeights::mixture_term`] as `g · num / den`: `num / den = W_j / q_j`, the
+    /// sampling density `pdf = N q_j` and the MIS weight `N W_j`. `None` where the sample's
+    /// mixture density is 0 (or N = 0).
+    pub fn mixture_factors(
+        &self,
+        p_bl: f32,
+        pdf_tl: f32,
+        pdf_bl: f32,
+        pdf_tb: f32,
+    ) -> Option<Factors> {
+        let p = sanitize_probability(p_bl);
+        let q = p * pdf_bl.max(0.0) + (1.0 - p) * pdf_tb.max(0.0);
+        if q.is_nan() || q <= 0.0 || self.n == 0 {
+            return None;
+        }
+        let a = self.n_tl * pdf_tl.max(0.0);
+        let b = self.n as f32 * q;
+        Some(if self.power {
+            Factors {
+                num: b,
+                den: a * a + b * b,
+                pdf: b,
+            }
+        } else {
+            Factors {
+                num: 1.0,
+                den: a + b,
+                pdf: b,
+            }
+        })
     }
 
     /// TL's weight at a point once the BRDF-aware samples are recorded: `(1/N) Σ_j r_j`, with
@@ -522,13 +560,13 @@ mod tests {
         a.record_tb(true);
         assert!((a.p_bl() - 2.0 / 22.0).abs() < 1e-7);
         let (t, u, p) = a.choose(0.5 * a.p_bl());
-        assert_eq!(t, Technique::Bl);
+        assert_eq!(t, Mixture::Bl);
         assert!((u - 0.5).abs() < 1e-6 && p > 0.0);
         let (t, u, _) = a.choose(a.p_bl() + 0.5 * (1.0 - a.p_bl()));
-        assert_eq!(t, Technique::Tb);
+        assert_eq!(t, Mixture::Tb);
         assert!((u - 0.5).abs() < 1e-5);
         let lambert = AdaptiveAllocator::new(false);
-        assert_eq!(lambert.choose(0.0).0, Technique::Tb);
+        assert_eq!(lambert.choose(0.0).0, Mixture::Tb);
     }
 
     #[test]

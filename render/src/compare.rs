@@ -48,12 +48,12 @@
 //! mean_rel_diff_se}]}`, techniques in the order `uniform`, `power`, `tl`, `tl-split`, `bl`,
 //! `mis-equal`, `full`; `ms_per_spp` and `ms_fixed` are the cost model's (busy milliseconds).
 
-use crate::estimator::techniques::Technique;
 use crate::render::{
     convergence_svg, read_raw, render, side_by_side_labelled, write_exr, write_png, write_raw,
     Image, RenderConfig,
 };
 use crate::scene::RenderScene;
+use manylights::Technique;
 use serde_json::json;
 use std::io::{Error, ErrorKind};
 use std::path::{Path, PathBuf};
@@ -306,7 +306,7 @@ pub fn reference_path(scene: &RenderScene, cfg: &CompareConfig) -> PathBuf {
     cfg.out.join("reference").join(format!(
         "{}-{}-{:016x}-{}x{}-{}-{}.bin",
         scene.name,
-        scene.lights.lights.len(),
+        scene.lights.len(),
         scene.fingerprint(),
         cfg.width,
         cfg.height,
@@ -319,7 +319,7 @@ pub fn reference_path(scene: &RenderScene, cfg: &CompareConfig) -> PathBuf {
 pub fn output_dir(scene: &RenderScene, cfg: &CompareConfig) -> PathBuf {
     cfg.out
         .join("compare")
-        .join(format!("{}-{}", scene.name, scene.lights.lights.len()))
+        .join(format!("{}-{}", scene.name, scene.lights.len()))
 }
 
 /// The cached reference of `scene` (computed and stored if missing).
@@ -524,7 +524,7 @@ pub fn run(scene: &RenderScene, cfg: &CompareConfig) -> std::io::Result<Report> 
         let title = format!(
             "{} ({} lights, {}x{}): RMSE against busy time",
             scene.name,
-            scene.lights.lights.len(),
+            scene.lights.len(),
             cfg.width,
             cfg.height
         );
@@ -554,7 +554,7 @@ pub fn run(scene: &RenderScene, cfg: &CompareConfig) -> std::io::Result<Report> 
         .collect();
     let report = Report {
         scene: scene.name.clone(),
-        lights: scene.lights.lights.len(),
+        lights: scene.lights.len(),
         resolution: (cfg.width, cfg.height),
         spp: cfg.spp,
         ref_spp: cfg.ref_spp,

@@ -1,7 +1,7 @@
 //! `mlrender`: the test renderer and instruments of manylights.
 
 use clap::{Parser, Subcommand};
-use manylights_render::estimator::techniques::Technique;
+use manylights::Technique;
 use manylights_render::{bench, compare, render, scene, sptd_accuracy, sptd_fit};
 use std::path::PathBuf;
 
@@ -291,7 +291,7 @@ fn main() {
                     println!(
                         "{} ({} lights, {}x{}): reference average {:.5} (full, {} spp); tl-split at {} spp: relative difference {:.3} % (± {:.3} %), RMSE {:.5}",
                         scene.name,
-                        scene.lights.lights.len(),
+                        scene.lights.len(),
                         img.width,
                         img.height,
                         img.average(),
@@ -382,7 +382,7 @@ fn run_render(
     println!(
         "{} {} lights {}x{} {} spp {}: {:.2} s wall ({:.2} s busy over threads), average {:.4}, written to {}",
         scene.name,
-        scene.lights.lights.len(),
+        scene.lights.len(),
         width,
         height,
         spp,

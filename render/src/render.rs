@@ -22,11 +22,12 @@
 //! Output: [`write_png`] (8-bit sRGB, clamped), [`write_exr`] (linear f32 OpenEXR) and
 //! [`write_image`] (either, from the file extension).
 
-use crate::estimator::techniques::{Params, Setup, Technique};
 use crate::font;
 use crate::scene::RenderScene;
+use crate::uniforms::RngUniforms;
 use indicatif::{ProgressBar, ProgressStyle};
 use manylights::ShadingPoint;
+use manylights::{Estimator, Params, Technique};
 use rand::SeedableRng;
 use rand_pcg::Pcg64Mcg;
 use rayon::prelude::*;
@@ -200,11 +201,15 @@ pub fn render(scene: &RenderScene, cfg: &RenderConfig) -> Image {
                         .wrapping_add(((py * w + px) as u64) << 8)
                         .wrapping_add(tech_index);
                     let mut rng = Pcg64Mcg::seed_from_u64(seed);
-                    let setup = Setup::new(&scene.lights, &sp, cfg.technique, &params)
-                        .with_occluder(&scene.geometry);
+                    let Ok(mut est) = Estimator::new(&scene.lights, &sp, cfg.technique, &params)
+                    else {
+                        continue;
+                    };
                     let (mut m, mut m2) = (0f64, 0f64);
                     for k in 0..cfg.spp {
-                        let x = setup.estimate(cfg.technique, &mut rng);
+                        let x = est
+                            .estimate(&scene.geometry, &mut RngUniforms(&mut rng))
+                            .unwrap_or(0.0);
                         let d = x - m;
                         m += d / (k + 1) as f64;
                         m2 += d * (x - m);

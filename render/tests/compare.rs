@@ -1,11 +1,11 @@
 //! `compare::run` on a tiny configuration (stairs, 12×8, 2 spp, a 16-spp reference, the
 //! convergence plot up to 8 spp): every output file is written and readable (EXR values equal
-//! to the rendered means), the JSON lists the seven techniques in order with finite numbers;
+//! to the rendered means), the JSON lists the eight techniques in order with finite numbers;
 //! the equal-time arithmetic; bad input is an error, not a panic; the `mlrender` binary's
 //! `--time` checks and EXR output.
 
+use manylights::Technique;
 use manylights_render::compare::{self, check_time, equal_time_spp, CompareConfig, Cost};
-use manylights_render::estimator::techniques::Technique;
 use manylights_render::font;
 use manylights_render::render::{self, read_raw, render, Image, RenderConfig};
 use manylights_render::scene;
@@ -14,7 +14,7 @@ use std::process::Command;
 
 const W: usize = 12;
 const H: usize = 8;
-const NAMES: [&str; 7] = [
+const NAMES: [&str; 8] = [
     "uniform",
     "power",
     "tl",
@@ -22,6 +22,7 @@ const NAMES: [&str; 7] = [
     "bl",
     "mis-equal",
     "full",
+    "tl-mis",
 ];
 
 /// A fresh, empty temporary folder for one test.
@@ -122,12 +123,12 @@ fn compare_writes_every_output() {
     }
     for name in ["side_by_side.png", "side_by_side_equal_time.png"] {
         let (w, h, px) = read_png(&dir.join(name));
-        // 8 images (7 techniques and the reference) and their crops, 4-pixel gaps, under a
+        // 9 images (8 techniques and the reference) and their crops, 4-pixel gaps, under a
         // caption strip: 12-pixel panels are too narrow for ×2 text, so ×1, 1 + 7 + 1 rows.
         let strip = 9;
-        assert_eq!((w, h), (8 * W + 7 * 4, strip + 2 * H + 4), "{name}");
+        assert_eq!((w, h), (9 * W + 8 * 4, strip + 2 * H + 4), "{name}");
         assert_eq!(render::caption_height(1), strip);
-        for i in 0..8 {
+        for i in 0..9 {
             let x0 = i * (W + 4);
             let caption = (0..strip).flat_map(|y| px[y * w + x0..y * w + x0 + W].to_vec());
             assert!(
@@ -138,7 +139,7 @@ fn compare_writes_every_output() {
             assert!(px[x0..x0 + W].iter().all(|&v| v == 0), "{name}: panel {i}");
             let last = (strip - 1) * w;
             assert!(px[last + x0..last + x0 + W].iter().all(|&v| v == 0));
-            if i < 7 {
+            if i < 8 {
                 for y in 0..strip {
                     let gap = y * w + x0 + W;
                     assert!(px[gap..gap + 4].iter().all(|&v| v == 0), "{name}: gap {i}");
@@ -150,7 +151,7 @@ fn compare_writes_every_output() {
         let (rw, rh, rpx) = read_png(&dir.join("reference.png"));
         assert_eq!((rw, rh), (W, H));
         let (cx0, cy0, cx1, cy1) = render::crop_region(W, H);
-        let x0 = 7 * (W + 4);
+        let x0 = 8 * (W + 4);
         for y in 0..H {
             for x in 0..W {
                 let on_outline = (x == cx0 || x == cx1 || y == cy0 || y == cy1)
@@ -172,7 +173,7 @@ fn compare_writes_every_output() {
     }
     let svg = std::fs::read_to_string(dir.join("convergence.svg")).unwrap();
     assert!(svg.starts_with("<svg") && svg.trim_end().ends_with("</svg>"));
-    assert_eq!(svg.matches("<polyline").count(), 7);
+    assert_eq!(svg.matches("<polyline").count(), NAMES.len());
     let table = std::fs::read_to_string(dir.join("table.md")).unwrap();
     for n in NAMES {
         assert!(table.contains(&format!("| {n} |")), "{table}");
@@ -199,7 +200,7 @@ fn compare_writes_every_output() {
     // JSON.
     let j = report.json();
     assert_eq!(j["scene"], "stairs");
-    assert_eq!(j["lights"], s.lights.lights.len());
+    assert_eq!(j["lights"], s.lights.len());
     assert_eq!(j["resolution"], serde_json::json!([W, H]));
     assert_eq!(j["time_budget_from"], "full");
     let techs = j["techniques"].as_array().unwrap();

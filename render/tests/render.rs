@@ -7,7 +7,7 @@
 //! materials, lights and errors are checked on that file and on small broken ones.
 
 use manylights::Material;
-use manylights_render::estimator::techniques::Technique;
+use manylights::Technique;
 use manylights_render::render::{read_raw, render, write_raw, RenderConfig};
 use manylights_render::scene::{self, RenderScene};
 use std::path::{Path, PathBuf};
@@ -112,10 +112,10 @@ fn obj_materials_and_lights() {
     assert_eq!(s.name, "box");
     // Floor and wall quads, two cubes; the two emissive quads are lights only.
     assert_eq!(s.geometry.triangles.len(), 2 + 2 + 12 + 12);
-    assert_eq!(s.lights.lights.len(), 4);
+    assert_eq!(s.lights.len(), 4);
     let mut radiances: Vec<f32> = s
         .lights
-        .lights
+        .lights()
         .iter()
         .map(|l| match *l {
             manylights::Light::Triangle {
@@ -156,7 +156,7 @@ fn obj_materials_and_lights() {
     assert!(c.eye.z > 1.0 && (c.eye.x, c.eye.y) == (c.target.x, c.target.y));
     // by_name takes the path.
     let by_path = scene::by_name(box_obj().to_str().unwrap(), None).expect("by path");
-    assert_eq!(by_path.lights.lights.len(), 4);
+    assert_eq!(by_path.lights.len(), 4);
 }
 
 /// Writes `obj` (and `mtl`, as `<stem>.mtl`, if given) to a fresh temporary folder and
@@ -245,7 +245,7 @@ fn obj_errors_name_the_file() {
 
     let good = write_obj("good", &format!("{FLOOR}{lamp}"), Some(EMITTER_MTL));
     let s = scene::obj::load(&good).expect("a floor and a lamp load");
-    assert_eq!((s.geometry.triangles.len(), s.lights.lights.len()), (2, 1));
+    assert_eq!((s.geometry.triangles.len(), s.lights.len()), (2, 1));
     for p in [
         no_light, no_tri, zero, bad, blinding, nan, bad_kd, no_mtl, good,
     ] {
@@ -258,22 +258,18 @@ fn scenes_by_name() {
     for name in scene::SCENES {
         let s = scene::by_name(name, None).expect("known scene");
         assert_eq!(s.name, name);
-        assert!(!s.lights.lights.is_empty());
+        assert!(!s.lights.is_empty());
     }
     assert_eq!(
-        scene::by_name("cornell", None).unwrap().lights.lights.len(),
+        scene::by_name("cornell", None).unwrap().lights.len(),
         scene::CORNELL_DEFAULT_LIGHTS
     );
     assert_eq!(
-        scene::by_name("exhibition", None)
-            .unwrap()
-            .lights
-            .lights
-            .len(),
+        scene::by_name("exhibition", None).unwrap().lights.len(),
         scene::EXHIBITION_DISKS + scene::EXHIBITION_PANEL_TRIANGLES
     );
     assert_eq!(
-        scene::by_name("city", Some(5)).unwrap().lights.lights.len(),
+        scene::by_name("city", Some(5)).unwrap().lights.len(),
         scene::CITY_LIGHTS
     );
     assert!(scene::by_name("nope", None).is_err());
@@ -289,7 +285,7 @@ fn cornell_lights_keep_their_coverage() {
         let s = scene::by_name("cornell", Some(n)).unwrap();
         let mut area = 0.0f64;
         let mut power = 0.0f64;
-        for l in &s.lights.lights {
+        for l in s.lights.lights() {
             let Light::Sphere {
                 radius, radiance, ..
             } = *l
@@ -301,7 +297,7 @@ fn cornell_lights_keep_their_coverage() {
             area += a;
             power += 4.0 * std::f64::consts::PI * a * f64::from(radiance);
         }
-        (area, power, s.lights.lights.len())
+        (area, power, s.lights.len())
     };
     assert_eq!(
         scene::cornell_light_radius(1000),

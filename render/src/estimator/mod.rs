@@ -5,7 +5,7 @@
 //! 0.2, 0.6} and plastic (by default point i gets material i mod 5: 64 configurations). The
 //! exact value of each configuration comes from an independent computation ([`mod@reference`]:
 //! every light integrated on its own, own samplers, to a relative standard error below 1e-3,
-//! the total to below 1e-4). Each technique of [`techniques`] then produces K independent
+//! the total to below 1e-4). Each technique of [`manylights::direct`] then produces K independent
 //! estimates per configuration (default 100,000). The full run takes about 5 minutes of two
 //! cores (10 minutes when the machine is shared); `--quick` (10 configurations, 4,000
 //! estimates) a few seconds.
@@ -35,8 +35,9 @@
 
 pub mod reference;
 pub mod scene;
-pub mod techniques;
 
+use crate::uniforms::RngUniforms;
+use manylights::direct::{Estimator, LambertMode, Params, Technique, Unoccluded};
 use rand::SeedableRng;
 use rand_pcg::Pcg64Mcg;
 use rayon::prelude::*;
@@ -46,7 +47,6 @@ use serde_json::{json, Map, Value};
 use std::hint::black_box;
 use std::sync::atomic::{AtomicUsize, Ordering};
 use std::time::{Duration, Instant};
-use techniques::{LambertMode, Params, Setup, Technique};
 
 /// What to run.
 #[derive(Clone, Copy, Debug)]
@@ -131,7 +131,7 @@ pub struct ConfigResult {
     /// The BRDF-aware budget N.
     pub n_mix: u32,
     /// Per technique, in [`Technique::ALL`] order.
-    pub results: [TechResult; 7],
+    pub results: [TechResult; Technique::ALL.len()],
     /// At Lambert points (when `full` runs with another [`LambertMode`]): `full` with
     /// [`LambertMode::TbOne`] (TL split + one BRDF sample), for comparison.
     pub full_tb_one: Option<TechResult>,
@@ -263,7 +263,7 @@ pub fn run(cfg: &EstimatorConfig) -> (Vec<ConfigResult>, Value) {
     // The jobs: every (configuration, technique) pair, slot = index in Technique::ALL; and,
     // unless `full` already runs that way, `full` with one TB sample at the Lambert points
     // (slot EXTRA), reported next to the main figures.
-    const EXTRA: usize = 7;
+    const EXTRA: usize = Technique::ALL.len();
     let tb_one = Params {
         lambert: LambertMode::TbOne,
         ..cfg.params
@@ -293,11 +293,13 @@ pub fn run(cfg: &EstimatorConfig) -> (Vec<ConfigResult>, Value) {
         .par_iter()
         .map(|&(ci, ti)| {
             let (t, params) = job_of(ti);
-            let setup = Setup::new(&scene, &scene.configs[ci].sp, t, params);
+            let mut est = Estimator::new(&scene.set, &scene.configs[ci].sp, t, params)
+                .expect("valid shading point");
             let mut rng = rng_for(cfg.seed, ci, ti, 0);
             let mut m = Moments::default();
             for _ in 0..cfg.estimates {
-                m.push(setup.estimate(t, &mut rng));
+                let v = est.estimate(&Unoccluded, &mut RngUniforms(&mut rng));
+                m.push(v.expect("uniform numbers in [0, 1)"));
             }
             progress("estimates", &done, jobs.len());
             m
@@ -323,8 +325,10 @@ pub fn run(cfg: &EstimatorConfig) -> (Vec<ConfigResult>, Value) {
                 let mut count = 0u64;
                 let mut acc = 0.0f64;
                 loop {
-                    let setup = Setup::new(&scene, black_box(sp), t, params);
-                    acc += setup.estimate(t, &mut rng);
+                    let mut est = Estimator::new(&scene.set, black_box(sp), t, params)
+                        .expect("valid shading point");
+                    let v = est.estimate(&Unoccluded, &mut RngUniforms(&mut rng));
+                    acc += v.expect("uniform numbers in [0, 1)");
                     count += 1;
                     if count % 4 == 0 && t0.elapsed() >= min_round {
                         break;
@@ -358,8 +362,9 @@ pub fn run(cfg: &EstimatorConfig) -> (Vec<ConfigResult>, Value) {
         .enumerate()
         .map(|(ci, c)| {
             let r = refs[ci];
-            let setup = Setup::new(&scene, &c.sp, Technique::Full, &cfg.params);
-            let mut results = [TechResult::default(); 7];
+            let setup = Estimator::new(&scene.set, &c.sp, Technique::Full, &cfg.params)
+                .expect("valid shading point");
+            let mut results = [TechResult::default(); Technique::ALL.len()];
             let mut full_tb_one = None;
             for (job, &(_, ti)) in jobs.iter().enumerate().filter(|(_, j)| j.0 == ci) {
                 if ti == EXTRA {
@@ -371,10 +376,10 @@ pub fn run(cfg: &EstimatorConfig) -> (Vec<ConfigResult>, Value) {
             ConfigResult {
                 config: *c,
                 reference: r,
-                split_len: setup.split_len(),
-                bl_cut_len: setup.bl_cut_len(),
+                split_len: setup.split_cut().len(),
+                bl_cut_len: setup.cut_sampler().map_or(0, |b| b.cut().len()),
                 ib: setup.ib(),
-                n_mix: setup.n_mix(),
+                n_mix: setup.budget(),
                 results,
                 full_tb_one,
             }
@@ -671,7 +676,7 @@ pub struct EstimatorArgs {
     #[arg(long)]
     pub n_max: Option<u32>,
     /// What `full` does at Lambert-only points.
-    #[arg(long, value_enum, default_value_t = LambertMode::TlOnly)]
+    #[arg(long, value_parser = parse_lambert, default_value = "tl-only")]
     pub lambert: LambertMode,
     /// Balance heuristic between TL and the BRDF-aware mixture (default: power, β = 2).
     #[arg(long)]
@@ -682,6 +687,14 @@ pub struct EstimatorArgs {
     /// Print one JSON object as the last line of stdout.
     #[arg(long)]
     pub json: bool,
+}
+
+/// A [`LambertMode`] from its name (`tl-only`, `tb-budget`, `tb-one`, `bl-tb`).
+fn parse_lambert(name: &str) -> Result<LambertMode, String> {
+    LambertMode::from_name(name).ok_or_else(|| {
+        let names: Vec<&str> = LambertMode::ALL.iter().map(|m| m.name()).collect();
+        format!("unknown mode {name:?} (known: {})", names.join(", "))
+    })
 }
 
 /// Runs `mlrender estimator` with `args`; returns the process exit code.

@@ -266,7 +266,7 @@ pub fn reference(
     let mut rng = Pcg64Mcg::seed_from_u64(seed);
     let mut out = Reference::default();
     let mut parts: Vec<(Integrand, LightIntegral)> = Vec::new();
-    for light in &scene.lights {
+    for light in scene.set.lights() {
         let Some(g) = Integrand::new(light, &rx) else {
             continue;
         };

@@ -21,7 +21,7 @@
 //!   material instead (5× the configurations and the run time).
 
 use glam::Vec3;
-use manylights::{Light, LightTree, Material, ShadingPoint};
+use manylights::{Light, LightSet, Material, ShadingPoint};
 use rand::{Rng, SeedableRng};
 use rand_pcg::Pcg64Mcg;
 use std::f32::consts::PI;
@@ -95,17 +95,11 @@ impl Config {
     }
 }
 
-/// The lights, their tree, and the configurations.
+/// The lights (with their tree and power distribution) and the configurations.
 #[derive(Debug)]
 pub struct Scene {
     /// The lights.
-    pub lights: Vec<Light>,
-    /// Their tree.
-    pub tree: LightTree,
-    /// Cumulative energies (for the `power` technique), normalised so the last is 1.
-    pub power_cdf: Vec<f64>,
-    /// Each light's probability under `power`.
-    pub power_pmf: Vec<f64>,
+    pub set: LightSet,
     /// The configurations.
     pub configs: Vec<Config>,
 }
@@ -227,27 +221,7 @@ impl Scene {
     /// A scene of the given lights (spheres and disks, x outside every sphere) and
     /// configurations.
     pub fn with_lights(lights: Vec<Light>, configs: Vec<Config>) -> Scene {
-        let tree = LightTree::build(&lights).expect("the estimator scene is valid");
-        let energies: Vec<f64> = lights.iter().map(|l| f64::from(l.energy())).collect();
-        let total: f64 = energies.iter().sum();
-        let power_pmf: Vec<f64> = energies.iter().map(|e| e / total).collect();
-        let mut acc = 0.0;
-        let mut power_cdf: Vec<f64> = power_pmf
-            .iter()
-            .map(|p| {
-                acc += p;
-                acc
-            })
-            .collect();
-        if let Some(last) = power_cdf.last_mut() {
-            *last = 1.0;
-        }
-        Scene {
-            lights,
-            tree,
-            power_cdf,
-            power_pmf,
-            configs,
-        }
+        let set = LightSet::build(lights).expect("the estimator scene is valid");
+        Scene { set, configs }
     }
 }

@@ -245,7 +245,7 @@ pub fn city() -> RenderScene {
     RenderScene {
         name: "city".into(),
         geometry: Geometry::new(t),
-        lights: LightSet::with_lights(lights, Vec::new()),
+        lights: LightSet::build(lights).expect("the built-in lights are valid"),
         camera: Camera {
             eye: v(4.0, 24.0, block_centre(BLOCKS - 1) + 30.0),
             target: v(0.0, 2.0, block_centre(BLOCKS / 2)),

@@ -87,7 +87,7 @@ pub fn cornell(n_lights: usize, seed: u64) -> RenderScene {
     RenderScene {
         name: "cornell".into(),
         geometry: Geometry::new(t),
-        lights: LightSet::with_lights(lights, Vec::new()),
+        lights: LightSet::build(lights).expect("the built-in lights are valid"),
         camera: Camera {
             eye: v(0.5, 0.5, 2.3),
             target: v(0.5, 0.5, 0.0),

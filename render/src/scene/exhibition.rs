@@ -220,7 +220,7 @@ pub fn exhibition() -> RenderScene {
     RenderScene {
         name: "exhibition".into(),
         geometry: Geometry::new(t),
-        lights: LightSet::with_lights(lights, Vec::new()),
+        lights: LightSet::build(lights).expect("the built-in lights are valid"),
         camera: Camera {
             eye: v(2.6, 1.5, 4.2),
             target: v(0.0, 0.55, 0.0),

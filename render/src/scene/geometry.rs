@@ -2,11 +2,11 @@
 //! shadow rays, and the mesh builders the built-in scenes share (quads, boxes, cylinders,
 //! superellipsoids, tori).
 
-use crate::estimator::techniques::Occluder;
 use bvh::aabb::{Aabb, Bounded};
 use bvh::bounding_hierarchy::BHShape;
 use bvh::bvh::Bvh;
 use glam::Vec3;
+use manylights::Occluder;
 use manylights::{Light, Material};
 use nalgebra::{Point3, Vector3};
 use std::f32::consts::PI;

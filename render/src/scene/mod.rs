@@ -23,7 +23,7 @@
 //!
 //! Ray casts against the triangles go through the `bvh` crate ([`Geometry`]); the lights are
 //! reached by BRDF rays through the light tree's node spheres
-//! ([`crate::estimator::techniques::trace`]). Materials are scalar (grey): the images are
+//! ([`manylights::LightTree::trace`]). Materials are scalar (grey): the images are
 //! grey-level.
 
 mod city;
@@ -42,8 +42,8 @@ pub(crate) use geometry::{disk_light, sphere_light};
 pub use geometry::{Geometry, Hit, Triangle};
 pub use stairs::stairs;
 
-use crate::estimator::scene::Scene as LightSet;
 use glam::Vec3;
+use manylights::LightSet;
 use std::path::Path;
 
 /// The built-in scene names, in help order (`by_name` also takes a path to an `.obj` file).
@@ -108,7 +108,7 @@ impl RenderScene {
         for t in &self.geometry.triangles {
             let _ = write!(h, "{:?}{:?}", t.v, t.material);
         }
-        for l in &self.lights.lights {
+        for l in self.lights.lights() {
             let _ = write!(h, "{l:?}");
         }
         h.0

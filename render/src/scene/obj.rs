@@ -230,7 +230,7 @@ pub fn load(path: &Path) -> Result<RenderScene, String> {
     Ok(RenderScene {
         name: scene_name(path),
         geometry: Geometry::new(triangles),
-        lights: LightSet::with_lights(lights, Vec::new()),
+        lights: LightSet::build(lights).map_err(|e| format!("{}: {e}", path.display()))?,
         camera: Camera {
             eye: centre + Vec3::Z * distance,
             target: centre,

@@ -104,7 +104,7 @@ pub fn stairs() -> RenderScene {
     RenderScene {
         name: "stairs".into(),
         geometry: Geometry::new(t),
-        lights: LightSet::with_lights(lights, Vec::new()),
+        lights: LightSet::build(lights).expect("the built-in lights are valid"),
         camera: Camera {
             eye: v(w * 0.5, 1.5, len + 1.2),
             target: v(w * 0.5, 1.2, 0.0),

@@ -1,0 +1,918 @@
+//! The per-shading-point estimator: set-up, the step machine of the lower level, and the one
+//! call built on it.
+
+use super::sampler::{CutSampler, LightSampler, PowerSampler, TreeSampler, UniformSampler};
+use super::{DirectError, LambertMode, Occluder, Params, Technique, Uniforms};
+use crate::brdf::{Brdf, Frame};
+use crate::cut::{LightCut, CUT_CAPACITY};
+use crate::error::Problem;
+use crate::importance::{BlImportance, TlImportance};
+use crate::light_sample::{sample_point, LightPoint};
+use crate::light_set::LightSet;
+use crate::material::{Material, ShadingError, ShadingField, ShadingPoint};
+use crate::mis::{
+    brdf_budget, sample_budget, AdaptiveAllocator, CombinedWeights, Factors, Mixture,
+    SequentialWeights,
+};
+use crate::sample::ONE_MINUS_EPSILON;
+use glam::Vec3;
+
+/// A sample's weight and density: it contributes `value · weight / pdf`.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Weighted {
+    f: Factors,
+}
+
+impl Weighted {
+    /// Contributes nothing.
+    const ZERO: Weighted = Weighted {
+        f: Factors {
+            num: 0.0,
+            den: 1.0,
+            pdf: 1.0,
+        },
+    };
+
+    /// Weight 1, density `pdf`.
+    #[inline]
+    fn plain(pdf: f32) -> Weighted {
+        Weighted::checked(Factors {
+            num: 1.0,
+            den: pdf,
+            pdf,
+        })
+    }
+
+    /// `num / den` with density `pdf`; nothing unless `den` and `pdf` are positive and finite.
+    #[inline]
+    fn checked(f: Factors) -> Weighted {
+        let ok = f.den > 0.0 && f.den < f32::INFINITY && f.pdf > 0.0 && f.pdf < f32::INFINITY;
+        if ok && f.num >= 0.0 && f.num < f32::INFINITY {
+            Weighted { f }
+        } else {
+            Weighted::ZERO
+        }
+    }
+
+    /// The MIS weight, in [0, 1].
+    #[inline]
+    pub fn weight(&self) -> f32 {
+        (self.f.num * self.f.pdf / self.f.den).clamp(0.0, 1.0)
+    }
+
+    /// The density the sample was drawn with (in the measure of its value: solid angle, or 1
+    /// for point and spot lights).
+    #[inline]
+    pub fn pdf(&self) -> f32 {
+        self.f.pdf
+    }
+
+    /// What a sample of `value` (`f · L · cos θi`, or one channel of it) contributes:
+    /// `value · weight / pdf`, evaluated as the one-call estimator does; 0 for a value that is
+    /// not positive, and never NaN or infinite.
+    #[inline]
+    pub fn contribution(&self, value: f32) -> f32 {
+        if value.is_nan() || value <= 0.0 {
+            return 0.0;
+        }
+        let v = value * self.f.num / self.f.den;
+        if v < f32::INFINITY {
+            v
+        } else {
+            0.0
+        }
+    }
+}
+
+/// What a light sample is, for its weight.
+#[derive(Clone, Copy, Debug, PartialEq)]
+enum Role {
+    /// A technique without MIS: weight 1.
+    Plain,
+    /// A sample of split sampling.
+    Split,
+    /// A BL sample of the BRDF-aware mixture, drawn with BL probability `p`, with BL's density.
+    MixtureBl { p: f32, pdf_bl: f32 },
+    /// `tl-mis`'s light sample.
+    TlMis,
+}
+
+/// A light point for the host to shade: evaluate `f · L · cos θi` towards
+/// `point.direction` (with `point.radiance` as L), test visibility up to `point.distance`, and
+/// weigh it with [`Estimator::weigh`].
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct LightDraw {
+    /// The light's index in the light set.
+    pub light: u32,
+    /// The probability of having chosen the light.
+    pub pmf: f32,
+    /// The point on it, its direction, distance, radiance and solid-angle density.
+    pub point: LightPoint,
+    /// Whether [`Estimator::weigh`] uses the host's BSDF pdf of the direction (otherwise any
+    /// value may be passed, 0 say).
+    pub needs_bsdf_pdf: bool,
+    role: Role,
+}
+
+/// A BSDF sample for the host to take: sample its BSDF with `u`, cast the ray, and report the
+/// direction, its pdf and the first surface's distance to [`Estimator::bsdf_hits`].
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct BsdfDraw {
+    /// The two uniform numbers (in [0, 1)) for sampling the BSDF.
+    pub u: [f32; 2],
+    /// For a mixture sample, its BL probability; `None` for `tl-mis`.
+    p: Option<f32>,
+}
+
+/// A light a BSDF ray reached: the host shades it (`f · L · cos θi` with its own `f`, L =
+/// `point.radiance`) and adds `weighted.contribution(value)`.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct LightHit {
+    /// The light's index in the light set.
+    pub light: u32,
+    /// The point the ray reached on it.
+    pub point: LightPoint,
+    /// Its weight and the BSDF's density.
+    pub weighted: Weighted,
+}
+
+/// One step of an estimate (see the [module documentation](super)).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Step {
+    /// A light point to shade.
+    Light(LightDraw),
+    /// A BSDF sample to take.
+    Bsdf(BsdfDraw),
+    /// The estimate is complete.
+    Done,
+}
+
+/// Where an estimate is.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Phase {
+    /// Nothing drawn yet.
+    Start,
+    /// Yielding the TL split samples; then the mixture (`mis-equal`) or the end.
+    TlFirst,
+    /// The BRDF-aware samples.
+    Mixture,
+    /// Yielding the TL split samples after the mixture (`full`).
+    TlLast,
+    /// `tl-mis`'s BSDF sample is next.
+    TlMisBsdf,
+    /// Finished.
+    Done,
+}
+
+/// Per-light pmfs remembered at one shading point (direct-mapped): an estimate queries the
+/// same few lights again and again, and the pmfs are fixed functions of the light there.
+#[derive(Clone, Debug)]
+struct PmfMemo {
+    tl: [(u32, f32); MEMO_SLOTS],
+    bl: [(u32, f32); MEMO_SLOTS],
+}
+
+/// Slots of each memo table.
+const MEMO_SLOTS: usize = 64;
+
+impl PmfMemo {
+    const EMPTY: PmfMemo = PmfMemo {
+        tl: [(u32::MAX, 0.0); MEMO_SLOTS],
+        bl: [(u32::MAX, 0.0); MEMO_SLOTS],
+    };
+
+    #[inline]
+    fn get(table: &mut [(u32, f32); MEMO_SLOTS], light: u32, f: impl FnOnce() -> f32) -> f32 {
+        let slot = &mut table[light as usize % MEMO_SLOTS];
+        if slot.0 != light {
+            *slot = (light, f());
+        }
+        slot.1
+    }
+}
+
+/// The state of one estimate.
+#[derive(Clone, Debug)]
+struct Run {
+    phase: Phase,
+    /// The split samples drawn: light, pmf within its cluster, the point's uniform numbers.
+    tl: [(u32, f32, [f32; 2]); CUT_CAPACITY],
+    tl_len: usize,
+    tl_next: usize,
+    /// The next BRDF-aware sample's index.
+    j: u32,
+    alloc: AdaptiveAllocator,
+    /// The BL probabilities recorded so far (`full`).
+    sw: SequentialWeights,
+    /// A BSDF sample of the mixture was yielded and not yet reported (its BL probability).
+    pending_tb: Option<f32>,
+}
+
+/// Direct illumination at one shading point with one technique (see the
+/// [module documentation](super)). Set up once per shading point; any number of estimates.
+#[derive(Clone, Debug)]
+pub struct Estimator<'a> {
+    set: &'a LightSet,
+    technique: Technique,
+    x: Vec3,
+    frame: Frame,
+    /// ωo in the local frame.
+    wo: Vec3,
+    material: Material,
+    tl: TreeSampler<'a>,
+    split: LightCut,
+    bl: Option<CutSampler<'a>>,
+    n_mix: u32,
+    /// BL takes part in `full`'s mixture.
+    bl_in_full: bool,
+    power: bool,
+    memo: PmfMemo,
+    run: Run,
+}
+
+/// Checks a host's uniform number.
+#[inline]
+fn unit(u: f32) -> Result<f32, DirectError> {
+    if (0.0..1.0).contains(&u) {
+        Ok(u)
+    } else {
+        Err(DirectError::Uniform {
+            value: f64::from(u),
+        })
+    }
+}
+
+#[inline]
+fn next1(u: &mut (impl Uniforms + ?Sized)) -> Result<f32, DirectError> {
+    unit(u.next_f32())
+}
+
+#[inline]
+fn next2(u: &mut (impl Uniforms + ?Sized)) -> Result<[f32; 2], DirectError> {
+    Ok([next1(u)?, next1(u)?])
+}
+
+impl<'a> Estimator<'a> {
+    /// What `technique` needs at `sp` (only that: the split cut for the split techniques, the
+    /// BRDF-oriented cut where BL or the budget needs it).
+    pub fn new(
+        set: &'a LightSet,
+        sp: &ShadingPoint,
+        technique: Technique,
+        params: &Params,
+    ) -> Result<Estimator<'a>, DirectError> {
+        sp.validate()?;
+        let frame = Frame::from_normal(sp.normal).ok_or(ShadingError {
+            field: ShadingField::Normal,
+            problem: Problem::ZeroLength,
+            value: sp.normal.length(),
+        })?;
+        let tree = set.tree();
+        let tl = TreeSampler::with_importance(tree, TlImportance::new(sp.position, frame.normal));
+        let needs_split = matches!(
+            technique,
+            Technique::TlSplit | Technique::MisEqual | Technique::Full
+        );
+        let diffuse = sp.material.is_diffuse_only();
+        // Lambert points where `full` needs no IB(x): no BL cut is built.
+        let no_ib = diffuse && matches!(params.lambert, LambertMode::TlOnly | LambertMode::TbOne);
+        let needs_bl = match technique {
+            Technique::Bl => true,
+            Technique::MisEqual => !diffuse,
+            Technique::Full => !no_ib,
+            _ => false,
+        };
+        let split = if needs_split {
+            LightCut::build_split(tree, tl.importance(), &params.split)
+        } else {
+            LightCut::new()
+        };
+        let bl = if needs_bl {
+            let imp = BlImportance::new(sp)?;
+            Some(CutSampler::with_importance(tree, imp, &params.cut))
+        } else {
+            None
+        };
+        let n_mix = match (technique, &bl) {
+            (Technique::Full, _) if diffuse => match params.lambert {
+                LambertMode::TlOnly => 0,
+                LambertMode::TbOne => 1,
+                LambertMode::TbBudget | LambertMode::BlTb => sample_budget(
+                    bl.as_ref().map_or(0.0, |b| b.cut().max_score()),
+                    params.n_max,
+                ),
+            },
+            (Technique::MisEqual | Technique::Full, Some(b)) => brdf_budget(b.cut(), params.n_max),
+            _ => 0,
+        };
+        let bl_in_full = !diffuse || params.lambert == LambertMode::BlTb;
+        let power = params.power;
+        Ok(Estimator {
+            set,
+            technique,
+            x: sp.position,
+            frame,
+            wo: frame.to_local(sp.wo.normalize()),
+            material: sp.material,
+            tl,
+            split,
+            bl,
+            n_mix,
+            bl_in_full,
+            power,
+            memo: PmfMemo::EMPTY,
+            run: Run {
+                phase: Phase::Done,
+                tl: [(0, 0.0, [0.0; 2]); CUT_CAPACITY],
+                tl_len: 0,
+                tl_next: 0,
+                j: 0,
+                alloc: AdaptiveAllocator::new(false),
+                sw: SequentialWeights::new(0, 1.0, power),
+                pending_tb: None,
+            },
+        })
+    }
+
+    /// The technique.
+    #[inline]
+    pub fn technique(&self) -> Technique {
+        self.technique
+    }
+
+    /// The split cut (empty for techniques without split sampling).
+    #[inline]
+    pub fn split_cut(&self) -> &LightCut {
+        &self.split
+    }
+
+    /// The BRDF-oriented sampler, where the technique built one.
+    #[inline]
+    pub fn cut_sampler(&self) -> Option<&CutSampler<'a>> {
+        self.bl.as_ref()
+    }
+
+    /// The tree sampler with TL importance at this point.
+    #[inline]
+    pub fn tree_sampler(&self) -> &TreeSampler<'a> {
+        &self.tl
+    }
+
+    /// IB(x): the largest BRDF integral over the BRDF-oriented cut (0 without one).
+    #[inline]
+    pub fn ib(&self) -> f32 {
+        self.bl.as_ref().map_or(0.0, |b| b.cut().max_score())
+    }
+
+    /// The number of BRDF-aware samples N of `mis-equal` and `full` (0 otherwise).
+    #[inline]
+    pub fn budget(&self) -> u32 {
+        self.n_mix
+    }
+
+    /// Whether BL takes part in the BRDF-aware mixture.
+    #[inline]
+    fn bl_on(&self) -> bool {
+        self.bl.is_some() && (self.technique != Technique::Full || self.bl_in_full)
+    }
+
+    /// The fixed weights of `mis-equal`.
+    #[inline]
+    fn combined(&self) -> CombinedWeights {
+        CombinedWeights {
+            n_tl: 1.0,
+            n_mixture: self.n_mix as f32,
+            p_ref: if self.bl.is_some() { 0.5 } else { 0.0 },
+            power: self.power,
+        }
+    }
+
+    /// The pmf of `light` within its cluster of the split cut (0 if in none), remembered.
+    #[inline]
+    fn pmf_tl(&mut self, light: u32) -> f32 {
+        let (split, tl) = (&self.split, &self.tl);
+        PmfMemo::get(&mut self.memo.tl, light, || {
+            split
+                .pmf_in(tl.tree(), tl.importance(), light)
+                .map_or(0.0, |(_, p)| p)
+        })
+    }
+
+    /// The pmf of `light` through the BRDF-oriented cut (0 without one), remembered.
+    #[inline]
+    fn pmf_bl(&mut self, light: u32) -> f32 {
+        let Some(bl) = &self.bl else {
+            return 0.0;
+        };
+        PmfMemo::get(&mut self.memo.bl, light, || bl.pmf(light))
+    }
+
+    /// Starts a new estimate (forgetting the current one).
+    pub fn start(&mut self) {
+        let budget = if matches!(self.technique, Technique::MisEqual | Technique::Full) {
+            self.n_mix
+        } else {
+            0
+        };
+        let r = &mut self.run;
+        r.phase = Phase::Start;
+        r.tl_len = 0;
+        r.tl_next = 0;
+        r.j = 0;
+        r.alloc = AdaptiveAllocator::new(self.bl.is_some() && self.bl_in_full);
+        r.sw = SequentialWeights::new(budget, 1.0, self.power);
+        r.pending_tb = None;
+    }
+
+    /// A light sample of `light` chosen with probability `pmf`, its point from `uv`.
+    #[inline]
+    fn draw(&self, light: u32, pmf: f32, uv: [f32; 2], role: Role) -> Option<LightDraw> {
+        let l = self.set.lights().get(light as usize)?;
+        let point = sample_point(l, self.x, uv)?;
+        let needs_bsdf_pdf = !point.delta
+            && match role {
+                Role::Plain => false,
+                Role::Split => self.n_mix > 0 && self.technique != Technique::TlSplit,
+                Role::MixtureBl { .. } | Role::TlMis => true,
+            };
+        Some(LightDraw {
+            light,
+            pmf,
+            point,
+            needs_bsdf_pdf,
+            role,
+        })
+    }
+
+    /// Draws the split samples' lights: all uniform numbers first, then the descents together.
+    fn draw_split(&mut self, u: &mut (impl Uniforms + ?Sized)) -> Result<(), DirectError> {
+        let m = self.split.len();
+        let mut us = [0f32; CUT_CAPACITY];
+        let mut uvs = [[0f32; 2]; CUT_CAPACITY];
+        for i in 0..m {
+            us[i] = next1(u)?;
+            uvs[i] = next2(u)?;
+        }
+        let mut chosen = [None; CUT_CAPACITY];
+        self.split.sample_each(
+            self.tl.tree(),
+            self.tl.importance(),
+            &us[..m],
+            &mut chosen[..m],
+        );
+        let mut n = 0;
+        for i in 0..m {
+            if let Some(s) = chosen[i] {
+                self.run.tl[n] = (s.light, s.pmf, uvs[i]);
+                n += 1;
+            }
+        }
+        self.run.tl_len = n;
+        self.run.tl_next = 0;
+        Ok(())
+    }
+
+    /// The next split sample with a point, if any is left.
+    fn next_split(&mut self) -> Option<LightDraw> {
+        while self.run.tl_next < self.run.tl_len {
+            let (light, pmf, uv) = self.run.tl[self.run.tl_next];
+            self.run.tl_next += 1;
+            if let Some(d) = self.draw(light, pmf, uv, Role::Split) {
+                return Some(d);
+            }
+        }
+        None
+    }
+
+    /// Settles a BSDF sample of the mixture that was never reported: its ray reached nothing.
+    #[inline]
+    fn settle_pending(&mut self) {
+        if let Some(p) = self.run.pending_tb.take() {
+            self.run.alloc.record_tb(false);
+            self.run.sw.record(p);
+        }
+    }
+
+    /// The next step of the estimate begun by [`Estimator::start`], drawing uniform numbers
+    /// from `u` as needed. After [`Step::Done`] it keeps returning `Done`.
+    pub fn next(&mut self, u: &mut (impl Uniforms + ?Sized)) -> Result<Step, DirectError> {
+        self.settle_pending();
+        loop {
+            match self.run.phase {
+                Phase::Done => return Ok(Step::Done),
+                Phase::Start => {
+                    self.run.phase = Phase::Done;
+                    match self.technique {
+                        Technique::Uniform => {
+                            let s = UniformSampler::new(self.set.len() as u32);
+                            let v = u.next_f64();
+                            if !(0.0..1.0).contains(&v) {
+                                return Err(DirectError::Uniform { value: v });
+                            }
+                            if let Some(s) = s.sample_f64(v) {
+                                return Ok(self.single(s.light, s.pmf, next2(u)?));
+                            }
+                        }
+                        Technique::Power => {
+                            let v = u.next_f64();
+                            if !(0.0..1.0).contains(&v) {
+                                return Err(DirectError::Uniform { value: v });
+                            }
+                            if let Some(s) = PowerSampler::new(self.set).sample_f64(v) {
+                                return Ok(self.single(s.light, s.pmf, next2(u)?));
+                            }
+                        }
+                        Technique::Tl => {
+                            if let Some(s) = self.tl.sample(next1(u)?) {
+                                return Ok(self.single(s.light, s.pmf, next2(u)?));
+                            }
+                        }
+                        Technique::Bl => {
+                            let v = next1(u)?;
+                            if let Some(s) = self.bl.as_ref().and_then(|b| b.sample(v)) {
+                                return Ok(self.single(s.light, s.pmf, next2(u)?));
+                            }
+                        }
+                        Technique::TlMis => {
+                            let v = next1(u)?;
+                            let uv = next2(u)?;
+                            self.run.phase = Phase::TlMisBsdf;
+                            if let Some(s) = self.tl.sample(v) {
+                                if let Some(d) = self.draw(s.light, s.pmf, uv, Role::TlMis) {
+                                    return Ok(Step::Light(d));
+                                }
+                            }
+                        }
+                        Technique::TlSplit | Technique::MisEqual => {
+                            self.draw_split(u)?;
+                            self.run.phase = Phase::TlFirst;
+                        }
+                        Technique::Full => {
+                            self.draw_split(u)?;
+                            self.run.phase = if self.n_mix == 0 {
+                                Phase::TlFirst
+                            } else {
+                                Phase::Mixture
+                            };
+                        }
+                    }
+                }
+                Phase::TlMisBsdf => {
+                    self.run.phase = Phase::Done;
+                    return Ok(Step::Bsdf(BsdfDraw {
+                        u: next2(u)?,
+                        p: None,
+                    }));
+                }
+                Phase::TlFirst => {
+                    if let Some(d) = self.next_split() {
+                        return Ok(Step::Light(d));
+                    }
+                    let mixture = self.technique == Technique::MisEqual
+                        && self.n_mix > 0
+                        && self.bl.is_some();
+                    self.run.phase = if mixture { Phase::Mixture } else { Phase::Done };
+                }
+                Phase::TlLast => {
+                    if let Some(d) = self.next_split() {
+                        return Ok(Step::Light(d));
+                    }
+                    self.run.phase = Phase::Done;
+                }
+                Phase::Mixture => {
+                    if self.run.j >= self.n_mix {
+                        self.run.phase = if self.technique == Technique::Full {
+                            Phase::TlLast
+                        } else {
+                            Phase::Done
+                        };
+                        continue;
+                    }
+                    if let Some(step) = self.mixture_step(u)? {
+                        return Ok(step);
+                    }
+                }
+            }
+        }
+    }
+
+    /// The only light sample of `uniform`, `power`, `tl` and `bl`, if it has a point.
+    #[inline]
+    fn single(&mut self, light: u32, pmf: f32, uv: [f32; 2]) -> Step {
+        match self.draw(light, pmf, uv, Role::Plain) {
+            Some(d) => Step::Light(d),
+            None => Step::Done,
+        }
+    }
+
+    /// The j-th BRDF-aware sample: a BL light sample, a BSDF sample, or nothing (a BL sample
+    /// without a light or point).
+    fn mixture_step(
+        &mut self,
+        u: &mut (impl Uniforms + ?Sized),
+    ) -> Result<Option<Step>, DirectError> {
+        let j = self.run.j;
+        self.run.j += 1;
+        let (technique, warped, p) = if self.technique == Technique::Full {
+            let (t, w, p) = self.run.alloc.choose(next1(u)?);
+            (t, w, p)
+        } else {
+            // ⌊N/2⌋ BL, ⌊N/2⌋ TB, and for an odd N one more, BL or TB with probability 1/2.
+            let half = self.n_mix / 2;
+            let v = next1(u)?;
+            if j < half {
+                (Mixture::Bl, v, 0.5)
+            } else if j < 2 * half {
+                (Mixture::Tb, v, 0.5)
+            } else if v < 0.5 {
+                (Mixture::Bl, 2.0 * v, 0.5)
+            } else {
+                (Mixture::Tb, (2.0 * v - 1.0).min(ONE_MINUS_EPSILON), 0.5)
+            }
+        };
+        match technique {
+            Mixture::Bl => {
+                let uv = next2(u)?;
+                if self.technique == Technique::Full {
+                    self.run.sw.record(p);
+                }
+                let Some(s) = self.bl.as_ref().and_then(|b| b.sample(warped)) else {
+                    return Ok(None);
+                };
+                let role = Role::MixtureBl { p, pdf_bl: 0.0 };
+                Ok(self.draw(s.light, s.pmf, uv, role).map(|mut d| {
+                    d.role = Role::MixtureBl {
+                        p,
+                        pdf_bl: s.pmf * d.point.pdf,
+                    };
+                    Step::Light(d)
+                }))
+            }
+            Mixture::Tb => {
+                let v = next1(u)?;
+                if self.technique == Technique::Full {
+                    self.run.pending_tb = Some(p);
+                }
+                Ok(Some(Step::Bsdf(BsdfDraw {
+                    u: [warped, v],
+                    p: Some(p),
+                })))
+            }
+        }
+    }
+
+    /// The weight and density of a light sample, given the host's BSDF pdf of its direction
+    /// (used only where `draw.needs_bsdf_pdf`). Weigh a sample only if it contributes (its
+    /// value is positive and it is visible); a sample weighed in the wrong estimate gets the
+    /// weights of the current one.
+    pub fn weigh(&mut self, draw: &LightDraw, bsdf_pdf: f32) -> Result<Weighted, DirectError> {
+        if !(0.0..f32::INFINITY).contains(&bsdf_pdf) {
+            return Err(DirectError::BsdfPdf { value: bsdf_pdf });
+        }
+        // A BSDF ray never reaches a point or spot light.
+        let pdf_tb = if draw.needs_bsdf_pdf { bsdf_pdf } else { 0.0 };
+        let pdf = draw.pmf * draw.point.pdf;
+        let pp = draw.point.pdf;
+        Ok(match draw.role {
+            Role::Plain => Weighted::plain(pdf),
+            Role::TlMis => {
+                if pdf_tb > 0.0 {
+                    let (a, b) = (pdf, pdf_tb);
+                    let w = crate::mis::power(1.0, a, &[(1.0, b)]);
+                    Weighted::checked(Factors {
+                        num: w,
+                        den: a,
+                        pdf: a,
+                    })
+                } else {
+                    Weighted::plain(pdf)
+                }
+            }
+            Role::Split => match self.technique {
+                Technique::MisEqual => {
+                    let pdf_bl = if self.n_mix > 0 && self.bl_on() {
+                        self.pmf_bl(draw.light) * pp
+                    } else {
+                        0.0
+                    };
+                    let (w_tl, _) = self.combined().weights(pdf, pdf_bl, pdf_tb);
+                    Weighted::checked(Factors {
+                        num: w_tl,
+                        den: pdf,
+                        pdf,
+                    })
+                }
+                Technique::Full if self.n_mix > 0 => {
+                    let pdf_bl = if self.bl_on() {
+                        self.pmf_bl(draw.light) * pp
+                    } else {
+                        0.0
+                    };
+                    let w = self.run.sw.tl_weight(pdf, pdf_bl, pdf_tb);
+                    Weighted::checked(Factors {
+                        num: w,
+                        den: pdf,
+                        pdf,
+                    })
+                }
+                _ => Weighted::plain(pdf),
+            },
+            Role::MixtureBl { p, pdf_bl } => {
+                let pdf_tl = self.pmf_tl(draw.light) * pp;
+                self.mixture_weight(p, pdf_tl, pdf_bl, pdf_tb)
+            }
+        })
+    }
+
+    /// The weight of a point reached by a BRDF-aware sample of BL probability `p`.
+    #[inline]
+    fn mixture_weight(&self, p: f32, pdf_tl: f32, pdf_bl: f32, pdf_tb: f32) -> Weighted {
+        if self.technique == Technique::Full {
+            // The term depends on the budget and the sample's own p only.
+            let terms = SequentialWeights::new(self.n_mix, 1.0, self.power);
+            match terms.mixture_factors(p, pdf_tl, pdf_bl, pdf_tb) {
+                Some(f) => Weighted::checked(f),
+                None => Weighted::ZERO,
+            }
+        } else {
+            let (_, w_m) = self.combined().weights(pdf_tl, pdf_bl, pdf_tb);
+            let half = 0.5 * self.n_mix as f32;
+            let den = half * pdf_bl + half * pdf_tb;
+            Weighted::checked(Factors {
+                num: w_m,
+                den,
+                pdf: den,
+            })
+        }
+    }
+
+    /// Reports a BSDF sample: the host sampled `direction` (world space, any positive length)
+    /// with density `bsdf_pdf`, and its ray's first surface is at `hit_distance` (+∞ for none).
+    /// Calls `each` for every light reached in front of it with non-zero radiance, with its
+    /// weight. Returns whether any was reached (what the adaptive allocation learns).
+    pub fn bsdf_hits(
+        &mut self,
+        draw: &BsdfDraw,
+        direction: Vec3,
+        bsdf_pdf: f32,
+        hit_distance: f32,
+        each: impl FnMut(LightHit),
+    ) -> Result<bool, DirectError> {
+        if hit_distance.is_nan() || hit_distance < 0.0 {
+            return Err(DirectError::HitDistance {
+                value: hit_distance,
+            });
+        }
+        self.bsdf_hits_with(
+            draw,
+            direction,
+            bsdf_pdf,
+            |lp| lp.distance < hit_distance,
+            each,
+        )
+    }
+
+    /// [`Estimator::bsdf_hits`] with visibility decided per light point by `visible` (a
+    /// shadow ray to the point, say).
+    pub fn bsdf_hits_with(
+        &mut self,
+        draw: &BsdfDraw,
+        direction: Vec3,
+        bsdf_pdf: f32,
+        mut visible: impl FnMut(&LightPoint) -> bool,
+        mut each: impl FnMut(LightHit),
+    ) -> Result<bool, DirectError> {
+        let l2 = direction.length_squared();
+        if !(l2 > 0.0 && l2 < f32::INFINITY && direction.is_finite()) {
+            return Err(DirectError::Direction { length_squared: l2 });
+        }
+        if !(0.0..f32::INFINITY).contains(&bsdf_pdf) {
+            return Err(DirectError::BsdfPdf { value: bsdf_pdf });
+        }
+        // A direction already of unit length (to f32 rounding) is taken as it is.
+        let dir = if (l2 - 1.0).abs() <= 4.0 * f32::EPSILON {
+            direction
+        } else {
+            direction / crate::math::sqrt(l2)
+        };
+        let mixture = draw.p;
+        // This sample's outcome is recorded here, not when the next step settles it.
+        let pending = if mixture.is_some() {
+            self.run.pending_tb.take()
+        } else {
+            None
+        };
+        let mut hit = false;
+        let set = self.set;
+        let x = self.x;
+        set.trace(x, dir, |light, lp| {
+            if lp.radiance <= 0.0 || !visible(lp) {
+                return;
+            }
+            hit = true;
+            let weighted = match mixture {
+                Some(p) => {
+                    let pdf_tl = self.pmf_tl(light) * lp.pdf;
+                    let pdf_bl = if self.uses_bl(p) {
+                        self.pmf_bl(light) * lp.pdf
+                    } else {
+                        0.0
+                    };
+                    self.mixture_weight(p, pdf_tl, pdf_bl, bsdf_pdf)
+                }
+                None => {
+                    let pdf_l = self.tl.pmf(light) * lp.pdf;
+                    let w = crate::mis::power(1.0, bsdf_pdf, &[(1.0, pdf_l)]);
+                    Weighted::checked(Factors {
+                        num: w,
+                        den: bsdf_pdf,
+                        pdf: bsdf_pdf,
+                    })
+                }
+            };
+            each(LightHit {
+                light,
+                point: *lp,
+                weighted,
+            });
+        });
+        if let Some(p) = pending {
+            self.run.alloc.record_tb(hit);
+            self.run.sw.record(p);
+        }
+        Ok(hit)
+    }
+
+    /// Whether a BRDF-aware sample of BL probability `p` is weighted with BL's density.
+    #[inline]
+    fn uses_bl(&self, p: f32) -> bool {
+        if self.technique == Technique::Full {
+            p > 0.0
+        } else {
+            self.bl.is_some() || self.n_mix > 0
+        }
+    }
+
+    /// `f · L · cos θi` of a light point with the core's material, and the local direction.
+    #[inline]
+    fn value(&self, lp: &LightPoint) -> (f32, Vec3) {
+        let wi = self.frame.to_local(lp.direction);
+        if lp.radiance <= 0.0 || wi.z <= 0.0 {
+            return (0.0, wi);
+        }
+        (self.material.eval(self.wo, wi) * lp.radiance * wi.z, wi)
+    }
+
+    /// One estimate of the reflected radiance with the core's material and the host's
+    /// occluder: the lower level's loop ([`Estimator::start`], [`Estimator::next`],
+    /// [`Estimator::weigh`], [`Estimator::bsdf_hits_with`]), summed in f64. Finite and
+    /// non-negative.
+    pub fn estimate<O: Occluder + ?Sized>(
+        &mut self,
+        occluder: &O,
+        u: &mut (impl Uniforms + ?Sized),
+    ) -> Result<f64, DirectError> {
+        self.start();
+        let x = self.x;
+        let mut sum = 0.0f64;
+        loop {
+            match self.next(u)? {
+                Step::Done => break,
+                Step::Light(d) => {
+                    let (g, wi) = self.value(&d.point);
+                    if g <= 0.0 || occluder.occluded(x, d.point.direction, d.point.distance) {
+                        continue;
+                    }
+                    let pdf_tb = if d.needs_bsdf_pdf {
+                        self.material.pdf(self.wo, wi)
+                    } else {
+                        0.0
+                    };
+                    sum += f64::from(self.weigh(&d, pdf_tb)?.contribution(g));
+                }
+                Step::Bsdf(b) => {
+                    let Some((wi, pdf)) = self.material.sample(self.wo, b.u) else {
+                        continue;
+                    };
+                    let f = self.material.eval(self.wo, wi);
+                    let dir = self.frame.to_world(wi).normalize();
+                    let mut value = 0.0f64;
+                    self.bsdf_hits_with(
+                        &b,
+                        dir,
+                        pdf,
+                        |lp| !occluder.occluded(x, dir, lp.distance),
+                        |h| {
+                            let g = f * h.point.radiance * wi.z;
+                            if g > 0.0 {
+                                value += f64::from(h.weighted.contribution(g));
+                            }
+                        },
+                    )?;
+                    sum += value;
+                }
+            }
+        }
+        Ok(sum)
+    }
+}

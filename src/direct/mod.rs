@@ -1,0 +1,322 @@
+//! Direct illumination at a shading point: every technique as one library call, over a
+//! lower level for hosts with their own BSDFs, spectra or ray casts.
+//!
+//! A host builds a [`LightSet`](crate::LightSet) once per scene, then at each shading point an
+//! [`Estimator`] for one [`Technique`] (its per-point set-up: cuts, budget), and asks it for
+//! estimates of the reflected radiance `∫ f(ωo, ωi) L(ωi) cos θi dωi` from the lights:
+//!
+//! - **One call** ([`Estimator::estimate`]): with the core's [`Material`](crate::Material)s and a
+//!   host [`Occluder`] (shadow rays), uniform numbers from the host's [`Uniforms`].
+//! - **The lower level** ([`Estimator::start`], [`Estimator::next`]): the estimator yields
+//!   [`Step::Light`] — a light point for the host to shade and test, weighed with the host's
+//!   BSDF pdf by [`Estimator::weigh`] — and [`Step::Bsdf`] — two uniform numbers for the host
+//!   to sample its BSDF with; the host reports the direction, its pdf and what its ray hit to
+//!   [`Estimator::bsdf_hits`], which returns the lights reached with their weights. The
+//!   adaptive allocation (Liu et al. 2019, Algorithm 1) learns from those reports. The one
+//!   call is this loop with the core's materials.
+//!
+//! Every contribution is `value · weight / pdf` ([`Weighted::contribution`]), with `value =
+//! f · L · cos θi` evaluated by whoever owns the BSDF; an estimate is the sum over the steps.
+//!
+//! # Techniques
+//!
+//! - `uniform`, `power`: one light uniformly or ∝ energy ([`UniformSampler`],
+//!   [`PowerSampler`]: an alias table), a point on it.
+//! - `tl`: one light by tree descent with the Conty–Kulla importance ([`TreeSampler`]).
+//! - `tl-split`: Conty & Kulla's split sampling: one light in each cluster of the split cut
+//!   ([`LightCut::build_split`](crate::LightCut::build_split)), summed.
+//! - `bl`: one light from the BRDF-oriented cut of Liu et al. 2019 ([`CutSampler`]).
+//! - `tl-mis`: one `tl` light sample plus one BSDF sample, combined by the power heuristic
+//!   (β = 2): what pbrt-v4 and Blender Cycles do at a shading point.
+//! - `mis-equal`: `tl-split` plus `N = brdf_budget(cut, n_max)` BRDF-aware samples (none at
+//!   Lambert points): ⌊N/2⌋ BL, ⌊N/2⌋ BSDF (TB) and, for an odd N, one more that is BL or TB
+//!   with probability 1/2. A BRDF-aware sample y contributes `g(y) w_M(y) / (N q_ref(y))`,
+//!   `q_ref = (pdf_BL + pdf_TB)/2`, the expected number of BRDF-aware samples landing at y per
+//!   unit measure, so the sum is unbiased wherever `q_ref` covers `g·w_M`
+//!   ([`CombinedWeights`](crate::mis::CombinedWeights) with `p_ref = 1/2`).
+//! - `full`, the method of Liu et al. 2019: `tl-split` plus N BRDF-aware samples chosen by
+//!   [`AdaptiveAllocator`](crate::mis::AdaptiveAllocator) (Algorithm 1) and weighted by
+//!   [`SequentialWeights`](crate::mis::SequentialWeights): sample j contributes
+//!   `g W_j / q_j` with `q_j = p_j pdf_BL + (1 − p_j) pdf_TB`, p_j the allocator's probability
+//!   before the sample. Each choice takes a fresh uniform number; the allocator warps it and
+//!   the warped number drives the chosen technique's first dimension — it is never fed to the
+//!   next choice, since a BSDF sample's hit depends on it and the next choice would no longer
+//!   have probability p_{j+1} given the counts. The TL samples are drawn first but weighted
+//!   (and yielded) after the last BRDF-aware sample, once every p_j is known. At Lambert-only
+//!   points see [`LambertMode`].
+//!
+//! The default for a renderer is [`Technique::DEFAULT`].
+//!
+//! Densities, for MIS: TL's of a light point y on light l is `split.pmf_in(l) · pdf_point(y)`,
+//! BL's `cut.pmf(l) · pdf_point(y)`, TB's the BSDF's solid-angle pdf. Point and spot lights
+//! cannot be reached by a BSDF ray, so their TB density is 0 in every weight. A BSDF ray
+//! reaches the lights through the tree's bounding spheres ([`LightTree::trace`]); lights do not
+//! block each other. The TB "hit" the allocator counts: the ray reached at least one light with
+//! non-zero radiance in front of the first surface.
+//!
+//! # Bad input
+//!
+//! Nothing here panics or allocates. An invalid shading point is a [`DirectError::Shading`]
+//! naming its field; a uniform number outside [0, 1) (or NaN), a NaN or negative BSDF pdf, a
+//! non-finite or zero direction and a NaN hit distance are errors naming the argument. An
+//! estimate is always finite and non-negative.
+//!
+//! [`LightTree::trace`]: crate::LightTree::trace
+
+mod estimator;
+mod sampler;
+
+pub use estimator::{BsdfDraw, Estimator, LightDraw, LightHit, Step, Weighted};
+pub use sampler::{CutSampler, LightSampler, PowerSampler, TreeSampler, UniformSampler};
+
+use crate::cut::{CutOptions, SplitOptions};
+use crate::material::ShadingError;
+use crate::mis::N_MAX;
+use core::fmt;
+use glam::Vec3;
+
+/// A direct-lighting technique.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum Technique {
+    /// One light uniformly.
+    Uniform,
+    /// One light ∝ energy.
+    Power,
+    /// Tree descent with TL importance, one sample.
+    Tl,
+    /// Split sampling, one sample per cluster.
+    TlSplit,
+    /// BRDF-oriented cut, one sample.
+    Bl,
+    /// TL split + BL/TB in equal numbers.
+    MisEqual,
+    /// TL split + BL/TB adaptively (Liu et al. 2019).
+    Full,
+    /// One TL tree sample + one BSDF sample, power heuristic (pbrt-v4, Cycles).
+    TlMis,
+}
+
+impl Technique {
+    /// Every technique.
+    pub const ALL: [Technique; 8] = [
+        Technique::Uniform,
+        Technique::Power,
+        Technique::Tl,
+        Technique::TlSplit,
+        Technique::Bl,
+        Technique::MisEqual,
+        Technique::Full,
+        Technique::TlMis,
+    ];
+
+    /// The technique a renderer should use when it has no reason to choose another.
+    pub const DEFAULT: Technique = Technique::Full;
+
+    /// The technique of a name (as [`Technique::name`] gives it).
+    pub fn from_name(name: &str) -> Option<Technique> {
+        Technique::ALL.into_iter().find(|t| t.name() == name)
+    }
+
+    /// The technique's name.
+    pub fn name(self) -> &'static str {
+        match self {
+            Technique::Uniform => "uniform",
+            Technique::Power => "power",
+            Technique::Tl => "tl",
+            Technique::TlSplit => "tl-split",
+            Technique::Bl => "bl",
+            Technique::MisEqual => "mis-equal",
+            Technique::Full => "full",
+            Technique::TlMis => "tl-mis",
+        }
+    }
+
+    /// Whether the technique takes BSDF samples ([`Step::Bsdf`]) at some shading points.
+    pub fn samples_bsdf(self) -> bool {
+        matches!(
+            self,
+            Technique::MisEqual | Technique::Full | Technique::TlMis
+        )
+    }
+}
+
+impl fmt::Display for Technique {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(self.name())
+    }
+}
+
+/// What `full` does at a Lambert-only shading point.
+///
+/// For a constant BRDF the BRDF-oriented importance is the TL one with exact cap integrals
+/// (Liu et al. 2019, end of section 4.2), so BL adds nothing and only TL and TB remain. Next to
+/// a small sphere light a few radii from a wall TL samples the light's cap uniformly and is
+/// nearly exact, and a cosine-distributed BRDF sample only adds variance and a ray; the README
+/// has the measurements behind the default.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Default)]
+pub enum LambertMode {
+    /// TL split alone (the default): the Lambert share of IB(x) asks for no BRDF-aware
+    /// samples ([`crate::mis::brdf_budget`]).
+    #[default]
+    TlOnly,
+    /// TL split + N = `sample_budget(IB(x))` TB samples (Liu et al.: TL + TB only; the budget
+    /// as at any other point).
+    TbBudget,
+    /// TL split + 1 TB sample (no BL cut is built: IB is not needed).
+    TbOne,
+    /// As at glossy points: TL split + N samples allocated adaptively between BL and TB.
+    BlTb,
+}
+
+impl LambertMode {
+    /// Every mode.
+    pub const ALL: [LambertMode; 4] = [
+        LambertMode::TlOnly,
+        LambertMode::TbBudget,
+        LambertMode::TbOne,
+        LambertMode::BlTb,
+    ];
+
+    /// The mode's name (`tl-only`, `tb-budget`, `tb-one`, `bl-tb`).
+    pub fn name(self) -> &'static str {
+        match self {
+            LambertMode::TlOnly => "tl-only",
+            LambertMode::TbBudget => "tb-budget",
+            LambertMode::TbOne => "tb-one",
+            LambertMode::BlTb => "bl-tb",
+        }
+    }
+
+    /// The mode of a name (as [`LambertMode::name`] gives it).
+    pub fn from_name(name: &str) -> Option<LambertMode> {
+        LambertMode::ALL.into_iter().find(|m| m.name() == name)
+    }
+}
+
+/// Everything a host configures: the cuts, the budget and the weights.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Params {
+    /// The split-sampling cut (`tl-split`, `mis-equal`, `full`).
+    pub split: SplitOptions,
+    /// The BRDF-oriented cut (`bl`, `mis-equal`, `full`).
+    pub cut: CutOptions,
+    /// Nmax of the BRDF-aware budget `N = ceil(Nmax · IB(x))` (clamped to
+    /// 1..=[`MAX_BUDGET`](crate::mis::MAX_BUDGET)).
+    pub n_max: u32,
+    /// `full` at Lambert-only points.
+    pub lambert: LambertMode,
+    /// The power heuristic (β = 2, the default) instead of the balance heuristic between TL and
+    /// the BRDF-aware mixture.
+    pub power: bool,
+}
+
+impl Default for Params {
+    fn default() -> Self {
+        Params {
+            split: SplitOptions::default(),
+            cut: CutOptions::default(),
+            n_max: N_MAX,
+            lambert: LambertMode::TlOnly,
+            power: true,
+        }
+    }
+}
+
+/// The host's uniform numbers (the core has no random number generator). Any sequence works;
+/// the estimator asks for them one at a time, in an order fixed by the technique and the
+/// outcomes so far.
+pub trait Uniforms {
+    /// The next number, uniform in [0, 1).
+    fn next_f32(&mut self) -> f32;
+    /// The next number, uniform in [0, 1) with more bits: for choosing among more lights than
+    /// an f32 can tell apart (`uniform`, `power`).
+    fn next_f64(&mut self) -> f64;
+}
+
+/// The host's visibility: geometry that blocks light.
+///
+/// A light sample counts only if the segment from the shading point to the light point is
+/// free; a BSDF ray reaches only the lights in front of the first surface, each tested with a
+/// shadow ray to the point it reaches (so most BSDF rays, which reach no light, cost no ray
+/// cast). Lights do not block each other.
+pub trait Occluder {
+    /// Whether a surface lies on the ray from `x` along the unit `d` before distance `t`.
+    fn occluded(&self, x: Vec3, d: Vec3, t: f32) -> bool;
+}
+
+/// No geometry: nothing is occluded.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct Unoccluded;
+
+impl Occluder for Unoccluded {
+    #[inline]
+    fn occluded(&self, _x: Vec3, _d: Vec3, _t: f32) -> bool {
+        false
+    }
+}
+
+impl<O: Occluder + ?Sized> Occluder for &O {
+    #[inline]
+    fn occluded(&self, x: Vec3, d: Vec3, t: f32) -> bool {
+        (**self).occluded(x, d, t)
+    }
+}
+
+/// Why an estimator refused its input.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum DirectError {
+    /// The shading point is invalid.
+    Shading(ShadingError),
+    /// A uniform number from the host is NaN or outside [0, 1).
+    Uniform {
+        /// The number.
+        value: f64,
+    },
+    /// The host's BSDF pdf is NaN, negative or infinite.
+    BsdfPdf {
+        /// The pdf.
+        value: f32,
+    },
+    /// The host's BSDF direction is not finite or has zero length.
+    Direction {
+        /// Its squared length.
+        length_squared: f32,
+    },
+    /// The host's hit distance is NaN or negative.
+    HitDistance {
+        /// The distance.
+        value: f32,
+    },
+}
+
+impl From<ShadingError> for DirectError {
+    fn from(e: ShadingError) -> Self {
+        DirectError::Shading(e)
+    }
+}
+
+impl fmt::Display for DirectError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match *self {
+            DirectError::Shading(e) => e.fmt(f),
+            DirectError::Uniform { value } => {
+                write!(f, "uniform number: must be in [0, 1) (got {value})")
+            }
+            DirectError::BsdfPdf { value } => {
+                write!(f, "bsdf_pdf: must be finite and non-negative (got {value})")
+            }
+            DirectError::Direction { length_squared } => write!(
+                f,
+                "direction: must be finite and non-zero (squared length {length_squared})"
+            ),
+            DirectError::HitDistance { value } => {
+                write!(
+                    f,
+                    "hit_distance: must be non-negative or +inf (got {value})"
+                )
+            }
+        }
+    }
+}
+
+impl core::error::Error for DirectError {}

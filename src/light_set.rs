@@ -1,0 +1,188 @@
+//! A renderer's lights as the direct-lighting estimators use them: the lights themselves (for
+//! points on them and ray hits), their [`LightTree`], and an alias table for sampling ∝ power.
+//!
+//! One [`LightSet`] is built per scene (it allocates); it is immutable afterwards,
+//! `Send + Sync`, and shared by every thread and every shading point.
+
+use alloc::vec::Vec;
+
+use crate::error::BuildError;
+use crate::light::Light;
+use crate::light_sample::LightPoint;
+use crate::tree::LightTree;
+use glam::Vec3;
+
+/// Lights, their tree and their power distribution.
+#[derive(Clone, Debug)]
+pub struct LightSet {
+    lights: Vec<Light>,
+    tree: LightTree,
+    power: AliasTable,
+}
+
+impl LightSet {
+    /// Validates `lights` (errors name the light and field, as [`LightTree::build`]) and builds
+    /// their tree and alias table.
+    pub fn build(lights: Vec<Light>) -> Result<LightSet, BuildError> {
+        let tree = LightTree::build(&lights)?;
+        let power = AliasTable::new(lights.iter().map(|l| f64::from(l.energy())));
+        Ok(LightSet {
+            lights,
+            tree,
+            power,
+        })
+    }
+
+    /// The lights, in the order given to [`LightSet::build`] (light indices index this).
+    #[inline]
+    pub fn lights(&self) -> &[Light] {
+        &self.lights
+    }
+
+    /// Their tree.
+    #[inline]
+    pub fn tree(&self) -> &LightTree {
+        &self.tree
+    }
+
+    /// The alias table of their energies.
+    #[inline]
+    pub fn power(&self) -> &AliasTable {
+        &self.power
+    }
+
+    /// Number of lights.
+    #[inline]
+    pub fn len(&self) -> usize {
+        self.lights.len()
+    }
+
+    /// No lights.
+    #[inline]
+    pub fn is_empty(&self) -> bool {
+        self.lights.is_empty()
+    }
+
+    /// Calls `hit(light, point)` for every light the ray from `x` along the unit `d` reaches
+    /// ([`LightTree::trace`]).
+    #[inline]
+    pub fn trace(&self, x: Vec3, d: Vec3, hit: impl FnMut(u32, &LightPoint)) {
+        self.tree.trace(&self.lights, x, d, hit);
+    }
+}
+
+/// Walker's alias table over non-negative weights: O(1) sampling with one uniform number.
+///
+/// Entry `i` keeps itself with probability `threshold[i]` and otherwise gives `alias[i]`; the
+/// table is built (Vose's method, in f64) so that entry `i` comes out with probability
+/// `weight[i] / Σ weight`, which [`AliasTable::pmf`] reports. Entries of weight 0 are never
+/// sampled (their threshold is 0 and no alias points to them).
+#[derive(Clone, Debug, Default)]
+pub struct AliasTable {
+    threshold: Vec<f32>,
+    alias: Vec<u32>,
+    pmf: Vec<f32>,
+}
+
+impl AliasTable {
+    /// A table over `weights`; negative, NaN and infinite weights count as 0. With no positive
+    /// weight the table samples nothing.
+    pub fn new(weights: impl IntoIterator<Item = f64>) -> AliasTable {
+        let w: Vec<f64> = weights
+            .into_iter()
+            .map(|x| if x > 0.0 && x.is_finite() { x } else { 0.0 })
+            .collect();
+        let n = w.len();
+        let total: f64 = w.iter().sum();
+        if n == 0 || !(total > 0.0 && total.is_finite()) || n > u32::MAX as usize {
+            return AliasTable {
+                threshold: Vec::new(),
+                alias: Vec::new(),
+                pmf: alloc::vec![0.0; n],
+            };
+        }
+        let pmf: Vec<f32> = w.iter().map(|&x| (x / total) as f32).collect();
+        // Scaled weights (mean 1), split into those below and above the mean.
+        let mut scaled: Vec<f64> = w.iter().map(|&x| x / total * n as f64).collect();
+        let mut threshold = alloc::vec![0f32; n];
+        let mut alias: Vec<u32> = (0..n as u32).collect();
+        let mut small: Vec<u32> = Vec::new();
+        let mut large: Vec<u32> = Vec::new();
+        for (i, &s) in scaled.iter().enumerate() {
+            if s < 1.0 {
+                small.push(i as u32);
+            } else {
+                large.push(i as u32);
+            }
+        }
+        while let (Some(&s), Some(&l)) = (small.last(), large.last()) {
+            small.pop();
+            threshold[s as usize] = scaled[s as usize] as f32;
+            alias[s as usize] = l;
+            scaled[l as usize] -= 1.0 - scaled[s as usize];
+            if scaled[l as usize] < 1.0 {
+                large.pop();
+                small.push(l);
+            }
+        }
+        // What is left is 1 up to rounding.
+        for i in large.into_iter().chain(small) {
+            threshold[i as usize] = 1.0;
+            alias[i as usize] = i;
+        }
+        // Rounding may leave a weightless entry with a threshold or as an alias: send it to
+        // the heaviest entry instead, so that a sampled entry always has pmf > 0.
+        let heaviest = (0..n).fold(0, |b, i| if w[i] > w[b] { i } else { b }) as u32;
+        for i in 0..n {
+            if pmf[i] == 0.0 {
+                threshold[i] = 0.0;
+            }
+            if pmf[alias[i] as usize] == 0.0 {
+                alias[i] = heaviest;
+            }
+        }
+        AliasTable {
+            threshold,
+            alias,
+            pmf,
+        }
+    }
+
+    /// Number of entries.
+    #[inline]
+    pub fn len(&self) -> usize {
+        self.pmf.len()
+    }
+
+    /// No entries.
+    #[inline]
+    pub fn is_empty(&self) -> bool {
+        self.pmf.is_empty()
+    }
+
+    /// An entry for `u` in [0, 1) (clamped into it; NaN counts as 0) and its probability
+    /// (> 0); `None` when no weight is positive.
+    #[inline]
+    pub fn sample(&self, u: f64) -> Option<(u32, f32)> {
+        let n = self.threshold.len();
+        if n == 0 {
+            return None;
+        }
+        let u = if u > 0.0 { u.min(1.0) } else { 0.0 };
+        let scaled = u * n as f64;
+        let i = (scaled as usize).min(n - 1);
+        let rest = scaled - i as f64;
+        let pick = if rest < f64::from(self.threshold[i]) {
+            i as u32
+        } else {
+            self.alias[i]
+        };
+        Some((pick, self.pmf[pick as usize]))
+    }
+
+    /// The probability of entry `i` (0 outside the table).
+    #[inline]
+    pub fn pmf(&self, i: u32) -> f32 {
+        self.pmf.get(i as usize).copied().unwrap_or(0.0)
+    }
+}
