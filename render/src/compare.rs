@@ -50,7 +50,7 @@
 
 use crate::render::{
     convergence_svg, read_raw, render, side_by_side_labelled, write_exr, write_png, write_raw,
-    Image, RenderConfig,
+    Image, Protocol, RenderConfig,
 };
 use crate::scene::RenderScene;
 use manylights::Technique;
@@ -81,6 +81,8 @@ pub struct CompareConfig {
     /// Equal-time budget per technique in busy seconds (`--time`); `None`: what `full` took
     /// at `spp`.
     pub time: Option<f64>,
+    /// Where the estimates are taken (the reference follows it).
+    pub protocol: Protocol,
 }
 
 /// A technique's render time as `fixed + spp × per_spp` (busy seconds).
@@ -187,6 +189,8 @@ pub struct Report {
     pub dir: PathBuf,
     /// Per technique, in [`Technique::ALL`] order.
     pub techniques: Vec<TechReport>,
+    /// Where the estimates were taken.
+    pub protocol: Protocol,
 }
 
 /// A number for JSON: `null` when not finite.
@@ -209,6 +213,8 @@ impl Report {
             "ref_spp": self.ref_spp,
             "time_budget_s": num(self.time_budget),
             "time_budget_from": if self.time_given { "--time" } else { "full" },
+            "protocol": self.protocol.name(),
+            "default_technique": Technique::DEFAULT.name(),
             "dir": self.dir.display().to_string(),
             "techniques": self.techniques.iter().map(|t| json!({
                 "name": t.technique.name(),
@@ -228,11 +234,15 @@ impl Report {
 
     /// The Markdown table.
     pub fn table(&self) -> String {
-        let base = self
-            .techniques
-            .iter()
-            .find(|t| t.technique == Technique::TlSplit)
-            .map(|t| (t.rmse_equal_spp, t.rmse_equal_time));
+        let rmse_of = |t: Technique| {
+            self.techniques
+                .iter()
+                .find(|r| r.technique == t)
+                .map_or((f64::NAN, f64::NAN), |r| {
+                    (r.rmse_equal_spp, r.rmse_equal_time)
+                })
+        };
+        let (split, mis) = (rmse_of(Technique::TlSplit), rmse_of(Technique::TlMis));
         let budget = if self.time_given {
             format!("{:.3} s per technique (--time)", self.time_budget)
         } else {
@@ -242,23 +252,28 @@ impl Report {
             )
         };
         let mut s = format!(
-            "{} ({} lights, {}x{}, {} spp; reference: full at {} spp)\n\
+            "{} ({} lights, {}x{}, {} spp, {} protocol; reference: full at {} spp)\n\
              equal time: {budget}; times are busy time summed over threads\n\n",
-            self.scene, self.lights, self.resolution.0, self.resolution.1, self.spp, self.ref_spp
+            self.scene,
+            self.lights,
+            self.resolution.0,
+            self.resolution.1,
+            self.spp,
+            self.protocol.name(),
+            self.ref_spp
         );
-        s.push_str("| technique | RMSE equal spp | ×tl-split | RMSE equal time | ×tl-split | spp at equal time | s at equal time | ms/spp | mean rel. diff | ± (1 se) | at spp |\n");
-        s.push_str("|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|\n");
+        s.push_str("| technique | RMSE equal spp | ×tl-split | ×tl-mis | RMSE equal time | ×tl-split | ×tl-mis | spp at equal time | s at equal time | ms/spp | mean rel. diff | ± (1 se) | at spp |\n");
+        s.push_str("|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|\n");
         for t in &self.techniques {
-            let (r1, r2) = base.map_or((f64::NAN, f64::NAN), |(a, b)| {
-                (t.rmse_equal_spp / a, t.rmse_equal_time / b)
-            });
             s.push_str(&format!(
-                "| {} | {:.5} | {:.3} | {:.5} | {:.3} | {} | {:.3} | {:.2} | {:.2} % | {:.2} % | {} |\n",
+                "| {} | {:.5} | {:.3} | {:.3} | {:.5} | {:.3} | {:.3} | {} | {:.3} | {:.2} | {:.2} % | {:.2} % | {} |\n",
                 t.technique.name(),
                 t.rmse_equal_spp,
-                r1,
+                t.rmse_equal_spp / split.0,
+                t.rmse_equal_spp / mis.0,
                 t.rmse_equal_time,
-                r2,
+                t.rmse_equal_time / split.1,
+                t.rmse_equal_time / mis.1,
                 t.spp_equal_time,
                 t.seconds_equal_time,
                 t.ms_per_spp,
@@ -304,14 +319,15 @@ fn ensure_writable(dir: &Path) -> std::io::Result<()> {
 /// Where [`reference()`] caches the reference of `scene` under `cfg`.
 pub fn reference_path(scene: &RenderScene, cfg: &CompareConfig) -> PathBuf {
     cfg.out.join("reference").join(format!(
-        "{}-{}-{:016x}-{}x{}-{}-{}.bin",
+        "{}-{}-{:016x}-{}x{}-{}-{}-{}.bin",
         scene.name,
         scene.lights.len(),
         scene.fingerprint(),
         cfg.width,
         cfg.height,
         cfg.ref_spp,
-        cfg.seed
+        cfg.seed,
+        cfg.protocol.name()
     ))
 }
 
@@ -349,6 +365,7 @@ pub fn reference(scene: &RenderScene, cfg: &CompareConfig) -> std::io::Result<Im
             technique: Technique::Full,
             seed: cfg.seed ^ 0x7e7e_7e7e_0000,
             progress: cfg.progress,
+            protocol: cfg.protocol,
         },
     );
     write_raw(&path, &img)?;
@@ -373,6 +390,7 @@ pub fn check_reference(
             technique: Technique::TlSplit,
             seed: cfg.seed ^ 0x0123_4567,
             progress: cfg.progress,
+            protocol: cfg.protocol,
         },
     );
     let a = reference.average();
@@ -455,6 +473,7 @@ pub fn run(scene: &RenderScene, cfg: &CompareConfig) -> std::io::Result<Report> 
         technique,
         seed,
         progress: cfg.progress,
+        protocol: cfg.protocol,
     };
     // Equal spp, and the cost model of each technique.
     let mut images = Vec::new();
@@ -562,6 +581,7 @@ pub fn run(scene: &RenderScene, cfg: &CompareConfig) -> std::io::Result<Report> 
         time_given: cfg.time.is_some(),
         dir: dir.clone(),
         techniques,
+        protocol: cfg.protocol,
     };
     let path = dir.join("table.md");
     std::fs::write(&path, report.table())

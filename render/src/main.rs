@@ -69,7 +69,7 @@ enum Command {
         json: bool,
     },
     /// Unbiasedness, variance and time per estimate of the estimators (uniform, power, tl,
-    /// tl-split, bl, mis-equal, full) against exact values, without visibility.
+    /// tl-split, bl, mis-equal, full, tl-mis) against exact values, without visibility.
     Estimator(manylights_render::estimator::EstimatorArgs),
     /// Render a built-in scene (direct illumination) with one technique to a PNG, or to a
     /// linear OpenEXR file when the output name ends in .exr.
@@ -80,7 +80,7 @@ enum Command {
         /// Number of lights (cornell only; default 1,494).
         #[arg(long)]
         lights: Option<usize>,
-        /// Technique: uniform, power, tl, tl-split, bl, mis-equal or full.
+        /// Technique: uniform, power, tl, tl-split, bl, mis-equal, full or tl-mis.
         #[arg(long, default_value = "full")]
         technique: String,
         /// Estimates per pixel.
@@ -99,6 +99,10 @@ enum Command {
         /// otherwise PNG (8-bit sRGB, values clamped to [0, 1]).
         #[arg(short, long, default_value = "out.png")]
         output: PathBuf,
+        /// One shading point per pixel (its centre), its set-up reused by every estimate
+        /// (default: a new jittered shading point and set-up for every estimate).
+        #[arg(long)]
+        fixed_point: bool,
     },
     /// Compute (or load) the cached reference of a scene under out/reference/ and check that
     /// tl-split at a quarter of its spp converges to the same image average.
@@ -173,6 +177,11 @@ struct ImageArgs {
     /// Output root folder.
     #[arg(long, default_value = "out")]
     out: PathBuf,
+    /// One shading point per pixel (its centre), its set-up reused by every estimate:
+    /// isolates the light-sampling error (default: a new jittered shading point and set-up
+    /// for every estimate, as in a renderer).
+    #[arg(long)]
+    fixed_point: bool,
 }
 
 impl ImageArgs {
@@ -204,7 +213,17 @@ impl ImageArgs {
             progress: true,
             plot,
             time,
+            protocol: protocol(self.fixed_point),
         }
+    }
+}
+
+/// The protocol of `--fixed-point`.
+fn protocol(fixed_point: bool) -> render::Protocol {
+    if fixed_point {
+        render::Protocol::FixedPoint
+    } else {
+        render::Protocol::Jittered
     }
 }
 
@@ -276,9 +295,18 @@ fn main() {
             height,
             seed,
             output,
+            fixed_point,
         } => {
             let code = run_render(
-                &scene, lights, &technique, spp, width, height, seed, &output,
+                &scene,
+                lights,
+                &technique,
+                spp,
+                width,
+                height,
+                seed,
+                &output,
+                protocol(fixed_point),
             );
             std::process::exit(code)
         }
@@ -352,6 +380,7 @@ fn run_render(
     height: usize,
     seed: u64,
     output: &std::path::Path,
+    protocol: render::Protocol,
 ) -> i32 {
     let Some(technique) = Technique::from_name(technique) else {
         eprintln!("unknown technique {technique:?}");
@@ -373,6 +402,7 @@ fn run_render(
             technique,
             seed,
             progress: true,
+            protocol,
         },
     );
     if let Err(e) = render::write_image(output, width, height, &img.mean) {

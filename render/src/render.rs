@@ -1,14 +1,20 @@
-//! Direct illumination of a [`RenderScene`] with any technique of
-//! [`crate::estimator::techniques`], plus image output.
+//! Direct illumination of a [`RenderScene`] with any technique of [`manylights::direct`], plus
+//! image output.
 //!
-//! One shading point per pixel (the first surface hit by the ray through the pixel centre: no
-//! pixel jitter, so that an image's error is the light-sampling error alone). At each shading
-//! point the technique's set-up ([`Setup`]) is built once with the scene's geometry as
-//! [`Occluder`](crate::estimator::techniques::Occluder), then `spp` independent estimates are
-//! averaged: light samples cast shadow rays, BRDF (TB) rays reach only the lights in front of
-//! the first surface. The lights themselves are not drawn (direct illumination of surfaces
-//! only). Rows run in parallel with rayon; a progress bar (indicatif, on a terminal) counts
-//! rows.
+//! Two protocols ([`Protocol`]):
+//! - **jittered** (the default): every estimate is a new shading point, as in any renderer —
+//!   a primary ray through a uniformly jittered position in the pixel, the first surface it
+//!   hits, and the technique's per-point set-up ([`Estimator::new`]: importances, cuts,
+//!   budget) built for that one estimate. A pixel's value estimates the pixel integral
+//!   (background samples count 0), and a technique's time includes its set-up at every sample.
+//! - **fixed-point** (`--fixed-point`): one shading point per pixel (the ray through the pixel
+//!   centre), its set-up built once and reused by all `spp` estimates, so that an image's error
+//!   is the light-sampling error alone.
+//!
+//! Light samples cast shadow rays and BRDF rays reach only the lights in front of the first
+//! surface (the scene's geometry is the core's [`manylights::Occluder`]). The lights themselves
+//! are not drawn (direct illumination of surfaces only). Rows run in parallel with rayon; a
+//! progress bar (indicatif, on a terminal) counts rows.
 //!
 //! **Time.** [`Image::seconds`] is the render's *busy time summed over threads*: each row is
 //! timed on the thread that renders it, by that thread's CPU clock (`CLOCK_THREAD_CPUTIME_ID`
@@ -28,12 +34,32 @@ use crate::uniforms::RngUniforms;
 use indicatif::{ProgressBar, ProgressStyle};
 use manylights::ShadingPoint;
 use manylights::{Estimator, Params, Technique};
-use rand::SeedableRng;
+use rand::{Rng, SeedableRng};
 use rand_pcg::Pcg64Mcg;
 use rayon::prelude::*;
 use std::io::{BufWriter, Write};
 use std::path::Path;
 use std::time::Instant;
+
+/// Where the estimates of a pixel are taken (see the module documentation).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Default)]
+pub enum Protocol {
+    /// A new jittered primary ray, shading point and set-up for every estimate.
+    #[default]
+    Jittered,
+    /// One shading point per pixel (its centre), its set-up reused by every estimate.
+    FixedPoint,
+}
+
+impl Protocol {
+    /// The protocol's name in reports (`jittered`, `fixed-point`).
+    pub fn name(self) -> &'static str {
+        match self {
+            Protocol::Jittered => "jittered",
+            Protocol::FixedPoint => "fixed-point",
+        }
+    }
+}
 
 /// What to render.
 #[derive(Clone, Copy, Debug)]
@@ -50,6 +76,8 @@ pub struct RenderConfig {
     pub seed: u64,
     /// Show a progress bar.
     pub progress: bool,
+    /// Where the estimates are taken.
+    pub protocol: Protocol,
 }
 
 /// A rendered grey-level image: per-pixel mean and per-estimate variance.
@@ -126,7 +154,7 @@ fn busy_time(f: impl FnOnce()) -> f64 {
     }
 }
 
-/// The shading point seen through pixel (`px`, `py`), if any.
+/// The shading point seen through pixel (`px`, `py`) at its centre, if any.
 pub fn primary(
     scene: &RenderScene,
     px: usize,
@@ -134,10 +162,22 @@ pub fn primary(
     w: usize,
     h: usize,
 ) -> Option<ShadingPoint> {
+    primary_at(scene, px, py, w, h, [0.5, 0.5])
+}
+
+/// The shading point seen through position `offset` (in [0, 1)²) of pixel (`px`, `py`).
+pub fn primary_at(
+    scene: &RenderScene,
+    px: usize,
+    py: usize,
+    w: usize,
+    h: usize,
+    offset: [f32; 2],
+) -> Option<ShadingPoint> {
     let cam = &scene.camera;
     let d = cam.direction(
-        (px as f32 + 0.5) / w as f32,
-        (py as f32 + 0.5) / h as f32,
+        (px as f32 + offset[0]) / w as f32,
+        (py as f32 + offset[1]) / h as f32,
         w as f32 / h as f32,
     );
     let hit = scene.geometry.nearest(cam.eye, d, 1e-4)?;
@@ -159,6 +199,61 @@ pub fn primary(
         wo,
         material: hit.material,
     })
+}
+
+/// Mean and per-estimate variance of `spp` estimates (Welford), each from `estimate`.
+#[inline]
+fn moments(spp: usize, mut estimate: impl FnMut() -> f64) -> (f32, f32) {
+    let (mut m, mut m2) = (0f64, 0f64);
+    for k in 0..spp {
+        let x = estimate();
+        let d = x - m;
+        m += d / (k + 1) as f64;
+        m2 += d * (x - m);
+    }
+    let var = if spp > 1 {
+        (m2 / (spp - 1) as f64) as f32
+    } else {
+        0.0
+    };
+    (m as f32, var)
+}
+
+/// One pixel's mean and variance under `cfg`'s protocol, with its own generator.
+fn pixel(
+    scene: &RenderScene,
+    cfg: &RenderConfig,
+    params: &Params,
+    (px, py): (usize, usize),
+    rng: &mut Pcg64Mcg,
+) -> (f32, f32) {
+    let (w, h) = (cfg.width, cfg.height);
+    match cfg.protocol {
+        Protocol::FixedPoint => {
+            let Some(sp) = primary(scene, px, py, w, h) else {
+                return (0.0, 0.0);
+            };
+            let Ok(mut est) = Estimator::new(&scene.lights, &sp, cfg.technique, params) else {
+                return (0.0, 0.0);
+            };
+            moments(cfg.spp, || {
+                est.estimate(&scene.geometry, &mut RngUniforms(rng))
+                    .unwrap_or(0.0)
+            })
+        }
+        Protocol::Jittered => moments(cfg.spp, || {
+            let offset = [rng.random::<f32>(), rng.random::<f32>()];
+            let Some(sp) = primary_at(scene, px, py, w, h, offset) else {
+                return 0.0;
+            };
+            match Estimator::new(&scene.lights, &sp, cfg.technique, params) {
+                Ok(mut est) => est
+                    .estimate(&scene.geometry, &mut RngUniforms(rng))
+                    .unwrap_or(0.0),
+                Err(_) => 0.0,
+            }
+        }),
+    }
 }
 
 /// Renders `scene` with `cfg`.
@@ -192,34 +287,13 @@ pub fn render(scene: &RenderScene, cfg: &RenderConfig) -> Image {
         .map(|(py, (row_m, row_v))| {
             let t = busy_time(|| {
                 for px in 0..w {
-                    let Some(sp) = primary(scene, px, py, w, h) else {
-                        continue;
-                    };
                     let seed = cfg
                         .seed
                         .wrapping_mul(0x9e37_79b9_7f4a_7c15)
                         .wrapping_add(((py * w + px) as u64) << 8)
                         .wrapping_add(tech_index);
                     let mut rng = Pcg64Mcg::seed_from_u64(seed);
-                    let Ok(mut est) = Estimator::new(&scene.lights, &sp, cfg.technique, &params)
-                    else {
-                        continue;
-                    };
-                    let (mut m, mut m2) = (0f64, 0f64);
-                    for k in 0..cfg.spp {
-                        let x = est
-                            .estimate(&scene.geometry, &mut RngUniforms(&mut rng))
-                            .unwrap_or(0.0);
-                        let d = x - m;
-                        m += d / (k + 1) as f64;
-                        m2 += d * (x - m);
-                    }
-                    row_m[px] = m as f32;
-                    row_v[px] = if cfg.spp > 1 {
-                        (m2 / (cfg.spp - 1) as f64) as f32
-                    } else {
-                        0.0
-                    };
+                    (row_m[px], row_v[px]) = pixel(scene, cfg, &params, (px, py), &mut rng);
                 }
             });
             bar.inc(1);

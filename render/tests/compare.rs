@@ -7,7 +7,7 @@
 use manylights::Technique;
 use manylights_render::compare::{self, check_time, equal_time_spp, CompareConfig, Cost};
 use manylights_render::font;
-use manylights_render::render::{self, read_raw, render, Image, RenderConfig};
+use manylights_render::render::{self, read_raw, render, Image, Protocol, RenderConfig};
 use manylights_render::scene;
 use std::path::{Path, PathBuf};
 use std::process::Command;
@@ -44,6 +44,7 @@ fn config(out: &Path, plot: bool, time: Option<f64>) -> CompareConfig {
         progress: false,
         plot,
         time,
+        protocol: Protocol::Jittered,
     }
 }
 
@@ -190,6 +191,7 @@ fn compare_writes_every_output() {
                 technique: t,
                 seed: cfg.seed,
                 progress: false,
+                protocol: cfg.protocol,
             },
         );
         assert_same(&dir.join(format!("{}.exr", t.name())), &img.mean);

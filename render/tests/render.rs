@@ -8,7 +8,7 @@
 
 use manylights::Material;
 use manylights::Technique;
-use manylights_render::render::{read_raw, render, write_raw, RenderConfig};
+use manylights_render::render::{read_raw, render, write_raw, Protocol, RenderConfig};
 use manylights_render::scene::{self, RenderScene};
 use std::path::{Path, PathBuf};
 
@@ -23,6 +23,7 @@ fn cfg(technique: Technique, spp: usize, seed: u64) -> RenderConfig {
         technique,
         seed,
         progress: false,
+        protocol: Protocol::Jittered,
     }
 }
 
