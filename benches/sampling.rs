@@ -6,7 +6,7 @@
 use criterion::{criterion_group, criterion_main, BenchmarkId, Criterion, Throughput};
 use manylights::baseline::BinaryLightTree;
 use manylights::{LightCut, LightTree, SplitOptions, TlImportance, CUT_CAPACITY};
-use manylights_render::random_scene;
+use manylights_testkit as random_scene;
 use std::hint::black_box;
 
 const POINTS: usize = 4096;

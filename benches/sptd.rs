@@ -5,7 +5,7 @@ use glam::Vec3;
 use manylights::f32x4;
 use manylights::importance::sptd::SptdGgx;
 use manylights::{BlImportance, CutOptions, LightCut, LightTree, Material, ShadingPoint};
-use manylights_render::random_scene;
+use manylights_testkit as random_scene;
 use std::hint::black_box;
 
 const CAPS: usize = 4096;

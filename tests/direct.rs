@@ -158,7 +158,12 @@ fn check_unbiased(set: &LightSet, sp: &ShadingPoint, exact: f64, k: usize, seed:
     for lambert in LambertMode::ALL {
         cases.push((Technique::Full, Params { lambert, ..base }));
     }
-    for t in [Technique::MisEqual, Technique::Full, Technique::TlMis] {
+    for t in [
+        Technique::MisEqual,
+        Technique::Full,
+        Technique::TlMis,
+        Technique::BlMis,
+    ] {
         cases.push((
             t,
             Params {
@@ -625,6 +630,7 @@ fn lower_level_with_a_host_bsdf_is_unbiased_per_channel() {
     };
     for (ti, (t, lambert)) in [
         (Technique::TlMis, LambertMode::TlOnly),
+        (Technique::BlMis, LambertMode::TlOnly),
         (Technique::Full, LambertMode::BlTb),
         (Technique::Full, LambertMode::TbBudget),
         (Technique::MisEqual, LambertMode::TlOnly),
@@ -640,7 +646,7 @@ fn lower_level_with_a_host_bsdf_is_unbiased_per_channel() {
         let mut est = Estimator::new(&set, &sp, t, &p).unwrap();
         let mut u = U(Rng::new(500 + ti as u64));
         let mut st: [Stats; 3] = Default::default();
-        let k = if t == Technique::TlMis {
+        let k = if matches!(t, Technique::TlMis | Technique::BlMis) {
             40_000
         } else {
             10_000

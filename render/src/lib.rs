@@ -1,14 +1,8 @@
-//! The std side of manylights: the test renderer and the project's instruments, shared by the
-//! `mlrender` binary and the core's benches.
+//! The std side of manylights: the test renderer (scenes, ray casts, the render loop, images)
+//! and the project's instruments, shared by the `mlrender` binary.
 
-pub mod bench;
-pub mod compare;
-pub mod estimator;
-pub mod font;
-pub mod ggx;
-pub mod random_scene;
+pub mod image;
+pub mod instruments;
 pub mod render;
 pub mod scene;
-pub mod sptd_accuracy;
-pub mod sptd_fit;
 pub mod uniforms;

@@ -2,7 +2,8 @@
 
 use clap::{Parser, Subcommand};
 use manylights::Technique;
-use manylights_render::{bench, compare, render, scene, sptd_accuracy, sptd_fit};
+use manylights_render::instruments::{bench, compare, sptd_accuracy, sptd_fit};
+use manylights_render::{image, render, scene};
 use std::path::PathBuf;
 
 #[derive(Parser)]
@@ -70,7 +71,7 @@ enum Command {
     },
     /// Unbiasedness, variance and time per estimate of the estimators (uniform, power, tl,
     /// tl-split, bl, mis-equal, full, tl-mis) against exact values, without visibility.
-    Estimator(manylights_render::estimator::EstimatorArgs),
+    Estimator(manylights_render::instruments::estimator::EstimatorArgs),
     /// Render a built-in scene (direct illumination) with one technique to a PNG, or to a
     /// linear OpenEXR file when the output name ends in .exr.
     Render {
@@ -365,7 +366,7 @@ fn main() {
             }
         }
         Command::Estimator(args) => {
-            std::process::exit(manylights_render::estimator::run_cli(&args))
+            std::process::exit(manylights_render::instruments::estimator::run_cli(&args))
         }
     }
 }
@@ -405,7 +406,7 @@ fn run_render(
             protocol,
         },
     );
-    if let Err(e) = render::write_image(output, width, height, &img.mean) {
+    if let Err(e) = image::write_image(output, width, height, &img.mean) {
         eprintln!("cannot write the image: {e}");
         return 1;
     }

@@ -1,20 +1,23 @@
 //! `compare::run` on a tiny configuration (stairs, 12×8, 2 spp, a 16-spp reference, the
 //! convergence plot up to 8 spp): every output file is written and readable (EXR values equal
-//! to the rendered means), the JSON lists the eight techniques in order with finite numbers;
+//! to the rendered means), the JSON lists every technique in order with finite numbers;
 //! the equal-time arithmetic; bad input is an error, not a panic; the `mlrender` binary's
 //! `--time` checks and EXR output.
 
 use manylights::Technique;
-use manylights_render::compare::{self, check_time, equal_time_spp, CompareConfig, Cost};
-use manylights_render::font;
-use manylights_render::render::{self, read_raw, render, Image, Protocol, RenderConfig};
+use manylights_render::image::font;
+use manylights_render::image::{self, read_raw, Image};
+use manylights_render::instruments::compare::{
+    self, check_time, equal_time_spp, CompareConfig, Cost,
+};
+use manylights_render::render::{render, Protocol, RenderConfig};
 use manylights_render::scene;
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
 const W: usize = 12;
 const H: usize = 8;
-const NAMES: [&str; 8] = [
+const NAMES: [&str; 9] = [
     "uniform",
     "power",
     "tl",
@@ -23,6 +26,7 @@ const NAMES: [&str; 8] = [
     "mis-equal",
     "full",
     "tl-mis",
+    "bl-mis",
 ];
 
 /// A fresh, empty temporary folder for one test.
@@ -124,12 +128,17 @@ fn compare_writes_every_output() {
     }
     for name in ["side_by_side.png", "side_by_side_equal_time.png"] {
         let (w, h, px) = read_png(&dir.join(name));
-        // 9 images (8 techniques and the reference) and their crops, 4-pixel gaps, under a
+        // The techniques' images and the reference, and their crops, 4-pixel gaps, under a
         // caption strip: 12-pixel panels are too narrow for ×2 text, so ×1, 1 + 7 + 1 rows.
         let strip = 9;
-        assert_eq!((w, h), (9 * W + 8 * 4, strip + 2 * H + 4), "{name}");
-        assert_eq!(render::caption_height(1), strip);
-        for i in 0..9 {
+        let panels = NAMES.len() + 1;
+        assert_eq!(
+            (w, h),
+            (panels * W + (panels - 1) * 4, strip + 2 * H + 4),
+            "{name}"
+        );
+        assert_eq!(image::caption_height(1), strip);
+        for i in 0..panels {
             let x0 = i * (W + 4);
             let caption = (0..strip).flat_map(|y| px[y * w + x0..y * w + x0 + W].to_vec());
             assert!(
@@ -140,7 +149,7 @@ fn compare_writes_every_output() {
             assert!(px[x0..x0 + W].iter().all(|&v| v == 0), "{name}: panel {i}");
             let last = (strip - 1) * w;
             assert!(px[last + x0..last + x0 + W].iter().all(|&v| v == 0));
-            if i < 8 {
+            if i + 1 < panels {
                 for y in 0..strip {
                     let gap = y * w + x0 + W;
                     assert!(px[gap..gap + 4].iter().all(|&v| v == 0), "{name}: gap {i}");
@@ -151,8 +160,8 @@ fn compare_writes_every_output() {
         // the crop region), and its crop.
         let (rw, rh, rpx) = read_png(&dir.join("reference.png"));
         assert_eq!((rw, rh), (W, H));
-        let (cx0, cy0, cx1, cy1) = render::crop_region(W, H);
-        let x0 = 8 * (W + 4);
+        let (cx0, cy0, cx1, cy1) = image::crop_region(W, H);
+        let x0 = NAMES.len() * (W + 4);
         for y in 0..H {
             for x in 0..W {
                 let on_outline = (x == cx0 || x == cx1 || y == cy0 || y == cy1)
@@ -282,11 +291,11 @@ fn captions() {
     let dark = flat(96, 96, 0.0);
     let long = "mis-equal 0.1003";
     // The longest caption fits a 96-pixel panel at ×1, not at ×2; 256 pixels take ×2.
-    assert_eq!(render::caption_scale(&[(long, &dark)]), 1);
+    assert_eq!(image::caption_scale(&[(long, &dark)]), 1);
     let wide = flat(256, 40, 0.0);
-    assert_eq!(render::caption_scale(&[(long, &wide)]), 2);
-    assert_eq!(render::caption_height(2), 18);
-    let (w, h, px) = render::side_by_side_labelled(&[(long, &dark), ("reference", &dark)], 4);
+    assert_eq!(image::caption_scale(&[(long, &wide)]), 2);
+    assert_eq!(image::caption_height(2), 18);
+    let (w, h, px) = image::side_by_side_labelled(&[(long, &dark), ("reference", &dark)], 4);
     assert_eq!((w, h), (196, 9 + 2 * 96 + 4));
     let ink = |x0: usize, x1: usize| -> Vec<usize> {
         (0..9)
@@ -306,7 +315,7 @@ fn captions() {
     assert!((lo - 100).abs_diff(195 - hi) <= 1, "{lo}..{hi}");
     assert!(px[..w * 9].iter().all(|&v| v == 0.0 || v == 1.0));
     // The crop region's outline, on the top row only.
-    let (cx0, cy0, cx1, cy1) = render::crop_region(96, 96);
+    let (cx0, cy0, cx1, cy1) = image::crop_region(96, 96);
     assert_eq!((cx0, cy0, cx1, cy1), (24, 48, 71, 95));
     let top = |x: usize, y: usize| px[(9 + y) * w + x];
     assert!((cx0..=cx1).any(|x| top(x, cy0) == 1.0));
@@ -315,14 +324,14 @@ fn captions() {
     assert!(px[(9 + 96) * w..].iter().all(|&v| v == 0.0));
 
     // ×2 on wide panels; too narrow a panel cuts the caption short.
-    let (w, h, px) = render::side_by_side_labelled(&[(long, &wide)], 4);
+    let (w, h, px) = image::side_by_side_labelled(&[(long, &wide)], 4);
     assert_eq!((w, h), (256, 18 + 2 * 40 + 4));
     assert!(px[..w * 18].contains(&1.0));
     let narrow = flat(5, 4, 0.5);
-    let (w, h, px) = render::side_by_side_labelled(&[("uniform", &narrow)], 0);
+    let (w, h, px) = image::side_by_side_labelled(&[("uniform", &narrow)], 0);
     assert_eq!((w, h), (5, 9 + 8));
     assert!(px[..5 * 9].iter().all(|&v| v == 0.0));
-    assert_eq!(render::side_by_side_labelled(&[], 4), (0, 0, Vec::new()));
+    assert_eq!(image::side_by_side_labelled(&[], 4), (0, 0, Vec::new()));
 }
 
 #[test]

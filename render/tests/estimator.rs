@@ -5,8 +5,8 @@ use glam::Vec3;
 use manylights::direct::{Estimator, LambertMode, Params, Technique, Unoccluded};
 use manylights::trace::trace_all;
 use manylights::{Light, Material, ShadingPoint};
-use manylights_render::estimator::reference::reference;
-use manylights_render::estimator::scene::{Config, Plan, Scene};
+use manylights_render::instruments::estimator::reference::reference;
+use manylights_render::instruments::estimator::scene::{Config, Plan, Scene};
 use manylights_render::uniforms::RngUniforms;
 use rand::{Rng, SeedableRng};
 use rand_pcg::Pcg64Mcg;
@@ -152,7 +152,7 @@ fn every_technique_is_unbiased_on_a_small_scene() {
         for (i, (t, p)) in cases.into_iter().enumerate() {
             let k = match t {
                 Technique::Uniform | Technique::Power | Technique::Tl | Technique::Bl => 200_000,
-                Technique::TlMis => 100_000,
+                Technique::TlMis | Technique::BlMis => 100_000,
                 Technique::TlSplit => 40_000,
                 Technique::MisEqual | Technique::Full => 12_000,
             };
@@ -193,7 +193,7 @@ fn brdf_sampling_alone_is_unbiased() {
         })
         .collect();
     let mut rng = Pcg64Mcg::seed_from_u64(9);
-    for (mi, (name, material)) in manylights_render::estimator::scene::MATERIALS
+    for (mi, (name, material)) in manylights_render::instruments::estimator::scene::MATERIALS
         .iter()
         .enumerate()
     {

@@ -8,7 +8,8 @@
 
 use manylights::Material;
 use manylights::Technique;
-use manylights_render::render::{read_raw, render, write_raw, Protocol, RenderConfig};
+use manylights_render::image::{read_raw, write_raw};
+use manylights_render::render::{render, Protocol, RenderConfig};
 use manylights_render::scene::{self, RenderScene};
 use std::path::{Path, PathBuf};
 

@@ -93,8 +93,8 @@ enum Role {
     Split,
     /// A BL sample of the BRDF-aware mixture, drawn with BL probability `p`, with BL's density.
     MixtureBl { p: f32, pdf_bl: f32 },
-    /// `tl-mis`'s light sample.
-    TlMis,
+    /// The light sample of `tl-mis` or `bl-mis`, weighted against one BSDF sample.
+    OneMis,
 }
 
 /// A light point for the host to shade: evaluate `f · L · cos θi` towards
@@ -120,7 +120,7 @@ pub struct LightDraw {
 pub struct BsdfDraw {
     /// The two uniform numbers (in [0, 1)) for sampling the BSDF.
     pub u: [f32; 2],
-    /// For a mixture sample, its BL probability; `None` for `tl-mis`.
+    /// For a mixture sample, its BL probability; `None` for `tl-mis` and `bl-mis`.
     p: Option<f32>,
 }
 
@@ -158,8 +158,8 @@ enum Phase {
     Mixture,
     /// Yielding the TL split samples after the mixture (`full`).
     TlLast,
-    /// `tl-mis`'s BSDF sample is next.
-    TlMisBsdf,
+    /// The BSDF sample of `tl-mis` or `bl-mis` is next.
+    OneMisBsdf,
     /// Finished.
     Done,
 }
@@ -277,7 +277,7 @@ impl<'a> Estimator<'a> {
         // Lambert points where `full` needs no IB(x): no BL cut is built.
         let no_ib = diffuse && matches!(params.lambert, LambertMode::TlOnly | LambertMode::TbOne);
         let needs_bl = match technique {
-            Technique::Bl => true,
+            Technique::Bl | Technique::BlMis => true,
             Technique::MisEqual => !diffuse,
             Technique::Full => !no_ib,
             _ => false,
@@ -433,7 +433,7 @@ impl<'a> Estimator<'a> {
             && match role {
                 Role::Plain => false,
                 Role::Split => self.n_mix > 0 && self.technique != Technique::TlSplit,
-                Role::MixtureBl { .. } | Role::TlMis => true,
+                Role::MixtureBl { .. } | Role::OneMis => true,
             };
         Some(LightDraw {
             light,
@@ -533,12 +533,17 @@ impl<'a> Estimator<'a> {
                                 return Ok(self.single(s.light, s.pmf, next2(u)?));
                             }
                         }
-                        Technique::TlMis => {
+                        Technique::TlMis | Technique::BlMis => {
                             let v = next1(u)?;
                             let uv = next2(u)?;
-                            self.run.phase = Phase::TlMisBsdf;
-                            if let Some(s) = self.tl.sample(v) {
-                                if let Some(d) = self.draw(s.light, s.pmf, uv, Role::TlMis) {
+                            self.run.phase = Phase::OneMisBsdf;
+                            let s = if self.technique == Technique::TlMis {
+                                self.tl.sample(v)
+                            } else {
+                                self.bl.as_ref().and_then(|b| b.sample(v))
+                            };
+                            if let Some(s) = s {
+                                if let Some(d) = self.draw(s.light, s.pmf, uv, Role::OneMis) {
                                     return Ok(Step::Light(d));
                                 }
                             }
@@ -557,7 +562,7 @@ impl<'a> Estimator<'a> {
                         }
                     }
                 }
-                Phase::TlMisBsdf => {
+                Phase::OneMisBsdf => {
                     self.run.phase = Phase::Done;
                     return Ok(Step::Bsdf(BsdfDraw {
                         u: next2(u)?,
@@ -675,7 +680,7 @@ impl<'a> Estimator<'a> {
         let pp = draw.point.pdf;
         Ok(match draw.role {
             Role::Plain => Weighted::plain(pdf),
-            Role::TlMis => {
+            Role::OneMis => {
                 if pdf_tb > 0.0 {
                     let (a, b) = (pdf, pdf_tb);
                     let w = crate::mis::power(1.0, a, &[(1.0, b)]);
@@ -821,7 +826,12 @@ impl<'a> Estimator<'a> {
                     self.mixture_weight(p, pdf_tl, pdf_bl, bsdf_pdf)
                 }
                 None => {
-                    let pdf_l = self.tl.pmf(light) * lp.pdf;
+                    let pmf = if self.technique == Technique::BlMis {
+                        self.pmf_bl(light)
+                    } else {
+                        self.tl.pmf(light)
+                    };
+                    let pdf_l = pmf * lp.pdf;
                     let w = crate::mis::power(1.0, bsdf_pdf, &[(1.0, pdf_l)]);
                     Weighted::checked(Factors {
                         num: w,

@@ -28,6 +28,12 @@
 //! - `bl`: one light from the BRDF-oriented cut of Liu et al. 2019 ([`CutSampler`]).
 //! - `tl-mis`: one `tl` light sample plus one BSDF sample, combined by the power heuristic
 //!   (β = 2): what pbrt-v4 and Blender Cycles do at a shading point.
+//! - `bl-mis`: one `bl` light sample plus one BSDF sample, combined by the power heuristic:
+//!   the BRDF-oriented cut's light choice, with the BSDF sample covering what a light sample
+//!   of a glossy lobe misses. Unbiased as any two-technique MIS with weights summing to 1
+//!   (Veach 1997, section 9.2): the weights are fixed functions of the point, and the BSDF
+//!   sample reaches every light point the light sample cannot give (point and spot lights
+//!   are the light sample's alone, with weight 1).
 //! - `mis-equal`: `tl-split` plus `N = brdf_budget(cut, n_max)` BRDF-aware samples (none at
 //!   Lambert points): ⌊N/2⌋ BL, ⌊N/2⌋ BSDF (TB) and, for an odd N, one more that is BL or TB
 //!   with probability 1/2. A BRDF-aware sample y contributes `g(y) w_M(y) / (N q_ref(y))`,
@@ -94,11 +100,13 @@ pub enum Technique {
     Full,
     /// One TL tree sample + one BSDF sample, power heuristic (pbrt-v4, Cycles).
     TlMis,
+    /// One sample of the BRDF-oriented cut + one BSDF sample, power heuristic.
+    BlMis,
 }
 
 impl Technique {
     /// Every technique.
-    pub const ALL: [Technique; 8] = [
+    pub const ALL: [Technique; 9] = [
         Technique::Uniform,
         Technique::Power,
         Technique::Tl,
@@ -107,6 +115,7 @@ impl Technique {
         Technique::MisEqual,
         Technique::Full,
         Technique::TlMis,
+        Technique::BlMis,
     ];
 
     /// The technique a renderer should use when it has no reason to choose another.
@@ -128,6 +137,7 @@ impl Technique {
             Technique::MisEqual => "mis-equal",
             Technique::Full => "full",
             Technique::TlMis => "tl-mis",
+            Technique::BlMis => "bl-mis",
         }
     }
 
@@ -135,7 +145,7 @@ impl Technique {
     pub fn samples_bsdf(self) -> bool {
         matches!(
             self,
-            Technique::MisEqual | Technique::Full | Technique::TlMis
+            Technique::MisEqual | Technique::Full | Technique::TlMis | Technique::BlMis
         )
     }
 }

@@ -2,12 +2,12 @@
 //! tree against the binary scalar baseline, measured in one run, plus the exactness of the
 //! pmfs.
 
-use crate::random_scene::{self, ShadingPoint};
 use manylights::baseline::BinaryLightTree;
 use manylights::{
     BlImportance, CutOptions, LightCut, LightTree, Material, ShadingPoint as Sp, SplitOptions,
     TlImportance, CUT_CAPACITY,
 };
+use manylights_testkit::{self as random_scene, ShadingPoint};
 use serde_json::json;
 use std::hint::black_box;
 use std::time::Instant;

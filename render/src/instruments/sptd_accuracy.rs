@@ -18,7 +18,7 @@
 //! - `false_zero`: `T > 1e-6 ρ` but `S = 0`; `false_nonzero`: the cap lies entirely below the
 //!   horizon (`axis·n ≤ −sin σ`, so the exact integral is 0) but `S > 0`.
 
-use crate::ggx::{cap_integral, wo_local, Cap64, Ggx};
+use crate::instruments::ggx::{cap_integral, wo_local, Cap64, Ggx};
 use glam::DVec3;
 use manylights::importance::sptd::SptdGgx;
 use rand::{Rng, SeedableRng};

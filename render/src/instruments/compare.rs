@@ -48,10 +48,10 @@
 //! mean_rel_diff_se}]}`, techniques in the order `uniform`, `power`, `tl`, `tl-split`, `bl`,
 //! `mis-equal`, `full`; `ms_per_spp` and `ms_fixed` are the cost model's (busy milliseconds).
 
-use crate::render::{
-    convergence_svg, read_raw, render, side_by_side_labelled, write_exr, write_png, write_raw,
-    Image, Protocol, RenderConfig,
+use crate::image::{
+    convergence_svg, read_raw, side_by_side_labelled, write_exr, write_png, write_raw, Image,
 };
+use crate::render::{render, Protocol, RenderConfig};
 use crate::scene::RenderScene;
 use manylights::Technique;
 use serde_json::json;

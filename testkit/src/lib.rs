@@ -1,4 +1,5 @@
-//! The random many-light scene of `mlrender bench` and the criterion benches.
+//! Seeded random many-light scenes: the scene of `mlrender bench` and of the criterion
+//! benches, in a crate of its own so that the core's benches build without the renderer.
 //!
 //! N lights with centres uniform in [-100, 100]³ and power uniform in [0.1, 10]: 40 % points,
 //! 20 % spots (random direction, half-angle uniform in [10°, 60°]), 20 % spheres (radius

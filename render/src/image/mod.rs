@@ -1,0 +1,60 @@
+//! Images: the grey-level [`Image`] a render produces, its files ([`io`]: PNG, linear
+//! OpenEXR, a raw cache format), side-by-side comparisons with captions and magnified crops
+//! ([`compose`], in the built-in bitmap [`font`]) and convergence plots ([`plot`]).
+
+pub mod compose;
+pub mod font;
+pub mod io;
+pub mod plot;
+
+pub use compose::{
+    caption_height, caption_scale, crop_region, side_by_side, side_by_side_labelled,
+    side_by_side_with_crops,
+};
+pub use io::{is_exr, read_raw, tone_map, write_exr, write_image, write_png, write_raw};
+pub use plot::convergence_svg;
+
+/// A rendered grey-level image: per-pixel mean and per-estimate variance.
+#[derive(Clone, Debug)]
+pub struct Image {
+    /// Width.
+    pub width: usize,
+    /// Height.
+    pub height: usize,
+    /// Mean of the estimates, row-major.
+    pub mean: Vec<f32>,
+    /// Per-estimate sample variance of each pixel (0 with one estimate).
+    pub var: Vec<f32>,
+    /// Estimates per pixel.
+    pub spp: usize,
+    /// Busy seconds of the render: the CPU time spent on its rows, summed over the threads
+    /// that rendered them (see the module documentation). 0 for an image read from disk.
+    pub seconds: f64,
+    /// Wall-clock seconds of the render. 0 for an image read from disk.
+    pub wall_seconds: f64,
+}
+
+impl Image {
+    /// The average of the pixel means.
+    pub fn average(&self) -> f64 {
+        self.mean.iter().map(|&v| f64::from(v)).sum::<f64>() / self.mean.len() as f64
+    }
+
+    /// Standard error of [`Image::average`] from the per-pixel variances.
+    pub fn average_se(&self) -> f64 {
+        let n = self.mean.len() as f64;
+        let s: f64 = self.var.iter().map(|&v| f64::from(v)).sum();
+        (s / self.spp.max(1) as f64).sqrt() / n
+    }
+
+    /// Root mean square difference to `other` (same size).
+    pub fn rmse(&self, other: &Image) -> f64 {
+        let s: f64 = self
+            .mean
+            .iter()
+            .zip(&other.mean)
+            .map(|(&a, &b)| (f64::from(a) - f64::from(b)).powi(2))
+            .sum();
+        (s / self.mean.len() as f64).sqrt()
+    }
+}

@@ -1,0 +1,17 @@
+//! The project's instruments: each measures the core on its own terms and reports a table and,
+//! with `--json`, one JSON object on the last line of stdout.
+//!
+//! - [`bench`]: sampling throughput, tree size and build time (`mlrender bench`);
+//! - [`compare`]: every technique on a scene at equal spp and equal time against a reference
+//!   (`mlrender compare`, `mlrender reference`);
+//! - [`estimator`]: unbiasedness, variance and cost per estimate against exact values
+//!   (`mlrender estimator`);
+//! - [`sptd_fit`], [`sptd_accuracy`]: the fit of the SPTD table and its accuracy
+//!   (`mlrender sptd-fit`, `mlrender sptd-accuracy`), with an f64 GGX reference ([`ggx`]).
+
+pub mod bench;
+pub mod compare;
+pub mod estimator;
+pub mod ggx;
+pub mod sptd_accuracy;
+pub mod sptd_fit;
