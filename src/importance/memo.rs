@@ -82,6 +82,7 @@ impl<I: Importance> Importance for Memo<'_, I> {
 mod tests {
     use super::*;
     use crate::importance::TlImportance;
+    use crate::math;
     use crate::{BuildOptions, Light};
     use alloc::vec::Vec;
     use glam::Vec3;
@@ -91,7 +92,7 @@ mod tests {
             .map(|i| {
                 let t = i as f32 * 0.37;
                 Light::Point {
-                    position: Vec3::new(libm::sinf(t) * 5.0, libm::cosf(t * 1.3) * 5.0, t * 0.1),
+                    position: Vec3::new(math::sin(t) * 5.0, math::cos(t * 1.3) * 5.0, t * 0.1),
                     intensity: 1.0 + (i % 7) as f32,
                 }
             })

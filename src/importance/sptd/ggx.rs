@@ -77,7 +77,7 @@ pub fn ggx_params(alpha: f32, cos_theta_o: f32) -> GgxParams {
     };
     let c = cos_theta_o.abs();
     let c = if c <= 1.0 { c } else { 1.0 };
-    let theta = libm::acosf(c).min(THETA_O_MAX);
+    let theta = math::acos(c).min(THETA_O_MAX);
     let n = (TABLE_SIZE - 1) as f32;
     let x = math::sqrt(alpha) * n;
     let y = theta * (2.0 / PI) * n;
