@@ -22,7 +22,7 @@
 //! `P(C)` then lies inside or outside `P(H)`, and `L`, `|C ∩ H|` are closed-form; the 4-wide
 //! form takes the intersection path only for groups with a crossing cap (per-lane results are
 //! the same either way). The whole hemisphere (and a shading point inside a cluster's bounding
-//! sphere) gets exactly `ρ`. `R`, `Gθ`, `ρ`, `β` and `c_ref` come from the table `sptd_ggx_table.rs`, which
+//! sphere) gets exactly `ρ`. `R`, `Gθ`, `ρ`, `β` and `c_ref` come from the table `sptd/table.rs`, which
 //! `mlrender sptd-fit` fits (see its docs for the objective), indexed by `u = √α` and
 //! `v = 2θo/π` and filtered bilinearly.
 
