@@ -11,7 +11,7 @@
 //! `Cell`s): one per shading point, per thread.
 
 use super::Importance;
-use crate::tree::{LightTree, Node4};
+use crate::tree::{LightTree, Node4, SlotBounds};
 use core::cell::Cell;
 use wide::f32x4;
 
@@ -75,6 +75,12 @@ impl<I: Importance> Importance for Memo<'_, I> {
         let v = self.imp.eval4(node);
         slot.set((i, v.to_array()));
         v
+    }
+
+    /// The inner importance's, not memoised (a slot's bounds do not name their node).
+    #[inline]
+    fn eval_slot(&self, b: &SlotBounds) -> f32 {
+        self.imp.eval_slot(b)
     }
 }
 
