@@ -356,7 +356,7 @@ impl Light {
                 intensity,
                 half_angle,
                 ..
-            } => 2.0 * pi * (1.0 - libm::cos(f64::from(half_angle))) * f64::from(intensity),
+            } => 2.0 * pi * (1.0 - math::cos64(f64::from(half_angle))) * f64::from(intensity),
             Light::Sphere { radiance, .. } => f64::from(radiance) * pi * self.area_f64(),
             Light::Disk {
                 radiance,

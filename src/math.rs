@@ -1,6 +1,16 @@
 //! Scalar math routed through one place, so the no_std core has a single backend (libm).
 //!
-//! Nothing here is used in the per-sample hot path except `sqrt`; trigonometry is for the build.
+//! Every transcendental and rounding function of the core (square roots, sine and cosine, arc
+//! sine, cosine and tangent, floor, ceil and round, in f32 and f64) is a libm call made here and
+//! nowhere else; the wrappers add nothing to it, so results are those of libm bit for bit.
+//! (The polynomial inverse trigonometry of `importance::sptd::trig` and the [`Fast`] estimates of
+//! the SAOH are not libm; [`Fast`] reduces its argument with [`floor`].)
+//!
+//! In the hot path: [`sqrt`] and [`sqrt64`] (importances, samplers), the f64 [`sin_cos64`],
+//! [`atan2_64`] and [`cos64`] of the light samplers (disk, sphere, spherical triangle, spot),
+//! once per sample; [`acos`] (the GGX table lookup) and [`ceil`] (the sample budget), once per
+//! shading point. The rest ([`sin`], [`cos`], [`sin_cos`], [`Exact`], [`round`], [`asin`],
+//! [`floor`], [`cos64`] for light energies) serves the build, the quantised cones and tests.
 
 /// Square root (f32).
 #[inline(always)]
@@ -36,6 +46,68 @@ pub fn cos(x: f32) -> f32 {
 #[inline]
 pub fn sin(x: f32) -> f32 {
     libm::sinf(x)
+}
+
+/// Sine and cosine (f64).
+#[inline(always)]
+pub fn sin_cos64(x: f64) -> (f64, f64) {
+    libm::sincos(x)
+}
+
+/// Cosine (f64).
+#[inline(always)]
+pub fn cos64(x: f64) -> f64 {
+    libm::cos(x)
+}
+
+/// atan2(y, x) (f64).
+#[inline(always)]
+pub fn atan2_64(y: f64, x: f64) -> f64 {
+    libm::atan2(y, x)
+}
+
+/// Arc cosine (f32).
+#[inline(always)]
+pub fn acos(x: f32) -> f32 {
+    libm::acosf(x)
+}
+
+/// Arc sine (f32).
+#[inline(always)]
+pub fn asin(x: f32) -> f32 {
+    libm::asinf(x)
+}
+
+/// Arc cosine (f64).
+#[cfg(test)]
+#[inline(always)]
+pub fn acos64(x: f64) -> f64 {
+    libm::acos(x)
+}
+
+/// Arc sine (f64).
+#[cfg(test)]
+#[inline(always)]
+pub fn asin64(x: f64) -> f64 {
+    libm::asin(x)
+}
+
+/// Largest integer not above `x` (f32).
+#[inline(always)]
+pub fn floor(x: f32) -> f32 {
+    libm::floorf(x)
+}
+
+/// Smallest integer not below `x` (f32).
+#[inline(always)]
+pub fn ceil(x: f32) -> f32 {
+    libm::ceilf(x)
+}
+
+/// Nearest integer to `x`, halfway cases away from zero (f32).
+#[inline(always)]
+pub fn round(x: f32) -> f32 {
+    libm::roundf(x)
 }
 
 /// `sqrt(max(0, 1 - c²))`: the sine belonging to a cosine, safe against rounding.
@@ -119,7 +191,7 @@ impl Trig for Fast {
     fn sin_cos(x: f32) -> (f32, f32) {
         use core::f32::consts::{FRAC_PI_2, PI, TAU};
         // Reduce to [-π, π], then to [-π/2, π/2] with a sign on the cosine.
-        let mut a = x - TAU * libm::floorf((x + PI) / TAU);
+        let mut a = x - TAU * floor((x + PI) / TAU);
         let mut cos_sign = 1.0;
         if a > FRAC_PI_2 {
             a = PI - a;

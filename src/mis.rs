@@ -58,6 +58,7 @@
 
 use crate::cut::LightCut;
 use crate::importance::{Importance, TlImportance};
+use crate::math;
 use crate::tree::LightTree;
 
 /// λ of Algorithm 1.
@@ -73,7 +74,7 @@ pub fn sample_budget(ib: f32, n_max: u32) -> u32 {
         return 0;
     }
     let n_max = n_max.clamp(1, MAX_BUDGET);
-    let n = libm::ceilf(ib.min(1.0) * n_max as f32);
+    let n = math::ceil(ib.min(1.0) * n_max as f32);
     (n as u32).clamp(1, n_max)
 }
 

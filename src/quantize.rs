@@ -25,8 +25,8 @@ pub fn encode_axis(a: Vec3) -> u32 {
         x = (1.0 - oy.abs()) * sign(ox);
         y = (1.0 - ox.abs()) * sign(oy);
     }
-    let qx = libm::roundf((x.clamp(-1.0, 1.0) * 0.5 + 0.5) * Q) as u32;
-    let qy = libm::roundf((y.clamp(-1.0, 1.0) * 0.5 + 0.5) * Q) as u32;
+    let qx = math::round((x.clamp(-1.0, 1.0) * 0.5 + 0.5) * Q) as u32;
+    let qy = math::round((y.clamp(-1.0, 1.0) * 0.5 + 0.5) * Q) as u32;
     qx | (qy << 16)
 }
 
@@ -56,7 +56,7 @@ pub fn decode_axis(q: u32) -> Vec3 {
 pub fn encode_angle(theta: f32) -> u32 {
     let s = math::sin(theta.clamp(0.0, PI) * 0.5);
     // One step of slack absorbs the rounding of sinf itself.
-    let q = libm::ceilf(s * Q) + if s > 0.0 { 1.0 } else { 0.0 };
+    let q = math::ceil(s * Q) + if s > 0.0 { 1.0 } else { 0.0 };
     q.min(Q) as u32
 }
 
@@ -72,7 +72,7 @@ pub fn decode_angle(q: u32) -> (f32, f32) {
 /// The angle θ of a decoded `(cos θ, sin θ)`, for checks off the hot path.
 pub fn angle_of(q: u32) -> f32 {
     let s = (q & 0xFFFF) as f32 * (1.0 / Q);
-    2.0 * libm::asinf(s.min(1.0))
+    2.0 * math::asin(s.min(1.0))
 }
 
 /// Packs a cone into `(axis, angles)`: θo widened by the axis' own quantisation error, θo in the
@@ -124,7 +124,7 @@ mod tests {
             let back = angle_of(q);
             assert!(back + 1e-6 >= t, "θ={t}: decoded {back}");
             // At most two quantisation steps of s = sin(θ/2) above the true value.
-            let allowed = angle_of((libm::floorf(math::sin(t * 0.5) * Q) as u32 + 2).min(65535));
+            let allowed = angle_of((math::floor(math::sin(t * 0.5) * Q) as u32 + 2).min(65535));
             assert!(back <= allowed + 1e-5, "θ={t}: decoded {back} > {allowed}");
             let (c, s) = decode_angle(q);
             assert!((c * c + s * s - 1.0).abs() < 1e-5);

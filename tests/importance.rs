@@ -1,16 +1,16 @@
-//! The TL importance: the 4-wide `eval4` against the scalar `eval` lane by lane, the scalar
+//! The TL importance: the 4-wide `eval4` against the scalar `eval_slot` lane by lane, the scalar
 //! `eval` against the formula of MATH.md section 4 computed in f64, and conservativeness
 //! (every light that can contribute at a point has a positive pmf).
 
 mod common;
 
 use common::{
-    boundary_scene, close, contributes, proptest_config, push_emitter_points, push_sphere_points,
-    random_normal, styled_scene, Rng, Where, RECEIVERS,
+    boundary_scene, close, contributes, lanes_match_scalar, proptest_config, push_emitter_points,
+    push_sphere_points, random_nodes, random_normal, styled_scene, Rng, Where, RECEIVERS,
 };
 use glam::{DVec3, Vec3};
 use manylights::baseline::BinaryLightTree;
-use manylights::{Importance, Light, LightTree, Node4, SlotBounds, TlImportance};
+use manylights::{Light, LightTree, Node4, SlotBounds, TlImportance};
 use proptest::prelude::{any, prop_oneof, Strategy};
 use proptest::test_runner::TestCaseError;
 
@@ -18,30 +18,20 @@ use proptest::test_runner::TestCaseError;
 // SIMD vs scalar
 // ---------------------------------------------------------------------------------------------
 
-/// `eval4(node)` lane k equals `eval(&node.bounds(k))`: the two are written operation for
-/// operation alike, so any difference is a bug; the tolerance (1e-5 relative plus 1e-30
-/// absolute, for subnormal results) only allows for a compiler reordering nothing here
-/// depends on. Also checks the documented range: never negative or NaN, 0 for empty slots.
+/// Relative tolerance of TL's lane comparison: `eval4` and `eval_slot` are written operation
+/// for operation alike, so any difference is a bug; 1e-5 only allows for a compiler reordering
+/// nothing here depends on. Tighter than BL's (`tests/bl.rs`), whose cap integrals go through
+/// an ill-conditioned lens area that TL does not have.
+const LANE_REL: f64 = 1e-5;
+
+/// Absolute floor of TL's lane comparison, for results too small to carry relative precision.
+const LANE_ABS: f64 = 1e-30;
+
+/// `eval4(node)` lane k equals `eval_slot(&node.bounds(k))` within [`LANE_REL`] and
+/// [`LANE_ABS`], and both are in the documented range ([`common::lanes_match_scalar`], the
+/// check every importance shares).
 fn check_lanes(imp: &TlImportance, node: &Node4) -> Result<(), String> {
-    let wide = imp.eval4(node).to_array();
-    for (k, &w) in wide.iter().enumerate() {
-        let b = node.bounds(k);
-        let s = imp.eval(&b);
-        if !(w >= 0.0 && s >= 0.0) {
-            return Err(format!(
-                "lane {k}: eval4 {w}, eval {s} for {b:?} at {imp:?}"
-            ));
-        }
-        if !close(f64::from(w), f64::from(s), 1e-5, 1e-30) {
-            return Err(format!(
-                "lane {k}: eval4 {w} vs eval {s} for {b:?} at {imp:?}"
-            ));
-        }
-        if node.energy[k] == 0.0 && w != 0.0 {
-            return Err(format!("lane {k}: zero-energy slot has importance {w}"));
-        }
-    }
-    Ok(())
+    lanes_match_scalar(imp, node, LANE_REL, LANE_ABS).map(|_| ())
 }
 
 /// Shading points that stress one node: inside a slot's bounding sphere (at its centre, at
@@ -143,40 +133,13 @@ fn eval4_matches_scalar_on_degenerate_clusters() {
     }
 }
 
-/// Property 4 on synthetic nodes whose every field is random — any axis and angle bits, radii
-/// from 0 to huge, energies over 40 decades, empty slots — so the whole input domain of the
-/// decode is covered, not only what the build produces.
+/// Property 4 on synthetic nodes whose every field is random ([`common::random_node`]): the
+/// whole input domain of the decode, not only what the build produces. `tests/bl.rs` checks BL
+/// on the same nodes.
 #[test]
 fn eval4_matches_scalar_on_random_nodes() {
     let mut rng = Rng::new(0x5EED);
-    for _ in 0..20_000 {
-        let x = rng.in_cube(10.0);
-        let mut node = Node4::EMPTY;
-        for k in 0..4 {
-            if rng.chance(0.15) {
-                continue; // empty slot
-            }
-            let c = match rng.below(4) {
-                0 => x,
-                1 => x + rng.unit() * rng.log_range(1e-6, 1e-2),
-                _ => x + rng.unit() * rng.log_range(1e-3, 1e3),
-            };
-            node.center_x[k] = c.x;
-            node.center_y[k] = c.y;
-            node.center_z[k] = c.z;
-            node.radius[k] = match rng.below(4) {
-                0 => 0.0,
-                _ => rng.log_range(1e-6, 1e3),
-            };
-            node.energy[k] = rng.log_range(1e-20, 1e20);
-            node.axis[k] = rng.next_u64() as u32;
-            node.angles[k] = match rng.below(4) {
-                0 => 0xFFFF_FFFF,
-                1 => (rng.next_u64() as u32) & 0xFFFF_0000,
-                _ => rng.next_u64() as u32,
-            };
-            node.child[k] = 0x8000_0000 | k as u32;
-        }
+    for (x, node) in random_nodes(20_000) {
         for receiver in RECEIVERS {
             let imp = TlImportance::with_receiver(x, random_normal(&mut rng), receiver);
             check_lanes(&imp, &node).unwrap();

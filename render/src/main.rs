@@ -39,9 +39,9 @@ enum Command {
         json: bool,
     },
     /// Fit the SPTD parameters of GGX (MATH.md section 8) and write the core's generated
-    /// table src/importance/sptd_ggx_table.rs.
+    /// table src/importance/sptd/table.rs.
     SptdFit {
-        /// Where to write the table (default: the core's src/importance/sptd_ggx_table.rs).
+        /// Where to write the table (default: the core's src/importance/sptd/table.rs).
         #[arg(long)]
         out: Option<PathBuf>,
         /// Re-fit K nodes spread over the committed table and compare (exit 1 on mismatch).

@@ -11,7 +11,7 @@
 //! `Cell`s): one per shading point, per thread.
 
 use super::Importance;
-use crate::tree::{LightTree, Node4};
+use crate::tree::{LightTree, Node4, SlotBounds};
 use core::cell::Cell;
 use wide::f32x4;
 
@@ -76,12 +76,19 @@ impl<I: Importance> Importance for Memo<'_, I> {
         slot.set((i, v.to_array()));
         v
     }
+
+    /// The inner importance's, not memoised (a slot's bounds do not name their node).
+    #[inline]
+    fn eval_slot(&self, b: &SlotBounds) -> f32 {
+        self.imp.eval_slot(b)
+    }
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
     use crate::importance::TlImportance;
+    use crate::math;
     use crate::{BuildOptions, Light};
     use alloc::vec::Vec;
     use glam::Vec3;
@@ -91,7 +98,7 @@ mod tests {
             .map(|i| {
                 let t = i as f32 * 0.37;
                 Light::Point {
-                    position: Vec3::new(libm::sinf(t) * 5.0, libm::cosf(t * 1.3) * 5.0, t * 0.1),
+                    position: Vec3::new(math::sin(t) * 5.0, math::cos(t * 1.3) * 5.0, t * 0.1),
                     intensity: 1.0 + (i % 7) as f32,
                 }
             })

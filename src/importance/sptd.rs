@@ -9,7 +9,7 @@
 //! - [`Pivot`]: the pivot transform `P`, its Jacobian, the SPTD density and the closed-form
 //!   cap-to-cap map with the stable `1 − z'`.
 //! - [`SptdGgx`]: GGX (height-correlated Smith, no Fresnel) as an SPTD fitted per (α, θo) by
-//!   `mlrender sptd-fit` into the generated table `sptd_ggx_table.rs`; horizon clipping through
+//!   `mlrender sptd-fit` into the generated table [`table`]; horizon clipping through
 //!   `P(H)`, computed once per shading point; with a fitted Lambert share and a masking
 //!   correction for caps that graze the horizon (see the `ggx` submodule's docs).
 //! - [`lambert_cap`], [`lambert_visible`]: the exact horizon-clipped cosine integral over a cap
@@ -40,7 +40,6 @@ mod lambert;
 mod pivot;
 pub mod trig;
 
-#[path = "sptd_ggx_table.rs"]
 pub mod table;
 
 pub use cap::{intersection_area, intersection_area4, Cap, Cap4};

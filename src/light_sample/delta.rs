@@ -58,6 +58,6 @@ fn cos_angle(a: f32) -> f64 {
     } else if a <= 0.0 {
         1.0
     } else {
-        libm::cos(f64::from(a))
+        math::cos64(f64::from(a))
     }
 }

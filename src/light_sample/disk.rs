@@ -12,6 +12,7 @@
 
 use super::vec64::V64;
 use super::LightPoint;
+use crate::math;
 use core::f64::consts::{FRAC_PI_4, PI};
 use glam::Vec3;
 
@@ -31,7 +32,7 @@ pub(crate) fn concentric(u: [f64; 2]) -> (f64, f64) {
     } else {
         (b, 2.0 * FRAC_PI_4 - FRAC_PI_4 * (a / b))
     };
-    let (s, c) = libm::sincos(phi);
+    let (s, c) = math::sin_cos64(phi);
     (r * c, r * s)
 }
 

@@ -65,7 +65,7 @@ pub(super) fn sample(
             let cos = 1.0 - omc;
             let sin = math::sqrt64((omc * (2.0 - omc)).max(0.0));
             let (t, b) = axis.basis();
-            let (sp, cp) = libm::sincos(2.0 * PI * u[1]);
+            let (sp, cp) = math::sin_cos64(2.0 * PI * u[1]);
             let w = (axis * cos + (t * cp + b * sp) * sin).normalize()?;
             // R² − dc² sin²θ = dc² (sin²θmax − sin²θ), written without cancellation.
             let disc = omc_max * (1.0 - u[0]) * (2.0 - omc_max * (1.0 + u[0]));
@@ -90,7 +90,7 @@ pub(super) fn sample(
         View::Inside => {
             let z = 1.0 - 2.0 * u[0];
             let s = math::sqrt64((1.0 - z * z).max(0.0));
-            let (sp, cp) = libm::sincos(2.0 * PI * u[1]);
+            let (sp, cp) = math::sin_cos64(2.0 * PI * u[1]);
             let n = V64::new(s * cp, s * sp, z);
             let p = (c + n * r).to_f32();
             at_point_inside(c, r, radiance, xv, p)

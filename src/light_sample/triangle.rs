@@ -66,7 +66,7 @@ pub(crate) fn view(vertices: &[Vec3; 3], x: Vec3, spherical: Option<bool>) -> Op
     let c = (v[2] - xv).normalize()?;
     let num = a.dot(b.cross(c)).abs();
     let den = 1.0 + a.dot(b) + b.dot(c) + c.dot(a);
-    let omega = 2.0 * libm::atan2(num, den);
+    let omega = 2.0 * math::atan2_64(num, den);
     let use_spherical = spherical.unwrap_or(omega >= MIN_SPHERICAL_SOLID_ANGLE);
     let mode = if use_spherical && omega > 0.0 {
         Mode::Spherical { a, b, c, omega }
@@ -180,10 +180,10 @@ impl View {
 fn arvo(a: V64, b: V64, c: V64, omega: f64, u: [f64; 2]) -> Option<V64> {
     // Angle at vertex a between the great arcs a–b and a–c.
     let (nab, nac) = (a.cross(b), a.cross(c));
-    let alpha = libm::atan2(nab.cross(nac).length(), nab.dot(nac));
-    let (sa, ca) = libm::sincos(alpha);
+    let alpha = math::atan2_64(nab.cross(nac).length(), nab.dot(nac));
+    let (sa, ca) = math::sin_cos64(alpha);
     let cos_ab = a.dot(b);
-    let (s, t) = libm::sincos(u[0] * omega - alpha);
+    let (s, t) = math::sin_cos64(u[0] * omega - alpha);
     let uu = t - ca;
     let vv = s + sa * cos_ab;
     let q = ((vv * t - uu * s) * ca - vv) / ((vv * s + uu * t) * sa);

@@ -11,7 +11,7 @@
 pub mod cut;
 
 use glam::{DVec3, Vec3};
-use manylights::{Light, Receiver, SlotBounds, TlImportance};
+use manylights::{Importance, Light, Node4, Receiver, SlotBounds, TlImportance};
 use std::f32::consts::{FRAC_PI_2, PI};
 
 // ---------------------------------------------------------------------------------------------
@@ -399,6 +399,93 @@ pub fn u_values(rng: &mut Rng, extra: usize) -> Vec<f32> {
     ];
     u.extend((0..extra).map(|_| rng.f32()));
     u
+}
+
+// ---------------------------------------------------------------------------------------------
+// SIMD vs scalar, for every importance
+// ---------------------------------------------------------------------------------------------
+
+/// Lane k of `imp.eval4(node)` against the scalar twin `imp.eval_slot(&node.bounds(k))`, for
+/// any importance: equal within `rel` relative plus `abs` absolute (see [`close`]; each
+/// importance passes the tolerance its `eval_slot` documents), and the documented range of
+/// both: never negative or NaN, 0 for a slot of zero energy. Returns the four `(eval4 lane,
+/// eval_slot)` pairs for further checks.
+pub fn lanes_match_scalar<I: Importance + std::fmt::Debug>(
+    imp: &I,
+    node: &Node4,
+    rel: f64,
+    abs: f64,
+) -> Result<[(f32, f32); 4], String> {
+    let wide = imp.eval4(node).to_array();
+    let mut pairs = [(0.0, 0.0); 4];
+    for (k, &w) in wide.iter().enumerate() {
+        let b = node.bounds(k);
+        let s = imp.eval_slot(&b);
+        if !(w >= 0.0 && s >= 0.0) {
+            return Err(format!(
+                "lane {k}: eval4 {w}, eval_slot {s} for {b:?} at {imp:?}"
+            ));
+        }
+        if !close(f64::from(w), f64::from(s), rel, abs) {
+            return Err(format!(
+                "lane {k}: eval4 {w:e} vs eval_slot {s:e} (tolerance {rel:e} relative, {abs:e} \
+                 absolute) for {b:?} of {node:?} at {imp:?}"
+            ));
+        }
+        if node.energy[k] == 0.0 && (w != 0.0 || s != 0.0) {
+            return Err(format!(
+                "lane {k}: zero-energy slot has importance {w} / {s} at {imp:?}"
+            ));
+        }
+        pairs[k] = (w, s);
+    }
+    Ok(pairs)
+}
+
+/// A synthetic node near `x` whose every field is random — any axis and angle bits, centres at
+/// `x`, close by or far, radii from 0 to huge, energies over 40 decades, empty slots — so the
+/// whole input domain of the decode is covered, not only what the build produces.
+pub fn random_node(rng: &mut Rng, x: Vec3) -> Node4 {
+    let mut node = Node4::EMPTY;
+    for k in 0..4 {
+        if rng.chance(0.15) {
+            continue; // empty slot
+        }
+        let c = match rng.below(4) {
+            0 => x,
+            1 => x + rng.unit() * rng.log_range(1e-6, 1e-2),
+            _ => x + rng.unit() * rng.log_range(1e-3, 1e3),
+        };
+        node.center_x[k] = c.x;
+        node.center_y[k] = c.y;
+        node.center_z[k] = c.z;
+        node.radius[k] = match rng.below(4) {
+            0 => 0.0,
+            _ => rng.log_range(1e-6, 1e3),
+        };
+        node.energy[k] = rng.log_range(1e-20, 1e20);
+        node.axis[k] = rng.next_u64() as u32;
+        node.angles[k] = match rng.below(4) {
+            0 => 0xFFFF_FFFF,
+            1 => (rng.next_u64() as u32) & 0xFFFF_0000,
+            _ => rng.next_u64() as u32,
+        };
+        node.child[k] = 0x8000_0000 | k as u32;
+    }
+    node
+}
+
+/// The shading points and synthetic nodes ([`random_node`]) every importance's lane test
+/// draws: the same `count` pairs for every importance, from their own seed, so TL and BL are
+/// checked on the same nodes whatever else each test draws.
+pub fn random_nodes(count: usize) -> Vec<(Vec3, Node4)> {
+    let mut rng = Rng::new(0x5EED);
+    (0..count)
+        .map(|_| {
+            let x = rng.in_cube(10.0);
+            (x, random_node(&mut rng, x))
+        })
+        .collect()
 }
 
 // ---------------------------------------------------------------------------------------------

@@ -1,5 +1,5 @@
 //! `mlrender sptd-fit`: fits the SPTD parameters of GGX (MATH.md section 8, "GGX fit") and
-//! writes them as the generated Rust source `src/importance/sptd_ggx_table.rs` of the core.
+//! writes them as the generated Rust source `src/importance/sptd/table.rs` of the core.
 //!
 //! Per table node `(i, j)` — `u = √α = i/63`, `v = 2θo/π = j/63`, clamped as
 //! [`manylights::importance::sptd::table_node`] says:
@@ -61,15 +61,39 @@ impl Default for FitConfig {
 }
 
 impl FitConfig {
-    /// The settings the committed table was fitted with.
+    /// The settings the committed table was fitted with, read from its `Settings:` line (they
+    /// are a comment of the generated file, not constants of the core's API).
     pub fn committed() -> FitConfig {
-        FitConfig {
-            caps: table::FIT_CAPS,
-            truth_grid: table::FIT_TRUTH_GRID,
-            seed: table::FIT_SEED,
+        FitConfig::from_table_source(COMMITTED_TABLE)
+            .expect("the committed table records its settings on a `//! Settings:` line")
+    }
+
+    /// The settings a generated table ([`table_source`]) records on its `Settings:` line.
+    pub fn from_table_source(src: &str) -> Option<FitConfig> {
+        let line = src.lines().find_map(|l| l.strip_prefix("//! Settings: "))?;
+        let mut it = line.split(';').next()?.split(", ");
+        let caps = it.next()?.strip_suffix(" caps per node")?.parse().ok()?;
+        let truth_grid = it.next()?.strip_suffix("² MIS pairs per cap")?;
+        let seed = it.next()?.strip_prefix("seed ")?.parse().ok()?;
+        Some(FitConfig {
+            caps,
+            truth_grid: truth_grid.parse().ok()?,
+            seed,
+        })
+    }
+
+    /// The command that regenerates a table with these settings (recorded in the file).
+    pub fn command(&self) -> String {
+        let mut command = String::from("cargo run --release -p manylights-render -- sptd-fit");
+        if self.caps != FitConfig::default().caps {
+            command.push_str(&format!(" --caps {}", self.caps));
         }
+        command
     }
 }
+
+/// The source of the committed table, as the core compiles it.
+const COMMITTED_TABLE: &str = include_str!("../../src/importance/sptd/table.rs");
 
 /// Smallest and largest test-cap half-angle (radians).
 const SIGMA_RANGE: (f64, f64) = (1e-3, 1.5);
@@ -458,12 +482,6 @@ pub fn table_source(t: &[Vec<NodeFit>], cfg: &FitConfig, command: &str) -> Strin
 
 /// Nodes per axis.
 pub const SIZE: usize = {size};
-/// Test caps per node used by the fit.
-pub const FIT_CAPS: usize = {caps};
-/// MIS pairs per cap of the fit's ground truth: `FIT_TRUTH_GRID²`.
-pub const FIT_TRUTH_GRID: usize = {grid};
-/// Base seed of the fit.
-pub const FIT_SEED: u64 = {seed};
 
 ",
         m = TABLE_SIZE - 1,
@@ -572,7 +590,7 @@ pub fn check(k: usize) -> Vec<CheckRow> {
 
 /// Where the generated table lives in the repository.
 pub fn default_table_path() -> std::path::PathBuf {
-    std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../src/importance/sptd_ggx_table.rs")
+    std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../src/importance/sptd/table.rs")
 }
 
 fn parse_cells(s: &str) -> Option<Vec<(usize, usize)>> {
@@ -648,11 +666,7 @@ pub fn run_cli(
     let path = out.unwrap_or_else(default_table_path);
     let t_fit = fit_table(&cfg, true);
     let seconds = t.elapsed().as_secs_f64();
-    let mut command = String::from("cargo run --release -p manylights-render -- sptd-fit");
-    if cfg.caps != FitConfig::default().caps {
-        command.push_str(&format!(" --caps {}", cfg.caps));
-    }
-    let src = table_source(&t_fit, &cfg, &command);
+    let src = table_source(&t_fit, &cfg, &cfg.command());
     if let Err(e) = std::fs::write(&path, src) {
         eprintln!("sptd-fit: cannot write {}: {e}", path.display());
         return 1;
@@ -681,6 +695,51 @@ mod tests {
             1000,
         );
         assert!((x[0] - 1.0).abs() < 1e-4 && (x[1] + 0.5).abs() < 1e-4 && v < 1e-8);
+    }
+
+    /// The generator writes the committed file: everything but the mean objective (which the
+    /// table does not store) is reproduced from the committed parameters, and the settings
+    /// `--check` reads back are the ones written.
+    #[test]
+    fn table_source_reproduces_the_committed_table() {
+        let cfg = FitConfig::committed();
+        let t: Vec<Vec<NodeFit>> = (0..TABLE_SIZE)
+            .map(|i| {
+                (0..TABLE_SIZE)
+                    .map(|j| NodeFit {
+                        i,
+                        j,
+                        params: committed_node(i, j),
+                        loss: 0.0,
+                        median_rel_err: 0.0,
+                        evals: 0,
+                    })
+                    .collect()
+            })
+            .collect();
+        let src = table_source(&t, &cfg, &cfg.command());
+        let is_objective = |l: &str| {
+            l.strip_prefix("//! ")
+                .and_then(|x| x.strip_suffix('.'))
+                .is_some_and(|x| x.parse::<f64>().is_ok())
+        };
+        let ours: Vec<&str> = src.lines().filter(|l| !is_objective(l)).collect();
+        let committed: Vec<&str> = COMMITTED_TABLE
+            .lines()
+            .filter(|l| !is_objective(l))
+            .collect();
+        assert!(
+            ours == committed,
+            "the generator no longer writes the committed table"
+        );
+        assert_eq!(src.lines().count(), COMMITTED_TABLE.lines().count());
+        let other = FitConfig {
+            caps: 96,
+            truth_grid: 8,
+            seed: 7,
+        };
+        let src = table_source(&t, &other, &other.command());
+        assert_eq!(FitConfig::from_table_source(&src), Some(other));
     }
 
     /// CI's guard on the committed table: two nodes re-fitted here must match it.

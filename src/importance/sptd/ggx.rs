@@ -22,7 +22,7 @@
 //! `P(C)` then lies inside or outside `P(H)`, and `L`, `|C ∩ H|` are closed-form; the 4-wide
 //! form takes the intersection path only for groups with a crossing cap (per-lane results are
 //! the same either way). The whole hemisphere (and a shading point inside a cluster's bounding
-//! sphere) gets exactly `ρ`. `R`, `Gθ`, `ρ`, `β` and `c_ref` come from the table `sptd_ggx_table.rs`, which
+//! sphere) gets exactly `ρ`. `R`, `Gθ`, `ρ`, `β` and `c_ref` come from the table `sptd/table.rs`, which
 //! `mlrender sptd-fit` fits (see its docs for the objective), indexed by `u = √α` and
 //! `v = 2θo/π` and filtered bilinearly.
 
@@ -77,7 +77,7 @@ pub fn ggx_params(alpha: f32, cos_theta_o: f32) -> GgxParams {
     };
     let c = cos_theta_o.abs();
     let c = if c <= 1.0 { c } else { 1.0 };
-    let theta = libm::acosf(c).min(THETA_O_MAX);
+    let theta = math::acos(c).min(THETA_O_MAX);
     let n = (TABLE_SIZE - 1) as f32;
     let x = math::sqrt(alpha) * n;
     let y = theta * (2.0 / PI) * n;
