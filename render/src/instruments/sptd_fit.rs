@@ -93,7 +93,7 @@ impl FitConfig {
 }
 
 /// The source of the committed table, as the core compiles it.
-const COMMITTED_TABLE: &str = include_str!("../../src/importance/sptd/table.rs");
+const COMMITTED_TABLE: &str = include_str!("../../../src/importance/sptd/table.rs");
 
 /// Smallest and largest test-cap half-angle (radians).
 const SIGMA_RANGE: (f64, f64) = (1e-3, 1.5);
