@@ -130,7 +130,7 @@ impl Cone {
         self.theta_o >= PI
     }
 
-    /// Smallest cone (by the construction of MATH.md section 2) holding both.
+    /// Smallest cone (by the construction of docs/formulas.md, section 2) holding both.
     pub fn union(self, b: Cone) -> Cone {
         self.union_with::<Exact>(b)
     }

@@ -3,12 +3,12 @@
 //! caller-owned per-thread state, rebuilt per shading point.
 //!
 //! Two ways to build one:
-//! - **Split sampling** (Conty & Kulla, "Predicted variance"; MATH.md section 5):
+//! - **Split sampling** (Conty & Kulla, "Predicted variance"; docs/formulas.md, section 5):
 //!   [`LightCut::build_split`] opens a cluster while the variance its single sample would add is
 //!   large, and always when the shading point is inside its bounding sphere. Each cluster of the
 //!   cut is then sampled once ([`LightCut::sample_in`]) and the estimator sums the clusters'
 //!   estimates.
-//! - **BRDF-oriented light cuts** (Liu et al. 2019, section 4.1; MATH.md section 6), built by the
+//! - **BRDF-oriented light cuts** (Liu et al. 2019, section 4.1; docs/formulas.md, section 6), built by the
 //!   BRDF-oriented importance: a cluster is split when x is inside its sphere or when the BRDF
 //!   integral over its cap exceeds δ; [`LightCut::sample`] then picks one cluster by importance
 //!   and descends in it.

@@ -374,7 +374,7 @@ impl Light {
         }
     }
 
-    /// Emitted power (MATH.md section 1): 4πI for points, 2π(1 − cos θs)·I for spots (an upper
+    /// Emitted power (docs/formulas.md, section 1): 4πI for points, 2π(1 − cos θs)·I for spots (an upper
     /// bound of the flux with falloff), L·π·A per emitting side for area lights.
     /// Valid only for a light that passed [`Light::validate`].
     pub fn energy(&self) -> f32 {

@@ -1,5 +1,5 @@
 //! Combining techniques: MIS weights and the adaptive sample allocation of Liu et al. 2019
-//! (section 4.2, Algorithm 1; MATH.md section 9).
+//! (section 4.2, Algorithm 1; docs/formulas.md, section 9).
 //!
 //! Techniques: **TL** (split sampling: one sample per cluster of the Conty–Kulla cut), **BL**
 //! (a light from the BRDF-oriented cut, then a point on it) and **TB** (sampling the BRDF; the

@@ -1,5 +1,5 @@
 //! Sampling a light by tree descent with one warped uniform number, and the exact pmf of any
-//! light (the forum post that introduced light-tree sampling; MATH.md section 12).
+//! light (the forum post that introduced light-tree sampling; docs/formulas.md, section 12).
 //!
 //! At a node the four slot importances `I_k` are computed at once; slot k is chosen with
 //! probability `I_k / ΣI`, the pmf is multiplied by that ratio and `u` is rescaled into the

@@ -1,6 +1,6 @@
-//! The BRDF-oriented importance BL (`BlImportance`, MATH.md sections 7 and 8) and the light
-//! cut it builds (`LightCut::build`, MATH.md section 6), sampled as a whole (`sample` /
-//! `pmf`) or per cluster (`sample_in` / `pmf_in`), and by plain tree descent (MATH.md
+//! The BRDF-oriented importance BL (`BlImportance`, docs/formulas.md, sections 7 and 8) and the light
+//! cut it builds (`LightCut::build`, docs/formulas.md, section 6), sampled as a whole (`sample` /
+//! `pmf`) or per cluster (`sample_in` / `pmf_in`), and by plain tree descent (docs/formulas.md
 //! section 12):
 //!
 //! 1. the 4-wide `eval4_with_integrals` equals the scalar `eval` lane by lane (importance, through
@@ -2168,7 +2168,7 @@ fn bad_shading_points_are_rejected_with_the_field() {
 // Regressions (these tests fail until `src/importance/brdf_oriented.rs` is fixed)
 // ---------------------------------------------------------------------------------------------
 
-/// BL of a cluster of zero extent must be the limit of BL for a shrinking cluster. MATH.md
+/// BL of a cluster of zero extent must be the limit of BL for a shrinking cluster. docs/formulas.md
 /// section 7: `B_C = (1/|Ω_C ∩ H|) ∫_{Ω_C ∩ H} f cos`, whose limit as the cap shrinks to the
 /// direction ω is `f(ω) cos θ`. `BlImportance::eval` computes `avg = sc / omega` and sets it to
 /// 0 when `omega = 0`, which is the case for every point and spot light (radius 0, so

@@ -1,5 +1,5 @@
-//! Light cuts built by split sampling (`LightCut::build_split`, MATH.md section 5) and sampled
-//! per cluster (`sample_in` / `pmf_in`) or as a whole (`sample` / `pmf`, MATH.md section 12):
+//! Light cuts built by split sampling (`LightCut::build_split`, docs/formulas.md, section 5) and sampled
+//! per cluster (`sample_in` / `pmf_in`) or as a whole (`sample` / `pmf`, docs/formulas.md, section 12):
 //!
 //! 1. structural invariants on random scenes and shading points (size bound, disjoint clusters
 //!    named by consistent paths, positive weights, `pmf_in` finding the unique cluster of a
@@ -61,7 +61,7 @@ fn inside(node: &Node4, k: usize, x: Vec3) -> bool {
     (c - x).length() <= node.radius[k]
 }
 
-/// The split criterion of `cut.rs` / MATH.md section 5 in f64 for slot `k` of `node` (weight
+/// The split criterion of `cut.rs` / docs/formulas.md, section 5 in f64 for slot `k` of `node` (weight
 /// `w`, root total `total`), outside the sphere: `ρ · (w / total)²` with
 /// `ρ = (1 + V[e]/E[e]²)(1 + (b − a)²/(3ab)) − 1`, and an absolute tolerance for comparing
 /// the crate's f32 value with it (ρ is a difference of numbers ≥ 1: ~1e-7 of them).
@@ -182,7 +182,7 @@ macro_rules! ensure {
 ///   number of positive root slots, at most that number (what the code does today: see
 ///   `split_cut_len_at_most_max_size`, which fails for it);
 /// - every cluster: weight > 0, finite, equal to the importance of its slot; a non-empty slot;
-///   its path leads to its (node, slot); its score is MATH.md section 5's criterion;
+///   its path leads to its (node, slot); its score is docs/formulas.md, section 5's criterion;
 ///   `total_weight` and `max_score` are the sum and maximum;
 /// - disjoint: no cluster's path is a prefix of another's, no light under two clusters;
 /// - threshold semantics: every proper ancestor slot of a cluster was split, so it contains x
@@ -265,7 +265,7 @@ fn check_cut(
         weight_sum += f64::from(c.weight);
         max_score = max_score.max(c.score);
 
-        // Score: ∞ inside the sphere, MATH.md section 5's criterion outside it.
+        // Score: ∞ inside the sphere, docs/formulas.md, section 5's criterion outside it.
         if inside(node, k, x) {
             ensure!(
                 c.score == f32::INFINITY,
@@ -687,7 +687,7 @@ fn cut_pmfs_sum_to_one_on_random_scenes() {
 /// importance 0. When the cut keeps that cluster unsplit (threshold ∞, only inside-sphere
 /// splits), `sample_in` returns `None` for it, so `sample(u)` returns `None` for u in its share
 /// of the total weight and the pmfs of the non-empty cut sum to less than 1 — whereas
-/// `LightTree::sample` falls back to the energies at such a node (MATH.md section 12) and
+/// `LightTree::sample` falls back to the energies at such a node (docs/formulas.md, section 12) and
 /// never fails below a root of positive importance. With threshold ∞ and max_size 16 the cut
 /// has 13 clusters, 4 of them dead (paths 20, 22, 25, 26), Σ pmf = 0.98634, and
 /// `cut.sample(.., 0.85)` is `None` (1.37 % of all u are).

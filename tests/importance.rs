@@ -1,5 +1,5 @@
 //! The TL importance: the 4-wide `eval4` against the scalar `eval_slot` lane by lane, the scalar
-//! `eval` against the formula of MATH.md section 4 computed in f64, and conservativeness
+//! `eval` against the formula of docs/formulas.md, section 4 computed in f64, and conservativeness
 //! (every light that can contribute at a point has a positive pmf).
 
 mod common;
@@ -148,10 +148,10 @@ fn eval4_matches_scalar_on_random_nodes() {
 }
 
 // ---------------------------------------------------------------------------------------------
-// The scalar importance against MATH.md section 4, in f64
+// The scalar importance against docs/formulas.md, section 4, in f64
 // ---------------------------------------------------------------------------------------------
 
-/// MATH.md section 4 in f64, with acos/asin, from decoded bounds:
+/// docs/formulas.md, section 4 in f64, with acos/asin, from decoded bounds:
 /// θu = asin(min(r/d, 1)) (π inside the sphere), θ = ∠(a, −ωi), θ' = max(0, θ − θo − θu),
 /// θi = ∠(n, ωi), θi' = max(0, θi − θu), I = E·cos θ'·cos θi' / max(d², (r/2)², 1e-12), zero when
 /// θ' ≥ θe or (reflective) θi' ≥ π/2; |cos θi| for a transmissive receiver; no receiver term
@@ -197,7 +197,7 @@ fn tl_reference(imp: &TlImportance, b: &SlotBounds) -> (f64, f64) {
     (f64::from(b.energy) * theta_p.cos() * cos_i / d2, margin)
 }
 
-/// `TlImportance::eval` follows the formula of MATH.md section 4 (computed independently in
+/// `TlImportance::eval` follows the formula of docs/formulas.md, section 4 (computed independently in
 /// f64 with acos/asin, on the decoded bounds): zero exactly when the formula is zero and
 /// within 2e-3 relative otherwise, wherever the decision is at least 1e-3 rad from a zero
 /// boundary and the point is not within 1e-4·r of the sphere's surface (where f32 rounding may

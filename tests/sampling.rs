@@ -1,7 +1,7 @@
 //! Sampling and pmfs of `LightTree` and `BinaryLightTree`: sample/pmf agreement, pmfs summing
 //! to 1, zero-energy lights never sampled (property tests over random scenes), a chi-square
 //! test of the sampled frequencies, the far-field limit, and the zero-importance fallback of
-//! MATH.md section 12.
+//! docs/formulas.md, section 12.
 
 mod common;
 
@@ -244,7 +244,7 @@ fn only_zero_energy_lights_sample_nothing() {
     }
 }
 
-/// The pmf recomputed from the documented algorithm (MATH.md section 12), in f64, from the
+/// The pmf recomputed from the documented algorithm (docs/formulas.md, section 12), in f64, from the
 /// public nodes and `eval4`: at each node the slot weights are the importances, or below the
 /// root the slots' energies when all importances are 0; at the root a zero sum means no light.
 fn reference_pmf(tree: &LightTree, imp: &TlImportance, light: u32) -> f64 {
@@ -534,7 +534,7 @@ fn far_field_frequencies_follow_power() {
 }
 
 // ---------------------------------------------------------------------------------------------
-// Zero-importance fallback (MATH.md section 12)
+// Zero-importance fallback (docs/formulas.md, section 12)
 // ---------------------------------------------------------------------------------------------
 
 /// Every light under node `node`.

@@ -38,7 +38,7 @@ enum Command {
         #[arg(long)]
         json: bool,
     },
-    /// Fit the SPTD parameters of GGX (MATH.md section 8) and write the core's generated
+    /// Fit the SPTD parameters of GGX (docs/formulas.md, section 8) and write the core's generated
     /// table src/importance/sptd/table.rs.
     SptdFit {
         /// Where to write the table (default: the core's src/importance/sptd/table.rs).

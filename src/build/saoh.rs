@@ -1,5 +1,5 @@
 //! Binned SAOH build of a binary light tree (Conty & Kulla, "Surface Area Orientation
-//! Heuristic"; MATH.md section 3).
+//! Heuristic"; docs/formulas.md, section 3).
 //!
 //! Light centroids are binned into `buckets` buckets on each of the three axes; every bucket
 //! boundary is costed with

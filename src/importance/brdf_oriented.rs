@@ -1,4 +1,4 @@
-//! BRDF-oriented light importance, BL (Liu et al. 2019, Eqn. 6; MATH.md section 7):
+//! BRDF-oriented light importance, BL (Liu et al. 2019, Eqn. 6; docs/formulas.md, section 7):
 //!
 //! ```text
 //! I_BL(C) = E · cos θ' / d²  ·  B_C,      B_C = (1/|Ω_C ∩ H|) ∫_{Ω_C ∩ H} f cos θi dωi

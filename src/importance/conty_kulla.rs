@@ -1,5 +1,5 @@
 //! Traditional light importance, TL (Conty & Kulla, "Importance Function"; Liu et al. 2019
-//! Eqn. 6 with the G and E terms; MATH.md section 4):
+//! Eqn. 6 with the G and E terms; docs/formulas.md, section 4):
 //!
 //! ```text
 //! θu  = asin(min(r/d, 1))            (π when x is inside the bounding sphere)

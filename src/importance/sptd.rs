@@ -1,7 +1,7 @@
 //! Spherical Pivot Transformed Distributions (Dupuy, Heitz & Belcour 2017, "A Spherical Cap
 //! Preserving Parameterization for Spherical Distributions"), as Liu et al. 2019 use them for
 //! the BRDF-oriented importance (their Eqn. 5 and 6: the cosine-weighted BRDF integrated over
-//! the cap a cluster's bounding sphere subtends); MATH.md sections 7 and 8.
+//! the cap a cluster's bounding sphere subtends); docs/formulas.md, sections 7 and 8.
 //!
 //! - [`trig`]: polynomial `atan2`/`asin`/`acos`, scalar and 4-wide, with measured errors.
 //! - [`Cap`], [`intersection_area`]: caps that keep `1 ∓ cos σ` exact, and the exact area of

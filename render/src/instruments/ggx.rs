@@ -3,7 +3,7 @@
 //! the Masking-Shadowing Function in Microfacet-Based BRDFs", Eqn. 99), sampling of the
 //! distribution of visible normals (Heitz 2018, "Sampling the GGX Distribution of Visible
 //! Normals") and its pdf, uniform sampling of a spherical cap, and the ground-truth cap
-//! integral of MATH.md section 8 (MIS of both, balance heuristic, stratified).
+//! integral of docs/formulas.md, section 8 (MIS of both, balance heuristic, stratified).
 //!
 //! Local frame: `n = +z`, `ωo = (sin θo, 0, cos θo)`.
 
@@ -197,7 +197,7 @@ fn jitter(seed: u64, i: usize, j: usize, n: usize) -> (f64, f64) {
 }
 
 /// `∫_C f cos dω` by multiple importance sampling of uniform-in-cap and VNDF sampling,
-/// balance heuristic, `n × n` stratified pairs (MATH.md section 8, "Ground truth").
+/// balance heuristic, `n × n` stratified pairs (docs/formulas.md, section 8, "Ground truth").
 pub fn cap_integral(ggx: &Ggx, wo: DVec3, cap: &Cap64, n: usize, seed: u64) -> Truth {
     let area = cap.area();
     if area <= 0.0 || wo.z <= 0.0 {

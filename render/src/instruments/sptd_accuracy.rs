@@ -1,5 +1,5 @@
 //! `mlrender sptd-accuracy`: how well the fitted GGX SPTD ([`SptdGgx`]) predicts the
-//! cosine-weighted BRDF integral over random caps (MATH.md section 8).
+//! cosine-weighted BRDF integral over random caps (docs/formulas.md, section 8).
 //!
 //! Random cases: `√α` uniform in [0.1, 1], θo uniform in [0°, 85°], cap half-angle σ
 //! log-uniform in [1e-3, 1.2] rad, cap axis uniform on the sphere (so caps straddle and fall

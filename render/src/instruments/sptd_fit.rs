@@ -1,4 +1,4 @@
-//! `mlrender sptd-fit`: fits the SPTD parameters of GGX (MATH.md section 8, "GGX fit") and
+//! `mlrender sptd-fit`: fits the SPTD parameters of GGX (docs/formulas.md, section 8, "GGX fit") and
 //! writes them as the generated Rust source `src/importance/sptd/table.rs` of the core.
 //!
 //! Per table node `(i, j)` — `u = √α = i/63`, `v = 2θo/π = j/63`, clamped as

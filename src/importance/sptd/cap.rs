@@ -1,4 +1,4 @@
-//! Spherical caps and the exact area of the intersection of two caps (MATH.md section 8,
+//! Spherical caps and the exact area of the intersection of two caps (docs/formulas.md, section 8,
 //! "Horizon"; the two-cap area of Dupuy, Heitz & Belcour 2017, SPTD paper, appendix).
 //!
 //! A cap `{ω : ω·axis ≥ cos σ}` carries `1 − cos σ` and `1 + cos σ` beside `cos σ`, each to full
@@ -7,7 +7,7 @@
 //!
 //! # The intersection area, without cancellation
 //!
-//! The textbook form `2[π − γ − z1 φ1 − z2 φ2]` (MATH.md) subtracts O(1) angles to get a result
+//! The textbook form `2[π − γ − z1 φ1 − z2 φ2]` (docs/formulas.md) subtracts O(1) angles to get a result
 //! that, for a cap of radius 1e-3, is 1e-6: in f32 that is noise. Here, after replacing a cap
 //! larger than a hemisphere by its complement (so both caps have `z = cos σ ≥ 0`), the lens
 //! `C1 ∩ C2` is split by the great circle through its two corners `p, q` into two *segments*,
@@ -24,7 +24,7 @@
 //! the `1 − z` forms is exact for the case at hand. Containment and disjointness need no
 //! branch: `Δ = 0` and `φᵢ ∈ {0, π}`. Every term scales with the smaller cap, so the relative
 //! error stays near f32 rounding for caps down to ~1e-5 rad; the sum of the four cases of
-//! MATH.md (including one cap containing the other and unions that cover the sphere) follows
+//! docs/formulas.md (including one cap containing the other and unions that cover the sphere) follows
 //! from complements.
 
 use super::trig::{atan2, atan2_4};

@@ -1,4 +1,4 @@
-//! The GGX BRDF as an SPTD (MATH.md section 8, "GGX fit"), with two corrections fitted along
+//! The GGX BRDF as an SPTD (docs/formulas.md, section 8, "GGX fit"), with two corrections fitted along
 //! with it. The cap integral `∫_{C∩H} f(ωi, ωo) cos θi dωi` (f: isotropic GGX with
 //! height-correlated Smith masking-shadowing, no Fresnel term) is approximated by
 //!

@@ -1,5 +1,5 @@
 //! The exact cosine-weighted solid angle of a cap clipped by the horizon: the Lambert cap
-//! integral of MATH.md section 7 (Snyder's horizon-clipped sphere form factor, "Area light
+//! integral of docs/formulas.md, section 7 (Snyder's horizon-clipped sphere form factor, "Area light
 //! sources for real-time graphics", 1996), in a form that stays accurate for tiny caps.
 //!
 //! `I(ω, σ) = ∫_{C∩H} cos θ dω` for a cap of half-angle σ ≤ π/2 whose axis is at angle ω from

@@ -1,4 +1,4 @@
-//! The spherical pivot transform and the closed-form image of a cap (MATH.md section 8; Dupuy,
+//! The spherical pivot transform and the closed-form image of a cap (docs/formulas.md, section 8; Dupuy,
 //! Heitz & Belcour 2017, "A Spherical Cap Preserving Parameterization for Spherical
 //! Distributions", the pivot transform and its cap-to-cap property).
 //!

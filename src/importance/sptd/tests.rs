@@ -47,7 +47,7 @@ fn random_pivot(rng: &mut Rng) -> Pivot {
 }
 
 // ---------------------------------------------------------------------------------------------
-// f64 references, transcribed from MATH.md section 8.
+// f64 references, transcribed from docs/formulas.md, section 8.
 
 fn p64(rp: DVec3, w: DVec3) -> DVec3 {
     let t = 2.0 * (1.0 - w.dot(rp)) / (w - rp).length_squared();
@@ -74,7 +74,7 @@ fn map_cap64(rp: DVec3, c: DVec3, omz: f64) -> (DVec3, f64, f64) {
     (-m / ml, zp, omzp)
 }
 
-/// The two-cap area of MATH.md, with its four cases, in f64.
+/// The two-cap area of docs/formulas.md, with its four cases, in f64.
 fn area64(c1: DVec3, r1: f64, c2: DVec3, r2: f64) -> f64 {
     let d = c1.dot(c2).clamp(-1.0, 1.0).acos();
     let (z1, z2) = (r1.cos(), r2.cos());
@@ -153,7 +153,7 @@ fn radius64(c: &Cap) -> f64 {
     }
 }
 
-/// Snyder's piecewise Lambert cap integral of MATH.md section 7, in f64.
+/// Snyder's piecewise Lambert cap integral of docs/formulas.md, section 7, in f64.
 fn snyder64(omega: f64, sigma: f64) -> f64 {
     let (s, c) = (sigma.sin(), sigma.cos());
     if omega <= PI64 / 2.0 - sigma {
@@ -353,7 +353,7 @@ fn random_cap(rng: &mut Rng) -> Cap {
 
 #[test]
 fn segment_form_equals_the_textbook_formula_in_f64() {
-    // Where the textbook form of MATH.md is accurate in f64 (no cap below 0.01 rad), the
+    // Where the textbook form of docs/formulas.md is accurate in f64 (no cap below 0.01 rad), the
     // two-segment form used here is the same function.
     let mut rng = Rng(12);
     for _ in 0..200_000 {
