@@ -15,6 +15,39 @@
 //!   adaptive allocation (Liu et al. 2019, Algorithm 1) learns from those reports. The one
 //!   call is this loop with the core's materials.
 //!
+//! ```
+//! use glam::Vec3;
+//! use manylights::direct::{Estimator, Params, Technique, Uniforms, Unoccluded};
+//! use manylights::{Light, LightSet, Material, ShadingPoint};
+//!
+//! /// The host's random numbers (any generator; here a 64-bit LCG).
+//! struct Lcg(u64);
+//! impl Uniforms for Lcg {
+//!     fn next_f64(&mut self) -> f64 {
+//!         self.0 = self.0.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+//!         (self.0 >> 11) as f64 / (1u64 << 53) as f64
+//!     }
+//!     fn next_f32(&mut self) -> f32 {
+//!         (self.next_f64() as f32).min(1.0 - f32::EPSILON / 2.0)
+//!     }
+//! }
+//!
+//! let set = LightSet::build(vec![
+//!     Light::Sphere { center: Vec3::new(0.0, 0.0, 2.0), radius: 0.5, radiance: 3.0 },
+//!     Light::Point { position: Vec3::new(1.0, 0.0, 1.0), intensity: 2.0 },
+//! ])?;
+//! let sp = ShadingPoint {
+//!     position: Vec3::ZERO,
+//!     normal: Vec3::Z,
+//!     wo: Vec3::new(0.0, 0.6, 0.8),
+//!     material: Material::Plastic { albedo: 0.5, specular: 0.5, alpha: 0.2 },
+//! };
+//! let mut est = Estimator::new(&set, &sp, Technique::DEFAULT, &Params::default())?;
+//! let radiance = est.estimate(&Unoccluded, &mut Lcg(7))?; // one estimate, host visibility
+//! assert!(radiance.is_finite() && radiance >= 0.0);
+//! # Ok::<(), Box<dyn std::error::Error>>(())
+//! ```
+//!
 //! Every contribution is `value · weight / pdf` ([`Weighted::contribution`]), with `value =
 //! f · L · cos θi` evaluated by whoever owns the BSDF; an estimate is the sum over the steps.
 //!
