@@ -3,6 +3,7 @@
 
 pub mod image;
 pub mod instruments;
+pub mod params;
 pub mod render;
 pub mod scene;
 pub mod uniforms;

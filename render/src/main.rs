@@ -3,6 +3,7 @@
 use clap::{Parser, Subcommand};
 use manylights::Technique;
 use manylights_render::instruments::{bench, compare, sptd_accuracy, sptd_fit};
+use manylights_render::params::ParamArgs;
 use manylights_render::{image, render, scene};
 use std::path::PathBuf;
 
@@ -104,6 +105,9 @@ enum Command {
         /// (default: a new jittered shading point and set-up for every estimate).
         #[arg(long)]
         fixed_point: bool,
+        /// The estimators' parameters.
+        #[command(flatten)]
+        params: ParamArgs,
     },
     /// Compute (or load) the cached reference of a scene under out/reference/ and check that
     /// tl-split at a quarter of its spp converges to the same image average.
@@ -183,6 +187,9 @@ struct ImageArgs {
     /// for every estimate, as in a renderer).
     #[arg(long)]
     fixed_point: bool,
+    /// The estimators' parameters.
+    #[command(flatten)]
+    params: ParamArgs,
 }
 
 impl ImageArgs {
@@ -215,6 +222,7 @@ impl ImageArgs {
             plot,
             time,
             protocol: protocol(self.fixed_point),
+            params: self.params.params(),
         }
     }
 }
@@ -297,6 +305,7 @@ fn main() {
             seed,
             output,
             fixed_point,
+            params,
         } => {
             let code = run_render(
                 &scene,
@@ -308,6 +317,7 @@ fn main() {
                 seed,
                 &output,
                 protocol(fixed_point),
+                params.params(),
             );
             std::process::exit(code)
         }
@@ -382,6 +392,7 @@ fn run_render(
     seed: u64,
     output: &std::path::Path,
     protocol: render::Protocol,
+    params: manylights::Params,
 ) -> i32 {
     let Some(technique) = Technique::from_name(technique) else {
         eprintln!("unknown technique {technique:?}");
@@ -404,6 +415,7 @@ fn run_render(
             seed,
             progress: true,
             protocol,
+            params,
         },
     );
     if let Err(e) = image::write_image(output, width, height, &img.mean) {

@@ -75,6 +75,8 @@ pub struct RenderConfig {
     pub progress: bool,
     /// Where the estimates are taken.
     pub protocol: Protocol,
+    /// The estimators' parameters.
+    pub params: Params,
 }
 
 /// CPU time of the calling thread, in seconds.
@@ -211,7 +213,7 @@ fn pixel(
 /// Renders `scene` with `cfg`.
 pub fn render(scene: &RenderScene, cfg: &RenderConfig) -> Image {
     let (w, h) = (cfg.width, cfg.height);
-    let params = Params::default();
+    let params = cfg.params;
     let bar = if cfg.progress {
         let b = ProgressBar::new(h as u64);
         b.set_style(

@@ -49,6 +49,7 @@ fn config(out: &Path, plot: bool, time: Option<f64>) -> CompareConfig {
         plot,
         time,
         protocol: Protocol::Jittered,
+        params: Default::default(),
     }
 }
 
@@ -201,6 +202,7 @@ fn compare_writes_every_output() {
                 seed: cfg.seed,
                 progress: false,
                 protocol: cfg.protocol,
+                params: cfg.params,
             },
         );
         assert_same(&dir.join(format!("{}.exr", t.name())), &img.mean);

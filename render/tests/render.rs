@@ -25,6 +25,7 @@ fn cfg(technique: Technique, spp: usize, seed: u64) -> RenderConfig {
         seed,
         progress: false,
         protocol: Protocol::Jittered,
+        params: Default::default(),
     }
 }
 

@@ -53,7 +53,7 @@ use crate::image::{
 };
 use crate::render::{render, Protocol, RenderConfig};
 use crate::scene::RenderScene;
-use manylights::Technique;
+use manylights::{Params, Technique};
 use serde_json::json;
 use std::io::{Error, ErrorKind};
 use std::path::{Path, PathBuf};
@@ -83,6 +83,8 @@ pub struct CompareConfig {
     pub time: Option<f64>,
     /// Where the estimates are taken (the reference follows it).
     pub protocol: Protocol,
+    /// The estimators' parameters (the reference's are the defaults).
+    pub params: Params,
 }
 
 /// A technique's render time as `fixed + spp × per_spp` (busy seconds).
@@ -366,6 +368,7 @@ pub fn reference(scene: &RenderScene, cfg: &CompareConfig) -> std::io::Result<Im
             seed: cfg.seed ^ 0x7e7e_7e7e_0000,
             progress: cfg.progress,
             protocol: cfg.protocol,
+            params: Params::default(),
         },
     );
     write_raw(&path, &img)?;
@@ -391,6 +394,7 @@ pub fn check_reference(
             seed: cfg.seed ^ 0x0123_4567,
             progress: cfg.progress,
             protocol: cfg.protocol,
+            params: cfg.params,
         },
     );
     let a = reference.average();
@@ -474,6 +478,7 @@ pub fn run(scene: &RenderScene, cfg: &CompareConfig) -> std::io::Result<Report> 
         seed,
         progress: cfg.progress,
         protocol: cfg.protocol,
+        params: cfg.params,
     };
     // Equal spp, and the cost model of each technique.
     let mut images = Vec::new();

@@ -660,41 +660,15 @@ pub struct EstimatorArgs {
     /// with material i mod 5.
     #[arg(long)]
     pub all_materials: bool,
-    /// Split-sampling threshold (SplitOptions::threshold).
-    #[arg(long)]
-    pub split_threshold: Option<f32>,
-    /// Largest split cut (SplitOptions::max_size).
-    #[arg(long)]
-    pub split_max_size: Option<usize>,
-    /// BL cut δ (CutOptions::delta).
-    #[arg(long)]
-    pub cut_delta: Option<f32>,
-    /// Largest BL cut (CutOptions::max_size).
-    #[arg(long)]
-    pub cut_max_size: Option<usize>,
-    /// Nmax of the BRDF-aware budget.
-    #[arg(long)]
-    pub n_max: Option<u32>,
-    /// What `full` does at Lambert-only points.
-    #[arg(long, value_parser = parse_lambert, default_value = "tl-only")]
-    pub lambert: LambertMode,
-    /// Balance heuristic between TL and the BRDF-aware mixture (default: power, β = 2).
-    #[arg(long)]
-    pub balance_heuristic: bool,
+    /// The estimators' parameters.
+    #[command(flatten)]
+    pub params: crate::params::ParamArgs,
     /// Print every configuration and every deviation.
     #[arg(long)]
     pub verbose: bool,
     /// Print one JSON object as the last line of stdout.
     #[arg(long)]
     pub json: bool,
-}
-
-/// A [`LambertMode`] from its name (`tl-only`, `tb-budget`, `tb-one`, `bl-tb`).
-fn parse_lambert(name: &str) -> Result<LambertMode, String> {
-    LambertMode::from_name(name).ok_or_else(|| {
-        let names: Vec<&str> = LambertMode::ALL.iter().map(|m| m.name()).collect();
-        format!("unknown mode {name:?} (known: {})", names.join(", "))
-    })
 }
 
 /// Runs `mlrender estimator` with `args`; returns the process exit code.
@@ -714,23 +688,7 @@ pub fn run_cli(args: &EstimatorArgs) -> i32 {
     if args.all_materials {
         cfg.plan = Plan::All;
     }
-    if let Some(v) = args.split_threshold {
-        cfg.params.split.threshold = v;
-    }
-    if let Some(v) = args.split_max_size {
-        cfg.params.split.max_size = v;
-    }
-    if let Some(v) = args.cut_delta {
-        cfg.params.cut.delta = v;
-    }
-    if let Some(v) = args.cut_max_size {
-        cfg.params.cut.max_size = v;
-    }
-    if let Some(v) = args.n_max {
-        cfg.params.n_max = v;
-    }
-    cfg.params.lambert = args.lambert;
-    cfg.params.power = !args.balance_heuristic;
+    cfg.params = args.params.params();
     let (rs, report) = run(&cfg);
     println!("{}", table(&rs, &report, args.verbose));
     if args.json {
