@@ -1090,3 +1090,56 @@ fn huge_directions_stay_conservative() {
         failures.join("\n")
     );
 }
+
+/// Regression: a tree read from corrupt bytes that still validates could sample a light with
+/// a subnormal pmf or pmf 0. Here one light's stored energy is replaced by the subnormal
+/// 1e-40 (a valid, non-negative energy): its importance share underflows, so its pmf must be
+/// 0, and `sample` must neither return it nor disagree with `pmf`.
+#[test]
+fn corrupt_but_valid_tiny_energy_is_never_sampled_with_pmf_zero() {
+    let lights = [
+        Light::Point {
+            position: Vec3::new(1.0, 1.0, 1.0),
+            intensity: 2.0,
+        },
+        Light::Point {
+            position: Vec3::new(0.0, 0.0, 2.0),
+            intensity: 1.0,
+        },
+        Light::Sphere {
+            center: Vec3::new(-1.0, 0.5, 1.5),
+            radius: 0.25,
+            radiance: 3.0,
+        },
+    ];
+    let tree = LightTree::build(&lights).unwrap();
+    let mut bytes = tree.as_bytes();
+    let old = lights[1].energy().to_ne_bytes();
+    let at: Vec<usize> = (0..bytes.len() - 3)
+        .filter(|&i| bytes[i..i + 4] == old)
+        .collect();
+    assert!(!at.is_empty(), "the light's energy is not in the bytes");
+    for &i in &at {
+        bytes[i..i + 4].copy_from_slice(&1e-40f32.to_ne_bytes());
+    }
+    let bad = LightTree::from_bytes(&bytes).expect("a tiny energy is still a valid tree");
+    bad.validate().unwrap();
+    // The light is 1 straight above the point: importance 1e-40, a share far below f32's
+    // smallest normal number.
+    let imp = TlImportance::new(Vec3::new(0.0, 0.0, 1.0), Vec3::new(0.0, 0.3, 1.0));
+    let mut rng = Rng::new(0xE40);
+    for l in 0..3 {
+        let p = bad.pmf(&imp, l);
+        assert!(
+            p == 0.0 || p >= f32::MIN_POSITIVE,
+            "light {l} has pmf {p:e}"
+        );
+    }
+    let sum: f64 = (0..3).map(|l| f64::from(bad.pmf(&imp, l))).sum();
+    assert!((sum - 1.0).abs() <= 1e-6, "pmfs sum to {sum}");
+    for u in u_values(&mut rng, 50) {
+        let s = bad.sample(&imp, u).expect("two lights contribute");
+        assert!(s.pmf >= f32::MIN_POSITIVE, "u={u}: {s:?}");
+        assert_eq!(s.pmf, bad.pmf(&imp, s.light), "u={u}: {s:?}");
+    }
+}
