@@ -2429,3 +2429,41 @@ fn huge_normal_and_wo_keep_their_direction() {
         assert!(tree.pmf(&imp, 0) > 0.0, "normal {normal} wo {wo}");
     }
 }
+
+/// Regression: a tiny normal such as `(0, 0, 1e-30)` was rejected with "field `normal` has
+/// zero length (got 0)" (its f32 squared length underflows) although the vector is not zero.
+/// Tiny finite non-zero normals and ωo are now accepted and normalised in f64, as `Light` and
+/// `TlImportance` do; only the zero vector is rejected as having zero length.
+#[test]
+fn tiny_normal_and_wo_are_accepted() {
+    let sp = |normal: Vec3, wo: Vec3| ShadingPoint {
+        position: Vec3::ZERO,
+        normal,
+        wo,
+        material: Material::Lambert { albedo: 0.8 },
+    };
+    for (normal, wo) in [
+        (Vec3::new(0.0, 0.0, 1e-30), Vec3::new(0.3, 0.0, 1.0)),
+        (Vec3::Z, Vec3::new(0.3e-30, 0.0, 1e-30)),
+        (
+            Vec3::new(0.0, 0.0, f32::from_bits(1)),
+            Vec3::new(1e-45, 0.0, 3e-45),
+        ),
+    ] {
+        let imp = BlImportance::new(&sp(normal, wo))
+            .unwrap_or_else(|e| panic!("normal {normal} wo {wo}: {e}"));
+        assert!(
+            (imp.normal() - Vec3::Z).length() <= 1e-6,
+            "normal {normal} wo {wo}: BL normal {}",
+            imp.normal()
+        );
+    }
+    for (normal, wo, field) in [
+        (Vec3::ZERO, Vec3::Z, ShadingField::Normal),
+        (Vec3::Z, Vec3::new(-0.0, 0.0, 0.0), ShadingField::Wo),
+    ] {
+        let e = BlImportance::new(&sp(normal, wo)).unwrap_err();
+        assert_eq!(e.field, field);
+        assert!(format!("{e}").contains("zero length"), "{e}");
+    }
+}
