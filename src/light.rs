@@ -345,7 +345,7 @@ impl Light {
                 intensity,
                 half_angle,
                 ..
-            } => 2.0 * pi * (1.0 - libm::cos(f64::from(half_angle))) * f64::from(intensity),
+            } => 2.0 * pi * math::one_minus_cos64(f64::from(half_angle)) * f64::from(intensity),
             Light::Sphere { radiance, .. } => f64::from(radiance) * pi * self.area_f64(),
             Light::Disk {
                 radiance,
@@ -363,8 +363,10 @@ impl Light {
         }
     }
 
-    /// Emitted power (MATH.md section 1): 4πI for points, 2π(1 − cos θs)·I for spots (an upper
-    /// bound of the flux with falloff), L·π·A per emitting side for area lights.
+    /// Emitted power (Conty & Kulla, "Orientation bounds"): 4πI for points, 2π(1 − cos θs)·I
+    /// for spots (an upper bound of the flux with falloff; `1 − cos θs` is computed without
+    /// cancellation, so a narrow cone keeps its energy), L·π·A per emitting side for area
+    /// lights.
     /// Valid only for a light that passed [`Light::validate`].
     pub fn energy(&self) -> f32 {
         self.energy_f64() as f32

@@ -44,6 +44,22 @@ pub fn unit(v: glam::Vec3) -> Option<glam::Vec3> {
     unit_f64(v.to_array().map(f64::from))
 }
 
+/// Below this angle [`one_minus_cos64`] uses `2 sin²(θ/2)`.
+pub const SMALL_ANGLE: f64 = 1e-3;
+
+/// `1 − cos θ` in f64, accurate for every θ: `2 sin²(θ/2)` below [`SMALL_ANGLE`], where the
+/// subtraction cancels (it is 0 for θ ≤ 1e-8 and 11 % off at 2e-8); the subtraction above it,
+/// where its relative error is below 5e-10, far under f32 rounding.
+#[inline]
+pub fn one_minus_cos64(theta: f64) -> f64 {
+    if theta.abs() < SMALL_ANGLE {
+        let s = libm::sin(0.5 * theta);
+        2.0 * s * s
+    } else {
+        1.0 - libm::cos(theta)
+    }
+}
+
 /// Sine and cosine.
 #[inline]
 pub fn sin_cos(x: f32) -> (f32, f32) {
