@@ -5,14 +5,14 @@
 //! Nodes are 48 bytes (pbrt-v4 quantises to 32 plus a hash map per light for pmf queries; here
 //! each light's path is stored instead). A node's left child follows it in memory, the right
 //! child's index is stored. Descent evaluates both children with [`TlImportance::eval`] and
-//! never allocates; the same fallback rules as [`crate::sample`] apply.
+//! never allocates; the same fallback and vanishing-light rules as [`crate::sample`] apply.
 
 use crate::build::{binary, BuildOptions};
 use crate::error::BuildError;
 use crate::importance::TlImportance;
 use crate::light::Light;
 use crate::math;
-use crate::sample::{sanitize, LightSample, ONE_MINUS_EPSILON};
+use crate::sample::{admit, sanitize, LightSample, MIN_PMF, ONE_MINUS_EPSILON};
 use crate::tree::{path_len, SlotBounds, LEAF_BIT};
 use alloc::vec;
 use alloc::vec::Vec;
@@ -123,20 +123,32 @@ impl BinaryLightTree {
     }
 
     /// Importances of the two children of inner node `i`, or their energies below the root
-    /// when both are 0.
+    /// when both are 0; a child whose path probability from a node reached with probability
+    /// `reach` would fall below [`MIN_PMF`] gets weight 0 (as in [`crate::sample`]).
     #[inline(always)]
-    fn weights(&self, imp: &TlImportance, i: usize, root: bool) -> Option<(f32, f32, f32)> {
+    fn weights(
+        &self,
+        imp: &TlImportance,
+        i: usize,
+        root: bool,
+        reach: f32,
+    ) -> Option<(f32, f32, f32)> {
         let left = self.nodes.get(i + 1)?;
         let right = self.nodes.get(self.nodes[i].child as usize)?;
-        let (wl, wr) = (imp.eval(&left.bounds()), imp.eval(&right.bounds()));
-        let sum = wl + wr;
-        if sum > 0.0 && sum < f32::INFINITY {
-            return Some((wl, wr, sum));
+        let (mut wl, mut wr) = (imp.eval(&left.bounds()), imp.eval(&right.bounds()));
+        let mut sum = wl + wr;
+        if !(sum > 0.0 && sum < f32::INFINITY) {
+            if root {
+                return None;
+            }
+            (wl, wr) = (left.energy, right.energy);
+            sum = wl + wr;
+            if !(sum > 0.0 && sum < f32::INFINITY) {
+                return None;
+            }
         }
-        if root {
-            return None;
-        }
-        Some((left.energy, right.energy, left.energy + right.energy))
+        let ([wl, wr, _, _], sum) = admit([wl, wr, 0.0, 0.0], sum, reach, MIN_PMF);
+        Some((wl, wr, sum))
     }
 
     /// Samples a light by binary descent with one warped uniform number.
@@ -153,7 +165,7 @@ impl BinaryLightTree {
         let mut pmf = 1.0f32;
         let mut first = true;
         loop {
-            let (wl, wr, sum) = self.weights(imp, i, first)?;
+            let (wl, wr, sum) = self.weights(imp, i, first, pmf)?;
             first = false;
             let t = u * sum;
             let go_left = wr <= 0.0 || (wl > 0.0 && t < wl);
@@ -194,7 +206,7 @@ impl BinaryLightTree {
         let mut i = 0usize;
         let mut pmf = 1.0f32;
         for level in 0..levels {
-            let Some((wl, wr, sum)) = self.weights(imp, i, level == 0) else {
+            let Some((wl, wr, sum)) = self.weights(imp, i, level == 0, pmf) else {
                 return 0.0;
             };
             if (path >> (levels - 1 - level)) & 1 == 0 {

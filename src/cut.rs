@@ -22,6 +22,15 @@
 //! that would overflow `max_size`, in which case it stays a cluster. Clusters whose weight is 0
 //! are left out: by conservativeness no light under them can contribute.
 //!
+//! Vanishing probabilities follow the tree's rule (see [`crate::sample`]): every pmf these
+//! functions report for a returned light is at least [`MIN_PMF`]. Within a cluster
+//! ([`LightCut::sample_in`]) the rule applies to the pmf relative to the cluster. For
+//! [`LightCut::sample`] it applies to the whole product: a cluster whose share
+//! `weight / total` is below `2 · MIN_PMF` is never chosen (the others share its
+//! probability), and inside a cluster of share `q` a light is dropped when its pmf relative to
+//! the cluster would be below `2 · MIN_PMF / q`. [`LightCut::pmf`] applies the same rule, so it
+//! is exactly what `sample` reports.
+//!
 //! The variance heuristic: for a cluster of N lights with energy mean E\[e\] and variance V\[e\],
 //! distances a = max(d − r, ε) and b = d + r, the inverse-square factor g has
 //! E\[g\] = 1/(ab) and V\[g\] = (b³ − a³)/(3(b − a)a³b³) − 1/(a²b²) = (b − a)²/(3a³b³), the form used
@@ -31,7 +40,7 @@
 //! squared, scales its relative variance into a share of the total's.
 
 use crate::importance::{BlImportance, Importance, TlImportance};
-use crate::sample::{sanitize, LightSample, LANES, ONE_MINUS_EPSILON};
+use crate::sample::{sanitize, LightSample, LANES, MIN_PMF, ONE_MINUS_EPSILON};
 use crate::tree::{path_len, LightTree, Node4, Slot};
 
 /// `x > 0` (false for NaN).
@@ -117,6 +126,12 @@ pub struct LightCut {
     total: f32,
     max_score: f32,
     max_glossy_score: f32,
+    /// What [`LightCut::sample`] chooses clusters by: each weight times `scale` (1, or a
+    /// power of two below 1 when the weights' sum overflows f32), clusters whose bit is set in
+    /// `skipped` left out, and `sample_total` the sum of the others.
+    scale: f32,
+    skipped: u64,
+    sample_total: f32,
 }
 
 impl Default for LightCut {
@@ -141,6 +156,9 @@ impl LightCut {
             total: 0.0,
             max_score: 0.0,
             max_glossy_score: 0.0,
+            scale: 1.0,
+            skipped: 0,
+            sample_total: 0.0,
         }
     }
 
@@ -256,7 +274,52 @@ impl LightCut {
                 place(&mut cut, &mut queue, head, &mut queued, cc);
             }
         }
+        cut.finish();
         cut
+    }
+
+    /// Decides which clusters [`LightCut::sample`] can choose (see the module documentation).
+    /// For a cut whose weights sum to a finite total and whose every cluster has a share of at
+    /// least `2 · MIN_PMF`, the choice is by the plain weights over [`LightCut::total_weight`].
+    fn finish(&mut self) {
+        self.scale = if self.total < f32::INFINITY {
+            1.0
+        } else {
+            // Weights are finite, so 64 of them scaled by 2⁻⁶⁴ cannot overflow.
+            f32::from_bits((127 - 64) << 23)
+        };
+        let scale = self.scale;
+        let all = self
+            .clusters()
+            .iter()
+            .fold(0.0f32, |acc, c| acc + c.weight * scale);
+        let mut skipped = 0u64;
+        let mut kept = 0.0f32;
+        for (i, c) in self.clusters().iter().enumerate() {
+            if (c.weight * scale) / all >= 2.0 * MIN_PMF {
+                kept += c.weight * scale;
+            } else {
+                skipped |= 1 << i;
+            }
+        }
+        self.skipped = skipped;
+        self.sample_total = if skipped == 0 { all } else { kept };
+    }
+
+    /// The weight [`LightCut::sample`] gives cluster `i` (over `sample_total`); `None` for a
+    /// cluster it never chooses.
+    #[inline]
+    fn sample_weight(&self, i: usize) -> Option<f32> {
+        let c = self.clusters().get(i)?;
+        (self.skipped & (1 << i) == 0).then_some(c.weight * self.scale)
+    }
+
+    /// The probability that [`LightCut::sample`] chooses cluster `i`, and the smallest pmf
+    /// relative to it a light of it may have (the product stays ≥ [`MIN_PMF`]).
+    #[inline]
+    fn sample_share(&self, i: usize) -> Option<(f32, f32)> {
+        let q = self.sample_weight(i)? / self.sample_total;
+        Some((q, 2.0 * MIN_PMF / q))
     }
 
     fn push(&mut self, c: Cluster) {
@@ -439,26 +502,47 @@ impl LightCut {
         lights: &[u32],
         out: &mut [Option<(usize, f32)>],
     ) {
+        self.walk_each(tree, imp, lights, out, false);
+    }
+
+    /// The walks of [`LightCut::pmf_in_each`] (`whole` false) or of [`LightCut::pmf_each`]
+    /// (`whole` true: the pmf within the cluster as [`LightCut::sample`] reports it, `None` for
+    /// lights of clusters it never chooses).
+    fn walk_each<I: Importance + ?Sized>(
+        &self,
+        tree: &LightTree,
+        imp: &I,
+        lights: &[u32],
+        out: &mut [Option<(usize, f32)>],
+        whole: bool,
+    ) {
         let n = lights.len().min(out.len());
         let mut i = 0;
         while i < n {
-            let mut walks = [(0u32, 0u64, 0u32, 0u32); LANES];
+            let mut walks = [(0u32, 0u64, 0u32, 0u32, 0f32); LANES];
             let mut lane_of = [0usize; LANES];
             let mut m = 0;
             while i < n && m < LANES {
                 let light = lights[i];
                 out[i] = None;
-                if let Some((ci, c, path)) = self.cluster_of(tree, light) {
+                let found = self.cluster_of(tree, light).and_then(|(ci, c, path)| {
+                    if whole {
+                        Some((ci, c, path, self.sample_share(ci)?.1))
+                    } else {
+                        Some((ci, c, path, MIN_PMF))
+                    }
+                });
+                if let Some((ci, c, path, floor)) = found {
                     // A cluster that is a node takes the walk; otherwise the single-light
                     // answer of `pmf_cluster`.
                     match tree.slot_of(c) {
                         Slot::Node(child) => {
                             out[i] = Some((ci, 0.0));
-                            walks[m] = (child, path, path_len(c.path), light);
+                            walks[m] = (child, path, path_len(c.path), light, floor);
                             lane_of[m] = i;
                             m += 1;
                         }
-                        _ => out[i] = Some((ci, tree.pmf_cluster(imp, c, path, light))),
+                        _ => out[i] = Some((ci, tree.pmf_cluster(imp, c, path, light, floor))),
                     }
                 }
                 i += 1;
@@ -486,10 +570,10 @@ impl LightCut {
         let mut within = [None; LANES];
         for (ls, os) in lights.chunks(LANES).zip(out.chunks_mut(LANES)) {
             let m = ls.len().min(os.len());
-            self.pmf_in_each(tree, imp, &ls[..m], &mut within[..m]);
+            self.walk_each(tree, imp, &ls[..m], &mut within[..m], true);
             for j in 0..m {
-                os[j] = match within[j] {
-                    Some((ci, p)) => self.clusters[ci].weight / self.total * p,
+                os[j] = match within[j].and_then(|(ci, p)| Some((self.sample_share(ci)?.0, p))) {
+                    Some((q, p)) => q * p,
                     None => 0.0,
                 };
             }
@@ -525,45 +609,51 @@ impl LightCut {
         light: u32,
     ) -> Option<(usize, f32)> {
         let (i, c, path) = self.cluster_of(tree, light)?;
-        Some((i, tree.pmf_cluster(imp, c, path, light)))
+        Some((i, tree.pmf_cluster(imp, c, path, light, MIN_PMF)))
     }
 
     /// Samples one light of the whole cut: a cluster with probability weight / total, then a
-    /// light in it. The pmf is the product.
+    /// light in it. The pmf is the product (at least [`MIN_PMF`]: clusters and lights whose
+    /// share would be smaller are never chosen; see the module documentation).
     pub fn sample<I: Importance + ?Sized>(
         &self,
         tree: &LightTree,
         imp: &I,
         u: f32,
     ) -> Option<LightSample> {
-        if self.len == 0 {
-            return None;
-        }
-        let t = sanitize(u) * self.total;
+        let total = self.sample_total;
+        let t = sanitize(u) * total;
         let mut acc = 0.0f32;
-        let mut chosen = self.len - 1;
+        let mut chosen = None;
         let mut before = 0.0f32;
-        for (i, c) in self.clusters().iter().enumerate() {
+        for i in 0..self.len {
+            let Some(w) = self.sample_weight(i) else {
+                continue;
+            };
             before = acc;
-            if t < acc + c.weight {
-                chosen = i;
+            chosen = Some((i, w));
+            if t < acc + w {
                 break;
             }
-            acc += c.weight;
+            acc += w;
         }
-        let c = &self.clusters[chosen];
-        let u2 = ((t - before) / c.weight).clamp(0.0, ONE_MINUS_EPSILON);
-        let s = tree.sample_cluster(imp, c, u2)?;
+        let (i, w) = chosen?;
+        let u2 = ((t - before) / w).clamp(0.0, ONE_MINUS_EPSILON);
+        let (q, floor) = self.sample_share(i)?;
+        let s = tree.sample_cluster_from(imp, &self.clusters[i], u2, floor)?;
         Some(LightSample {
             light: s.light,
-            pmf: c.weight / self.total * s.pmf,
+            pmf: q * s.pmf,
         })
     }
 
     /// The probability that [`LightCut::sample`] returns `light`: exactly the pmf it reports.
     pub fn pmf<I: Importance + ?Sized>(&self, tree: &LightTree, imp: &I, light: u32) -> f32 {
-        match self.pmf_in(tree, imp, light) {
-            Some((i, p)) => self.clusters[i].weight / self.total * p,
+        let Some((i, c, path)) = self.cluster_of(tree, light) else {
+            return 0.0;
+        };
+        match self.sample_share(i) {
+            Some((q, floor)) => q * tree.pmf_cluster(imp, c, path, light, floor),
             None => 0.0,
         }
     }
@@ -578,37 +668,57 @@ impl LightTree {
             .map_or(Slot::Empty, |n| n.slot(usize::from(cluster.slot) & 3))
     }
 
-    /// Samples a light under `cluster` (pmf relative to it).
+    /// Samples a light under `cluster` (pmf relative to it, at least [`MIN_PMF`]).
     pub fn sample_cluster<I: Importance + ?Sized>(
         &self,
         imp: &I,
         cluster: &Cluster,
         u: f32,
     ) -> Option<LightSample> {
+        self.sample_cluster_from(imp, cluster, u, MIN_PMF)
+    }
+
+    /// [`LightTree::sample_cluster`] with lights of pmf below `floor` (in [`MIN_PMF`, 1]) left
+    /// out.
+    fn sample_cluster_from<I: Importance + ?Sized>(
+        &self,
+        imp: &I,
+        cluster: &Cluster,
+        u: f32,
+        floor: f32,
+    ) -> Option<LightSample> {
         match self.slot_of(cluster) {
             Slot::Light(light) => Some(LightSample { light, pmf: 1.0 }),
             // Below the cluster's slot, whose weight was positive: a node whose four children
             // all have importance 0 falls back to its energies, so a non-empty cut always
             // returns a light and its pmfs sum to 1.
-            Slot::Node(c) => self.descend_from(imp, c as usize, false, u),
+            Slot::Node(c) => self.descend_from(imp, c as usize, false, u, floor),
             Slot::Empty => None,
         }
     }
 
-    /// The pmf of `light` (path `path`) under `cluster`, as [`LightTree::sample_cluster`]
-    /// reports it; the caller has checked the path goes through the cluster.
+    /// The pmf of `light` (path `path`) under `cluster`, as
+    /// [`LightTree::sample_cluster_from`] reports it with the same `floor`; the caller has
+    /// checked the path goes through the cluster.
     fn pmf_cluster<I: Importance + ?Sized>(
         &self,
         imp: &I,
         cluster: &Cluster,
         path: u64,
         light: u32,
+        floor: f32,
     ) -> f32 {
         match self.slot_of(cluster) {
             Slot::Light(l) if l == light => 1.0,
-            Slot::Node(c) => {
-                self.pmf_from(imp, c as usize, false, path, path_len(cluster.path), light)
-            }
+            Slot::Node(c) => self.pmf_from(
+                imp,
+                c as usize,
+                false,
+                path,
+                path_len(cluster.path),
+                light,
+                floor,
+            ),
             _ => 0.0,
         }
     }

@@ -131,19 +131,8 @@ fn check_direction(index: usize, field: LightField, d: Vec3) -> Result<Vec3, Bui
             return Err(invalid(index, field, Problem::NotFinite, v));
         }
     }
-    unit_f64([f64::from(d.x), f64::from(d.y), f64::from(d.z)])
+    math::unit_f64([f64::from(d.x), f64::from(d.y), f64::from(d.z)])
         .ok_or_else(|| invalid(index, field, Problem::ZeroLength, 0.0))
-}
-
-/// The unit vector of `v`, normalised in f64 so that tiny and huge f32 vectors survive;
-/// `None` for a zero or non-finite vector.
-fn unit_f64(v: [f64; 3]) -> Option<Vec3> {
-    let l = math::sqrt64(math::sq(v[0]) + math::sq(v[1]) + math::sq(v[2]));
-    if !(l > 0.0 && l < f64::INFINITY) {
-        return None;
-    }
-    let n = Vec3::new((v[0] / l) as f32, (v[1] / l) as f32, (v[2] / l) as f32);
-    Some(n.normalize())
 }
 
 /// `(v1 − v0) × (v2 − v0)` in f64.
@@ -356,7 +345,7 @@ impl Light {
                 intensity,
                 half_angle,
                 ..
-            } => 2.0 * pi * (1.0 - math::cos64(f64::from(half_angle))) * f64::from(intensity),
+            } => 2.0 * pi * math::one_minus_cos64(f64::from(half_angle)) * f64::from(intensity),
             Light::Sphere { radiance, .. } => f64::from(radiance) * pi * self.area_f64(),
             Light::Disk {
                 radiance,
@@ -374,8 +363,10 @@ impl Light {
         }
     }
 
-    /// Emitted power (docs/formulas.md, section 1): 4πI for points, 2π(1 − cos θs)·I for spots (an upper
-    /// bound of the flux with falloff), L·π·A per emitting side for area lights.
+    /// Emitted power (docs/formulas.md, section 1; Conty & Kulla, "Orientation bounds"): 4πI for points, 2π(1 − cos θs)·I
+    /// for spots (an upper bound of the flux with falloff; `1 − cos θs` is computed without
+    /// cancellation, so a narrow cone keeps its energy), L·π·A per emitting side for area
+    /// lights.
     /// Valid only for a light that passed [`Light::validate`].
     pub fn energy(&self) -> f32 {
         self.energy_f64() as f32
@@ -400,7 +391,7 @@ impl Light {
                 half_angle,
                 ..
             } => {
-                let axis = unit_f64(direction.as_ref().map(f64::from)).unwrap_or(Vec3::Z);
+                let axis = math::unit_f64(direction.as_ref().map(f64::from)).unwrap_or(Vec3::Z);
                 // Emission within θs of the axis. Beyond π/2 the spread is carried by θo so that
                 // θe stays ≤ π/2 and cos θ' > 0 wherever the importance is positive.
                 let cone = if half_angle > FRAC_PI_2 {
@@ -440,7 +431,7 @@ impl Light {
                 two_sided,
                 ..
             } => {
-                let n = unit_f64(normal.as_ref().map(f64::from)).unwrap_or(Vec3::Z);
+                let n = math::unit_f64(normal.as_ref().map(f64::from)).unwrap_or(Vec3::Z);
                 // Half-extent of a disk along axis k is R·sqrt(1 − n_k²).
                 let e = Vec3::new(
                     math::sin_from_cos(n.x),
@@ -469,7 +460,7 @@ impl Light {
                 ..
             } => {
                 let aabb = Aabb::point(vertices[0]).grow(vertices[1]).grow(vertices[2]);
-                let cone = match unit_f64(triangle_normal(&vertices)) {
+                let cone = match math::unit_f64(triangle_normal(&vertices)) {
                     Some(axis) if !two_sided => Cone {
                         axis,
                         theta_o: 0.0,

@@ -127,9 +127,9 @@ impl core::error::Error for ShadingError {}
 pub struct ShadingPoint {
     /// Position.
     pub position: Vec3,
-    /// Surface normal (need not be unit length).
+    /// Surface normal: any finite, non-zero length.
     pub normal: Vec3,
-    /// Direction towards the viewer, ωo (need not be unit length).
+    /// Direction towards the viewer, ωo: any finite, non-zero length.
     pub wo: Vec3,
     /// Material.
     pub material: Material,
@@ -159,7 +159,8 @@ fn direction(field: ShadingField, v: Vec3) -> Result<(), ShadingError> {
             return Err(err(field, Problem::NotFinite, c));
         }
     }
-    if v.length_squared() <= 0.0 {
+    // Only the zero vector: a tiny or huge finite vector is normalised in f64 where needed.
+    if v == Vec3::ZERO {
         return Err(err(field, Problem::ZeroLength, 0.0));
     }
     Ok(())

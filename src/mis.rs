@@ -55,6 +55,15 @@
 //! Measured with `mlrender compare --quick` (fixed weights): `full`'s RMSE at equal time
 //! against TL split's went from 2.67× to 1.20× on `stairs` and from 0.80× to 0.73× on
 //! `cornell`.
+//!
+//! # Bad densities and counts
+//!
+//! Every weight here is in [0, 1] and never NaN, whatever it is given, by one rule: a density,
+//! sample count or probability that is negative or NaN counts as 0 (a probability above 1 as
+//! 1); a technique whose count or density is +∞ (and the other positive) takes the whole
+//! weight, shared equally with the other such techniques (the rest get 0); finite terms whose
+//! f32 sum overflows are summed in f64. For finite non-negative inputs whose sum does not
+//! overflow the weights are the plain formulas, bit for bit.
 
 use crate::cut::LightCut;
 use crate::importance::{Importance, TlImportance};
@@ -129,26 +138,104 @@ pub fn technique_pdfs<B: Importance + ?Sized>(
 }
 
 /// Balance-heuristic weight of technique `a` (`n_a` samples, density `pdf_a`) among
-/// `others` (each `(n, pdf)`): `n_a·pdf_a / Σ n·pdf`. 0 when every density is 0.
+/// `others` (each `(n, pdf)`): `n_a·pdf_a / Σ n·pdf`, in [0, 1]. 0 when every density is 0;
+/// negative, NaN and infinite inputs as the module documentation says.
 pub fn balance(n_a: f32, pdf_a: f32, others: &[(f32, f32)]) -> f32 {
-    let a = n_a * pdf_a;
-    let sum = a + others.iter().map(|&(n, p)| n * p).sum::<f32>();
-    if sum > 0.0 && sum < f32::INFINITY {
-        a / sum
+    heuristic(n_a, pdf_a, others, false)
+}
+
+/// Power-heuristic (β = 2) weight of technique `a` among `others`: `(n_a·pdf_a)² / Σ (n·pdf)²`,
+/// in [0, 1]. 0 when every density is 0; negative, NaN and infinite inputs as the module
+/// documentation says.
+pub fn power(n_a: f32, pdf_a: f32, others: &[(f32, f32)]) -> f32 {
+    heuristic(n_a, pdf_a, others, true)
+}
+
+/// A density, count or probability as the weights count it: negative and NaN are 0.
+#[inline(always)]
+fn non_negative(x: f32) -> f32 {
+    if x > 0.0 {
+        x
     } else {
         0.0
     }
 }
 
-/// Power-heuristic (β = 2) weight of technique `a` among `others`: `(n_a·pdf_a)² / Σ (n·pdf)²`.
-pub fn power(n_a: f32, pdf_a: f32, others: &[(f32, f32)]) -> f32 {
-    let a = n_a * pdf_a;
-    let sum = a * a + others.iter().map(|&(n, p)| (n * p) * (n * p)).sum::<f32>();
-    if sum > 0.0 && sum < f32::INFINITY {
-        a * a / sum
+/// `n·pdf` of one technique with [`non_negative`] inputs (0 when either is 0, so ∞·0 is 0).
+#[inline(always)]
+fn term(n: f32, pdf: f32) -> f32 {
+    let (n, pdf) = (non_negative(n), non_negative(pdf));
+    if n > 0.0 && pdf > 0.0 {
+        n * pdf
     } else {
         0.0
     }
+}
+
+/// The balance (`square` false) or power heuristic by the rule of the module documentation.
+fn heuristic(n_a: f32, pdf_a: f32, others: &[(f32, f32)], square: bool) -> f32 {
+    let a = term(n_a, pdf_a);
+    let sum = if square {
+        a * a
+            + others
+                .iter()
+                .map(|&(n, p)| term(n, p) * term(n, p))
+                .sum::<f32>()
+    } else {
+        a + others.iter().map(|&(n, p)| term(n, p)).sum::<f32>()
+    };
+    if sum > 0.0 && sum < f32::INFINITY {
+        return if square { a * a / sum } else { a / sum };
+    }
+    if sum.is_nan() || sum <= 0.0 {
+        return 0.0;
+    }
+    // The sum overflowed: an infinite term, or large finite ones.
+    let infinite = |n: f32, p: f32| {
+        let (n, p) = (non_negative(n), non_negative(p));
+        n > 0.0 && p > 0.0 && (n == f32::INFINITY || p == f32::INFINITY)
+    };
+    let count =
+        usize::from(infinite(n_a, pdf_a)) + others.iter().filter(|&&(n, p)| infinite(n, p)).count();
+    if count > 0 {
+        return if infinite(n_a, pdf_a) {
+            1.0 / count as f32
+        } else {
+            0.0
+        };
+    }
+    // Products of finite f32 values, and their squares, are finite in f64.
+    let t64 = |n: f32, p: f32| {
+        let (n, p) = (non_negative(n), non_negative(p));
+        let t = if n > 0.0 && p > 0.0 {
+            f64::from(n) * f64::from(p)
+        } else {
+            0.0
+        };
+        if square {
+            t * t
+        } else {
+            t
+        }
+    };
+    let a = t64(n_a, pdf_a);
+    let sum = a + others.iter().map(|&(n, p)| t64(n, p)).sum::<f64>();
+    (a / sum).clamp(0.0, 1.0) as f32
+}
+
+/// `p·x + (1 − p)·y` for a probability `p` (clamped into [0, 1], NaN as 0) and densities
+/// `x`, `y` ([`non_negative`]); a term whose probability is 0 is 0 even for an infinite
+/// density.
+#[inline(always)]
+fn mixture(p: f32, x: f32, y: f32) -> f32 {
+    let p = sanitize_probability(p);
+    let bx = if p > 0.0 { p * non_negative(x) } else { 0.0 };
+    let by = if p < 1.0 {
+        (1.0 - p) * non_negative(y)
+    } else {
+        0.0
+    };
+    bx + by
 }
 
 /// Which BRDF-aware technique a sample uses.
@@ -237,20 +324,18 @@ pub struct CombinedWeights {
 impl CombinedWeights {
     /// Reference density of the BRDF-aware mixture.
     fn q_ref(&self, pdf_bl: f32, pdf_tb: f32) -> f32 {
-        self.p_ref * pdf_bl + (1.0 - self.p_ref) * pdf_tb
+        mixture(self.p_ref, pdf_bl, pdf_tb)
     }
 
-    /// `(w_TL, w_M)` for a point whose densities under TL, BL and TB are given; they sum to 1
-    /// (both 0 if every density is 0).
+    /// `(w_TL, w_M)` for a point whose densities under TL, BL and TB are given: each in
+    /// [0, 1], summing to 1 (both 0 if every density is 0).
+    /// Negative, NaN and infinite densities, counts and `p_ref` as the module documentation
+    /// says.
     pub fn weights(&self, pdf_tl: f32, pdf_bl: f32, pdf_tb: f32) -> (f32, f32) {
         let q = self.q_ref(pdf_bl, pdf_tb);
         let others = [(self.n_mixture, q)];
-        let w_tl = if self.power {
-            power(self.n_tl, pdf_tl, &others)
-        } else {
-            balance(self.n_tl, pdf_tl, &others)
-        };
-        let any = pdf_tl > 0.0 || q > 0.0;
+        let w_tl = heuristic(self.n_tl, pdf_tl, &others, self.power);
+        let any = non_negative(pdf_tl) > 0.0 || q > 0.0;
         if any {
             (w_tl, 1.0 - w_tl)
         } else {
@@ -338,22 +423,12 @@ impl SequentialWeights {
     /// `r`: TL's weight against N samples of a mixture of density `q`.
     #[inline]
     fn tl_share(&self, pdf_tl: f32, q: f32) -> f32 {
-        let a = self.n_tl * pdf_tl.max(0.0);
-        let b = self.n as f32 * q.max(0.0);
-        if a.is_nan() || a <= 0.0 {
+        let a = term(self.n_tl, pdf_tl);
+        if a <= 0.0 {
+            let b = term(self.n as f32, q);
             return if b > 0.0 { 0.0 } else { 1.0 };
         }
-        let r = if self.power {
-            let (a2, b2) = (a * a, b * b);
-            a2 / (a2 + b2)
-        } else {
-            a / (a + b)
-        };
-        if r.is_finite() {
-            r
-        } else {
-            1.0
-        }
+        heuristic(self.n_tl, pdf_tl, &[(self.n as f32, q)], self.power)
     }
 
     /// What a BRDF-aware sample drawn with BL probability `p_bl` contributes: `g·W_j/q_j` for
@@ -414,7 +489,7 @@ impl SequentialWeights {
         }
         let mut sum = (self.n - self.len) as f32;
         for &p in &self.p[..self.len as usize] {
-            let q = p * pdf_bl.max(0.0) + (1.0 - p) * pdf_tb.max(0.0);
+            let q = mixture(p, pdf_bl, pdf_tb);
             sum += self.tl_share(pdf_tl, q);
         }
         (sum / self.n as f32).clamp(0.0, 1.0)

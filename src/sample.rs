@@ -6,12 +6,21 @@
 //! chosen interval. [`LightTree::pmf`] recomputes the same ratios along the light's stored
 //! path, so it returns exactly the pmf [`LightTree::sample`] reported.
 //!
-//! Two cases, decided once:
+//! Three cases, decided once:
 //! - ΣI = 0 (or not finite) at the root: no light is returned and every pmf is 0.
 //! - ΣI = 0 below the root (a cluster's importance bounds its lights but is not the sum of its
 //!   children's, so a positive slot can hold four zero children): the node falls back to its
 //!   slots' energies, so the pmfs of all lights still sum to 1. Conservativeness guarantees no
 //!   contributing light is under such a node.
+//! - Vanishing lights: a light whose pmf would be below [`MIN_PMF`] (f32's smallest normal
+//!   number; its pmf would round to a subnormal or to 0, and dividing by it overflows) is
+//!   never sampled and its pmf is 0. The descent enforces it node by node: at a node reached
+//!   with probability `P`, a slot with `P · I_k / ΣI < MIN_PMF` gets weight 0 and the other
+//!   slots share its probability; if that leaves no slot, the slot of largest weight alone is
+//!   taken (probability 1, so the path keeps `P ≥ MIN_PMF`). A returned pmf is therefore
+//!   always at least [`MIN_PMF`], `sample` and `pmf` apply the same rule, and the pmfs of the
+//!   lights still sum to 1. Only lights whose share of the importance is below about 1e-38
+//!   are affected; for all other inputs the weights are untouched.
 //!
 //! Precision: `u` loses bits at every level; pass a second uniform number for the point on the
 //! light rather than reusing what is left of `u`.
@@ -27,9 +36,13 @@ pub(crate) const LANES: usize = 4;
 pub struct LightSample {
     /// Index of the light in the slice the tree was built from.
     pub light: u32,
-    /// Probability of this choice (> 0).
+    /// Probability of this choice: finite, at most 1 and at least [`MIN_PMF`].
     pub pmf: f32,
 }
+
+/// The smallest pmf a sampled light has: f32's smallest normal number (2⁻¹²⁶). A light whose
+/// probability would be smaller is never sampled (see the module documentation).
+pub const MIN_PMF: f32 = f32::MIN_POSITIVE;
 
 /// The largest f32 below 1.
 pub const ONE_MINUS_EPSILON: f32 = 1.0 - f32::EPSILON / 2.0;
@@ -44,24 +57,81 @@ pub(crate) fn sanitize(u: f32) -> f32 {
     }
 }
 
-/// Selection weights at a node: the importances, or the energies below the root when the
-/// importances are all zero. `None` at the root when nothing is sampled.
+/// Selection weights at a node reached with probability `reach`: the importances, or the
+/// energies below the root when the importances are all zero, with the slots whose path
+/// probability would fall below `floor` set to 0 ([`admit`]). `None` at the root when
+/// nothing is sampled, and below it when the energies give nothing to choose from either (a
+/// corrupt tree).
 #[inline(always)]
 pub(crate) fn weights<I: Importance + ?Sized>(
     imp: &I,
     node: &Node4,
     root: bool,
+    reach: f32,
+    floor: f32,
 ) -> Option<([f32; 4], f32)> {
     let w = imp.eval4(node).to_array();
     let sum = w[0] + w[1] + w[2] + w[3];
     if sum > 0.0 && sum < f32::INFINITY {
-        return Some((w, sum));
+        return Some(admit(w, sum, reach, floor));
     }
     if root {
         return None;
     }
     let e = node.energy;
-    Some((e, e[0] + e[1] + e[2] + e[3]))
+    let sum = e[0] + e[1] + e[2] + e[3];
+    if sum > 0.0 && sum < f32::INFINITY {
+        return Some(admit(e, sum, reach, floor));
+    }
+    None
+}
+
+/// The weights a descent picks from, given the raw weights `w` with finite positive sum `sum`
+/// at a node reached with probability `reach` (≥ `floor`): a slot whose probability
+/// `reach · w_k / sum` would be below `floor` (or whose weight is not positive) gets weight
+/// 0, and the others renormalise; if none is left, the slot of largest weight alone (the
+/// first of equal ones). Every slot left then has `reach · w_k / sum' ≥ floor`, so the
+/// descent's pmf never drops below `floor`. When every positive slot passes, `(w, sum)` is
+/// returned unchanged.
+#[inline(always)]
+pub(crate) fn admit(w: [f32; 4], sum: f32, reach: f32, floor: f32) -> ([f32; 4], f32) {
+    // The smallest positive weight passing means every one does.
+    let mut min = f32::INFINITY;
+    let mut negative = false;
+    for x in w {
+        if x > 0.0 {
+            min = min.min(x);
+        } else if x < 0.0 || x.is_nan() {
+            negative = true;
+        }
+    }
+    if !negative && reach * (min / sum) >= floor {
+        return (w, sum);
+    }
+    admit_slow(w, reach, floor)
+}
+
+/// [`admit`] when some slot is dropped.
+#[cold]
+fn admit_slow(w: [f32; 4], reach: f32, floor: f32) -> ([f32; 4], f32) {
+    let positive = w.map(|x| if x > 0.0 { x } else { 0.0 });
+    let s1 = positive[0] + positive[1] + positive[2] + positive[3];
+    // A subset of the positive weights, summed in the same order, sums to at most `s1`, so
+    // the ratios only grow when the dropped slots are removed.
+    let kept = positive.map(|x| if reach * (x / s1) >= floor { x } else { 0.0 });
+    let s2 = kept[0] + kept[1] + kept[2] + kept[3];
+    if s2 > 0.0 && s2 < f32::INFINITY {
+        return (kept, s2);
+    }
+    let mut best = 0;
+    for k in 1..4 {
+        if positive[k] > positive[best] {
+            best = k;
+        }
+    }
+    let mut only = [0.0; 4];
+    only[best] = positive[best];
+    (only, positive[best])
 }
 
 /// Picks slot k with probability `w[k] / sum` from `u` in [0, 1) and returns it with `u`
@@ -110,12 +180,13 @@ impl LightTree {
     /// (clamped into it). `None` when no light can contribute (the root's importance is 0).
     #[inline]
     pub fn sample<I: Importance + ?Sized>(&self, imp: &I, u: f32) -> Option<LightSample> {
-        self.descend_from(imp, 0, true, u)
+        self.descend_from(imp, 0, true, u, MIN_PMF)
     }
 
     /// Descends from node `start` as [`LightTree::sample`] does from the root; the pmf is
-    /// relative to `start`'s subtree. With `is_root`, ΣI = 0 at `start` returns `None`;
-    /// without it `start` falls back to its energies like any inner node.
+    /// relative to `start`'s subtree and at least `floor` (in [`MIN_PMF`, 1]; see [`admit`]).
+    /// With `is_root`, ΣI = 0 at `start` returns `None`; without it `start` falls back to its
+    /// energies like any inner node.
     #[inline]
     pub(crate) fn descend_from<I: Importance + ?Sized>(
         &self,
@@ -123,12 +194,13 @@ impl LightTree {
         start: usize,
         is_root: bool,
         u: f32,
+        floor: f32,
     ) -> Option<LightSample> {
         let mut u = sanitize(u);
         let mut node = self.nodes.get(start)?;
         let mut touched = touch_children(&self.nodes, node);
-        let (mut w, mut sum) = weights(imp, node, is_root)?;
         let mut pmf = 1.0f32;
+        let (mut w, mut sum) = weights(imp, node, is_root, pmf, floor)?;
         loop {
             let (k, next_u) = pick(w, sum, u);
             pmf *= w[k] / sum;
@@ -141,7 +213,7 @@ impl LightTree {
                 Slot::Node(c) => {
                     node = self.nodes.get(c as usize)?;
                     touched ^= touch_children(&self.nodes, node);
-                    (w, sum) = weights(imp, node, false)?;
+                    (w, sum) = weights(imp, node, false, pmf, floor)?;
                 }
                 Slot::Empty => return None,
             }
@@ -149,7 +221,7 @@ impl LightTree {
     }
 
     /// Up to [`LANES`] descents from inner nodes, interleaved: `starts[j] = (node, u)`, and
-    /// `out[j]` gets exactly what `descend_from(imp, node, false, u)` returns.
+    /// `out[j]` gets exactly what `descend_from(imp, node, false, u, MIN_PMF)` returns.
     ///
     /// One descent is a chain of dependent steps (a node's importances decide which node is
     /// read next), so a core runs it far below its throughput. Taking a level of every
@@ -183,7 +255,7 @@ impl LightTree {
                 let nd = &self.nodes[node[j]];
                 touched ^= touch_children(&self.nodes, nd);
                 // Below the start every node has a weight (`false`: never the root case).
-                let Some((w, sum)) = weights(imp, nd, false) else {
+                let Some((w, sum)) = weights(imp, nd, false, pmf[j], MIN_PMF) else {
                     live &= !(1 << j);
                     continue;
                 };
@@ -208,12 +280,12 @@ impl LightTree {
     }
 
     /// Up to [`LANES`] pmf walks, interleaved as [`LightTree::descend_lanes`] interleaves
-    /// descents: `walks[j] = (node, path, from_level, light)`, and `out[j]` gets exactly
-    /// `pmf_from(imp, node, false, path, from_level, light)`.
+    /// descents: `walks[j] = (node, path, from_level, light, floor)`, and `out[j]` gets exactly
+    /// `pmf_from(imp, node, false, path, from_level, light, floor)`.
     pub(crate) fn pmf_lanes<I: Importance + ?Sized>(
         &self,
         imp: &I,
-        walks: &[(u32, u64, u32, u32)],
+        walks: &[(u32, u64, u32, u32, f32)],
         out: &mut [f32],
     ) {
         let n = walks.len().min(out.len()).min(LANES);
@@ -222,7 +294,7 @@ impl LightTree {
         let mut levels = [0u32; LANES];
         let mut live = 0u32;
         for j in 0..n {
-            let (start, path, from, _) = walks[j];
+            let (start, path, from, _, _) = walks[j];
             out[j] = 1.0;
             node[j] = start as usize;
             level[j] = from;
@@ -238,14 +310,14 @@ impl LightTree {
                 if live & (1 << j) == 0 {
                     continue;
                 }
-                let (_, path, _, light) = walks[j];
+                let (_, path, _, light, floor) = walks[j];
                 let k = ((path >> (2 * (levels[j] - 1 - level[j]))) & 3) as usize;
                 let Some(nd) = self.nodes.get(node[j]) else {
                     out[j] = 0.0;
                     live &= !(1 << j);
                     continue;
                 };
-                let Some((w, sum)) = weights(imp, nd, false) else {
+                let Some((w, sum)) = weights(imp, nd, false, out[j], floor) else {
                     out[j] = 0.0;
                     live &= !(1 << j);
                     continue;
@@ -270,12 +342,13 @@ impl LightTree {
         let Some(&path) = self.paths.get(light as usize) else {
             return 0.0;
         };
-        self.pmf_from(imp, 0, true, path, 0, light)
+        self.pmf_from(imp, 0, true, path, 0, light, MIN_PMF)
     }
 
     /// The pmf of `light` (whose path is `path`) relative to node `start`, which its path
     /// reaches after `from_level` levels: [`LightTree::descend_from`]'s pmf for it (with the
-    /// same `is_root`).
+    /// same `is_root` and `floor`).
+    #[allow(clippy::too_many_arguments)] // the walk's state, as `descend_from` takes it
     pub(crate) fn pmf_from<I: Importance + ?Sized>(
         &self,
         imp: &I,
@@ -284,6 +357,7 @@ impl LightTree {
         path: u64,
         from_level: u32,
         light: u32,
+        floor: f32,
     ) -> f32 {
         let levels = path_len(path);
         let mut index = start;
@@ -293,7 +367,8 @@ impl LightTree {
             let Some(node) = self.nodes.get(index) else {
                 return 0.0;
             };
-            let Some((w, sum)) = weights(imp, node, is_root && level == from_level) else {
+            let Some((w, sum)) = weights(imp, node, is_root && level == from_level, pmf, floor)
+            else {
                 return 0.0;
             };
             pmf *= w[k] / sum;
@@ -338,6 +413,26 @@ mod tests {
         let (k, u2) = pick(w, 4.0, 0.875);
         assert_eq!(k, 3);
         assert!((u2 - 0.5).abs() < 1e-6);
+    }
+
+    #[test]
+    fn admit_drops_vanishing_slots() {
+        let m = MIN_PMF;
+        // Nothing to drop: unchanged.
+        let w = [1.0, 2.0, 0.0, 3.0];
+        assert_eq!(admit(w, 6.0, 1.0, m), (w, 6.0));
+        // A share below MIN_PMF, and a negative weight, get 0; the rest renormalise.
+        let w = [1.0, 1e-40, -2.0, 1.0];
+        assert_eq!(
+            admit(w, w[0] + w[1] + w[2] + w[3], 1.0, m),
+            ([1.0, 0.0, 0.0, 1.0], 2.0)
+        );
+        // The path probability counts: at reach 1e-30 a share of 1e-10 is too small.
+        let w = [1.0, 1e-10, 0.0, 0.0];
+        assert_eq!(admit(w, 1.0, 1e-30, m), ([1.0, 0.0, 0.0, 0.0], 1.0));
+        // No slot passes: the largest alone, with probability 1.
+        let w = [1.0, 3.0, 3.0, 2.0];
+        assert_eq!(admit(w, 9.0, 2.0 * m, m), ([0.0, 3.0, 0.0, 0.0], 3.0));
     }
 
     #[test]

@@ -2382,3 +2382,108 @@ fn glossy_part_of_the_cap_integrals() {
         0.0
     );
 }
+
+/// Regression: `BlImportance::new` normalised the normal and ωo in f32, so a component above
+/// about 1.8e19 (squared length +∞, which passed the "> 0" check) gave the zero vector. With
+/// ωo = (0.3e30, 0, −1e30) the normal was then not turned to the viewer's side and a light
+/// below the surface, which contributes, got pmf 0. Both are now normalised in f64 when f32
+/// would overflow or underflow: any finite non-zero length gives the direction of the unit
+/// vector (to f32 rounding), and so the same pmfs.
+#[test]
+fn huge_normal_and_wo_keep_their_direction() {
+    let lights = [
+        Light::Point {
+            position: Vec3::new(0.5, 0.0, -2.0),
+            intensity: 1.0,
+        },
+        Light::Sphere {
+            center: Vec3::new(-1.0, 1.0, -1.5),
+            radius: 0.3,
+            radiance: 2.0,
+        },
+        Light::Point {
+            position: Vec3::new(0.0, 0.5, 2.0),
+            intensity: 3.0,
+        },
+    ];
+    let tree = LightTree::build(&lights).unwrap();
+    let material = Material::Plastic {
+        albedo: 0.5,
+        specular: 0.5,
+        alpha: 0.3,
+    };
+    let at = |normal: Vec3, wo: Vec3| {
+        BlImportance::new(&ShadingPoint {
+            position: Vec3::ZERO,
+            normal,
+            wo,
+            material,
+        })
+        .unwrap()
+    };
+    // The issue's case: the viewer is below the surface, so the normal turns to −z.
+    let imp = at(Vec3::Z, Vec3::new(0.3e30, 0.0, -1e30));
+    assert_eq!(imp.normal(), -Vec3::Z);
+    let reference = at(Vec3::Z, Vec3::new(0.3, 0.0, -1.0));
+    for (normal, wo) in [
+        (Vec3::Z, Vec3::new(0.3e30, 0.0, -1e30)),
+        (Vec3::new(0.0, 0.0, 1e20), Vec3::new(0.3, 0.0, -1.0)),
+        (Vec3::new(0.0, 0.0, 3e38), Vec3::new(3e37, 0.0, -1e38)),
+        (Vec3::new(0.0, 0.0, f32::MAX), Vec3::new(0.3e20, 0.0, -1e20)),
+    ] {
+        let imp = at(normal, wo);
+        assert!(
+            (imp.normal() - reference.normal()).length() <= 1e-6,
+            "normal {normal} wo {wo}: BL normal {}",
+            imp.normal()
+        );
+        // The unit vectors differ by f32 rounding (an ulp or two), which moves these pmfs far
+        // less than 1e-4.
+        for l in 0..lights.len() as u32 {
+            let (p, want) = (tree.pmf(&imp, l), tree.pmf(&reference, l));
+            assert!(
+                close(f64::from(p), f64::from(want), 1e-4, 0.0),
+                "normal {normal} wo {wo}: light {l} has pmf {p}, {want} with unit vectors"
+            );
+        }
+        assert!(tree.pmf(&imp, 0) > 0.0, "normal {normal} wo {wo}");
+    }
+}
+
+/// Regression: a tiny normal such as `(0, 0, 1e-30)` was rejected with "field `normal` has
+/// zero length (got 0)" (its f32 squared length underflows) although the vector is not zero.
+/// Tiny finite non-zero normals and ωo are now accepted and normalised in f64, as `Light` and
+/// `TlImportance` do; only the zero vector is rejected as having zero length.
+#[test]
+fn tiny_normal_and_wo_are_accepted() {
+    let sp = |normal: Vec3, wo: Vec3| ShadingPoint {
+        position: Vec3::ZERO,
+        normal,
+        wo,
+        material: Material::Lambert { albedo: 0.8 },
+    };
+    for (normal, wo) in [
+        (Vec3::new(0.0, 0.0, 1e-30), Vec3::new(0.3, 0.0, 1.0)),
+        (Vec3::Z, Vec3::new(0.3e-30, 0.0, 1e-30)),
+        (
+            Vec3::new(0.0, 0.0, f32::from_bits(1)),
+            Vec3::new(1e-45, 0.0, 3e-45),
+        ),
+    ] {
+        let imp = BlImportance::new(&sp(normal, wo))
+            .unwrap_or_else(|e| panic!("normal {normal} wo {wo}: {e}"));
+        assert!(
+            (imp.normal() - Vec3::Z).length() <= 1e-6,
+            "normal {normal} wo {wo}: BL normal {}",
+            imp.normal()
+        );
+    }
+    for (normal, wo, field) in [
+        (Vec3::ZERO, Vec3::Z, ShadingField::Normal),
+        (Vec3::Z, Vec3::new(-0.0, 0.0, 0.0), ShadingField::Wo),
+    ] {
+        let e = BlImportance::new(&sp(normal, wo)).unwrap_err();
+        assert_eq!(e.field, field);
+        assert!(format!("{e}").contains("zero length"), "{e}");
+    }
+}

@@ -1090,3 +1090,113 @@ fn huge_directions_stay_conservative() {
         failures.join("\n")
     );
 }
+
+/// Regression: a tree read from corrupt bytes that still validates could sample a light with
+/// a subnormal pmf or pmf 0. Here one light's stored energy is replaced by the subnormal
+/// 1e-40 (a valid, non-negative energy): its importance share underflows, so its pmf must be
+/// 0, and `sample` must neither return it nor disagree with `pmf`.
+#[test]
+fn corrupt_but_valid_tiny_energy_is_never_sampled_with_pmf_zero() {
+    let lights = [
+        Light::Point {
+            position: Vec3::new(1.0, 1.0, 1.0),
+            intensity: 2.0,
+        },
+        Light::Point {
+            position: Vec3::new(0.0, 0.0, 2.0),
+            intensity: 1.0,
+        },
+        Light::Sphere {
+            center: Vec3::new(-1.0, 0.5, 1.5),
+            radius: 0.25,
+            radiance: 3.0,
+        },
+    ];
+    let tree = LightTree::build(&lights).unwrap();
+    let mut bytes = tree.as_bytes();
+    let old = lights[1].energy().to_ne_bytes();
+    let at: Vec<usize> = (0..bytes.len() - 3)
+        .filter(|&i| bytes[i..i + 4] == old)
+        .collect();
+    assert!(!at.is_empty(), "the light's energy is not in the bytes");
+    for &i in &at {
+        bytes[i..i + 4].copy_from_slice(&1e-40f32.to_ne_bytes());
+    }
+    let bad = LightTree::from_bytes(&bytes).expect("a tiny energy is still a valid tree");
+    bad.validate().unwrap();
+    // The light is 1 straight above the point: importance 1e-40, a share far below f32's
+    // smallest normal number.
+    let imp = TlImportance::new(Vec3::new(0.0, 0.0, 1.0), Vec3::new(0.0, 0.3, 1.0));
+    let mut rng = Rng::new(0xE40);
+    for l in 0..3 {
+        let p = bad.pmf(&imp, l);
+        assert!(
+            p == 0.0 || p >= f32::MIN_POSITIVE,
+            "light {l} has pmf {p:e}"
+        );
+    }
+    let sum: f64 = (0..3).map(|l| f64::from(bad.pmf(&imp, l))).sum();
+    assert!((sum - 1.0).abs() <= 1e-6, "pmfs sum to {sum}");
+    for u in u_values(&mut rng, 50) {
+        let s = bad.sample(&imp, u).expect("two lights contribute");
+        assert!(s.pmf >= f32::MIN_POSITIVE, "u={u}: {s:?}");
+        assert_eq!(s.pmf, bad.pmf(&imp, s.light), "u={u}: {s:?}");
+    }
+}
+
+/// Regression: a spot's energy 2π(1 − cos θs)·I was computed with the subtraction in f64,
+/// which is 0 for θs ≤ 1e-8 (the spot was never sampled though it lights the points on its
+/// axis) and 11 % high at 2e-8. It is now 4π sin²(θs/2)·I for narrow cones: within f32
+/// rounding (1e-6 relative allows for a few roundings) of the series
+/// π θ² (1 − θ²/12) I, and a narrow spot is sampled at a point on its axis.
+#[test]
+fn narrow_spot_energy_does_not_cancel() {
+    let spot = |half_angle: f32, intensity: f32| Light::Spot {
+        position: Vec3::new(0.0, 0.0, 2.0),
+        direction: -Vec3::Z,
+        intensity,
+        half_angle,
+        falloff_start: 0.5 * half_angle,
+    };
+    for theta in [
+        1e-20f32, 1e-10, 1e-8, 2e-8, 3e-7, 1e-6, 1e-4, 9.99e-4, 1e-3, 2e-3, 1e-2,
+    ] {
+        let t = f64::from(theta);
+        let want = PI as f64 * t * t * (1.0 - t * t / 12.0) * 3.0;
+        let e = f64::from(spot(theta, 3.0).energy());
+        assert!(
+            (e - want).abs() <= 1e-6 * want,
+            "θs = {theta}: energy {e}, expected {want}"
+        );
+    }
+    // Ordinary angles: 2π(1 − cos θs)·I.
+    for k in 1..=100 {
+        let theta = PI * k as f32 / 100.0;
+        let want = 2.0 * std::f64::consts::PI * (1.0 - f64::from(theta).cos()) * 3.0;
+        let e = f64::from(spot(theta, 3.0).energy());
+        assert!(
+            (e - want).abs() <= 1e-6 * want,
+            "θs = {theta}: {e} vs {want}"
+        );
+    }
+    // A spot of half-angle 1e-8 (energy ≈ 3.1) next to a point light: on its axis it is
+    // sampled, with the pmf `pmf` gives.
+    let lights = [
+        spot(1e-8, 1e16),
+        Light::Point {
+            position: Vec3::new(1.0, 0.0, 1.0),
+            intensity: 1.0,
+        },
+    ];
+    assert!(lights[0].energy() > 3.0, "{}", lights[0].energy());
+    let tree = LightTree::build(&lights).unwrap();
+    let imp = TlImportance::new(Vec3::ZERO, Vec3::Z);
+    let p = tree.pmf(&imp, 0);
+    assert!(p > 0.1, "the spot's pmf on its axis is {p}");
+    let s = tree.sample(&imp, 0.0).unwrap();
+    let s2 = tree.sample(&imp, 0.999).unwrap();
+    assert!(s.light == 0 || s2.light == 0, "{s:?} {s2:?}");
+    for s in [s, s2] {
+        assert_eq!(s.pmf, tree.pmf(&imp, s.light));
+    }
+}

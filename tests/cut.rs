@@ -34,6 +34,7 @@ use common::{
 };
 use glam::{DVec3, Vec3};
 use manylights::cut::MIN_CUT_SIZE;
+use manylights::sample::MIN_PMF;
 use manylights::{
     Importance, Light, LightCut, LightTree, Node4, Receiver, Slot, SplitOptions, TlImportance,
     CUT_CAPACITY,
@@ -1167,4 +1168,137 @@ fn threshold_infinite_splits_only_inside() {
         }
     }
     assert!(opened > 1_000, "only {opened} clusters below the root");
+}
+
+// ---------------------------------------------------------------------------------------------
+// Regressions: vanishing probabilities
+// ---------------------------------------------------------------------------------------------
+
+/// Scenes whose pmfs span more than f32's range: the example of a light of intensity 1e-40
+/// between two ordinary ones, a shading point on a point light at 1e15 with the others 1e15
+/// away, and 16 groups of three point lights each 1e-3 as bright as the one before.
+fn vanishing_scenes() -> Vec<(Vec<Light>, TlImportance)> {
+    let example = vec![
+        Light::Point {
+            position: Vec3::new(1.0, 1.0, 1.0),
+            intensity: 2.0,
+        },
+        Light::Point {
+            position: Vec3::new(0.0, 0.0, 2.0),
+            intensity: 1e-40,
+        },
+        Light::Sphere {
+            center: Vec3::new(-1.0, 0.5, 1.5),
+            radius: 0.25,
+            radiance: 3.0,
+        },
+    ];
+    let at = Vec3::new(1e15, 0.0, 0.0);
+    let mut far = vec![Light::Point {
+        position: at,
+        intensity: 1.0,
+    }];
+    for i in 0..12 {
+        far.push(Light::Point {
+            position: Vec3::new(0.0, i as f32 * 1e13, 0.0),
+            intensity: 1.0 + i as f32,
+        });
+        far.push(Light::Point {
+            position: Vec3::new(1e15, 1e15, i as f32 * 1e13),
+            intensity: 2.0,
+        });
+    }
+    let mut chain = Vec::new();
+    let mut intensity = 1.0f64;
+    for i in 0..16 {
+        for j in 0..3 {
+            chain.push(Light::Point {
+                position: Vec3::new(i as f32 * 10.0 + j as f32, 0.0, 1.0),
+                intensity: intensity as f32,
+            });
+        }
+        intensity *= 1e-3;
+    }
+    vec![
+        (
+            example,
+            TlImportance::new(Vec3::new(0.0, 0.0, 1.0), Vec3::X),
+        ),
+        (
+            far,
+            TlImportance::with_receiver(at, Vec3::ZERO, Receiver::Omnidirectional),
+        ),
+        (
+            chain,
+            TlImportance::with_receiver(
+                Vec3::new(0.0, 0.0, 1.0),
+                Vec3::ZERO,
+                Receiver::Omnidirectional,
+            ),
+        ),
+    ]
+}
+
+/// Regression: `LightCut::sample` returned lights with pmf 0 (a cluster whose share
+/// `weight / total` underflows, or a light whose pmf in the cluster times that share does),
+/// and `sample_in` did within a cluster. Every pmf reported for a returned light is now at
+/// least `MIN_PMF`, equal bit for bit to `pmf` / `pmf_in` (and to the batched calls), and the
+/// pmfs of all lights still sum to 1 (within 1e-4: products of at most 32 ratios, each a few
+/// ulps off).
+#[test]
+fn cut_sample_never_returns_vanishing_pmf() {
+    let mut rng = Rng::new(0xC07);
+    for (scene, (lights, at)) in vanishing_scenes().into_iter().enumerate() {
+        let tree = LightTree::build(&lights).unwrap();
+        let n = lights.len();
+        let mut points = vec![at];
+        points.extend((0..20).map(|_| random_importance(&mut rng, &lights, 4.0)));
+        for imp in points {
+            for (threshold, max_size) in [(0.0, CUT_CAPACITY), (1e-3, 32), (f32::INFINITY, 4)] {
+                let opts = SplitOptions {
+                    threshold,
+                    max_size,
+                };
+                let cut = LightCut::build_split(&tree, &imp, &opts);
+                let ctx = format!("scene {scene} at {imp:?} with {opts:?}");
+                let mut us = u_values(&mut rng, 16);
+                us.extend([f32::NAN, -1.0]);
+                let pmfs: Vec<f32> = (0..n as u32).map(|l| cut.pmf(&tree, &imp, l)).collect();
+                for (l, &p) in pmfs.iter().enumerate() {
+                    assert!(
+                        p == 0.0 || (MIN_PMF..=1.0).contains(&p),
+                        "light {l} has cut pmf {p:e}, {ctx}"
+                    );
+                }
+                for &u in &us {
+                    if let Some(s) = cut.sample(&tree, &imp, u) {
+                        assert!((MIN_PMF..=1.0).contains(&s.pmf), "u={u}: {s:?}, {ctx}");
+                        assert_eq!(s.pmf, pmfs[s.light as usize], "u={u}: {s:?}, {ctx}");
+                    }
+                    for i in 0..cut.len() {
+                        let Some(s) = cut.sample_in(&tree, &imp, i, u) else {
+                            continue;
+                        };
+                        assert!(
+                            (MIN_PMF..=1.0).contains(&s.pmf),
+                            "cluster {i}, u={u}: {s:?}, {ctx}"
+                        );
+                        assert_eq!(
+                            cut.pmf_in(&tree, &imp, s.light),
+                            Some((i, s.pmf)),
+                            "cluster {i}, u={u}: {s:?}, {ctx}"
+                        );
+                    }
+                }
+                let sum: f64 = pmfs.iter().map(|&p| f64::from(p)).sum();
+                if cut.is_empty() {
+                    assert_eq!(sum, 0.0, "{ctx}");
+                } else {
+                    assert!((sum - 1.0).abs() <= 1e-4, "pmfs sum to {sum}, {ctx}");
+                    assert!(cut.sample(&tree, &imp, 0.0).is_some(), "{ctx}");
+                }
+                check_batched(&cut, &tree, imp, n, &us, &ctx).unwrap();
+            }
+        }
+    }
 }

@@ -10,7 +10,7 @@ use common::{
 };
 use glam::{DVec3, Vec3};
 use manylights::baseline::BinaryLightTree;
-use manylights::{Light, LightTree, Node4, SlotBounds, TlImportance};
+use manylights::{Light, LightTree, Node4, Receiver, SlotBounds, TlImportance};
 use proptest::prelude::{any, prop_oneof, Strategy};
 use proptest::test_runner::TestCaseError;
 
@@ -441,4 +441,64 @@ fn contribution_predicate_sanity() {
     };
     assert!(contributes(&t, Vec3::new(0.2, 0.2, 1.0), -up, R, 1e-4));
     assert!(!contributes(&t, Vec3::new(0.2, 0.2, -1.0), up, R, 1e-4));
+}
+
+/// Regression: `TlImportance` normalised its normal in f32 and, when the squared length
+/// overflowed or underflowed (`(0, 0, 1e20)`, `(0, 0, 1e-30)`), silently made the point
+/// omnidirectional: a light below the surface then got pmf 0.5 instead of 0. A finite non-zero
+/// normal of any length is now normalised (in f64 where f32 would fail); only the zero vector
+/// (and a non-finite normal) still means "omnidirectional".
+#[test]
+fn tiny_and_huge_normals_keep_the_surface() {
+    let lights = [
+        Light::Point {
+            position: Vec3::new(0.3, 0.0, 2.0),
+            intensity: 1.0,
+        },
+        Light::Point {
+            position: Vec3::new(-0.3, 0.0, -2.0),
+            intensity: 1.0,
+        },
+    ];
+    let tree = LightTree::build(&lights).unwrap();
+    let bin = BinaryLightTree::build(&lights).unwrap();
+    for normal in [
+        Vec3::new(0.0, 0.0, 1e20),
+        Vec3::new(0.0, 0.0, 1e-30),
+        Vec3::new(0.0, 0.0, f32::from_bits(1)),
+        Vec3::new(0.0, 0.0, f32::MAX),
+        Vec3::new(1e-45, 0.0, 3e-45),
+        Vec3::new(3e38, 0.0, 1e38),
+    ] {
+        let want = normal.as_dvec3().normalize().as_vec3();
+        for receiver in [Receiver::Reflective, Receiver::Transmissive] {
+            let imp = TlImportance::with_receiver(Vec3::ZERO, normal, receiver);
+            assert_eq!(imp.receiver(), receiver, "normal {normal}");
+            assert!(
+                (imp.normal() - want).length() <= 1e-6,
+                "normal {normal}: unit normal {}",
+                imp.normal()
+            );
+        }
+        if normal.z > 0.0 && normal.x == 0.0 {
+            let imp = TlImportance::new(Vec3::ZERO, normal);
+            assert_eq!(tree.pmf(&imp, 0), 1.0, "normal {normal}");
+            assert_eq!(tree.pmf(&imp, 1), 0.0, "normal {normal}: light below");
+            assert_eq!(
+                bin.pmf(&imp, 1),
+                0.0,
+                "normal {normal}: light below (binary)"
+            );
+        }
+    }
+    // The zero vector and non-finite normals keep their documented meaning.
+    for normal in [
+        Vec3::ZERO,
+        Vec3::new(0.0, 0.0, f32::NAN),
+        Vec3::new(f32::INFINITY, 0.0, 1.0),
+    ] {
+        let imp = TlImportance::new(Vec3::ZERO, normal);
+        assert_eq!(imp.receiver(), Receiver::Omnidirectional, "normal {normal}");
+        assert_eq!(imp.normal(), Vec3::ZERO);
+    }
 }

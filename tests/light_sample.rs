@@ -902,3 +902,50 @@ fn degenerate_inputs_give_none_or_finite_values() {
         }
     }
 }
+
+/// Regression: the spot's falloff was computed from cosines, which for half-angles below
+/// about 1e-8 all round to 1 (and lose most of their digits well above that). A narrow cone's
+/// profile now comes from `1 − cos` of each angle: for θs = 1e-6 and θf = 5e-7 it is the
+/// smoothstep of `(θs² − θ²)/(θs² − θf²)` (to O(θ²) ≈ 1e-12 relative, so within 1e-5 as the
+/// ordinary spot's test allows), full inside θf and 0 beyond θs; a hard-edged 1e-9 cone lights
+/// its axis and nothing 2e-9 off it.
+#[test]
+fn narrow_spot_profile_keeps_its_falloff() {
+    let (tf, ts) = (5e-7f64, 1e-6f64);
+    let spot = Light::Spot {
+        position: Vec3::new(0.0, 0.0, 2.0),
+        direction: -Vec3::Z,
+        intensity: 4.0,
+        half_angle: ts as f32,
+        falloff_start: tf as f32,
+    };
+    for k in 0..=15 {
+        let xs = DVec3::new(2.0 * (k as f64 * 1e-7), 0.0, 0.0);
+        let s = sample_point(&spot, xs.as_vec3(), [0.5, 0.5]).unwrap();
+        let th = (f64::from(xs.as_vec3().x) / 2.0).atan();
+        let (ts, tf) = (f64::from(ts as f32), f64::from(tf as f32));
+        let t = ((ts * ts - th * th) / (ts * ts - tf * tf)).clamp(0.0, 1.0);
+        let profile = if th > ts {
+            0.0
+        } else {
+            t * t * (3.0 - 2.0 * t)
+        };
+        let expected = 4.0 * profile / (xs - DVec3::new(0.0, 0.0, 2.0)).length_squared();
+        assert!(
+            (f64::from(s.radiance) - expected).abs() <= 1e-5 * expected.max(1e-3),
+            "θ = {th}: {} vs {expected}",
+            s.radiance
+        );
+    }
+    let hard = Light::Spot {
+        position: Vec3::new(0.0, 0.0, 2.0),
+        direction: -Vec3::Z,
+        intensity: 1.0,
+        half_angle: 1e-9,
+        falloff_start: 1e-9,
+    };
+    let on_axis = sample_point(&hard, Vec3::ZERO, [0.0, 0.0]).unwrap();
+    assert!((on_axis.radiance - 0.25).abs() < 1e-7, "{on_axis:?}");
+    let off = sample_point(&hard, Vec3::new(4e-9, 0.0, 0.0), [0.0, 0.0]).unwrap();
+    assert_eq!(off.radiance, 0.0, "{off:?}");
+}

@@ -11,6 +11,7 @@ use common::{
 };
 use glam::Vec3;
 use manylights::baseline::BinaryLightTree;
+use manylights::sample::MIN_PMF;
 use manylights::{
     Importance, Light, LightSample, LightTree, Receiver, Slot, SlotBounds, TlImportance,
 };
@@ -684,4 +685,228 @@ fn zero_importance_fallback() {
             && imp.eval(&bounds(nodes[i].child as usize)) == 0.0
     });
     assert!(bin_fallback, "the baseline tree has no fallback node here");
+}
+
+// ---------------------------------------------------------------------------------------------
+// Regressions: vanishing probabilities
+// ---------------------------------------------------------------------------------------------
+
+/// Every pmf `sample` reports and `pmf` gives is 0 or at least `MIN_PMF` (so a renderer can
+/// divide by it), `sample` agrees with `pmf` bit for bit, the pmfs sum to 1, and u = 0, NaN,
+/// negative and the u values of `u_values` (plus `extra` random ones) all give such samples.
+fn check_no_vanishing_pmf<S: Sampler>(
+    tree: &S,
+    n: usize,
+    imp: &TlImportance,
+    rng: &mut Rng,
+    extra: usize,
+) {
+    let name = S::NAME;
+    let pmfs: Vec<f32> = (0..n as u32).map(|l| tree.pmf(imp, l)).collect();
+    for (l, &p) in pmfs.iter().enumerate() {
+        assert!(
+            p == 0.0 || (MIN_PMF..=1.0).contains(&p),
+            "{name}: light {l} has pmf {p:e} at {imp:?}"
+        );
+    }
+    let mut us = u_values(rng, extra);
+    us.extend([f32::NAN, -1.0, -0.0, f32::NEG_INFINITY]);
+    let mut sampled = false;
+    for u in us {
+        let Some(s) = tree.sample(imp, u) else {
+            continue;
+        };
+        sampled = true;
+        assert!(
+            (MIN_PMF..=1.0).contains(&s.pmf),
+            "{name}: u={u} sampled light {} with pmf {:e} at {imp:?}",
+            s.light,
+            s.pmf
+        );
+        assert_eq!(
+            s.pmf, pmfs[s.light as usize],
+            "{name}: u={u} light {}: sample pmf vs pmf()",
+            s.light
+        );
+    }
+    let sum: f64 = pmfs.iter().map(|&p| f64::from(p)).sum();
+    if sampled {
+        // Products of at most 32 ratios, each a few ulps off.
+        assert!((sum - 1.0).abs() <= 1e-4, "{name}: pmfs sum to {sum}");
+    } else {
+        assert_eq!(sum, 0.0, "{name}: nothing sampled but pmfs sum to {sum}");
+    }
+}
+
+/// Both trees over `lights`, checked at `imp` and at `points` random shading points.
+fn check_vanishing_scene(lights: &[Light], imp: &TlImportance, points: usize, seed: u64) {
+    let tree = LightTree::build(lights).unwrap();
+    let bin = BinaryLightTree::build(lights).unwrap();
+    let mut rng = Rng::new(seed);
+    let n = lights.len();
+    check_no_vanishing_pmf(&tree, n, imp, &mut rng, 16);
+    check_no_vanishing_pmf(&bin, n, imp, &mut rng, 16);
+    for _ in 0..points {
+        let imp = random_importance(&mut rng, lights, 4.0);
+        check_no_vanishing_pmf(&tree, n, &imp, &mut rng, 4);
+        check_no_vanishing_pmf(&bin, n, &imp, &mut rng, 4);
+    }
+}
+
+/// Regression: a light whose share of its node's importance is below f32's smallest numbers
+/// had pmf 0, and u = 0 (or NaN or negative u, clamped to 0) still sampled it, so `sample`
+/// returned `Some { light: 1, pmf: 0.0 }` here. Such a light is now never sampled (its slot
+/// gets weight 0 in both `sample` and `pmf`) and the others share its probability.
+#[test]
+fn vanishing_share_is_never_sampled() {
+    let lights = [
+        Light::Point {
+            position: Vec3::new(1.0, 1.0, 1.0),
+            intensity: 2.0,
+        },
+        Light::Point {
+            position: Vec3::new(0.0, 0.0, 2.0),
+            intensity: 1e-40,
+        },
+        Light::Sphere {
+            center: Vec3::new(-1.0, 0.5, 1.5),
+            radius: 0.25,
+            radiance: 3.0,
+        },
+    ];
+    let imp = TlImportance::new(Vec3::new(0.0, 0.0, 1.0), Vec3::X);
+    let tree = LightTree::build(&lights).unwrap();
+    let s = tree.sample(&imp, 0.0).expect("two lights contribute");
+    assert_ne!(s.light, 1, "{s:?}");
+    assert!(s.pmf >= MIN_PMF, "{s:?}");
+    assert_eq!(tree.pmf(&imp, 1), 0.0);
+    check_vanishing_scene(&lights, &imp, 50, 0xA11);
+}
+
+/// Regression: subnormal intensities (energies of 1e-39 down to the smallest subnormal) next
+/// to ordinary lights, and scenes made of such lights only.
+#[test]
+fn subnormal_intensities_never_give_pmf_zero() {
+    let tiny = [1e-38, 1e-39, 1e-41, 1e-43, f32::from_bits(1)];
+    let mut rng = Rng::new(0x5AB);
+    let mut mixed = Vec::new();
+    let mut only_tiny = Vec::new();
+    for i in 0..40 {
+        let position = Vec3::new(
+            rng.f32() * 4.0 - 2.0,
+            rng.f32() * 4.0 - 2.0,
+            rng.f32() * 2.0,
+        );
+        let intensity = tiny[i % tiny.len()];
+        mixed.push(Light::Point {
+            position,
+            intensity: if i % 3 == 0 {
+                1.0 + rng.f32()
+            } else {
+                intensity
+            },
+        });
+        only_tiny.push(Light::Point {
+            position,
+            intensity,
+        });
+    }
+    let imp = TlImportance::new(Vec3::ZERO, Vec3::Z);
+    check_vanishing_scene(&mixed, &imp, 100, 0x5AB1);
+    check_vanishing_scene(&only_tiny, &imp, 100, 0x5AB2);
+}
+
+/// Regression: a triangle with a vertex offset by 1e-45 from another (area and energy near
+/// f32's smallest subnormal) next to ordinary lights.
+#[test]
+fn tiny_triangle_never_gives_pmf_zero() {
+    let mut lights = vec![
+        Light::Triangle {
+            vertices: [
+                Vec3::new(0.0, 0.0, 2.0),
+                Vec3::new(1e-45, 0.0, 2.0),
+                Vec3::new(0.0, 1.0, 2.0),
+            ],
+            radiance: 1.0,
+            two_sided: false,
+        },
+        Light::Triangle {
+            vertices: [
+                Vec3::new(1e-45, 1e-45, 1.0),
+                Vec3::new(1.0, 0.0, 1.0),
+                Vec3::new(0.0, 1e-45, 1.0),
+            ],
+            radiance: 5.0,
+            two_sided: true,
+        },
+    ];
+    for i in 0..6 {
+        lights.push(Light::Sphere {
+            center: Vec3::new(i as f32 - 2.5, 1.0, 3.0),
+            radius: 0.2,
+            radiance: 1.0,
+        });
+    }
+    let imp = TlImportance::new(Vec3::new(0.0, 0.0, 0.0), Vec3::Z);
+    check_vanishing_scene(&lights, &imp, 100, 0x7121);
+}
+
+/// Regression: a shading point on a point light at 1e15 sees it with importance E/1e-12 and
+/// the other lights, 1e15 away, with E/1e30: their shares underflow f32.
+#[test]
+fn far_shading_point_on_a_light_never_gives_pmf_zero() {
+    let at = Vec3::new(1e15, 0.0, 0.0);
+    let mut lights = vec![Light::Point {
+        position: at,
+        intensity: 1.0,
+    }];
+    for i in 0..12 {
+        lights.push(Light::Point {
+            position: Vec3::new(0.0, i as f32 * 1e13, 0.0),
+            intensity: 1.0 + i as f32,
+        });
+        lights.push(Light::Point {
+            position: Vec3::new(1e15, 1e15, i as f32 * 1e13),
+            intensity: 2.0,
+        });
+    }
+    for receiver in [
+        Receiver::Reflective,
+        Receiver::Transmissive,
+        Receiver::Omnidirectional,
+    ] {
+        let imp = TlImportance::with_receiver(at, Vec3::new(-1.0, 1.0, 0.5), receiver);
+        check_vanishing_scene(&lights, &imp, 20, 0xFA2);
+    }
+}
+
+/// Regression: pmfs spread over the whole f32 range, so that they underflow through the
+/// product of the ratios along a path as well as through single ratios: 16 groups of three
+/// point lights, each group 1e-3 as bright as the one before (down to 1e-45).
+#[test]
+fn vanishing_path_products_are_never_sampled() {
+    let mut lights = Vec::new();
+    for i in 0..16 {
+        for j in 0..3 {
+            lights.push(Light::Point {
+                position: Vec3::new(i as f32 * 10.0 + j as f32, 0.0, 1.0),
+                intensity: libm_free_pow10(-3 * i),
+            });
+        }
+    }
+    let imp = TlImportance::with_receiver(
+        Vec3::new(0.0, 0.0, 1.0),
+        Vec3::ZERO,
+        Receiver::Omnidirectional,
+    );
+    check_vanishing_scene(&lights, &imp, 50, 0xDEE9);
+}
+
+/// 10^e for small integer e, in f32 (to the nearest of repeated multiplication).
+fn libm_free_pow10(e: i32) -> f32 {
+    let mut x = 1.0f64;
+    for _ in 0..e.unsigned_abs() {
+        x = if e < 0 { x / 10.0 } else { x * 10.0 };
+    }
+    x as f32
 }

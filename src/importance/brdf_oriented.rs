@@ -20,7 +20,8 @@
 use super::conty_kulla::{ClusterView, ClusterView4, COS_FLOOR, COS_SLACK};
 use super::sptd::{lambert_visible, lambert_visible4, SptdGgx};
 use super::Importance;
-use crate::material::{ShadingError, ShadingPoint, MIN_ALPHA};
+use crate::error::Problem;
+use crate::material::{ShadingError, ShadingField, ShadingPoint, MIN_ALPHA};
 use crate::math;
 use crate::tree::{Node4, SlotBounds};
 use core::f32::consts::{FRAC_1_PI, PI};
@@ -102,13 +103,28 @@ pub struct BlEval {
     pub cap_integral: f32,
 }
 
+/// The unit vector of a validated direction: normalised in f32 where that is accurate (the
+/// ordinary case), else in f64, so that a huge or tiny (non-zero, finite) vector keeps its
+/// direction instead of collapsing to zero or losing precision.
+fn unit_direction(field: ShadingField, v: Vec3) -> Result<Vec3, ShadingError> {
+    if math::len2_is_safe(v.length_squared()) {
+        return Ok(v.normalize());
+    }
+    math::unit(v).ok_or(ShadingError {
+        field,
+        problem: Problem::ZeroLength,
+        value: 0.0,
+    })
+}
+
 impl BlImportance {
-    /// Sets up the importance for `sp` (validated: the error names the bad field).
+    /// Sets up the importance for `sp` (validated: the error names the bad field). The
+    /// normal and ωo may have any finite, non-zero length.
     pub fn new(sp: &ShadingPoint) -> Result<BlImportance, ShadingError> {
         sp.validate()?;
         let (albedo_d, specular, alpha) = sp.material.lobes();
-        let mut n = sp.normal.normalize();
-        let wo = sp.wo.normalize();
+        let mut n = unit_direction(ShadingField::Normal, sp.normal)?;
+        let wo = unit_direction(ShadingField::Wo, sp.wo)?;
         if n.dot(wo) < 0.0 {
             n = -n;
         }

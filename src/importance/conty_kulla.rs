@@ -56,8 +56,9 @@ pub struct TlImportance {
 }
 
 impl TlImportance {
-    /// A reflective surface point. `normal` is normalised here; a zero or non-finite normal
-    /// makes the point omnidirectional; a non-finite position makes every importance 0.
+    /// A reflective surface point. `normal` is normalised here, whatever its finite non-zero
+    /// length (in f64 where f32 would overflow or underflow); the zero vector or a non-finite
+    /// normal makes the point omnidirectional; a non-finite position makes every importance 0.
     #[inline]
     pub fn new(position: Vec3, normal: Vec3) -> TlImportance {
         TlImportance::with_receiver(position, normal, Receiver::Reflective)
@@ -67,10 +68,14 @@ impl TlImportance {
     #[inline]
     pub fn with_receiver(position: Vec3, normal: Vec3, receiver: Receiver) -> TlImportance {
         let l2 = normal.length_squared();
-        let (normal, receiver) = if l2 > 0.0 && l2.is_finite() {
-            (normal * (1.0 / math::sqrt(l2)), receiver)
+        let unit = if math::len2_is_safe(l2) {
+            Some(normal * (1.0 / math::sqrt(l2)))
         } else {
-            (Vec3::ZERO, Receiver::Omnidirectional)
+            math::unit(normal)
+        };
+        let (normal, receiver) = match unit {
+            Some(n) => (n, receiver),
+            None => (Vec3::ZERO, Receiver::Omnidirectional),
         };
         TlImportance {
             position,

@@ -35,7 +35,13 @@ pub(super) fn sample(
 }
 
 /// `smoothstep(cos θs, cos θf, cos θ)` for the unit `axis` and unit direction `w` from the spot.
+///
+/// For a narrow cone (θs below [`math::SMALL_ANGLE`]) the cosines all round to nearly 1, so the
+/// profile is computed from `1 − cos` instead ([`narrow_spot_profile`]).
 pub(super) fn spot_profile(axis: V64, half_angle: f32, falloff_start: f32, w: V64) -> f64 {
+    if f64::from(half_angle) < math::SMALL_ANGLE {
+        return narrow_spot_profile(axis, half_angle, falloff_start, w);
+    }
     let cos_theta = axis.dot(w);
     let cos_s = cos_angle(half_angle);
     let cos_f = cos_angle(falloff_start);
@@ -48,6 +54,28 @@ pub(super) fn spot_profile(axis: V64, half_angle: f32, falloff_start: f32, w: V6
         return 1.0;
     }
     let t = ((cos_theta - cos_s) / (cos_f - cos_s)).clamp(0.0, 1.0);
+    t * t * (3.0 - 2.0 * t)
+}
+
+/// [`spot_profile`] from `1 − cos` of each angle, with `cos θ − cos θs = (1 − cos θs) −
+/// (1 − cos θ)`: `1 − cos θ = sin²θ / (1 + cos θ)` with `sin θ = |axis × w|`, which keeps its
+/// precision for tiny θ where `1 − axis·w` cancels.
+fn narrow_spot_profile(axis: V64, half_angle: f32, falloff_start: f32, w: V64) -> f64 {
+    let cos_theta = axis.dot(w);
+    if cos_theta.is_nan() || cos_theta <= 0.0 {
+        return 0.0; // behind the spot (θs < π/2), or NaN
+    }
+    let omc = axis.cross(w).length_squared() / (1.0 + cos_theta);
+    let omc_s = math::one_minus_cos64(f64::from(half_angle));
+    let omc_f = math::one_minus_cos64(f64::from(falloff_start.max(0.0)));
+    let inside = omc <= omc_s;
+    if !inside {
+        return 0.0; // outside the cone, or NaN
+    }
+    if omc_s <= omc_f {
+        return 1.0;
+    }
+    let t = ((omc_s - omc) / (omc_s - omc_f)).clamp(0.0, 1.0);
     t * t * (3.0 - 2.0 * t)
 }
 
