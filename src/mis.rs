@@ -33,14 +33,11 @@
 //! `w_TL = n_TL·pdf_TL / (n_TL·pdf_TL + N·q_ref)`, `q_ref = p_ref·pdf_BL + (1 − p_ref)·pdf_TB`.
 //! They are exact for equal allocation (`p_j = p_ref`). Under the adaptive allocation p_j
 //! wanders from 1/11 towards 1, and a sample drawn where `q_j ≪ q_ref` is divided by the small
-//! `q_j` but weighted for `q_ref`: on the renderer's `stairs` scene (96×96, 64 estimates per
-//! pixel, per-pixel variances summed over the pixels of the glossy plastic steps) the variance
-//! of `full` was 4.9× that of TL split alone.
+//! `q_j` but weighted for `q_ref` (docs/measurements.md has what that costs).
 //! [`SequentialWeights`] remove that mismatch: sample j is weighted against its own `q_j`
 //! (known before it is drawn), and TL gets the mean of the per-sample TL weights; the proof
 //! extends the one above (TL's samples are independent of the allocator, so their weight may
-//! use every p_j) and is in the type's documentation. With them the same steps' variance is
-//! 1.17× TL split's and the glossy rail's 0.97×.
+//! use every p_j) and is in the type's documentation.
 //!
 //! Within the mixture no further weight is needed: the one-sample density `q_j` already is
 //! the balance heuristic between BL and TB. For Lambert-only materials BL reduces to TL
@@ -52,9 +49,6 @@
 //! The balance heuristic hands a technique that is nearly perfect alone (TL split on a sphere
 //! light a few radii away, sampled uniformly in its cap) a share of its own integrand that a
 //! poor technique then estimates; the power heuristic (β = 2) keeps that share small.
-//! Measured with `mlrender compare --quick` (fixed weights): `full`'s RMSE at equal time
-//! against TL split's went from 2.67× to 1.20× on `stairs` and from 0.80× to 0.73× on
-//! `cornell`.
 //!
 //! # Bad densities and counts
 //!
@@ -95,11 +89,6 @@ pub fn sample_budget(ib: f32, n_max: u32) -> u32 {
 /// BRDF, BL is TL and the budget buys nothing TL does not already give; for plastic, a large
 /// light close by has a large Lambert integral although the glossy lobe sees little of it, so
 /// only the glossy part asks for BRDF-aware samples. For pure GGX this is Liu et al.'s budget.
-/// Measured with `mlrender compare --scene stairs --quick`: the whole IB cost `full` 1.70× TL
-/// split's time per spp at the same RMSE per spp (0.0352 and 0.0351); scaling IB by the glossy
-/// share of the albedo cut that to 1.26×. With the glossy IB, `mlrender compare --scene
-/// cornell --width 192 --height 192 --spp 8 --ref-spp 512` gave `full` 0.588× TL split's RMSE at
-/// equal spp (0.664× with the albedo share) at the same time per spp.
 pub fn brdf_budget(cut: &LightCut, n_max: u32) -> u32 {
     sample_budget(cut.max_glossy_score(), n_max)
 }

@@ -5,14 +5,10 @@
 //!
 //! Spherical sampling has a constant pdf 1/Ω, so the estimate of a triangle that fills much of
 //! the hemisphere (a close or large emitter) is not spoilt by the `d²/cos θy` factor of area
-//! sampling, which is unbounded near the triangle and at grazing angles. Measured on the
-//! irradiance of a unit-radiance triangle (2^20 samples each), the relative variance per sample
-//! of area / spherical sampling is 4.9e-6 / 3.0e-7 at Ω = 1.2e-3 sr, 4.4e-3 / 2.7e-4 at 0.05 sr,
-//! 0.20 / 0.011 at 1.25 sr, 48 / 0.23 for a large triangle 0.1 above x and 4600 / 0.32 at 0.01
-//! above it, 0.93 / 0.041 seen at grazing angles; a spherical sample costs about twice an area
-//! sample (250 vs 120 ns, f64 trigonometry). Below [`MIN_SPHERICAL_SOLID_ANGLE`] both estimates
-//! are nearly exact (relative variance < 5e-6, far below that of picking the light), so the
-//! cheaper area sampling is used there. The choice depends on x and the light only, so
+//! sampling, which is unbounded near the triangle and at grazing angles; a spherical sample
+//! costs about twice an area one. Below [`MIN_SPHERICAL_SOLID_ANGLE`] both estimates are nearly
+//! exact, so the cheaper area sampling is used there (docs/measurements.md has the variances
+//! behind the threshold). The choice depends on x and the light only, so
 //! [`sample_point`](super::sample_point) and [`pdf_point`](super::pdf_point) always agree on it.
 //!
 //! Ω comes from the formula of Van Oosterom & Strackee ("The Solid Angle of a Plane Triangle",
