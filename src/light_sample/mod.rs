@@ -112,7 +112,7 @@ impl LightPoint {
 }
 
 /// The largest f64 below 1.
-const ONE_MINUS_EPSILON: f64 = 1.0 - f64::EPSILON / 2.0;
+const ONE_MINUS_EPSILON_F64: f64 = 1.0 - f64::EPSILON / 2.0;
 
 /// `u` clamped into [0, 1)², or `None` if it holds a NaN.
 #[inline]
@@ -120,7 +120,7 @@ fn unit_square(u: [f32; 2]) -> Option<[f64; 2]> {
     if u[0].is_nan() || u[1].is_nan() {
         return None;
     }
-    Some(u.map(|v| f64::from(v).clamp(0.0, ONE_MINUS_EPSILON)))
+    Some(u.map(|v| f64::from(v).clamp(0.0, ONE_MINUS_EPSILON_F64)))
 }
 
 /// Samples a point on `light` as seen from the shading point `x`, for `u` uniform in [0, 1)²
