@@ -947,9 +947,9 @@ fn memoised(
 #[inline(always)]
 fn first_word(l: &manylights::Light) -> u32 {
     match *l {
-        manylights::Light::Point { position, .. } | manylights::Light::Spot { position, .. } => {
-            position.x.to_bits()
-        }
+        manylights::Light::Point { position, .. }
+        | manylights::Light::Spot { position, .. }
+        | manylights::Light::Vpl { position, .. } => position.x.to_bits(),
         manylights::Light::Sphere { center, .. } | manylights::Light::Disk { center, .. } => {
             center.x.to_bits()
         }
