@@ -215,6 +215,16 @@ impl VplAcceptor {
         Ok(self.estimate_unit(candidate, m, None::<&mut Unoccluded>))
     }
 
+    /// Φ̃_i with the host's visibility test.
+    pub fn estimate_with<V: Visibility + ?Sized>(
+        &self,
+        candidate: &Vpl,
+        visibility: &mut V,
+    ) -> Result<f32, VplError> {
+        let m = candidate.validate()?;
+        Ok(self.estimate_unit(candidate, m, Some(visibility)))
+    }
+
     fn estimate_unit<V: Visibility + ?Sized>(
         &self,
         c: &Vpl,
