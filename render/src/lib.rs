@@ -11,3 +11,4 @@ pub mod render;
 pub mod scene;
 pub mod sptd_accuracy;
 pub mod sptd_fit;
+pub mod vpl;
