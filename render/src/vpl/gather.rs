@@ -177,7 +177,8 @@ impl VplTree {
     }
 
     /// `tree`: an unbiased estimate of [`gather_all`] at the hit from `spp` draws (`Tl`) or
-    /// a cut of at most `spp` clusters (`Split`); `seed` makes the uniform numbers.
+    /// a cut of at most `spp` clusters (`Split`); `seed` (mixed first: any seeds will do)
+    /// makes the uniform numbers.
     pub fn gather(
         &self,
         geometry: &Geometry,
@@ -190,7 +191,7 @@ impl VplTree {
         let Some(tree) = &self.tree else {
             return 0.0;
         };
-        let mut rng = Pcg64Mcg::seed_from_u64(seed);
+        let mut rng = Pcg64Mcg::seed_from_u64(super::walk::mix(seed));
         let imp = TlImportance::new(hit.position, hit.normal);
         match sampling {
             TreeSampling::Tl => {

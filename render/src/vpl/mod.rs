@@ -142,6 +142,8 @@ pub struct Variant {
     pub paths: u64,
     /// Decisions after the first frame (all frames for `plain`).
     pub stats: AcceptStats,
+    /// Each frame's image average.
+    pub frame_means: Vec<f64>,
 }
 
 /// The fixed inputs of a run: scene, camera hits, candidates per path.
@@ -288,7 +290,7 @@ pub fn run_variant(setup: &Setup, name: &str, cfg: &VariantConfig) -> Variant {
             .expect("the command line checks the acceptance parameters")
     });
     let (mut sum, mut sum2) = (vec![0f64; npix], vec![0f64; npix]);
-    let mut rng = Pcg64Mcg::seed_from_u64(cfg.seed ^ 0x5eed_0ff4_a3e5);
+    let mut rng = Pcg64Mcg::seed_from_u64(walk::mix(cfg.seed ^ 0x5eed_0ff4_a3e5));
     let mut v = Variant {
         name: name.to_string(),
         image: Image {
@@ -306,6 +308,7 @@ pub fn run_variant(setup: &Setup, name: &str, cfg: &VariantConfig) -> Variant {
         vpls: 0,
         paths: 0,
         stats: AcceptStats::default(),
+        frame_means: Vec::new(),
     };
     let progress = bar(name, cfg.budget, cfg.progress);
     let start = std::time::Instant::now();
@@ -327,7 +330,7 @@ pub fn run_variant(setup: &Setup, name: &str, cfg: &VariantConfig) -> Variant {
         v.seconds += busy_time(|| {
             paths = paths_for(setup, cfg.vpls, acc.as_ref(), &sample, prev_paths);
             if let Some(a) = &mut acc {
-                let mut r = Pcg64Mcg::seed_from_u64(frame_seed ^ 0x1a9);
+                let mut r = Pcg64Mcg::seed_from_u64(walk::mix(frame_seed ^ 0x1a9));
                 fill_importons(setup, a, cfg.importons, &mut r);
             }
         });
@@ -375,6 +378,7 @@ pub fn run_variant(setup: &Setup, name: &str, cfg: &VariantConfig) -> Variant {
             .sum();
         v.seconds += row_seconds;
         let lum: f64 = frame_img.iter().map(|&x| f64::from(x)).sum();
+        v.frame_means.push(lum / npix as f64);
         if let Some(a) = &mut acc {
             a.update(lum).expect("frame luminances are finite");
         }

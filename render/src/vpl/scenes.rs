@@ -1,7 +1,7 @@
 //! The scenes of `mlrender vpl`, built in code: diffuse (Lambert) rooms lit by one point light.
 //!
 //! - `corner`: an L-shaped corridor, 3 m wide and 3 m high. The point light sits near the
-//!   closed end of the first leg (12 m long, along x); the camera stands in the second leg
+//!   closed end of the first leg ([`CORNER_LEG_A`] long, along x); the camera stands in the second leg
 //!   (12 m long, along z, turning off the end of the first) and looks down it, away from the
 //!   corner. No point the camera sees is in the light's view: everything visible is lit by
 //!   light that has bounced at least once, and most of that has bounced twice or more (as the
@@ -94,27 +94,32 @@ fn with_light(
 
 /// `corner` (see the module documentation).
 pub fn corner() -> VplScene {
-    let h = 3.0;
+    let (h, len, w, leg_b) = (3.0, CORNER_LEG_A, 3.0, 12.0);
     let mut t = Vec::new();
-    // Leg A: x ∈ [0, 12], z ∈ [0, 3]; leg B: x ∈ [9, 12], z ∈ [3, 15].
+    // Leg A: x ∈ [0, len], z ∈ [0, w]; leg B: x ∈ [len − w, len], z ∈ [w, w + leg_b].
+    let (xb, zb) = (len - w, w + leg_b);
     for y in [0.0, h] {
-        horizontal(&mut t, y, (0.0, 12.0), (0.0, 3.0));
-        horizontal(&mut t, y, (9.0, 12.0), (3.0, 15.0));
+        horizontal(&mut t, y, (0.0, len), (0.0, w));
+        horizontal(&mut t, y, (xb, len), (w, zb));
     }
-    wall_z(&mut t, 0.0, (0.0, 12.0), h, 0.7);
-    wall_x(&mut t, 0.0, (0.0, 3.0), h, 0.7);
-    wall_z(&mut t, 3.0, (0.0, 9.0), h, 0.7);
-    wall_x(&mut t, 12.0, (0.0, 15.0), h, 0.7);
-    wall_x(&mut t, 9.0, (3.0, 15.0), h, 0.7);
-    wall_z(&mut t, 15.0, (9.0, 12.0), h, 0.5);
+    wall_z(&mut t, 0.0, (0.0, len), h, 0.7);
+    wall_x(&mut t, 0.0, (0.0, w), h, 0.7);
+    wall_z(&mut t, w, (0.0, xb), h, 0.7);
+    wall_x(&mut t, len, (0.0, zb), h, 0.7);
+    wall_x(&mut t, xb, (w, zb), h, 0.7);
+    wall_z(&mut t, zb, (xb, len), h, 0.5);
+    let cx = len - 0.5 * w;
     let camera = Camera {
-        eye: Vec3::new(10.5, 1.5, 4.0),
-        target: Vec3::new(10.5, 1.2, 15.0),
+        eye: Vec3::new(cx, 1.5, w + 1.0),
+        target: Vec3::new(cx, 1.2, zb),
         up: Vec3::Y,
         fov_y: 60.0,
     };
     with_light("corner", t, camera, Vec3::new(1.0, 2.0, 1.5), 50.0, 4.0)
 }
+
+/// Length of `corner`'s first leg (the light's), in metres.
+pub const CORNER_LEG_A: f32 = 18.0;
 
 /// `room` (see the module documentation).
 pub fn room() -> VplScene {

@@ -40,6 +40,16 @@ pub struct FrameVpls {
     pub seconds: f64,
 }
 
+/// SplitMix64's finaliser (Steele, Lea, Flood 2014): seeds that differ in a few bits (a
+/// pixel index, a chunk number) become unrelated ones. `Pcg64Mcg::seed_from_u64` of nearby
+/// seeds gives visibly correlated first numbers, which biases an average over such seeds.
+pub fn mix(seed: u64) -> u64 {
+    let mut z = seed.wrapping_add(0x9e37_79b9_7f4a_7c15);
+    z = (z ^ (z >> 30)).wrapping_mul(0xbf58_476d_1ce4_e5b9);
+    z = (z ^ (z >> 27)).wrapping_mul(0x94d0_49bb_1331_11eb);
+    z ^ (z >> 31)
+}
+
 /// A unit vector uniform on the sphere.
 fn sphere_dir(rng: &mut Pcg64Mcg) -> Vec3 {
     let z = 1.0 - 2.0 * rng.random::<f32>();
@@ -88,7 +98,7 @@ pub fn walk(scene: &VplScene, flux: f32, rng: &mut Pcg64Mcg, mut emit: impl FnMu
 
 /// The mean number of candidates per path, from `paths` walks (seeded by `seed`).
 pub fn candidates_per_path(scene: &VplScene, paths: usize, seed: u64) -> f64 {
-    let mut rng = Pcg64Mcg::seed_from_u64(seed);
+    let mut rng = Pcg64Mcg::seed_from_u64(mix(seed));
     let mut n = 0u64;
     for _ in 0..paths {
         walk(scene, 1.0, &mut rng, |_| n += 1);
@@ -110,7 +120,7 @@ pub fn frame_vpls(
         .into_par_iter()
         .map(|c| {
             let (lo, hi) = (c * paths / CHUNKS, (c + 1) * paths / CHUNKS);
-            let mut rng = Pcg64Mcg::seed_from_u64(seed ^ (c as u64).wrapping_mul(0x9e37_79b9));
+            let mut rng = Pcg64Mcg::seed_from_u64(mix(seed ^ mix(c as u64)));
             let mut acc = acceptor.cloned();
             if let Some(a) = &mut acc {
                 a.reset_stats();
