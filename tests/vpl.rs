@@ -212,8 +212,16 @@ fn acceptance_is_unbiased() {
     // The statistics count every decision.
     let s = acc.stats();
     assert_eq!(s.candidates, trials * 400);
-    let rel = (s.accepted_energy / s.candidate_energy - 1.0).abs();
-    assert!(rel <= 5.0 * se / energy, "energy ratio off by {rel}");
+    let (ratio, ratio_sd) = s.energy_ratio();
+    assert!(
+        (ratio - 1.0).abs() <= 5.0 * ratio_sd,
+        "energy ratio {ratio} ± {ratio_sd}"
+    );
+    let expected_sd = (var * trials as f64).sqrt() / (energy * trials as f64);
+    assert!(
+        (ratio_sd / expected_sd - 1.0).abs() < 1e-6,
+        "{ratio_sd} vs {expected_sd}"
+    );
     let mean_p = ps.iter().map(|&p| f64::from(p)).sum::<f64>() / 400.0;
     assert!((s.mean_probability() - mean_p).abs() < 1e-9, "{s:?}");
     // Acceptance rate: a sum of independent Bernoulli(p) over 1.6 M decisions.
@@ -331,6 +339,44 @@ fn first_frame_accepts_everything() {
     acc.update(20.0).unwrap();
     assert_eq!(acc.total_luminance(), 15.0);
     assert_eq!(acc.target(), 15.0 / 1000.0);
+}
+
+/// The visibility tests stop once p = 1 is certain: p is still that of the full sum.
+#[test]
+fn early_exit_keeps_p_exact() {
+    let mut rng = Rng::new(0xEE);
+    let imp = floor_importons(&mut rng, 100, true);
+    // Deterministic occlusion: a hash of the importon's position.
+    let occluder = |x: Vec3, _: Vec3| (x.x.to_bits() ^ x.y.to_bits()) % 3 != 0;
+    let mut saved = 0;
+    for total in [1e2, 1e4, 1e6] {
+        let acc = acceptor_with(imp.clone(), total, DEFAULT_EPSILON);
+        for _ in 0..300 {
+            let c = candidate(&mut rng, false);
+            let mut calls_full = 0;
+            let full = acc
+                .estimate_with(&c, &mut |x: Vec3, y: Vec3| {
+                    calls_full += 1;
+                    occluder(x, y)
+                })
+                .unwrap();
+            let p_full = (full / acc.target() as f32 + DEFAULT_EPSILON).min(1.0);
+            let mut calls = 0;
+            let p = acc
+                .probability_with(&c, &mut |x: Vec3, y: Vec3| {
+                    calls += 1;
+                    occluder(x, y)
+                })
+                .unwrap();
+            assert_eq!(p, p_full, "{c:?}");
+            assert!(calls <= calls_full);
+            saved += calls_full - calls;
+        }
+    }
+    assert!(
+        saved > 1000,
+        "the early exit never happened ({saved} tests saved)"
+    );
 }
 
 /// Occlusion is asked only for the importons the candidate would reach, with the importon's

@@ -29,6 +29,9 @@ pub struct AcceptStats {
     pub candidate_energy: f64,
     /// Σ πI/p over the accepted VPLs (their energy as rendered).
     pub accepted_energy: f64,
+    /// Σ (πI)² (1/p − 1) over the candidates: the variance of `accepted_energy` given the
+    /// probabilities (its expectation is `candidate_energy`).
+    pub energy_variance: f64,
 }
 
 impl AcceptStats {
@@ -39,6 +42,29 @@ impl AcceptStats {
         } else {
             self.accepted as f64 / self.candidates as f64
         }
+    }
+
+    /// `accepted_energy / candidate_energy` (1 in expectation) and its standard deviation
+    /// from [`AcceptStats::energy_variance`]; (1, 0) with no candidate energy.
+    pub fn energy_ratio(&self) -> (f64, f64) {
+        if self.candidate_energy > 0.0 {
+            (
+                self.accepted_energy / self.candidate_energy,
+                crate::math::sqrt64(self.energy_variance) / self.candidate_energy,
+            )
+        } else {
+            (1.0, 0.0)
+        }
+    }
+
+    /// Adds the counts of `other` (e.g. of another thread's acceptor).
+    pub fn merge(&mut self, other: &AcceptStats) {
+        self.candidates += other.candidates;
+        self.accepted += other.accepted;
+        self.sum_probability += other.sum_probability;
+        self.candidate_energy += other.candidate_energy;
+        self.accepted_energy += other.accepted_energy;
+        self.energy_variance += other.energy_variance;
     }
 
     /// The mean acceptance probability (0 with no candidate).
@@ -231,13 +257,28 @@ impl VplAcceptor {
         m: glam::Vec3,
         vis: Option<&mut V>,
     ) -> f32 {
+        self.estimate_until(c, m, vis, false)
+    }
+
+    /// Φ̃_i; with `early`, possibly a lower bound that already gives p = 1 (the visibility
+    /// tests stop once the importons seen so far make p = 1: further ones only add).
+    fn estimate_until<V: Visibility + ?Sized>(
+        &self,
+        c: &Vpl,
+        m: glam::Vec3,
+        vis: Option<&mut V>,
+        early: bool,
+    ) -> f32 {
         let n = self.importons.len();
         if n == 0 {
             return 0.0;
         }
+        let n = n as f32;
+        // Monotone in the partial sum: f32 division and addition round monotonically.
+        let enough = |s: f32| early && self.probability_of(s / n) >= 1.0;
         self.importons
-            .total(c.position, m, c.intensity, self.g_max, vis)
-            / n as f32
+            .total(c.position, m, c.intensity, self.g_max, vis, enough)
+            / n
     }
 
     fn probability_of(&self, phi_i: f32) -> f32 {
@@ -266,7 +307,7 @@ impl VplAcceptor {
         visibility: &mut V,
     ) -> Result<f32, VplError> {
         let m = candidate.validate()?;
-        Ok(self.probability_of(self.estimate_unit(candidate, m, Some(visibility))))
+        Ok(self.probability_of(self.estimate_until(candidate, m, Some(visibility), true)))
     }
 
     /// Decides `candidate` with the uniform number `xi` in [0, 1), ignoring occlusion: the
@@ -276,7 +317,8 @@ impl VplAcceptor {
     }
 
     /// As [`VplAcceptor::accept`], with the host's visibility test between importons and the
-    /// candidate (called only for importons it would otherwise reach).
+    /// candidate (called only for importons it would otherwise reach, and no more once those
+    /// found visible make p = 1: the decision and p are those of the full sum).
     pub fn accept_with<V: Visibility + ?Sized>(
         &mut self,
         candidate: &Vpl,
@@ -301,7 +343,7 @@ impl VplAcceptor {
         let m = candidate.validate()?;
         // No need to look at the importons while Φ̃_total = 0: p = 1.
         let p = if self.target() > 0.0 {
-            self.probability_of(self.estimate_unit(candidate, m, vis))
+            self.probability_of(self.estimate_until(candidate, m, vis, true))
         } else {
             1.0
         };
@@ -309,6 +351,7 @@ impl VplAcceptor {
         self.stats.candidates += 1;
         self.stats.sum_probability += f64::from(p);
         self.stats.candidate_energy += energy;
+        self.stats.energy_variance += energy * energy * (1.0 / f64::from(p) - 1.0);
         if xi > p {
             return Ok(None);
         }

@@ -258,6 +258,8 @@ impl Importons {
 
     /// Σ_j V_ij · c_ij over every importon, for the candidate at `y` (unit normal `m`): the
     /// 4-wide contributions, then the host's visibility test for the lanes that contribute.
+    /// With visibility, stops early (returning a partial sum) once `enough(partial sum)` holds;
+    /// `enough` must be monotone, so that it then holds for the whole sum too.
     pub(crate) fn total<V: Visibility + ?Sized>(
         &self,
         y: Vec3,
@@ -265,6 +267,7 @@ impl Importons {
         intensity: f32,
         g_max: f32,
         visibility: Option<&mut V>,
+        enough: impl Fn(f32) -> bool,
     ) -> f32 {
         let mut sum = f32x4::ZERO;
         match visibility {
@@ -282,6 +285,10 @@ impl Importons {
                         }
                     }
                     sum += f32x4::new(c);
+                    let partial = sum.reduce_add();
+                    if enough(partial) {
+                        return partial; // the rest cannot change the decision
+                    }
                 }
             }
         }
