@@ -338,12 +338,7 @@ pub fn run_variant(setup: &Setup, name: &str, cfg: &VariantConfig) -> Variant {
         v.seconds += fv.seconds;
         v.walk_seconds += v.seconds - t0;
         if !cfg.accept || v.frames > 0 {
-            let (s, t) = (&mut v.stats, fv.stats);
-            s.candidates += t.candidates;
-            s.accepted += t.accepted;
-            s.sum_probability += t.sum_probability;
-            s.candidate_energy += t.candidate_energy;
-            s.accepted_energy += t.accepted_energy;
+            v.stats.merge(&fv.stats);
         }
         v.paths += paths as u64;
         v.vpls += fv.vpls.len() as u64;
@@ -519,7 +514,8 @@ impl Report {
             "scene": self.scene,
             "acceptance_rate": va.stats.acceptance_rate(),
             "mean_p": va.stats.mean_probability(),
-            "energy_ratio": va.stats.accepted_energy / va.stats.candidate_energy,
+            "energy_ratio": va.stats.energy_ratio().0,
+            "energy_ratio_sd": va.stats.energy_ratio().1,
             "rmse_accept": self.rmse[a],
             "rmse_plain": self.rmse[p],
             "time_accept_s": va.seconds,
@@ -674,6 +670,15 @@ fn print_table(r: &Report, args: &VplArgs) {
         args.tree_spp,
         r.reference_mean,
         r.reference_error
+    );
+    let a = &r.variants[r.by("accept")];
+    let (ratio, sd) = a.stats.energy_ratio();
+    println!(
+        "accept after the first frame: acceptance rate {:.4} (mean p {:.4}), energy ratio {:.4} ± {:.4}",
+        a.stats.acceptance_rate(),
+        a.stats.mean_probability(),
+        ratio,
+        sd
     );
     println!("| variant | frames | paths/frame | VPLs/frame | acceptance | time (s) | of which walks (s) | RMSE | efficiency vs plain |");
     println!("|---|---:|---:|---:|---:|---:|---:|---:|---:|");

@@ -176,12 +176,7 @@ pub fn frame_vpls(
         out.vpls.extend(p.vpls);
         out.sample.extend(p.sample);
         out.seconds += p.seconds;
-        let (s, t) = (&mut out.stats, p.stats);
-        s.candidates += t.candidates;
-        s.accepted += t.accepted;
-        s.sum_probability += t.sum_probability;
-        s.candidate_energy += t.candidate_energy;
-        s.accepted_energy += t.accepted_energy;
+        out.stats.merge(&p.stats);
     }
     out
 }
