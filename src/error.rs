@@ -58,7 +58,8 @@ pub enum Problem {
     NotPositive,
     /// A direction or normal of zero length.
     ZeroLength,
-    /// Outside the documented range (coordinates beyond ±1e15, spot angles outside (0, π]).
+    /// Outside the documented range (coordinates beyond ±1e15, spot angles outside (0, π],
+    /// a uniform number outside [0, 1), a count of 0).
     OutOfRange,
     /// The light's energy (power) exceeds [`crate::MAX_LIGHT_ENERGY`].
     EnergyTooLarge,
@@ -254,3 +255,81 @@ impl fmt::Display for ValidationError {
 }
 
 impl core::error::Error for ValidationError {}
+
+/// The input of the VPL acceptance ([`crate::vpl`]) that was rejected.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum VplField {
+    /// A candidate's `position`.
+    Position,
+    /// A candidate's `normal`.
+    Normal,
+    /// A candidate's `intensity`.
+    Intensity,
+    /// The acceptor's `epsilon` ε.
+    Epsilon,
+    /// The acceptor's pixel count P.
+    Pixels,
+    /// The acceptor's wanted VPL count N.
+    Wanted,
+    /// The uniform number ξ of an acceptance decision.
+    Xi,
+    /// An estimate of the total VPL illumination luminance Φ̃_total (or of one frame's).
+    Luminance,
+    /// The acceptor's geometry-term clamp.
+    GeometryClamp,
+    /// An importon's `position`.
+    ImportonPosition,
+    /// An importon's `normal`.
+    ImportonNormal,
+    /// An importon's view direction `wo`.
+    ImportonWo,
+    /// An importon's diffuse `albedo`, or a lobe weight or roughness of its material.
+    ImportonMaterial,
+}
+
+impl VplField {
+    /// The field's name as written in the API.
+    pub fn name(self) -> &'static str {
+        match self {
+            VplField::Position => "position",
+            VplField::Normal => "normal",
+            VplField::Intensity => "intensity",
+            VplField::Epsilon => "epsilon",
+            VplField::Pixels => "pixels",
+            VplField::Wanted => "wanted",
+            VplField::Xi => "xi",
+            VplField::Luminance => "luminance",
+            VplField::GeometryClamp => "geometry_clamp",
+            VplField::ImportonPosition => "importon position",
+            VplField::ImportonNormal => "importon normal",
+            VplField::ImportonWo => "importon wo",
+            VplField::ImportonMaterial => "importon material",
+        }
+    }
+}
+
+/// Why an input of the VPL acceptance was rejected: the field, what is wrong with it, the
+/// offending value (a vector's first bad component, or its length).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct VplError {
+    /// The field that is wrong.
+    pub field: VplField,
+    /// What is wrong with it.
+    pub problem: Problem,
+    /// The offending value.
+    pub value: f32,
+}
+
+impl fmt::Display for VplError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(
+            f,
+            "VPL acceptance: `{}` {} (got {})",
+            self.field.name(),
+            self.problem.describe(),
+            self.value
+        )
+    }
+}
+
+impl core::error::Error for VplError {}

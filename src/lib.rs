@@ -28,6 +28,10 @@
 //! ([`LightCut::sample_each`], the descents interleaved four at a time); a renderer that takes
 //! many samples at one shading point wraps its importance in a [`Memo`].
 //!
+//! Instant radiosity hosts keep their virtual point lights ([`Light::Vpl`]) by the
+//! probabilistic acceptance of Georgiev & Slusallek 2010 ([`vpl`]: [`Importons`],
+//! [`VplAcceptor`]) and sample the accepted ones through a tree like any other lights.
+//!
 //! The crate is `no_std` (it needs `alloc`) and has no `unsafe` code.
 
 #![no_std]
@@ -54,12 +58,15 @@ pub mod quantize;
 pub mod sample;
 pub mod trace;
 pub mod tree;
+pub mod vpl;
 
 pub use brdf::{Brdf, Frame, Ggx, Lambert};
 pub use build::BuildOptions;
 pub use cut::{Cluster, CutOptions, LightCut, SplitOptions, CUT_CAPACITY};
 pub use direct::{Estimator, LightSampler, Occluder, Params, Technique, Uniforms};
-pub use error::{BuildError, FormatError, LightField, Problem, ValidationError};
+pub use error::{
+    BuildError, FormatError, LightField, Problem, ValidationError, VplError, VplField,
+};
 pub use importance::conty_kulla::Receiver;
 pub use importance::{BlImportance, Importance, Memo, TlImportance};
 pub use light::{Light, MAX_COORDINATE, MAX_LIGHT_ENERGY, MAX_TOTAL_ENERGY};
@@ -68,4 +75,5 @@ pub use light_set::{AliasTable, LightSet};
 pub use material::{Material, ShadingError, ShadingPoint};
 pub use sample::LightSample;
 pub use tree::{LightTree, Node4, NodeStats, Slot, SlotBounds, TreeStats};
+pub use vpl::{Importons, Vpl, VplAcceptor};
 pub use wide::f32x4;

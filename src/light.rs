@@ -1,4 +1,5 @@
-//! The light model: point, spot, sphere, disk and triangle lights, their validation, and the
+//! The light model: point, spot, sphere, disk, triangle and virtual point lights (VPLs), their
+//! validation, and the
 //! bounds the tree is built from (Conty & Kulla, "Orientation bounds": box, orientation cone,
 //! energy).
 //!
@@ -6,6 +7,7 @@
 //! - coordinates finite with magnitude ≤ [`MAX_COORDINATE`];
 //! - intensity and radiance finite and ≥ 0 (zero is accepted: the light is never sampled);
 //! - radii finite and > 0; directions and normals finite and non-zero (normalised here);
+//!   a VPL's normal is normalised where it is used (bounds, sampling), like a disk's;
 //! - a spot's `half_angle` θs in (0, π], its `falloff_start` θf in [0, θs];
 //! - a degenerate triangle (zero area) is accepted and never sampled;
 //! - a light's energy at most [`MAX_LIGHT_ENERGY`], all of them together at most
@@ -78,6 +80,18 @@ pub enum Light {
         radiance: f32,
         /// Emits on both sides.
         two_sided: bool,
+    },
+    /// Virtual point light (Keller 1997, "Instant Radiosity"): a point that emits with a cosine
+    /// lobe about its normal, radiant intensity `intensity · max(0, cos θ)` with θ the angle to
+    /// `normal` (a one-sided Lambertian point emitter). What a diffuse surface point that
+    /// received flux Φ with albedo ρ re-emits is the VPL of intensity ρΦ/π.
+    Vpl {
+        /// Position.
+        position: Vec3,
+        /// Normal: the emitting side (need not be unit length).
+        normal: Vec3,
+        /// Radiant intensity along the normal.
+        intensity: f32,
     },
 }
 
@@ -306,11 +320,22 @@ impl Light {
                 }
                 check_power(index, LightField::Radiance, radiance)?;
             }
+            Light::Vpl {
+                position,
+                normal,
+                intensity,
+            } => {
+                check_point(index, LightField::Position, position)?;
+                check_direction(index, LightField::Normal, normal)?;
+                check_power(index, LightField::Intensity, intensity)?;
+            }
         }
         let e = self.energy_f64();
         if e > f64::from(MAX_LIGHT_ENERGY) {
             let field = match self {
-                Light::Point { .. } | Light::Spot { .. } => LightField::Intensity,
+                Light::Point { .. } | Light::Spot { .. } | Light::Vpl { .. } => {
+                    LightField::Intensity
+                }
                 _ => LightField::Radiance,
             };
             return Err(invalid(index, field, Problem::EnergyTooLarge, e as f32));
@@ -318,14 +343,14 @@ impl Light {
         Ok(())
     }
 
-    /// Emitting area (0 for point and spot lights).
+    /// Emitting area (0 for point, spot and virtual point lights).
     pub fn area(&self) -> f32 {
         self.area_f64() as f32
     }
 
     fn area_f64(&self) -> f64 {
         match *self {
-            Light::Point { .. } | Light::Spot { .. } => 0.0,
+            Light::Point { .. } | Light::Spot { .. } | Light::Vpl { .. } => 0.0,
             Light::Sphere { radius, .. } => {
                 4.0 * core::f64::consts::PI * math::sq(f64::from(radius))
             }
@@ -341,6 +366,8 @@ impl Light {
         let pi = core::f64::consts::PI;
         match *self {
             Light::Point { intensity, .. } => 4.0 * pi * f64::from(intensity),
+            // ∫ I·max(0, cos θ) dω over the sphere = πI.
+            Light::Vpl { intensity, .. } => pi * f64::from(intensity),
             Light::Spot {
                 intensity,
                 half_angle,
@@ -363,10 +390,10 @@ impl Light {
         }
     }
 
-    /// Emitted power (docs/formulas.md, section 1; Conty & Kulla, "Orientation bounds"): 4πI for points, 2π(1 − cos θs)·I
-    /// for spots (an upper bound of the flux with falloff; `1 − cos θs` is computed without
-    /// cancellation, so a narrow cone keeps its energy), L·π·A per emitting side for area
-    /// lights.
+    /// Emitted power (docs/formulas.md, section 1; Conty & Kulla, "Orientation bounds"): 4πI
+    /// for points, 2π(1 − cos θs)·I for spots (an upper bound of the flux with falloff;
+    /// `1 − cos θs` is computed without cancellation, so a narrow cone keeps its energy), πI
+    /// for virtual point lights, L·π·A per emitting side for area lights.
     /// Valid only for a light that passed [`Light::validate`].
     pub fn energy(&self) -> f32 {
         self.energy_f64() as f32
@@ -416,6 +443,21 @@ impl Light {
                     cone,
                 )
             }
+            Light::Vpl {
+                position, normal, ..
+            } => (
+                Aabb::point(position),
+                Sphere {
+                    center: position,
+                    radius: 0.0,
+                },
+                // One point emitting into the hemisphere about its normal.
+                Cone {
+                    axis: math::unit_f64(normal.as_ref().map(f64::from)).unwrap_or(Vec3::Z),
+                    theta_o: 0.0,
+                    theta_e: FRAC_PI_2,
+                },
+            ),
             Light::Sphere { center, radius, .. } => {
                 let r = Vec3::splat(radius);
                 (

@@ -171,7 +171,9 @@ fn bl_point(
 /// A representative point of a light: its position, centre, or the centroid of a triangle.
 fn light_center(l: &Light) -> Vec3 {
     match *l {
-        Light::Point { position, .. } | Light::Spot { position, .. } => position,
+        Light::Point { position, .. }
+        | Light::Spot { position, .. }
+        | Light::Vpl { position, .. } => position,
         Light::Sphere { center, .. } | Light::Disk { center, .. } => center,
         Light::Triangle { vertices, .. } => (vertices[0] + vertices[1] + vertices[2]) / 3.0,
     }

@@ -102,7 +102,9 @@ fn reference_score(
 /// A representative point of a light (for the test's contribution function only).
 fn light_point(l: &Light) -> Vec3 {
     match *l {
-        Light::Point { position, .. } | Light::Spot { position, .. } => position,
+        Light::Point { position, .. }
+        | Light::Spot { position, .. }
+        | Light::Vpl { position, .. } => position,
         Light::Sphere { center, .. } | Light::Disk { center, .. } => center,
         Light::Triangle { vertices, .. } => (vertices[0] + vertices[1] + vertices[2]) / 3.0,
     }

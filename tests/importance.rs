@@ -6,7 +6,8 @@ mod common;
 
 use common::{
     boundary_scene, close, contributes, lanes_match_scalar, proptest_config, push_emitter_points,
-    push_sphere_points, random_nodes, random_normal, styled_scene, Rng, Where, RECEIVERS,
+    push_sphere_points, random_nodes, random_normal, styled_scene, vpl_scene, Rng, Where,
+    RECEIVERS,
 };
 use glam::{DVec3, Vec3};
 use manylights::baseline::BinaryLightTree;
@@ -84,6 +85,18 @@ proptest::proptest! {
     fn eval4_matches_scalar_on_built_trees(n in scene_size(), seed in any::<u64>()) {
         let (lights, half) = styled_scene(seed, n);
         let mut rng = Rng::new(seed ^ 0x4);
+        check_tree_lanes(&lights, half, &mut rng, 24).map_err(TestCaseError::fail)?;
+    }
+}
+
+proptest::proptest! {
+    #![proptest_config(proptest_config(96, 0x5650_4c34))]
+
+    /// Property 4 on trees of scenes with virtual point lights (see `vpl_scene`).
+    #[test]
+    fn eval4_matches_scalar_on_vpl_trees(n in scene_size(), seed in any::<u64>()) {
+        let (lights, half) = vpl_scene(seed, n);
+        let mut rng = Rng::new(seed ^ 0x54);
         check_tree_lanes(&lights, half, &mut rng, 24).map_err(TestCaseError::fail)?;
     }
 }
@@ -330,6 +343,21 @@ proptest::proptest! {
     fn contributing_lights_have_positive_pmf(n in scene_size(), seed in any::<u64>()) {
         let (lights, half) = styled_scene(seed, n);
         let mut rng = Rng::new(seed ^ 0xC0);
+        let points = if n > 500 { 4 } else { 12 };
+        check_conservative(&lights, half, &mut rng, points).map_err(TestCaseError::fail)?;
+    }
+}
+
+proptest::proptest! {
+    #![proptest_config(proptest_config(128, 0x5650_4c35))]
+
+    /// Property 5 over random scenes with virtual point lights (mixed, alone, at one point):
+    /// a VPL that reaches the shading point (x in front of its cosine lobe, the VPL above x's
+    /// horizon) has a positive pmf.
+    #[test]
+    fn contributing_vpls_have_positive_pmf(n in scene_size(), seed in any::<u64>()) {
+        let (lights, half) = vpl_scene(seed, n);
+        let mut rng = Rng::new(seed ^ 0xC5);
         let points = if n > 500 { 4 } else { 12 };
         check_conservative(&lights, half, &mut rng, points).map_err(TestCaseError::fail)?;
     }

@@ -72,7 +72,9 @@ fn radiance_of(l: &Light) -> f32 {
         Light::Sphere { radiance, .. }
         | Light::Disk { radiance, .. }
         | Light::Triangle { radiance, .. } => radiance,
-        Light::Point { intensity, .. } | Light::Spot { intensity, .. } => intensity,
+        Light::Point { intensity, .. }
+        | Light::Spot { intensity, .. }
+        | Light::Vpl { intensity, .. } => intensity,
     }
 }
 
@@ -185,7 +187,9 @@ fn centre_and_size(l: &Light) -> (Vec3, f32) {
                 .fold(0.0, f32::max);
             (g, size)
         }
-        Light::Point { position, .. } | Light::Spot { position, .. } => (position, 0.0),
+        Light::Point { position, .. }
+        | Light::Spot { position, .. }
+        | Light::Vpl { position, .. } => (position, 0.0),
     }
 }
 

@@ -7,7 +7,7 @@ mod common;
 
 use common::{
     chi2_critical, chi2_skewed_statistic, chi2_statistic, close, contributes, proptest_config,
-    random_importance, ring_scene, styled_scene, u_values, zero_energy, Rng, Z_999,
+    random_importance, ring_scene, styled_scene, u_values, vpl_scene, zero_energy, Rng, Z_999,
 };
 use glam::Vec3;
 use manylights::baseline::BinaryLightTree;
@@ -187,6 +187,19 @@ proptest::proptest! {
     fn sample_and_pmf_agree_and_sum_to_one(n in scene_size(), seed in any::<u64>()) {
         let (lights, half) = styled_scene(seed, n);
         let mut rng = Rng::new(seed ^ 0xABCD);
+        check_scene(&lights, half, &mut rng, 8, 24)?;
+    }
+}
+
+proptest::proptest! {
+    #![proptest_config(proptest_config(128, 0x5650_4c53))]
+
+    /// Properties 1a–1d over random scenes with virtual point lights (mixed with every other
+    /// kind, VPLs alone, all at one point): the VPL kind samples like every other.
+    #[test]
+    fn vpl_scenes_sample_and_pmf_agree_and_sum_to_one(n in scene_size(), seed in any::<u64>()) {
+        let (lights, half) = vpl_scene(seed, n);
+        let mut rng = Rng::new(seed ^ 0x5F1);
         check_scene(&lights, half, &mut rng, 8, 24)?;
     }
 }

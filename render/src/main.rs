@@ -73,6 +73,10 @@ enum Command {
     /// Unbiasedness, variance and time per estimate of the estimators (uniform, power, tl,
     /// tl-split, bl, mis-equal, full, tl-mis) against exact values, without visibility.
     Estimator(manylights_render::instruments::estimator::EstimatorArgs),
+    /// Instant radiosity for the indirect diffuse light, plain and with probabilistic VPL
+    /// acceptance (Georgiev & Slusallek 2010), gathered from all VPLs or through a light tree,
+    /// against a cached converged reference: images under out/vpl/<scene>/, a table.
+    Vpl(manylights_render::instruments::vpl::VplArgs),
     /// Render a built-in scene (direct illumination) with one technique to a PNG, or to a
     /// linear OpenEXR file when the output name ends in .exr.
     Render {
@@ -377,6 +381,9 @@ fn main() {
         }
         Command::Estimator(args) => {
             std::process::exit(manylights_render::instruments::estimator::run_cli(&args))
+        }
+        Command::Vpl(args) => {
+            std::process::exit(manylights_render::instruments::vpl::run_cli(&args))
         }
     }
 }

@@ -99,7 +99,7 @@ fn thread_cpu_seconds() -> Option<f64> {
 
 /// Times `f` on the calling thread: CPU seconds if the thread's CPU clock is available,
 /// wall-clock seconds otherwise.
-fn busy_time(f: impl FnOnce()) -> f64 {
+pub fn busy_time(f: impl FnOnce()) -> f64 {
     let (cpu0, wall0) = (thread_cpu_seconds(), Instant::now());
     f();
     match (cpu0, thread_cpu_seconds()) {

@@ -6,7 +6,7 @@
 //!
 //! | light | sampling | pdf (solid angle at x) |
 //! |---|---|---|
-//! | point, spot | the position | delta: reported as `pdf = 1`, `delta = true` |
+//! | point, spot, VPL | the position | delta: reported as `pdf = 1`, `delta = true` |
 //! | sphere, x outside | uniform in the visible cap | `1 / (2π(1 − cos θmax))` |
 //! | sphere, x inside or on it | uniform by area | `d² / (A · abs(cos θy))` |
 //! | disk | uniform by area (concentric map) | `d² / (A · abs(cos θy))` |
@@ -24,7 +24,8 @@
 //! (times the visibility of `position` from x). For area lights `radiance` is the emitted
 //! radiance L arriving along `-direction` and `pdf` a solid-angle density. For point and spot
 //! lights the pdf is a Dirac delta, reported as `pdf = 1` with [`LightPoint::delta`] set, and
-//! `radiance` is `I · falloff / d²` (the irradiance at normal incidence), so the same formula
+//! `radiance` is `I · falloff / d²` (the irradiance at normal incidence; for a virtual point
+//! light the falloff is `max(0, cos θ)` about its normal), so the same formula
 //! holds. A delta light can never be hit by a BRDF ray: [`pdf_point`] and [`pdf_direction`]
 //! return 0 for it, and MIS must give its light samples the full weight.
 //!
@@ -59,11 +60,11 @@ pub use triangle::MIN_SPHERICAL_SOLID_ANGLE;
 /// A point sampled on a light (or hit on it by a ray), seen from the shading point x.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct LightPoint {
-    /// The point on the light (for point and spot lights, their position).
+    /// The point on the light (for point, spot and virtual point lights, their position).
     pub position: Vec3,
     /// Unit surface normal at `position`: outwards for a sphere, the emitting side for a
-    /// one-sided disk or triangle, towards x for a two-sided one; zero for point and spot
-    /// lights.
+    /// one-sided disk or triangle, towards x for a two-sided one; zero for point, spot and
+    /// virtual point lights.
     pub normal: Vec3,
     /// Unit direction from x to `position`.
     pub direction: Vec3,
@@ -71,11 +72,12 @@ pub struct LightPoint {
     pub distance: f32,
     /// Solid-angle pdf at x of having sampled `direction` (> 0, finite); 1 for a delta light.
     pub pdf: f32,
-    /// The light is a point or spot light: `pdf` is a Dirac delta reported as 1.
+    /// The light is a point, spot or virtual point light: `pdf` is a Dirac delta reported as 1.
     pub delta: bool,
     /// What the estimator multiplies by (≥ 0, finite): the emitted radiance arriving at x along
     /// `-direction` for area lights (0 if x is behind a one-sided emitter, or inside or on a
-    /// sphere); `I · falloff / d²` for point and spot lights (0 outside a spot's cone).
+    /// sphere); `I · falloff / d²` for point, spot and virtual point lights (0 outside a spot's
+    /// cone or behind a VPL).
     pub radiance: f32,
 }
 
@@ -157,6 +159,14 @@ pub fn sample_point(light: &Light, x: Vec3, u: [f32; 2]) -> Option<LightPoint> {
                 delta::spot_profile(axis, half_angle, falloff_start, w)
             })
         }
+        Light::Vpl {
+            position,
+            normal,
+            intensity,
+        } => {
+            let n = V64::from_f32(normal).normalize()?;
+            delta::sample(position, intensity, x, |w| n.dot(w).max(0.0))
+        }
         Light::Sphere {
             center,
             radius,
@@ -182,14 +192,14 @@ pub fn sample_point(light: &Light, x: Vec3, u: [f32; 2]) -> Option<LightPoint> {
 }
 
 /// The solid-angle pdf at `x` with which [`sample_point`] returns the point `point` of `light`
-/// (taken as the first point of the light on the ray from x through it). 0 for point and spot
+/// (taken as the first point of the light on the ray from x through it). 0 for point, spot and virtual point
 /// lights (a delta that no ray hits) and wherever `sample_point` gives `None`.
 pub fn pdf_point(light: &Light, x: Vec3, point: Vec3) -> f32 {
     if !(x.is_finite() && point.is_finite()) {
         return 0.0;
     }
     let pdf = match *light {
-        Light::Point { .. } | Light::Spot { .. } => 0.0,
+        Light::Point { .. } | Light::Spot { .. } | Light::Vpl { .. } => 0.0,
         Light::Sphere { center, radius, .. } => sphere::pdf_point(center, radius, x, point),
         Light::Disk {
             center,
@@ -212,7 +222,7 @@ pub fn pdf_point(light: &Light, x: Vec3, point: Vec3) -> f32 {
 
 /// Where the ray from `x` along `direction` (need not be unit length) first reaches `light`: the
 /// point, the radiance it sends to x and the pdf with which [`sample_point`] would have chosen
-/// it. `None` if the ray misses (always for point and spot lights). This is what a host needs
+/// it. `None` if the ray misses (always for delta lights). This is what a host needs
 /// when a BRDF-sampled ray hits an emitter.
 pub fn intersect(light: &Light, x: Vec3, direction: Vec3) -> Option<LightPoint> {
     if !x.is_finite() {
@@ -220,7 +230,7 @@ pub fn intersect(light: &Light, x: Vec3, direction: Vec3) -> Option<LightPoint> 
     }
     let w = V64::from_f32(direction).normalize()?;
     match *light {
-        Light::Point { .. } | Light::Spot { .. } => None,
+        Light::Point { .. } | Light::Spot { .. } | Light::Vpl { .. } => None,
         Light::Sphere {
             center,
             radius,

@@ -108,8 +108,8 @@ pub struct SceneSpec {
     pub half: f32,
     /// Probability that a light has zero power (or zero area for a triangle).
     pub zero_energy: f64,
-    /// Relative weights of point, spot, sphere, disk, triangle.
-    pub kinds: [u32; 5],
+    /// Relative weights of point, spot, sphere, disk, triangle, VPL (virtual point light).
+    pub kinds: [u32; 6],
     /// Intensities and radiances are log-uniform in this range.
     pub power: (f32, f32),
 }
@@ -119,7 +119,9 @@ impl Default for SceneSpec {
         SceneSpec {
             half: 100.0,
             zero_energy: 0.08,
-            kinds: [1, 1, 1, 1, 1],
+            // No VPLs by default: the fixed-seed scenes of the older tests stay what they were
+            // (a zero weight draws nothing and shifts no pick); `vpl_scene` mixes them in.
+            kinds: [1, 1, 1, 1, 1, 0],
             power: (1e-2, 1e2),
         }
     }
@@ -185,6 +187,11 @@ pub fn random_light(rng: &mut Rng, spec: &SceneSpec, zero: bool) -> Light {
             radiance: p(rng),
             two_sided: rng.chance(0.5),
         },
+        5 => Light::Vpl {
+            position: rng.in_cube(spec.half),
+            normal: rng.direction(),
+            intensity: p(rng),
+        },
         _ => {
             let v0 = rng.in_cube(spec.half);
             let size = rng.log_range(1e-3, 0.05 * spec.half);
@@ -234,7 +241,9 @@ pub fn random_scene(rng: &mut Rng, n: usize, spec: &SceneSpec) -> Vec<Light> {
 /// crate): zero power, or a triangle of zero area.
 pub fn zero_energy(l: &Light) -> bool {
     match *l {
-        Light::Point { intensity, .. } | Light::Spot { intensity, .. } => intensity == 0.0,
+        Light::Point { intensity, .. }
+        | Light::Spot { intensity, .. }
+        | Light::Vpl { intensity, .. } => intensity == 0.0,
         Light::Sphere { radiance, .. } | Light::Disk { radiance, .. } => radiance == 0.0,
         Light::Triangle {
             vertices, radiance, ..
@@ -272,6 +281,9 @@ pub fn push_emitter_points(rng: &mut Rng, lights: &[Light], half: f32, xs: &mut 
                 direction,
                 ..
             } => (position, direction.normalize()),
+            Light::Vpl {
+                position, normal, ..
+            } => (position, normal.normalize()),
             Light::Point { position, .. }
             | Light::Sphere {
                 center: position, ..
@@ -286,7 +298,9 @@ pub fn push_emitter_points(rng: &mut Rng, lights: &[Light], half: f32, xs: &mut 
 /// A point on the light's emitting geometry (the position itself for points and spots).
 pub fn point_on_light(rng: &mut Rng, l: &Light) -> Vec3 {
     match *l {
-        Light::Point { position, .. } | Light::Spot { position, .. } => position,
+        Light::Point { position, .. }
+        | Light::Spot { position, .. }
+        | Light::Vpl { position, .. } => position,
         Light::Sphere { center, radius, .. } => center + rng.unit() * radius,
         Light::Disk {
             center,
@@ -343,7 +357,9 @@ pub fn shading_point(rng: &mut Rng, lights: &[Light], half: f32, kind: Where) ->
             let points: Vec<Vec3> = lights
                 .iter()
                 .filter_map(|l| match *l {
-                    Light::Point { position, .. } | Light::Spot { position, .. } => Some(position),
+                    Light::Point { position, .. }
+                    | Light::Spot { position, .. }
+                    | Light::Vpl { position, .. } => Some(position),
                     _ => None,
                 })
                 .collect();
@@ -554,6 +570,17 @@ pub fn contributes(light: &Light, x: Vec3, n: Vec3, receiver: Receiver, margin: 
             let cos = a.dot(-w) / w.length();
             cos > f64::from(half_angle).cos() + margin
         }
+        Light::Vpl {
+            position, normal, ..
+        } => {
+            // x on the emitting side of the VPL's cosine lobe, and the VPL above x's horizon.
+            let w = d(position) - x;
+            if w.length() == 0.0 || !rec(w) {
+                return false;
+            }
+            let m = d(normal).normalize();
+            m.dot(-w) / w.length() > margin
+        }
         Light::Sphere { center, radius, .. } => {
             let w = d(center) - x;
             let dist = w.length();
@@ -706,7 +733,7 @@ pub fn styled_scene(seed: u64, n: usize) -> (Vec<Light>, f32) {
         ..SceneSpec::default()
     };
     if (1..=5).contains(&style) {
-        spec.kinds = [0; 5];
+        spec.kinds = [0; 6];
         spec.kinds[style - 1] = 1;
     }
     let mut lights = random_scene(&mut rng, n, &spec);
@@ -720,10 +747,36 @@ pub fn styled_scene(seed: u64, n: usize) -> (Vec<Light>, f32) {
     (lights, half)
 }
 
+/// Like [`styled_scene`], with virtual point lights among the kinds: a random style of mixed
+/// kinds (VPLs one sixth of them), VPLs only, or all lights (VPLs among them) at one point.
+pub fn vpl_scene(seed: u64, n: usize) -> (Vec<Light>, f32) {
+    let mut rng = Rng::new(seed);
+    let half = [1e-2, 1.0, 100.0, 100.0, 100.0, 1e4][rng.below(6)];
+    let style = rng.below(3);
+    let mut spec = SceneSpec {
+        half,
+        kinds: [1, 1, 1, 1, 1, 1],
+        ..SceneSpec::default()
+    };
+    if style == 1 {
+        spec.kinds = [0, 0, 0, 0, 0, 1];
+    }
+    let mut lights = random_scene(&mut rng, n, &spec);
+    if style == 2 {
+        let c = rng.in_cube(half);
+        for l in &mut lights {
+            move_to(l, c);
+        }
+    }
+    (lights, half)
+}
+
 /// Moves a light so that its position (centre, first vertex) is `c`.
 pub fn move_to(l: &mut Light, c: Vec3) {
     match l {
-        Light::Point { position, .. } | Light::Spot { position, .. } => *position = c,
+        Light::Point { position, .. }
+        | Light::Spot { position, .. }
+        | Light::Vpl { position, .. } => *position = c,
         Light::Sphere { center, .. } | Light::Disk { center, .. } => *center = c,
         Light::Triangle { vertices, .. } => {
             let t = c - vertices[0];
@@ -833,7 +886,7 @@ pub fn boundary_scene(rng: &mut Rng) -> Vec<Light> {
     let spec = SceneSpec {
         half: 10.0,
         zero_energy: 0.0,
-        kinds: [0, 2, 0, 1, 1],
+        kinds: [0, 2, 0, 1, 1, 0],
         ..SceneSpec::default()
     };
     let mut lights = random_scene(rng, 60, &spec);

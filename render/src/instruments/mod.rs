@@ -15,3 +15,4 @@ pub mod estimator;
 pub mod ggx;
 pub mod sptd_accuracy;
 pub mod sptd_fit;
+pub mod vpl;
