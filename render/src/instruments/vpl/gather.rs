@@ -177,8 +177,8 @@ impl VplTree {
     }
 
     /// `tree`: an unbiased estimate of [`gather_all`] at the hit from `spp` draws (`Tl`) or
-    /// a cut of at most `spp` clusters (`Split`); `seed` (mixed first: any seeds will do)
-    /// makes the uniform numbers.
+    /// a cut of at most `spp` clusters (`Split`), and the number of VPLs drawn; `seed` (mixed
+    /// first: any seeds will do) makes the uniform numbers.
     pub fn gather(
         &self,
         geometry: &Geometry,
@@ -187,9 +187,9 @@ impl VplTree {
         sampling: TreeSampling,
         g_max: f32,
         seed: u64,
-    ) -> f32 {
+    ) -> (f32, usize) {
         let Some(tree) = &self.tree else {
-            return 0.0;
+            return (0.0, 0);
         };
         let mut rng = Pcg64Mcg::seed_from_u64(super::walk::mix(seed));
         let imp = TlImportance::new(hit.position, hit.normal);
@@ -201,7 +201,7 @@ impl VplTree {
                         sum += self.estimate(geometry, hit, s, g_max);
                     }
                 }
-                sum / spp as f32
+                (sum / spp as f32, spp)
             }
             TreeSampling::Split => {
                 let opts = SplitOptions {
@@ -216,11 +216,12 @@ impl VplTree {
                 }
                 let mut out = [None; CUT_CAPACITY];
                 cut.sample_each(tree, &imp, &u[..n], &mut out[..n]);
-                out[..n]
+                let sum = out[..n]
                     .iter()
                     .flatten()
                     .map(|&s| self.estimate(geometry, hit, s, g_max))
-                    .sum()
+                    .sum();
+                (sum, n)
             }
         }
     }

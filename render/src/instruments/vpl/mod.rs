@@ -58,8 +58,9 @@ pub struct VplArgs {
     /// Gather of `plain` and `accept`: all (every VPL at every pixel) or tree.
     #[arg(long, default_value = "all")]
     pub gather: String,
-    /// Samples per pixel and frame of the tree gather (the cut size with split sampling).
-    #[arg(long, default_value_t = 16)]
+    /// Samples per pixel and frame of the tree gather (with split sampling: the largest cut,
+    /// at most 64; the variance heuristic often stops below it).
+    #[arg(long, default_value_t = 64)]
     pub tree_spp: usize,
     /// Sampling of the tree gather: tl (independent draws by TL importance) or split.
     #[arg(long, default_value = "split")]
@@ -80,10 +81,10 @@ pub struct VplArgs {
     #[arg(long, default_value_t = 1024)]
     pub ref_frames: usize,
     /// Plain VPLs per frame of the reference.
-    #[arg(long, default_value_t = 16000)]
+    #[arg(long, default_value_t = 4000)]
     pub ref_vpls: usize,
-    /// Split-sampling clusters per pixel and frame of the reference.
-    #[arg(long, default_value_t = 32)]
+    /// Split-sampling clusters per pixel and frame of the reference (the largest cut).
+    #[arg(long, default_value_t = 64)]
     pub ref_spp: usize,
     /// Seed of the variants (the reference has its own).
     #[arg(long, default_value_t = 1)]
@@ -143,6 +144,8 @@ pub struct Variant {
     pub paths: u64,
     /// Decisions after the first frame (all frames for `plain`).
     pub stats: AcceptStats,
+    /// Tree gather: VPLs drawn, summed over pixels and frames.
+    pub tree_samples: u64,
     /// Each frame's image average.
     pub frame_means: Vec<f64>,
 }
@@ -309,6 +312,7 @@ pub fn run_variant(setup: &Setup, name: &str, cfg: &VariantConfig) -> Variant {
         vpls: 0,
         paths: 0,
         stats: AcceptStats::default(),
+        tree_samples: 0,
         frame_means: Vec::new(),
     };
     let progress = bar(name, cfg.budget, cfg.progress);
@@ -348,11 +352,12 @@ pub fn run_variant(setup: &Setup, name: &str, cfg: &VariantConfig) -> Variant {
         if let Gather::Tree { .. } = cfg.gather {
             v.seconds += busy_time(|| tree = Some(VplTree::build(&gathered)));
         }
-        let row_seconds: f64 = frame_img
+        let (row_seconds, drawn): (f64, usize) = frame_img
             .par_chunks_mut(w)
             .enumerate()
             .map(|(py, row)| {
-                busy_time(|| {
+                let mut drawn = 0;
+                let t = busy_time(|| {
                     for (px, out) in row.iter_mut().enumerate() {
                         let i = py * w + px;
                         *out = match (&setup.hits[i], cfg.gather, &tree) {
@@ -364,14 +369,19 @@ pub fn run_variant(setup: &Setup, name: &str, cfg: &VariantConfig) -> Variant {
                                 let seed = frame_seed
                                     .wrapping_mul(0x9e37_79b9_7f4a_7c15)
                                     .wrapping_add(i as u64);
-                                t.gather(geometry, hit, spp, sampling, g_max, seed)
+                                let (value, n) =
+                                    t.gather(geometry, hit, spp, sampling, g_max, seed);
+                                drawn += n;
+                                value
                             }
                             (Some(_), Gather::Tree { .. }, None) => 0.0,
                         };
                     }
-                })
+                });
+                (t, drawn)
             })
-            .sum();
+            .reduce(|| (0.0, 0), |a, b| (a.0 + b.0, a.1 + b.1));
+        v.tree_samples += drawn as u64;
         v.seconds += row_seconds;
         let lum: f64 = frame_img.iter().map(|&x| f64::from(x)).sum();
         v.frame_means.push(lum / npix as f64);
@@ -527,6 +537,8 @@ impl Report {
             "efficiency_gain_tree": self.gain("tree", "plain"),
             "frames": self.variants[p].frames,
             "frames_tree": self.variants[t].frames,
+            "tree_samples_per_pixel_frame": self.variants[t].tree_samples as f64
+                / (self.variants[t].frames.max(1) * self.variants[t].image.mean.len()) as f64,
             "vpls_per_frame_plain": self.variants[p].vpls as f64 / self.variants[p].frames as f64,
             "vpls_per_frame_accept": va.vpls as f64 / va.frames as f64,
             "rmse_reference": self.reference_error,
@@ -673,6 +685,11 @@ fn print_table(r: &Report, args: &VplArgs) {
         r.reference_error
     );
     let a = &r.variants[r.by("accept")];
+    let t = &r.variants[r.by("tree")];
+    println!(
+        "tree: {:.1} VPLs drawn per pixel and frame",
+        t.tree_samples as f64 / (t.frames.max(1) * t.image.mean.len()) as f64
+    );
     let (ratio, sd) = a.stats.energy_ratio();
     println!(
         "accept after the first frame: acceptance rate {:.4} (mean p {:.4}), energy ratio {:.4} ± {:.4}",
@@ -681,12 +698,12 @@ fn print_table(r: &Report, args: &VplArgs) {
         ratio,
         sd
     );
-    println!("| variant | frames | paths/frame | VPLs/frame | acceptance | time (s) | of which walks (s) | RMSE | efficiency vs plain |");
-    println!("|---|---:|---:|---:|---:|---:|---:|---:|---:|");
+    println!("| variant | frames | paths/frame | VPLs/frame | acceptance | time (s) | of which walks (s) | RMSE | own RMS std. error | efficiency vs plain |");
+    println!("|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|");
     for (v, &e) in r.variants.iter().zip(&r.rmse) {
         let f = v.frames.max(1) as f64;
         println!(
-            "| {} | {} | {:.0} | {:.0} | {:.3} | {:.2} | {:.2} | {:.4e} | {:.2} |",
+            "| {} | {} | {:.0} | {:.0} | {:.3} | {:.2} | {:.2} | {:.4e} | {:.2e} | {:.2} |",
             v.name,
             v.frames,
             v.paths as f64 / f,
@@ -695,6 +712,7 @@ fn print_table(r: &Report, args: &VplArgs) {
             v.seconds,
             v.walk_seconds,
             e,
+            rms_standard_error(&v.image),
             r.gain(&v.name, "plain")
         );
     }
