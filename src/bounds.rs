@@ -179,6 +179,16 @@ impl Cone {
         };
         let (s, c) = T::sin_cos(phi);
         let axis = (big.axis * c + perp * s).normalize();
+        // Nearly opposite axes leave `perp` to f32 cancellation and the rotated axis off the
+        // great circle through both: widen θo to what the axis really needs where the slack
+        // does not cover it, so the union always contains both cones.
+        let need = (angle_with::<T>(axis, big.axis) + big.theta_o)
+            .max(angle_with::<T>(axis, small.axis) + small.theta_o);
+        let theta_o = if need > theta_o + UNION_SLACK {
+            need
+        } else {
+            theta_o
+        };
         Cone {
             axis,
             theta_o: (theta_o + UNION_SLACK).min(PI),

@@ -1200,3 +1200,131 @@ fn narrow_spot_energy_does_not_cancel() {
         assert_eq!(s.pmf, tree.pmf(&imp, s.light));
     }
 }
+
+/// Found by the `build_bad_input` fuzz target: two spots whose axes are nearly opposite, among
+/// tiny lights, gave a union cone whose rotated axis (from the f32 cancellation of nearly
+/// opposite axes) no longer contained one of them; `validate` caught it in debug builds. The
+/// union now widens θo to what its axis needs.
+#[test]
+fn nearly_opposite_cones_stay_in_their_union() {
+    let lights: Vec<Light> = vec![
+        Light::Spot {
+            position: Vec3::new(4.172325e-8_f32, 4.172325e-8_f32, 3.3494143e-8_f32),
+            direction: Vec3::new(3.291384e-38_f32, 4.172308e-8_f32, 4.172325e-8_f32),
+            intensity: 4.172325e-8_f32,
+            half_angle: 4.172325e-8_f32,
+            falloff_start: 4.172325e-8_f32,
+        },
+        Light::Spot {
+            position: Vec3::new(4.172325e-8_f32, 4.172325e-8_f32, 4.4537227e-8_f32),
+            direction: Vec3::new(4.172325e-8_f32, 4.172325e-8_f32, 4.172325e-8_f32),
+            intensity: 4.172325e-8_f32,
+            half_angle: 4.172325e-8_f32,
+            falloff_start: 2.1614789e-29_f32,
+        },
+        Light::Spot {
+            position: Vec3::new(4.172325e-8_f32, 4.172325e-8_f32, 4.172325e-8_f32),
+            direction: Vec3::new(4.172325e-8_f32, 4.172325e-8_f32, 4.172325e-8_f32),
+            intensity: 4.172325e-8_f32,
+            half_angle: 4.172325e-8_f32,
+            falloff_start: 4.172325e-8_f32,
+        },
+        Light::Spot {
+            position: Vec3::new(4.17087e-8_f32, 4.172325e-8_f32, 4.172325e-8_f32),
+            direction: Vec3::new(4.172325e-8_f32, 4.172325e-8_f32, 49258120000000.0_f32),
+            intensity: 4.172325e-8_f32,
+            half_angle: 4.172325e-8_f32,
+            falloff_start: 4.172325e-8_f32,
+        },
+        Light::Spot {
+            position: Vec3::new(4.172325e-8_f32, 4.172325e-8_f32, 2.1614789e-29_f32),
+            direction: Vec3::new(4.1734243e-8_f32, 4.172325e-8_f32, 4.172325e-8_f32),
+            intensity: 4.172325e-8_f32,
+            half_angle: 4.172325e-8_f32,
+            falloff_start: 4.172325e-8_f32,
+        },
+        Light::Spot {
+            position: Vec3::new(4.172325e-8_f32, 4.172325e-8_f32, 6.4101185e-10_f32),
+            direction: Vec3::new(6.4096906e-10_f32, 6.4096906e-10_f32, 6.4096906e-10_f32),
+            intensity: 6.4096906e-10_f32,
+            half_angle: 0.00016802619_f32,
+            falloff_start: 4.2007494e-5_f32,
+        },
+        Light::Sphere {
+            center: Vec3::new(4.172325e-8_f32, 4.172325e-8_f32, 1e-45_f32),
+            radius: 1.5046328e-36_f32,
+            radiance: 4.172325e-8_f32,
+        },
+        Light::Spot {
+            position: Vec3::new(4.172325e-8_f32, 4.172325e-8_f32, 4.172325e-8_f32),
+            direction: Vec3::new(-5.0440315e16_f32, 3.8e-43_f32, 0.0_f32),
+            intensity: 4.1723084e-8_f32,
+            half_angle: 4.172325e-8_f32,
+            falloff_start: 4.172325e-8_f32,
+        },
+        Light::Spot {
+            position: Vec3::new(4.172325e-8_f32, 4.172325e-8_f32, 0.7853982_f32),
+            direction: Vec3::new(4.172325e-8_f32, 4.172325e-8_f32, 4.172325e-8_f32),
+            intensity: 4.172325e-8_f32,
+            half_angle: 4.172325e-8_f32,
+            falloff_start: 4.172325e-8_f32,
+        },
+        Light::Spot {
+            position: Vec3::new(4.172325e-8_f32, 4.172325e-8_f32, 4.172325e-8_f32),
+            direction: Vec3::new(4.172325e-8_f32, 4.1723194e-8_f32, 4.172325e-8_f32),
+            intensity: 8.0704504e17_f32,
+            half_angle: 4.172325e-8_f32,
+            falloff_start: 4.172325e-8_f32,
+        },
+        Light::Spot {
+            position: Vec3::new(4.172325e-8_f32, 4.373469e-8_f32, 4.172325e-8_f32),
+            direction: Vec3::new(4.172325e-8_f32, 4.172325e-8_f32, -110729624.0_f32),
+            intensity: 4.185567e-8_f32,
+            half_angle: 4.172325e-8_f32,
+            falloff_start: 4.172325e-8_f32,
+        },
+        Light::Spot {
+            position: Vec3::new(4.172325e-8_f32, 4.9872323e-8_f32, 4.172325e-8_f32),
+            direction: Vec3::new(4.172325e-8_f32, 4.172325e-8_f32, 4.172325e-8_f32),
+            intensity: 4.172325e-8_f32,
+            half_angle: 4.172325e-8_f32,
+            falloff_start: 2.1614789e-29_f32,
+        },
+        Light::Spot {
+            position: Vec3::new(4.172325e-8_f32, 4.172325e-8_f32, 4.172325e-8_f32),
+            direction: Vec3::new(4.172325e-8_f32, 4.172325e-8_f32, 4.172325e-8_f32),
+            intensity: 4.172325e-8_f32,
+            half_angle: 4.172325e-8_f32,
+            falloff_start: 4.172325e-8_f32,
+        },
+        Light::Spot {
+            position: Vec3::new(2.1614789e-29_f32, 1e-45_f32, 2.9802322e-8_f32),
+            direction: Vec3::new(4.172325e-8_f32, -107374184.0_f32, -107374180.0_f32),
+            intensity: 4.172325e-8_f32,
+            half_angle: 4.172325e-8_f32,
+            falloff_start: 4.172325e-8_f32,
+        },
+        Light::Spot {
+            position: Vec3::new(4.1755083e-8_f32, 4.172325e-8_f32, 4.1723265e-8_f32),
+            direction: Vec3::new(4.172325e-8_f32, 4.172325e-8_f32, 4.172325e-8_f32),
+            intensity: 4.172325e-8_f32,
+            half_angle: 4.172325e-8_f32,
+            falloff_start: 4.172325e-8_f32,
+        },
+        Light::Triangle {
+            vertices: [
+                Vec3::new(4.1731106e-8_f32, 4.172325e-8_f32, 4.172325e-8_f32),
+                Vec3::new(4.172325e-8_f32, -107387290.0_f32, 4.1723766e-8_f32),
+                Vec3::new(4.172325e-8_f32, 3.2875686e-8_f32, 4.3486356e-31_f32),
+            ],
+            radiance: 1.3136396e-7_f32,
+            two_sided: true,
+        },
+        Light::Point {
+            position: Vec3::new(0.0_f32, 0.0_f32, 0.0_f32),
+            intensity: 0.0_f32,
+        },
+    ];
+    let tree = LightTree::build(&lights).expect("valid lights");
+    assert_eq!(tree.validate(), Ok(()));
+}
