@@ -247,6 +247,17 @@ fn next1(u: &mut (impl Uniforms + ?Sized)) -> Result<f32, DirectError> {
     unit(u.next_f32())
 }
 
+/// Checks a host's 53-bit uniform number.
+#[inline]
+fn next64(u: &mut (impl Uniforms + ?Sized)) -> Result<f64, DirectError> {
+    let v = u.next_f64();
+    if (0.0..1.0).contains(&v) {
+        Ok(v)
+    } else {
+        Err(DirectError::Uniform { value: v })
+    }
+}
+
 #[inline]
 fn next2(u: &mut (impl Uniforms + ?Sized)) -> Result<[f32; 2], DirectError> {
     Ok([next1(u)?, next1(u)?])
@@ -505,19 +516,13 @@ impl<'a> Estimator<'a> {
                     match self.technique {
                         Technique::Uniform => {
                             let s = UniformSampler::new(self.set.len() as u32);
-                            let v = u.next_f64();
-                            if !(0.0..1.0).contains(&v) {
-                                return Err(DirectError::Uniform { value: v });
-                            }
+                            let v = next64(u)?;
                             if let Some(s) = s.sample_f64(v) {
                                 return Ok(self.single(s.light, s.pmf, next2(u)?));
                             }
                         }
                         Technique::Power => {
-                            let v = u.next_f64();
-                            if !(0.0..1.0).contains(&v) {
-                                return Err(DirectError::Uniform { value: v });
-                            }
+                            let v = next64(u)?;
                             if let Some(s) = PowerSampler::new(self.set).sample_f64(v) {
                                 return Ok(self.single(s.light, s.pmf, next2(u)?));
                             }
@@ -644,8 +649,9 @@ impl<'a> Estimator<'a> {
                 let Some(s) = self.bl.as_ref().and_then(|b| b.sample(warped)) else {
                     return Ok(None);
                 };
-                let role = Role::MixtureBl { p, pdf_bl: 0.0 };
-                Ok(self.draw(s.light, s.pmf, uv, role).map(|mut d| {
+                // BL's density of the point is known once the point is: set it then.
+                let draw = self.draw(s.light, s.pmf, uv, Role::MixtureBl { p, pdf_bl: 0.0 });
+                Ok(draw.map(|mut d| {
                     d.role = Role::MixtureBl {
                         p,
                         pdf_bl: s.pmf * d.point.pdf,
