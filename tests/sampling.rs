@@ -148,7 +148,8 @@ fn check_scene(
     let bin = BinaryLightTree::build(lights).map_err(|e| TestCaseError::fail(format!("{e}")))?;
     prop_assert!(tree.validate().is_ok(), "{:?}", tree.validate());
     // Exactly the lights of positive energy are in the tree.
-    for (l, (light, &path)) in lights.iter().zip(tree.paths()).enumerate() {
+    for (l, light) in lights.iter().enumerate() {
+        let path = tree.path(l as u32);
         prop_assert_eq!(
             path != 0,
             light.energy() > 0.0,
@@ -262,7 +263,7 @@ fn only_zero_energy_lights_sample_nothing() {
 /// public nodes and `eval4`: at each node the slot weights are the importances, or below the
 /// root the slots' energies when all importances are 0; at the root a zero sum means no light.
 fn reference_pmf(tree: &LightTree, imp: &TlImportance, light: u32) -> f64 {
-    let path = tree.paths()[light as usize];
+    let path = tree.path(light);
     if path == 0 {
         return 0.0;
     }
@@ -279,11 +280,11 @@ fn reference_pmf(tree: &LightTree, imp: &TlImportance, light: u32) -> f64 {
         } else if level == 0 {
             return 0.0;
         } else {
-            let e = n.energy.map(f64::from);
+            let e = n.energies().map(f64::from);
             (e, e.iter().sum())
         };
         pmf *= w[k] / sum;
-        match n.slot(k) {
+        match tree.slot(n, k) {
             Slot::Node(c) => node = c as usize,
             Slot::Light(l) => {
                 assert_eq!(l, light, "path of light {light} ends at light {l}");
@@ -555,7 +556,7 @@ fn far_field_frequencies_follow_power() {
 fn lights_under(tree: &LightTree, node: u32, out: &mut Vec<u32>) {
     let n = &tree.nodes()[node as usize];
     for k in 0..4 {
-        match n.slot(k) {
+        match tree.slot(n, k) {
             Slot::Light(l) => out.push(l),
             Slot::Node(c) => lights_under(tree, c, out),
             Slot::Empty => {}
@@ -577,7 +578,7 @@ fn zero_importance_fallback() {
     let mut fallback = Vec::new();
     for (i, parent) in tree.nodes().iter().enumerate() {
         for k in 0..4 {
-            if let Slot::Node(c) = parent.slot(k) {
+            if let Slot::Node(c) = tree.slot(parent, k) {
                 let child = &tree.nodes()[c as usize];
                 let positive = imp.eval(&parent.bounds(k)) > 0.0;
                 let w = imp.eval4(child).to_array();
@@ -612,8 +613,8 @@ fn zero_importance_fallback() {
         // Leaf slots of the fallback node: pmfs in the ratio of their energies.
         let node = &tree.nodes()[c as usize];
         let leaves: Vec<(u32, f32)> = (0..4)
-            .filter_map(|k| match node.slot(k) {
-                Slot::Light(l) => Some((l, node.energy[k])),
+            .filter_map(|k| match tree.slot(node, k) {
+                Slot::Light(l) => Some((l, node.energy_of(k))),
                 _ => None,
             })
             .collect();
