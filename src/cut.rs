@@ -40,9 +40,9 @@
 //! squared, scales its relative variance into a share of the total's.
 
 use crate::importance::{BlImportance, Importance, TlImportance};
-use core::cell::Cell;
 use crate::sample::{sanitize, LightSample, Start, WalkStart, MIN_PMF, ONE_MINUS_EPSILON};
 use crate::tree::{path_len, Child, LightTree, Node4, Slot};
+use core::cell::Cell;
 
 /// `x > 0` (false for NaN).
 #[inline(always)]
@@ -437,7 +437,9 @@ impl LightCut {
     /// a time, interleaved, so their dependent steps overlap.
     ///
     /// ```
-    /// use manylights::{Light, LightCut, LightTree, Memo, SplitOptions, TlImportance, CUT_CAPACITY};
+    /// use manylights::{
+    ///     Light, LightCut, LightTree, Memo, MemoTable, SplitOptions, TlImportance, CUT_CAPACITY,
+    /// };
     /// use glam::Vec3;
     ///
     /// let lights: Vec<Light> = (0..200)
@@ -449,8 +451,10 @@ impl LightCut {
     /// let tree = LightTree::build(&lights)?;
     /// let at = TlImportance::new(Vec3::new(3.0, 4.0, 0.0), Vec3::Z);
     /// let cut = LightCut::build_split(&tree, &at, &SplitOptions::default());
-    /// // Many samples at this point: let the importance remember the nodes it evaluated.
-    /// let memo = Memo::new(at, &tree);
+    /// // Many samples at this point: let the importance remember the nodes it evaluated (in a
+    /// // table kept per thread and reused at every point).
+    /// let table = MemoTable::new();
+    /// let memo = Memo::new(at, &tree, &table);
     /// let (u, mut out) = ([0.5; CUT_CAPACITY], [None; CUT_CAPACITY]);
     /// cut.sample_each(&tree, &memo, &u[..cut.len()], &mut out[..cut.len()]);
     /// for (i, s) in out[..cut.len()].iter().enumerate() {
@@ -570,7 +574,10 @@ impl LightCut {
         out: &mut [f32],
     ) {
         let mut within = [None; CUT_CAPACITY];
-        for (ls, os) in lights.chunks(CUT_CAPACITY).zip(out.chunks_mut(CUT_CAPACITY)) {
+        for (ls, os) in lights
+            .chunks(CUT_CAPACITY)
+            .zip(out.chunks_mut(CUT_CAPACITY))
+        {
             let m = ls.len().min(os.len());
             self.walk_each(tree, imp, &ls[..m], &mut within[..m], true);
             for j in 0..m {

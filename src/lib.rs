@@ -69,7 +69,7 @@ pub use error::{
     VplField,
 };
 pub use importance::conty_kulla::Receiver;
-pub use importance::{BlImportance, Importance, Memo, TlImportance};
+pub use importance::{BlImportance, Importance, Memo, MemoTable, TlImportance};
 pub use light::{Light, MAX_COORDINATE, MAX_LIGHT_ENERGY, MAX_TOTAL_ENERGY};
 pub use light_sample::LightPoint;
 pub use light_set::{AliasTable, LightSet};

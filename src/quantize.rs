@@ -251,7 +251,8 @@ pub fn encode_spheres(spheres: &[Sphere]) -> ([f32; 3], u8, [u32; 4]) {
 
 /// The smallest exponent (biased, 1..=254) whose scale is at least `x`.
 fn exponent_at_least(x: f32) -> u8 {
-    if !(x > f32::MIN_POSITIVE) {
+    // NaN and anything at or below the smallest normal number: the smallest scale.
+    if x.is_nan() || x <= f32::MIN_POSITIVE {
         return 1;
     }
     let bits = x.to_bits();

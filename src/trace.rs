@@ -27,8 +27,7 @@ fn may_hit4(node: &Node4, x: Vec3, d: Vec3) -> u32 {
         cz - f32x4::splat(x.z),
     );
     let extent = cx.abs().fast_max(cy.abs()).fast_max(cz.abs());
-    let r = s.r * f32x4::splat(1.0 + 1e-4)
-        + f32x4::splat(1e-6) * (f32x4::ONE + extent);
+    let r = s.r * f32x4::splat(1.0 + 1e-4) + f32x4::splat(1e-6) * (f32x4::ONE + extent);
     let r2 = r * r;
     let v2 = vx * vx + vy * vy + vz * vz;
     let b = vx * f32x4::splat(d.x) + vy * f32x4::splat(d.y) + vz * f32x4::splat(d.z);

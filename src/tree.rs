@@ -613,7 +613,8 @@ impl LightTree {
         if n_nodes > max || n_lights > max || n_leaves > n_lights || depth > MAX_DEPTH {
             return Err(FormatError::Invalid(ValidationError::BadStats));
         }
-        let (n_nodes, n_lights, n_leaves) = (n_nodes as usize, n_lights as usize, n_leaves as usize);
+        let (n_nodes, n_lights, n_leaves) =
+            (n_nodes as usize, n_lights as usize, n_leaves as usize);
         let path_width = if depth <= SHORT_PATH_DEPTH { 4 } else { 8 };
         let node_bytes = n_nodes * core::mem::size_of::<Node4>();
         let variance_bytes = n_nodes * 2;

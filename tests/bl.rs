@@ -42,9 +42,9 @@ use glam::{DVec3, Vec3};
 use manylights::cut::MIN_CUT_SIZE;
 use manylights::importance::brdf_oriented::DEFENSIVE;
 use manylights::material::ShadingField;
-use manylights::{Child, 
-    BlImportance, CutOptions, Importance, Light, LightCut, LightTree, Material, Node4, Receiver,
-    ShadingPoint, Slot, CUT_CAPACITY,
+use manylights::{
+    BlImportance, Child, CutOptions, Importance, Light, LightCut, LightTree, Material, Node4,
+    Receiver, ShadingPoint, Slot, CUT_CAPACITY,
 };
 use std::f64::consts::PI;
 
@@ -1601,7 +1601,9 @@ fn single_sphere(
     }];
     let tree = LightTree::build(&lights).unwrap();
     let node = &tree.nodes()[0];
-    let k = (0..4).find(|&k| tree.slot(node, k) == Slot::Light(0)).unwrap();
+    let k = (0..4)
+        .find(|&k| tree.slot(node, k) == Slot::Light(0))
+        .unwrap();
     let b = node.bounds(k);
     let imp = BlImportance::new(&ShadingPoint {
         position: Vec3::ZERO,

@@ -76,7 +76,10 @@ fn check_tree(tree: &LightTree, lights: &[Light]) {
         let path = tree.path(l as u32);
         if light.energy() > 0.0 {
             let (node, k) = tree.slot_at(path).expect("path leads into the tree");
-            assert_eq!(tree.slot(&tree.nodes()[node as usize], k), Slot::Light(l as u32));
+            assert_eq!(
+                tree.slot(&tree.nodes()[node as usize], k),
+                Slot::Light(l as u32)
+            );
         } else {
             assert_eq!(path, 0, "zero-energy light {l} has a path");
         }

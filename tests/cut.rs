@@ -35,9 +35,9 @@ use common::{
 use glam::Vec3;
 use manylights::cut::MIN_CUT_SIZE;
 use manylights::sample::MIN_PMF;
-use manylights::{Child, 
-    Importance, Light, LightCut, LightTree, Node4, Receiver, Slot, SplitOptions, TlImportance,
-    CUT_CAPACITY,
+use manylights::{
+    Child, Importance, Light, LightCut, LightTree, Node4, Receiver, Slot, SplitOptions,
+    TlImportance, CUT_CAPACITY,
 };
 use proptest::prelude::{any, prop_oneof, Strategy};
 use proptest::test_runner::TestCaseError;

@@ -254,7 +254,10 @@ fn eval_matches_math_md_formula() {
         node.origin = origin;
         node.exponent = exponent;
         node.sphere[0] = words[0];
-        node.set_energy_code(0, manylights::quantize::encode_energy(rng.log_range(1e-3, 1e3)));
+        node.set_energy_code(
+            0,
+            manylights::quantize::encode_energy(rng.log_range(1e-3, 1e3)),
+        );
         node.cone[0] = manylights::quantize::encode_cone(&cone);
         node.mask = 0x10;
         let b = node.bounds(0);

@@ -297,7 +297,7 @@ impl ClusterView4 {
 
 impl Importance for TlImportance {
     /// The 4-wide twin of [`TlImportance::eval`], operation for operation.
-    #[inline]
+    #[inline(always)]
     fn eval4(&self, node: &Node4) -> f32x4 {
         let zero = f32x4::ZERO;
         if !self.valid {

@@ -3,7 +3,9 @@
 //! (disjointness, coverage of the opened nodes, `pmf_in` ownership).
 
 use super::Rng;
-use manylights::{Child, Cluster, Importance, LightCut, LightSample, LightTree, Memo, Node4, Slot};
+use manylights::{
+    Child, Cluster, Importance, LightCut, LightSample, LightTree, Memo, MemoTable, Node4, Slot,
+};
 use std::collections::HashSet;
 
 macro_rules! ensure {
@@ -330,7 +332,8 @@ pub fn check_batched<I: Importance + Copy>(
     us: &[f32],
     ctx: &str,
 ) -> Result<(), String> {
-    let memo = Memo::new(imp, tree);
+    let table = MemoTable::new();
+    let memo = Memo::new(imp, tree, &table);
     for pass in 0..2 {
         let imp_b: &dyn Importance = if pass == 0 { &imp } else { &memo };
         let len = cut.len();
