@@ -1,6 +1,6 @@
 //! Conservative quantisation of a [`crate::Node4`]'s four child clusters into one cache line
 //! (the layout is documented on [`crate::Node4`]; the derivation is in docs/formulas.md,
-//! section 15).
+//! section 14).
 //!
 //! Every encoding rounds outwards, so the decoded bounds always contain what they bound and
 //! the importance computed from them stays conservative:
@@ -8,7 +8,7 @@
 //!   child's centre is `origin + q · 2^e` with `q` in 0..=255 per axis (rounded to nearest)
 //!   and its radius `q_r · 2^e` with `q_r` in 0..=255, rounded up past the true radius plus
 //!   the distance the rounding moved the centre (as compressed wide BVHs quantise child boxes
-//!   to 8 bits of the parent's frame, Ylitie et al. 2017, section 3.1).
+//!   to 8 bits of the parent's frame, Ylitie, Karras & Laine 2017).
 //! - **Cones**: the axis as an 8+8-bit octahedral vector, θo widened by the axis' own
 //!   quantisation error, and θo as `ceil(255 · sin(θ/2))` (8 bits): `sin(θ/2)` decodes
 //!   to `cos θ = 1 − 2s²`, `sin θ = 2s·sqrt(1 − s²)` without trigonometry; θe ≤ π/2 is coded

@@ -39,7 +39,7 @@ pub const MAX_LIGHTS: u32 = (1 << 31) - 2;
 /// A slot's centre is `origin + code · scale` per axis and its radius `code · scale`; its
 /// cone and energy decode as in the crate's `quantize` module (an energy code is the upper 20
 /// bits of the f32, rounded up). Every code is rounded outwards
-/// from what it bounds (see docs/formulas.md, section 15), so the decoded bounds contain the
+/// from what it bounds (see docs/formulas.md, section 14), so the decoded bounds contain the
 /// lights below the slot and importances stay conservative. The inner children of a node are
 /// consecutive nodes, `child_base`, `child_base + 1`, … in slot order, and its light slots
 /// consecutive entries of the leaf array from `leaf_base`.
