@@ -60,6 +60,8 @@ impl BLight {
                 position: v(p),
                 intensity: pos(i, 0.0),
             },
+            // Just under π, not π: the spot's angle as the targets have always drawn it.
+            #[allow(clippy::approx_constant)]
             BLight::Spot(p, d, i, h, f) => {
                 let half = pos(h, 1e-3).min(3.14);
                 Light::Spot {
