@@ -1,6 +1,6 @@
 //! The inputs and checks of the core's fuzz targets, in one place for the two that run them:
 //! the cargo-fuzz targets in `fuzz/fuzz_targets/` (each one line: decode, then
-//! [`check`](batch::check)) and the core's `tests/fuzz_regressions.rs`, which replays every
+//! [`check`](sptd::check)) and the core's `tests/fuzz_regressions.rs`, which replays every
 //! committed crash input under `fuzz/regressions/<target>/` through the same checks, so that
 //! `cargo test` keeps them fixed.
 //!
@@ -15,6 +15,7 @@
 //! | [`tree_bytes`] | bytes to `LightTree::from_bytes`: an error or a tree that validates and samples |
 //! | [`pdf_consistency`] | sampled pmfs equal queried ones, pmfs sum to 1, estimates finite |
 //! | [`batch`] | the batched cut queries equal the single calls bit for bit |
+//! | [`sptd`] | the BRDF-oriented cap integral: finite, ≥ 0, ≤ the albedo (with [`sptd::ALBEDO_TOLERANCE`]) |
 
 use arbitrary::{Arbitrary, Unstructured};
 
@@ -22,6 +23,7 @@ pub mod batch;
 pub mod bounded;
 pub mod build_bad_input;
 pub mod pdf_consistency;
+pub mod sptd;
 pub mod tree_bytes;
 
 /// A fuzz target: its name (as in `fuzz/Cargo.toml` and under `fuzz/regressions/`) and its
@@ -35,7 +37,7 @@ pub struct Target {
 }
 
 /// Every fuzz target.
-pub const TARGETS: [Target; 4] = [
+pub const TARGETS: [Target; 5] = [
     Target {
         name: "build_bad_input",
         run: run::<build_bad_input::Input>,
@@ -51,6 +53,10 @@ pub const TARGETS: [Target; 4] = [
     Target {
         name: "batch",
         run: run::<batch::Input>,
+    },
+    Target {
+        name: "sptd",
+        run: run::<sptd::Input>,
     },
 ];
 
