@@ -16,6 +16,7 @@
 //! | [`pdf_consistency`] | sampled pmfs equal queried ones, pmfs sum to 1, estimates finite |
 //! | [`batch`] | the batched cut queries equal the single calls bit for bit |
 //! | [`sptd`] | the BRDF-oriented cap integral: finite, ≥ 0, ≤ the albedo (with [`sptd::ALBEDO_TOLERANCE`]) |
+//! | [`vpl`] | VPL acceptance: p in (0, 1], finite scaled intensity, errors naming the field |
 
 use arbitrary::{Arbitrary, Unstructured};
 
@@ -25,6 +26,7 @@ pub mod build_bad_input;
 pub mod pdf_consistency;
 pub mod sptd;
 pub mod tree_bytes;
+pub mod vpl;
 
 /// A fuzz target: its name (as in `fuzz/Cargo.toml` and under `fuzz/regressions/`) and its
 /// check on raw bytes ([`run`]).
@@ -37,7 +39,7 @@ pub struct Target {
 }
 
 /// Every fuzz target.
-pub const TARGETS: [Target; 5] = [
+pub const TARGETS: [Target; 6] = [
     Target {
         name: "build_bad_input",
         run: run::<build_bad_input::Input>,
@@ -57,6 +59,10 @@ pub const TARGETS: [Target; 5] = [
     Target {
         name: "sptd",
         run: run::<sptd::Input>,
+    },
+    Target {
+        name: "vpl",
+        run: run::<vpl::Input>,
     },
 ];
 
