@@ -1,9 +1,14 @@
-//! The batched cut queries (`sample_each`, `pmf_in_each`, `pmf_each`) equal the single calls
-//! bit for bit on arbitrary bounded inputs.
+//! The batch calls across shading points (`LightTree::sample_batch` and `pmf_batch`, TL and BL
+//! importances) and the batched cut queries (`sample_each`, `pmf_in_each`, `pmf_each`) equal
+//! the single calls bit for bit on arbitrary bounded inputs. The batch's shading points are the
+//! input's point and, with its normal, ωo and material, points next to each light (so the input
+//! format, and the committed crash files, stay as they were).
 
 use crate::bounded::{unit, BLight, BPoint};
 use arbitrary::Arbitrary;
-use manylights::{BlImportance, CutOptions, LightCut, LightTree, SplitOptions, TlImportance};
+use manylights::{
+    BlImportance, CutOptions, LightCut, LightTree, ShadingPoint, SplitOptions, TlImportance,
+};
 
 /// The target's input.
 #[derive(Arbitrary, Debug)]
@@ -50,6 +55,59 @@ pub fn check(input: &Input) {
             within[k],
             split.pmf_in(&tree, &tl, l),
             "pmf_in_each, light {l}"
+        );
+    }
+    // Across shading points.
+    let mut sps = vec![sp];
+    for (j, l) in lights.iter().take(40).enumerate() {
+        let at = l.bounds().sphere.center + sp.normal * (0.01 * (j % 5) as f32);
+        sps.push(ShadingPoint { position: at, ..sp });
+    }
+    let k = sps.len();
+    let us_k: Vec<f32> = (0..k)
+        .map(|j| unit(input.us.get(j).copied().unwrap_or(0.7)))
+        .collect();
+    let ls_k: Vec<u32> = (0..k)
+        .map(|j| ls.get(j).copied().unwrap_or(j as u32 % (n + 1)))
+        .collect();
+    let tls: Vec<TlImportance> = sps
+        .iter()
+        .map(|p| TlImportance::new(p.position, p.normal))
+        .collect();
+    let bls: Vec<BlImportance> = sps
+        .iter()
+        .filter_map(|p| BlImportance::new(p).ok())
+        .collect();
+    let mut s_out = vec![None; k];
+    let mut p_out = vec![0.0f32; k];
+    tree.sample_batch(&tls, &us_k, &mut s_out).unwrap();
+    tree.pmf_batch(&tls, &ls_k, &mut p_out).unwrap();
+    for j in 0..k {
+        assert_eq!(
+            s_out[j],
+            tree.sample(&tls[j], us_k[j]),
+            "sample_batch TL, point {j}"
+        );
+        assert_eq!(
+            p_out[j].to_bits(),
+            tree.pmf(&tls[j], ls_k[j]).to_bits(),
+            "pmf_batch TL, point {j}"
+        );
+    }
+    let kb = bls.len();
+    tree.sample_batch(&bls, &us_k[..kb], &mut s_out[..kb])
+        .unwrap();
+    tree.pmf_batch(&bls, &ls_k[..kb], &mut p_out[..kb]).unwrap();
+    for j in 0..kb {
+        assert_eq!(
+            s_out[j],
+            tree.sample(&bls[j], us_k[j]),
+            "sample_batch BL, point {j}"
+        );
+        assert_eq!(
+            p_out[j].to_bits(),
+            tree.pmf(&bls[j], ls_k[j]).to_bits(),
+            "pmf_batch BL, point {j}"
         );
     }
     if let Ok(bl) = BlImportance::new(&sp) {
