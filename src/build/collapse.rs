@@ -245,6 +245,22 @@ fn open(bin: &[BinNode], plans: &[Plan], free: &FreeTable, b: usize) -> ([Src; 4
     out
 }
 
+/// The exact bounds of a free-form run's lights: the sphere enclosing theirs and the union of
+/// their cones.
+fn exact_of_run(bin: &[BinNode], run: &Run) -> (Sphere, Cone) {
+    let mut spheres = [Sphere::enclosing(&[]); FREE_MAX];
+    let mut cone: Option<Cone> = None;
+    for (i, &b) in run.leaves[..run.len].iter().enumerate() {
+        let bounds = &bin[b as usize].bounds;
+        spheres[i] = bounds.sphere;
+        cone = Some(cone.map_or(bounds.cone, |c| c.union(bounds.cone)));
+    }
+    (
+        Sphere::enclosing(&spheres[..run.len]),
+        cone.unwrap_or(Cone::SPHERE),
+    )
+}
+
 /// A slot of the laid-out tree before quantisation.
 #[derive(Clone, Copy)]
 enum Laid {
@@ -272,6 +288,10 @@ struct Collapser<'a> {
     nodes: Vec<Node4>,
     variances: Vec<u16>,
     laid: Vec<[Laid; 4]>,
+    /// Per node, the exact bounds of its lights (the binary node's, or those of a free-form
+    /// run): what the parent's slot is widened from, so that quantisation errors do not
+    /// accumulate up the tree.
+    exact: Vec<(Sphere, Cone)>,
     leaves: Vec<u32>,
     paths: Vec<u64>,
     depth: u32,
@@ -284,6 +304,10 @@ impl Collapser<'_> {
             return Err(BuildError::TooDeep { depth: level + 1 });
         }
         self.depth = self.depth.max(level + 1);
+        self.exact[node] = match src {
+            Src::Bin(b) => (self.bin[b].bounds.sphere, self.bin[b].bounds.cone),
+            Src::Run(run) => exact_of_run(self.bin, &run),
+        };
         let (set, len) = match src {
             Src::Bin(b) if self.bin[b].light.is_some() => ([Src::Bin(b); 4], 1),
             Src::Bin(b) => open(self.bin, &self.plans, &self.free, b),
@@ -321,6 +345,8 @@ impl Collapser<'_> {
         self.nodes[node].mask = mask;
         self.nodes.resize(first + n_inner, Node4::EMPTY);
         self.laid.resize(first + n_inner, [Laid::Empty; 4]);
+        self.exact
+            .resize(first + n_inner, (Sphere::enclosing(&[]), Cone::SPHERE));
         for &(idx, c, p) in &inner[..n_inner] {
             self.fill(idx, c, p, level + 1)?;
         }
@@ -382,30 +408,40 @@ impl Collapser<'_> {
                 0.0
             };
             self.variances[i] = quantize::encode_bf16(variance);
-            // What the parent's slot must contain: the decoded slots.
-            let mut decoded = [spheres[0]; 4];
-            let mut cone: Option<Cone> = None;
+            // What the parent's slot must contain: the decoded slots. It is the exact bounds of
+            // the node's lights, widened just enough to contain them (so the rounding of one
+            // level is not compounded by the next).
+            let (exact_sphere, exact_cone) = self.exact[i];
+            let mut radius = f64::from(exact_sphere.radius);
+            let mut cone = exact_cone;
             let mut energy = 0.0f64;
-            let mut m = 0;
             for (k, p) in parts.iter().enumerate() {
                 if p.is_none() {
                     continue;
                 }
-                decoded[m] = node.sphere(k);
-                m += 1;
-                let c = node.cone(k);
-                cone = Some(match cone {
-                    Some(u) => u.union(c),
-                    None => c,
-                });
+                let d = node.sphere(k);
+                let c = exact_sphere.center;
+                let dist = crate::math::sqrt64(
+                    crate::math::sq(f64::from(d.center.x) - f64::from(c.x))
+                        + crate::math::sq(f64::from(d.center.y) - f64::from(c.y))
+                        + crate::math::sq(f64::from(d.center.z) - f64::from(c.z)),
+                );
+                radius = radius.max(dist + f64::from(d.radius));
+                let dc = node.cone(k);
+                if !cone.contains(&dc, 0.0) {
+                    cone = cone.union(dc);
+                }
                 energy += f64::from(node.energy_of(k));
             }
-            let sphere = Sphere::enclosing(&decoded[..m]);
+            let sphere = Sphere {
+                center: exact_sphere.center,
+                radius: crate::light::outward(radius),
+            };
             summary[i] = Some(Summary {
                 bounds: LightBounds {
                     aabb: crate::bounds::Aabb::EMPTY,
                     sphere,
-                    cone: cone.unwrap_or(Cone::SPHERE),
+                    cone,
                     energy: round_up(energy),
                 },
                 count,
@@ -437,6 +473,7 @@ pub(crate) fn collapse(bin: &BinTree, n_lights: usize) -> Result<LightTree, Buil
         nodes: Vec::with_capacity(bin.nodes.len() / 5 + 1),
         variances: Vec::new(),
         laid: Vec::with_capacity(bin.nodes.len() / 5 + 1),
+        exact: Vec::with_capacity(bin.nodes.len() / 5 + 1),
         leaves: Vec::with_capacity(bin.nodes.len() / 2 + 1),
         paths: vec![0; n_lights],
         depth: 0,
@@ -444,6 +481,7 @@ pub(crate) fn collapse(bin: &BinTree, n_lights: usize) -> Result<LightTree, Buil
     if !bin.nodes.is_empty() {
         c.nodes.push(Node4::EMPTY);
         c.laid.push([Laid::Empty; 4]);
+        c.exact.push((Sphere::enclosing(&[]), Cone::SPHERE));
         c.fill(0, Src::Bin(0), 1, 0)?;
         c.plans = Vec::new();
         c.quantise();

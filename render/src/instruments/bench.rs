@@ -170,7 +170,9 @@ pub fn run(cfg: &BenchConfig) -> serde_json::Value {
         for (p, uc) in memo_points.iter().zip(us.chunks(per)) {
             let imp = TlImportance::new(p.position, p.normal);
             for &u in uc {
-                acc += tree.sample(black_box(&imp), u).map_or(0.0, |s| f64::from(s.pmf));
+                acc += tree
+                    .sample(black_box(&imp), u)
+                    .map_or(0.0, |s| f64::from(s.pmf));
             }
         }
         black_box(acc);
@@ -181,7 +183,9 @@ pub fn run(cfg: &BenchConfig) -> serde_json::Value {
         for (p, uc) in memo_points.iter().zip(us.chunks(per)) {
             let memo = Memo::new(TlImportance::new(p.position, p.normal), &tree, &table);
             for &u in uc {
-                acc += tree.sample(black_box(&memo), u).map_or(0.0, |s| f64::from(s.pmf));
+                acc += tree
+                    .sample(black_box(&memo), u)
+                    .map_or(0.0, |s| f64::from(s.pmf));
             }
         }
         black_box(acc);
@@ -385,7 +389,10 @@ pub fn table(r: &serde_json::Value) -> String {
         ("4-wide TL (Msamples/s)", "tl_msamples_per_s"),
         ("binary baseline (Msamples/s)", "baseline_msamples_per_s"),
         ("speedup", "speedup"),
-        ("4-wide TL, batch of 256 points (Msamples/s)", "tl_batch_msamples_per_s"),
+        (
+            "4-wide TL, batch of 256 points (Msamples/s)",
+            "tl_batch_msamples_per_s",
+        ),
         ("batch / single", "batch_speedup"),
         ("pmf queries (M/s)", "pmf_mqueries_per_s"),
         ("pmf queries, batch (M/s)", "pmf_batch_mqueries_per_s"),
