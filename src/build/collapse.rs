@@ -408,35 +408,11 @@ impl Collapser<'_> {
                 0.0
             };
             self.variances[i] = quantize::encode_bf16(variance);
-            // What the parent's slot must contain: the decoded slots. It is the exact bounds of
-            // the node's lights, widened just enough to contain them (so the rounding of one
-            // level is not compounded by the next).
-            let (exact_sphere, exact_cone) = self.exact[i];
-            let mut radius = f64::from(exact_sphere.radius);
-            let mut cone = exact_cone;
-            let mut energy = 0.0f64;
-            for (k, p) in parts.iter().enumerate() {
-                if p.is_none() {
-                    continue;
-                }
-                let d = node.sphere(k);
-                let c = exact_sphere.center;
-                let dist = crate::math::sqrt64(
-                    crate::math::sq(f64::from(d.center.x) - f64::from(c.x))
-                        + crate::math::sq(f64::from(d.center.y) - f64::from(c.y))
-                        + crate::math::sq(f64::from(d.center.z) - f64::from(c.z)),
-                );
-                radius = radius.max(dist + f64::from(d.radius));
-                let dc = node.cone(k);
-                if !cone.contains(&dc, 0.0) {
-                    cone = cone.union(dc);
-                }
-                energy += f64::from(node.energy_of(k));
-            }
-            let sphere = Sphere {
-                center: exact_sphere.center,
-                radius: crate::light::outward(radius),
-            };
+            // What the parent's slot bounds: the exact bounds of the node's lights (each
+            // level is rounded from the exact bounds, so rounding never compounds: a slot
+            // need not contain its child's slots, only the lights below it).
+            let (sphere, cone) = self.exact[i];
+            let energy = sum;
             summary[i] = Some(Summary {
                 bounds: LightBounds {
                     aabb: crate::bounds::Aabb::EMPTY,
