@@ -771,10 +771,11 @@ impl Walk<'_> {
                     }
                     // Every ancestor bounds the light. The exact light is only known to
                     // `validate_lights`; here its leaf slot, shrunk by what its own rounding
-                    // may have added (centre ≤ √3/2 steps, radius ≤ 1.25 more; the cone ≤ the
-                    // axis error and a step of each angle), must fit.
+                    // may have added, must fit: the decoded sphere reaches at most
+                    // 2·|c' − c| + 1.25 steps ≤ (√3 + 1.25) steps beyond the light's (and the
+                    // cone the axis error and a step of each angle beyond the light's).
                     let (leaf, cone) = (node.sphere(k), node.cone(k));
-                    let shrink = 2.2 * node.scale();
+                    let shrink = 3.1 * node.scale();
                     for (level, (a, c)) in self.ancestors.iter().enumerate() {
                         let tol = sphere_tolerance(a) + shrink;
                         if !a.contains(&leaf, tol) || !c.contains(&cone, LEAF_CONE_SLACK) {

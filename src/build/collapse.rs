@@ -4,8 +4,8 @@
 //! every node, the slots that cover its subtree, minimising `Σ_nodes (NODE_WEIGHT + lights
 //! under the node)`: the number of nodes (the memory a tree takes) traded against the sum of
 //! all lights' depths. Slots are binary clusters, opened costlier child first on ties, as
-//! wide-BVH collapsing does; and a subtree of at most [`FREE_MAX`] lights may instead be
-//! packed free-form, its lights (in the binary tree's depth-first order, which keeps
+//! wide-BVH collapsing does; and, with [`crate::BuildOptions::compact`], a subtree of at most
+//! [`FREE_MAX`] lights may instead be packed free-form, its lights (in the binary tree's depth-first order, which keeps
 //! neighbours together) grouped into consecutive runs so that its nodes are full — the binary
 //! tree alone leaves many nodes of two or three lights at the bottom.
 //!
@@ -90,7 +90,7 @@ struct Plan {
 /// Computes the plans bottom-up. Opening is preferred on ties, so the tree stays shallow;
 /// among equal counts, the split giving the costlier child more slots wins; a free-form
 /// cover is taken only when strictly cheaper than the binary one.
-fn plan(bin: &[BinNode], free: &FreeTable) -> Vec<Plan> {
+fn plan(bin: &[BinNode], free: &FreeTable, free_max: usize) -> Vec<Plan> {
     let mut plans = vec![Plan::default(); bin.len()];
     for b in (0..bin.len()).rev() {
         if bin[b].light.is_some() {
@@ -112,7 +112,7 @@ fn plan(bin: &[BinNode], free: &FreeTable) -> Vec<Plan> {
         };
         let m = bin[b].count as usize;
         let free_cost = |k: usize| {
-            if m <= FREE_MAX {
+            if m <= free_max {
                 free.cost[m][k]
             } else {
                 u64::MAX
@@ -440,11 +440,16 @@ fn round_up(x: f64) -> f32 {
 
 /// Turns the binary tree into the flat, quantised 4-wide tree; `n_lights` is the length of
 /// the build's input (lights absent from `bin` get path 0).
-pub(crate) fn collapse(bin: &BinTree, n_lights: usize) -> Result<LightTree, BuildError> {
+/// With `compact`, subtrees of at most [`FREE_MAX`] lights may be packed free-form.
+pub(crate) fn collapse(
+    bin: &BinTree,
+    n_lights: usize,
+    compact: bool,
+) -> Result<LightTree, BuildError> {
     let free = FreeTable::new();
     let mut c = Collapser {
         bin: &bin.nodes,
-        plans: plan(&bin.nodes, &free),
+        plans: plan(&bin.nodes, &free, if compact { FREE_MAX } else { 1 }),
         free,
         nodes: Vec::with_capacity(bin.nodes.len() / 5 + 1),
         variances: Vec::new(),
