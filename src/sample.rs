@@ -205,9 +205,7 @@ pub(crate) struct WalkStart {
     pub floor: f32,
 }
 
-/// Descents (and pmf walks) a batch call keeps in flight. Eight covers the memory latency of a
-/// descent at 10⁶ lights (about ten levels) several times over; other widths are not measured
-/// yet.
+/// Descents (and pmf walks) a batch call keeps in flight (other widths are not measured yet).
 pub const BATCH_LANES: usize = 8;
 
 impl LightTree {
