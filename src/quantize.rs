@@ -162,7 +162,9 @@ pub fn decode_energy(code: u32) -> f32 {
 
 /// The bfloat16 code of `x ≥ 0` (the upper 16 bits of its f32), rounded up.
 pub fn encode_bf16(x: f32) -> u16 {
-    (encode_energy(x) >> 4).min(0x7F7F) as u16 + u16::from(encode_energy(x) & 0xF != 0)
+    let bits = if x > 0.0 { x.to_bits() } else { 0 };
+    let up = (bits >> 16) + u32::from(bits & 0xFFFF != 0);
+    up.min(0x7F7F) as u16
 }
 
 /// Decodes [`encode_bf16`].
