@@ -244,19 +244,22 @@ fn eval_matches_math_md_formula() {
             theta_o,
             theta_e,
         };
-        let (qa, qe) = manylights::quantize::encode_cone(&cone);
-        let mut node = Node4::EMPTY;
-        node.center_x[0] = c.x;
-        node.center_y[0] = c.y;
-        node.center_z[0] = c.z;
-        node.radius[0] = match rng.below(3) {
+        let radius = match rng.below(3) {
             0 => 0.0,
             _ => rng.log_range(1e-3, 50.0),
         };
-        node.energy[0] = rng.log_range(1e-3, 1e3);
-        node.axis[0] = qa;
-        node.angles[0] = qe;
-        node.child[0] = 0x8000_0000;
+        let sphere = manylights::bounds::Sphere { center: c, radius };
+        let (origin, exponent, words) = manylights::quantize::encode_spheres(&[sphere]);
+        let mut node = Node4::EMPTY;
+        node.origin = origin;
+        node.exponent = exponent;
+        node.sphere[0] = words[0];
+        node.set_energy_code(
+            0,
+            manylights::quantize::encode_energy(rng.log_range(1e-3, 1e3)),
+        );
+        node.cone[0] = manylights::quantize::encode_cone(&cone);
+        node.mask = 0x10;
         let b = node.bounds(0);
         let receiver = RECEIVERS[rng.below(3)];
         let imp = TlImportance::with_receiver(x, rng.unit(), receiver);

@@ -6,7 +6,7 @@ pub(crate) mod saoh;
 
 use crate::error::BuildError;
 use crate::light::{Light, MAX_TOTAL_ENERGY};
-use crate::tree::{LightTree, LEAF_BIT};
+use crate::tree::{LightTree, MAX_LIGHTS};
 use alloc::vec::Vec;
 use saoh::{BinTree, Prim};
 
@@ -25,7 +25,7 @@ impl Default for BuildOptions {
 
 /// Validates every light and returns the ones with positive energy, bounded.
 pub(crate) fn prepare(lights: &[Light]) -> Result<Vec<Prim>, BuildError> {
-    if lights.len() >= (LEAF_BIT - 1) as usize {
+    if lights.len() > MAX_LIGHTS as usize {
         return Err(BuildError::TooManyLights {
             count: lights.len(),
         });

@@ -39,20 +39,6 @@ pub(crate) struct BinNode {
     pub right: u32,
 }
 
-impl BinNode {
-    /// Variance of the lights' energies over their squared mean (dimensionless, at most
-    /// `count − 1`, so it fits an f32 whatever the energies).
-    pub fn energy_rel_variance(&self) -> f32 {
-        let n = f64::from(self.count);
-        let mean = self.energy_sum / n;
-        if mean <= 0.0 {
-            return 0.0;
-        }
-        let var = (self.energy_sq_sum / n - mean * mean).max(0.0);
-        (var / (mean * mean)) as f32
-    }
-}
-
 /// The binary tree; node 0 is the root.
 pub(crate) struct BinTree {
     pub nodes: Vec<BinNode>,
