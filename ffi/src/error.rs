@@ -74,6 +74,14 @@ impl Error {
         }
     }
 
+    /// A broken invariant of the library itself.
+    pub(crate) fn internal(message: impl fmt::Display) -> Error {
+        Error {
+            status: ML_ERR_INTERNAL,
+            message: format!("internal error ({message})"),
+        }
+    }
+
     /// A caught panic.
     #[doc(hidden)]
     pub fn from_panic(payload: Box<dyn std::any::Any + Send>) -> Error {

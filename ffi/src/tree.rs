@@ -10,9 +10,7 @@ use crate::types::{
 };
 use glam::Vec3;
 use manylights::light_sample::{pdf_point, sample_point};
-use manylights::{
-    BlImportance, BuildOptions, Importance, Light, LightSample, LightSet, LightTree, TlImportance,
-};
+use manylights::{BlImportance, BuildOptions, Light, LightSet, LightTree, TlImportance};
 use std::sync::Arc;
 
 /// What a tree handle holds: the lights with their tree (built from descriptors), or a tree
@@ -363,37 +361,13 @@ pub(crate) fn bl_importance(
 }
 
 /// Shading points per chunk of a batch call (the importances live on the stack).
-const CHUNK: usize = 64;
+const CHUNK: usize = 128;
 
-// TEMPORARY, until the core's batch API (`LightTree::sample_batch`, `LightTree::pmf_batch`,
-// with `LengthMismatch`) is on main: the same contract, looping over the single calls. Replace
-// both by the core calls after the merge.
-mod batch {
-    use super::*;
-
-    /// The core's `LightTree::sample_batch`, looped.
-    pub(super) fn sample_batch<I: Importance>(
-        tree: &LightTree,
-        imps: &[I],
-        us: &[f32],
-        out: &mut [Option<LightSample>],
-    ) {
-        for ((imp, &u), o) in imps.iter().zip(us).zip(out.iter_mut()) {
-            *o = tree.sample(imp, u);
-        }
-    }
-
-    /// The core's `LightTree::pmf_batch`, looped.
-    pub(super) fn pmf_batch<I: Importance>(
-        tree: &LightTree,
-        imps: &[I],
-        lights: &[u32],
-        out: &mut [f32],
-    ) {
-        for ((imp, &l), o) in imps.iter().zip(lights).zip(out.iter_mut()) {
-            *o = tree.pmf(imp, l);
-        }
-    }
+/// The core's batch call, whose slices the caller sized alike (a length mismatch would be a
+/// bug here, reported as an internal error).
+#[inline]
+fn batch_call(r: core::result::Result<(), manylights::LengthMismatch>) -> Result<()> {
+    r.map_err(|e| Error::internal(format_args!("batch lengths: {e}")))
 }
 
 /// Checks a batch's arrays and returns the number of elements.
@@ -434,7 +408,7 @@ pub extern "C" fn ml_tree_sample_tl_batch(
             for (imp, p) in imps.iter_mut().zip(&points[start..start + m]) {
                 *imp = TlImportance::new(p.position.into(), p.normal.into());
             }
-            batch::sample_batch(t, &imps[..m], &us[start..start + m], &mut res[..m]);
+            batch_call(t.sample_batch(&imps[..m], &us[start..start + m], &mut res[..m]))?;
             for (i, r) in res[..m].iter().enumerate() {
                 out.set(start + i, (*r).into());
             }
@@ -474,7 +448,7 @@ pub extern "C" fn ml_tree_pmf_tl_batch(
             for (imp, p) in imps.iter_mut().zip(&points[start..start + m]) {
                 *imp = TlImportance::new(p.position.into(), p.normal.into());
             }
-            batch::pmf_batch(t, &imps[..m], &lights[start..start + m], &mut res[..m]);
+            batch_call(t.pmf_batch(&imps[..m], &lights[start..start + m], &mut res[..m]))?;
             for (i, &r) in res[..m].iter().enumerate() {
                 out.set(start + i, r);
             }
@@ -518,7 +492,7 @@ pub extern "C" fn ml_tree_sample_bl_batch(
             for (j, (imp, p)) in imps.iter_mut().zip(&points[start..start + m]).enumerate() {
                 *imp = bl_importance(p, &|| format!("points[{}]", start + j))?;
             }
-            batch::sample_batch(t, &imps[..m], &us[start..start + m], &mut res[..m]);
+            batch_call(t.sample_batch(&imps[..m], &us[start..start + m], &mut res[..m]))?;
             for (i, r) in res[..m].iter().enumerate() {
                 out.set(start + i, (*r).into());
             }
@@ -563,7 +537,7 @@ pub extern "C" fn ml_tree_pmf_bl_batch(
             for (j, (imp, p)) in imps.iter_mut().zip(&points[start..start + m]).enumerate() {
                 *imp = bl_importance(p, &|| format!("points[{}]", start + j))?;
             }
-            batch::pmf_batch(t, &imps[..m], &lights[start..start + m], &mut res[..m]);
+            batch_call(t.pmf_batch(&imps[..m], &lights[start..start + m], &mut res[..m]))?;
             for (i, &r) in res[..m].iter().enumerate() {
                 out.set(start + i, r);
             }

@@ -25,7 +25,8 @@ fn static_lib() -> PathBuf {
     let exe = std::env::current_exe().expect("the test binary's path");
     let deps = exe.parent().expect("deps directory");
     let profile = deps.parent().expect("profile directory");
-    for dir in [profile, deps] {
+    // deps first: the profile directory may hold a copy from an earlier `cargo build`.
+    for dir in [deps, profile] {
         let p = dir.join("libmanylights_ffi.a");
         if p.exists() {
             return p;
@@ -83,6 +84,13 @@ fn run(exe: &Path, dump: &Path) -> String {
         Command::new(exe)
     };
     let out = cmd.arg(dump).output().expect("the test program runs");
+    if valgrind {
+        eprintln!(
+            "{}: ran under valgrind, exit status {}",
+            exe.display(),
+            out.status
+        );
+    }
     let stdout = String::from_utf8_lossy(&out.stdout).into_owned();
     let stderr = String::from_utf8_lossy(&out.stderr);
     eprintln!("{stderr}");
