@@ -18,9 +18,11 @@
 //!    Carlo), GGX within the SPTD's documented accuracy (MIS Monte Carlo);
 //! 6. bad shading points: `BlImportance::new` names the field, never panics.
 //!
-//! Two regressions are kept at the end: BL of a zero-extent cluster (point and spot lights,
-//! coincident lights) used to ignore the BRDF (it now takes the point limit `f cos`), and BL
-//! used to overflow to +∞ where TL is finite (it is now clamped to `MAX_IMPORTANCE`).
+//! Regressions are kept at the end: BL of a zero-extent cluster (point and spot lights,
+//! coincident lights) used to ignore the BRDF (it now takes the point limit `f cos`), BL
+//! used to overflow to +∞ where TL is finite (it is now clamped to `MAX_IMPORTANCE`), huge and
+//! tiny normals and ωo, and three found by the `sptd` fuzz target (the SPTD lobe of a tiny
+//! normal, the cap of a cluster closer than 1e-6, an infinite cap axis).
 //!
 //! Everything is seeded. Contribution is decided by `common::contributes` (f64, from the
 //! light's geometry alone) for a reflective receiver whose normal is the one BL uses (turned to
@@ -41,10 +43,11 @@ use common::{
 use glam::{DVec3, Vec3};
 use manylights::cut::MIN_CUT_SIZE;
 use manylights::importance::brdf_oriented::DEFENSIVE;
+use manylights::importance::sptd::SptdGgx;
 use manylights::material::ShadingField;
 use manylights::{
-    BlImportance, Child, CutOptions, Importance, Light, LightCut, LightTree, Material, Node4,
-    Receiver, ShadingPoint, Slot, CUT_CAPACITY,
+    f32x4, BlImportance, Child, CutOptions, Importance, Light, LightCut, LightTree, Material,
+    Node4, Receiver, ShadingPoint, Slot, SlotBounds, CUT_CAPACITY,
 };
 use std::f64::consts::PI;
 
@@ -2502,5 +2505,149 @@ fn tiny_normal_and_wo_are_accepted() {
         let e = BlImportance::new(&sp(normal, wo)).unwrap_err();
         assert_eq!(e.field, field);
         assert!(format!("{e}").contains("zero length"), "{e}");
+    }
+}
+
+/// Found by the `sptd` fuzz target (`fuzz/regressions/sptd/crash-d332…`): `SptdGgx::oriented`
+/// took the f32 length of the normal and ωo, so a tiny normal such as `(−1.3e-35, …)` (whose
+/// squared length underflows) gave a zero lobe, albedo 0, although the vector is not zero;
+/// a huge one (whose length overflows) did the same. Both are now normalised in f64, as
+/// `BlImportance` does, and give the lobe of the unit vectors.
+#[test]
+fn sptd_oriented_keeps_the_lobe_of_tiny_and_huge_vectors() {
+    let alpha = 0.52156866;
+    let wo = Vec3::new(-0.66107404, -0.09010743, 0.74489045);
+    let tiny = Vec3::new(-1.2550414e-35, -1.2556307e-35, -1.2556307e-35);
+    let unit = -Vec3::ONE.normalize();
+    for (normal, wo) in [
+        (tiny, wo),
+        (unit * 1e30, wo),
+        (unit, wo * 1e-30),
+        (unit * f32::MAX, wo * 3e38),
+    ] {
+        let g = SptdGgx::oriented(alpha, normal, wo);
+        // The lobe of the unit vectors, normalised here in f64.
+        let f64_unit = |v: Vec3| v.as_dvec3().normalize().as_vec3();
+        let reference = SptdGgx::oriented(alpha, f64_unit(normal), f64_unit(wo));
+        assert!(reference.albedo() > 0.0);
+        assert!(
+            (g.albedo() - reference.albedo()).abs() <= 1e-6 * reference.albedo(),
+            "normal {normal} wo {wo}: albedo {} against {}",
+            g.albedo(),
+            reference.albedo()
+        );
+        for (axis, sin) in [(-unit, 0.3), (Vec3::new(0.6, 0.0, -0.8), 0.05)] {
+            let (a, b) = (g.integral(axis, sin), reference.integral(axis, sin));
+            assert!(
+                (a - b).abs() <= 1e-4 * b + 1e-30,
+                "normal {normal} wo {wo}: {a} against {b}"
+            );
+        }
+    }
+    // Only the zero vector and non-finite ones give the zero lobe.
+    for normal in [Vec3::ZERO, Vec3::new(f32::NAN, 0.0, 1.0), Vec3::INFINITY] {
+        assert_eq!(SptdGgx::oriented(alpha, normal, wo).albedo(), 0.0);
+    }
+}
+
+/// Found by the `sptd` fuzz target (`fuzz/regressions/sptd/crash-c13f…`): a cluster closer to
+/// the shading point than 1e-6 (d² below `MIN_DISTANCE2`) had its direction x → cluster
+/// divided by the floored distance, not the true one, so the cap axis was no longer a unit
+/// vector (here of length 1e-11) and SC was 13.7 against an albedo of 0.38; TL's cosines came
+/// from the same short vector. The direction and θu now come from the true distance: SC is
+/// that of the same cluster seen from afar, at the same angle and r/d.
+#[test]
+fn a_cluster_a_femtometre_away_keeps_its_cap() {
+    let sp = |position: Vec3| ShadingPoint {
+        position,
+        normal: Vec3::new(-0.9885642, -0.13474585, -0.067708194),
+        wo: Vec3::new(-1.2556307e-35, -1.2556307e-35, -1.2556307e-35),
+        material: Material::Ggx {
+            alpha: 1.0,
+            specular: 0.9981384,
+        },
+    };
+    let bounds = SlotBounds {
+        center: Vec3::new(-1.4254985e-17, -1.9430202e-18, -9.763446e-19),
+        radius: 9.193633e-20,
+        axis: Vec3::new(-0.81778926, -0.5062899, -0.2736631),
+        cos_o: -0.27366307,
+        sin_o: 0.9618256,
+        cos_e: 0.6026346,
+        energy: 1.0,
+    };
+    let position = Vec3::new(0.0, 0.0, -1.406094e-35);
+    let imp = BlImportance::new(&sp(position)).unwrap();
+    let near = imp.eval(&bounds);
+    // The same cluster 1e16 times farther and larger.
+    let far = BlImportance::new(&sp(Vec3::ZERO))
+        .unwrap()
+        .eval(&SlotBounds {
+            center: bounds.center * 1e16,
+            radius: bounds.radius * 1e16,
+            ..bounds
+        });
+    assert!(
+        near.cap_integral <= imp.albedo(),
+        "SC {} above the albedo {}",
+        near.cap_integral,
+        imp.albedo()
+    );
+    assert!(
+        (near.cap_integral - far.cap_integral).abs() <= 1e-4 * far.cap_integral,
+        "SC {} near, {} far",
+        near.cap_integral,
+        far.cap_integral
+    );
+    // The 4-wide twin agrees through a tree holding a sphere light there.
+    let lights = [Light::Sphere {
+        center: bounds.center,
+        radius: bounds.radius,
+        radiance: 1.0,
+    }];
+    let tree = LightTree::build(&lights).unwrap();
+    let node = &tree.nodes()[0];
+    let (w, sc) = imp.eval4_with_integrals(node);
+    let e = imp.eval(&node.bounds(0));
+    for (four, one) in [(w, e.importance), (sc, e.cap_integral)] {
+        let four = four.to_array()[0];
+        assert!(
+            (four - one).abs() <= 1e-4 * four.max(one) + 1e-30,
+            "4-wide {four} against scalar {one}"
+        );
+    }
+    assert!(e.cap_integral <= imp.albedo(), "{e:?}");
+}
+
+/// Found by the `sptd` fuzz target (`fuzz/regressions/sptd/crash-8526…`): an infinite cap
+/// axis (no unit vector: outside the evaluators' domain) made the Lambert part of
+/// `cap_integrals` NaN (`s² · cos ω` with `s = 0`, `cos ω = ∞`), against the module's promise
+/// of no NaN. `cos ω` is now clamped to 1 there, as `lambert_visible` clamps it.
+#[test]
+fn sptd_cap_integrals_of_an_infinite_axis_are_not_nan() {
+    let g = SptdGgx::oriented(
+        0.52156866,
+        Vec3::new(-0.9885642, -0.13474585, -0.067708194),
+        Vec3::new(8.662181e-8, 1.1806951e-8, -1.0),
+    );
+    let axis = Vec3::new(f32::NEG_INFINITY, -8.229016e-31, 6.770577e22);
+    for sin in [-1.2544506e-35, 0.0, 0.5] {
+        let c = g.cap_integrals(axis, sin);
+        assert!(
+            !(c.ggx.is_nan() || c.lambert.is_nan() || c.visible.is_nan()),
+            "sin σ {sin}: {c:?}"
+        );
+        let c4 = g.cap_integrals4(
+            f32x4::splat(axis.x),
+            f32x4::splat(axis.y),
+            f32x4::splat(axis.z),
+            f32x4::splat(sin),
+        );
+        for v in [c4.ggx, c4.lambert, c4.visible] {
+            assert!(
+                v.to_array().iter().all(|x| !x.is_nan()),
+                "sin σ {sin}: {c4:?}"
+            );
+        }
     }
 }

@@ -12,6 +12,8 @@
 //! - `d_min = r / 2` ([`DISTANCE_CLAMP_FRACTION`]): clusters around x are not ranked by a
 //!   distance that means nothing inside them; `d²` also never drops below [`MIN_DISTANCE2`]
 //!   (x on a point light), which with the energy caps of the build keeps importances finite.
+//!   The floor is the falloff's only: the direction x → cluster and θu come from the true
+//!   distance, however small (a cluster 1e-7 away is still seen in its direction).
 //! - Conservative under f32 rounding: a cluster within [`COS_SLACK`] of a zero boundary
 //!   keeps a small positive importance ([`COS_FLOOR`] as its cosine) instead of 0.
 //! - The receiver is reflective (cos θi' clamped at 0), transmissive (|cos θi|), or
@@ -33,6 +35,11 @@ pub const COS_SLACK: f32 = 2e-6;
 pub const COS_FLOOR: f32 = 1e-6;
 
 const CLAMP2: f32 = DISTANCE_CLAMP_FRACTION * DISTANCE_CLAMP_FRACTION;
+
+/// `2^100`: a vector whose squared length is below `f32::MIN_POSITIVE` (length below about
+/// 1e-19) is scaled by it, exactly, before it is normalised; its squared length is then at
+/// least about 3e-30 and at most about 2e22.
+const TINY_SCALE: f32 = 1.267_650_6e30;
 
 /// How the shading point receives light.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -183,11 +190,17 @@ impl ClusterView {
         let r2 = b.radius * b.radius;
         let d2c = d2.max(CLAMP2 * r2).max(MIN_DISTANCE2);
         let inside = d2 <= r2;
-        // The direction stays unit down to distances of 1e-19 (a shading point next to a
-        // light); only the distance in the 1/d² factor is clamped.
-        let inv_d = 1.0 / math::sqrt(d2.max(f32::MIN_POSITIVE));
+        // The direction and r/d from the true distance (MIN_DISTANCE2 floors only the
+        // falloff): a d² below f32's normal range is first scaled by TINY_SCALE², exactly.
+        let (vx, vy, vz, l2, k) = if d2 >= f32::MIN_POSITIVE {
+            (vx, vy, vz, d2, 1.0)
+        } else {
+            let (x, y, z) = (vx * TINY_SCALE, vy * TINY_SCALE, vz * TINY_SCALE);
+            (x, y, z, x * x + y * y + z * z, TINY_SCALE)
+        };
+        let inv_d = 1.0 / math::sqrt(l2.max(f32::MIN_POSITIVE));
         let (wx, wy, wz) = (vx * inv_d, vy * inv_d, vz * inv_d);
-        let sin_u = (b.radius * inv_d).min(1.0);
+        let sin_u = (b.radius * k * inv_d).min(1.0);
         let cos_u = math::sqrt((1.0 - sin_u * sin_u).max(0.0));
         // cos θ' = cos(max(0, θ − θo − θu)) from the subtraction identity.
         let a = b.axis;
@@ -251,9 +264,19 @@ impl ClusterView4 {
         let min_d2 = f32x4::splat(MIN_DISTANCE2);
         let d2c = d2.fast_max(f32x4::splat(CLAMP2) * r2).fast_max(min_d2);
         let inside = d2.simd_le(r2);
-        let inv_d = one / d2.fast_max(f32x4::splat(f32::MIN_POSITIVE)).sqrt();
+        // As the scalar form: the direction from the true distance, tiny ones scaled first.
+        let min_normal = f32x4::splat(f32::MIN_POSITIVE);
+        let tiny = d2.simd_lt(min_normal);
+        let (vx, vy, vz, l2, k) = if tiny.any() {
+            let k = tiny.select(f32x4::splat(TINY_SCALE), one);
+            let (x, y, z) = (vx * k, vy * k, vz * k);
+            (x, y, z, x * x + y * y + z * z, k)
+        } else {
+            (vx, vy, vz, d2, one)
+        };
+        let inv_d = one / l2.fast_max(min_normal).sqrt();
         let (wx, wy, wz) = (vx * inv_d, vy * inv_d, vz * inv_d);
-        let sin_u = (radius * inv_d).fast_min(one);
+        let sin_u = (radius * k * inv_d).fast_min(one);
         let cos_u = (one - sin_u * sin_u).fast_max(zero).sqrt();
 
         // Cone axis (octahedral decode) and angles, as `quantize::decode_*`.
