@@ -8,7 +8,6 @@ use crate::types::{
     build_error, finite3, light, ml_light, ml_light_point, ml_light_sample, ml_shading_point,
     ml_tl_point, ml_vec3, shading_point, tl_point, unit,
 };
-use glam::Vec3;
 use manylights::light_sample::{pdf_point, sample_point};
 use manylights::{BlImportance, BuildOptions, Light, LightSet, LightTree, TlImportance};
 use std::sync::Arc;
@@ -360,8 +359,16 @@ pub(crate) fn bl_importance(
     BlImportance::new(&s).map_err(|e| crate::types::shading_error(e, path))
 }
 
-/// Shading points per chunk of a batch call (the importances live on the stack).
-const CHUNK: usize = 128;
+/// Shading points per call of the core's batch sampling (the importances of a chunk are built
+/// into one buffer per call).
+const CHUNK: usize = 1024;
+
+/// Whether a TL point is finite (the fast path of the check; [`tl_point`] words an error).
+#[inline(always)]
+fn tl_point_ok(p: &ml_tl_point) -> bool {
+    let (a, b) = (p.position, p.normal);
+    (a.x + a.y + a.z + b.x + b.y + b.z).is_finite()
+}
 
 /// The core's batch call, whose slices the caller sized alike (a length mismatch would be a
 /// bug here, reported as an internal error).
@@ -397,18 +404,23 @@ pub extern "C" fn ml_tree_sample_tl_batch(
         let us = arg::slice(us, n, "us")?;
         let mut out = arg::out_slice(out, n, "out")?;
         for (j, (p, &u)) in points.iter().zip(us).enumerate() {
-            tl_point(p, &|| format!("points[{j}]"))?;
-            unit(u, &|| format!("us[{j}]"))?;
+            if !(tl_point_ok(p) && (0.0..1.0).contains(&u)) {
+                tl_point(p, &|| format!("points[{j}]"))?;
+                unit(u, &|| format!("us[{j}]"))?;
+            }
         }
         let t = data.tree();
-        let mut imps = [TlImportance::new(Vec3::ZERO, Vec3::Z); CHUNK];
-        let mut res = [None; CHUNK];
+        let mut imps = Vec::with_capacity(n.min(CHUNK));
+        let mut res = vec![None; n.min(CHUNK)];
         for start in (0..n).step_by(CHUNK) {
             let m = CHUNK.min(n - start);
-            for (imp, p) in imps.iter_mut().zip(&points[start..start + m]) {
-                *imp = TlImportance::new(p.position.into(), p.normal.into());
-            }
-            batch_call(t.sample_batch(&imps[..m], &us[start..start + m], &mut res[..m]))?;
+            imps.clear();
+            imps.extend(
+                points[start..start + m]
+                    .iter()
+                    .map(|p| TlImportance::new(p.position.into(), p.normal.into())),
+            );
+            batch_call(t.sample_batch(&imps, &us[start..start + m], &mut res[..m]))?;
             for (i, r) in res[..m].iter().enumerate() {
                 out.set(start + i, (*r).into());
             }
@@ -438,17 +450,22 @@ pub extern "C" fn ml_tree_pmf_tl_batch(
         let t = data.tree();
         let nl = t.light_count() as usize;
         for (j, (p, &l)) in points.iter().zip(lights).enumerate() {
-            tl_point(p, &|| format!("points[{j}]"))?;
-            check_light(l, nl, &format!("lights[{j}]"))?;
+            if !(tl_point_ok(p) && (l as usize) < nl) {
+                tl_point(p, &|| format!("points[{j}]"))?;
+                check_light(l, nl, &format!("lights[{j}]"))?;
+            }
         }
-        let mut imps = [TlImportance::new(Vec3::ZERO, Vec3::Z); CHUNK];
-        let mut res = [0f32; CHUNK];
+        let mut imps = Vec::with_capacity(n.min(CHUNK));
+        let mut res = vec![0f32; n.min(CHUNK)];
         for start in (0..n).step_by(CHUNK) {
             let m = CHUNK.min(n - start);
-            for (imp, p) in imps.iter_mut().zip(&points[start..start + m]) {
-                *imp = TlImportance::new(p.position.into(), p.normal.into());
-            }
-            batch_call(t.pmf_batch(&imps[..m], &lights[start..start + m], &mut res[..m]))?;
+            imps.clear();
+            imps.extend(
+                points[start..start + m]
+                    .iter()
+                    .map(|p| TlImportance::new(p.position.into(), p.normal.into())),
+            );
+            batch_call(t.pmf_batch(&imps, &lights[start..start + m], &mut res[..m]))?;
             for (i, &r) in res[..m].iter().enumerate() {
                 out.set(start + i, r);
             }
@@ -475,24 +492,20 @@ pub extern "C" fn ml_tree_sample_bl_batch(
         let points = arg::slice(points, n, "points")?;
         let us = arg::slice(us, n, "us")?;
         let mut out = arg::out_slice(out, n, "out")?;
-        let mut first = None;
         for (j, (p, &u)) in points.iter().zip(us).enumerate() {
-            let imp = bl_importance(p, &|| format!("points[{j}]"))?;
-            first.get_or_insert(imp);
+            bl_importance(p, &|| format!("points[{j}]"))?;
             unit(u, &|| format!("us[{j}]"))?;
         }
-        let Some(first) = first else {
-            return Ok(());
-        };
         let t = data.tree();
-        let mut imps = [first; CHUNK];
-        let mut res = [None; CHUNK];
+        let mut imps = Vec::with_capacity(n.min(CHUNK));
+        let mut res = vec![None; n.min(CHUNK)];
         for start in (0..n).step_by(CHUNK) {
             let m = CHUNK.min(n - start);
-            for (j, (imp, p)) in imps.iter_mut().zip(&points[start..start + m]).enumerate() {
-                *imp = bl_importance(p, &|| format!("points[{}]", start + j))?;
+            imps.clear();
+            for (j, p) in points[start..start + m].iter().enumerate() {
+                imps.push(bl_importance(p, &|| format!("points[{}]", start + j))?);
             }
-            batch_call(t.sample_batch(&imps[..m], &us[start..start + m], &mut res[..m]))?;
+            batch_call(t.sample_batch(&imps, &us[start..start + m], &mut res[..m]))?;
             for (i, r) in res[..m].iter().enumerate() {
                 out.set(start + i, (*r).into());
             }
@@ -521,23 +534,19 @@ pub extern "C" fn ml_tree_pmf_bl_batch(
         let mut out = arg::out_slice(out, n, "out")?;
         let t = data.tree();
         let nl = t.light_count() as usize;
-        let mut first = None;
         for (j, (p, &l)) in points.iter().zip(lights).enumerate() {
-            let imp = bl_importance(p, &|| format!("points[{j}]"))?;
-            first.get_or_insert(imp);
+            bl_importance(p, &|| format!("points[{j}]"))?;
             check_light(l, nl, &format!("lights[{j}]"))?;
         }
-        let Some(first) = first else {
-            return Ok(());
-        };
-        let mut imps = [first; CHUNK];
-        let mut res = [0f32; CHUNK];
+        let mut imps = Vec::with_capacity(n.min(CHUNK));
+        let mut res = vec![0f32; n.min(CHUNK)];
         for start in (0..n).step_by(CHUNK) {
             let m = CHUNK.min(n - start);
-            for (j, (imp, p)) in imps.iter_mut().zip(&points[start..start + m]).enumerate() {
-                *imp = bl_importance(p, &|| format!("points[{}]", start + j))?;
+            imps.clear();
+            for (j, p) in points[start..start + m].iter().enumerate() {
+                imps.push(bl_importance(p, &|| format!("points[{}]", start + j))?);
             }
-            batch_call(t.pmf_batch(&imps[..m], &lights[start..start + m], &mut res[..m]))?;
+            batch_call(t.pmf_batch(&imps, &lights[start..start + m], &mut res[..m]))?;
             for (i, &r) in res[..m].iter().enumerate() {
                 out.set(start + i, r);
             }
