@@ -205,8 +205,7 @@ pub(crate) struct WalkStart {
     pub floor: f32,
 }
 
-/// Descents (and pmf walks) a batch call keeps in flight, chosen by measurement (`mlrender
-/// bench`; see the README's Performance table).
+/// Descents (and pmf walks) a batch call keeps in flight (other widths are not measured yet).
 pub const BATCH_LANES: usize = 8;
 
 impl LightTree {

@@ -358,6 +358,8 @@ const HEADER: usize = 40;
 /// What [`LightTree::validate`] carries down the walk.
 struct Walk<'a> {
     tree: &'a LightTree,
+    /// The decoded bounds of the slots above the current node.
+    ancestors: Vec<(Sphere, Cone)>,
     node_seen: Vec<bool>,
     leaf_seen: Vec<bool>,
     light_seen: Vec<bool>,
@@ -460,9 +462,9 @@ impl LightTree {
     }
 
     /// Checks every invariant: each node reachable from the root exactly once, each leaf entry
-    /// and each light at most once; codes in range and decoded numbers finite; each inner
-    /// slot's sphere and cone containing the decoded spheres and cones of its child's slots
-    /// and its energy the sum of theirs (rounded up, so within 0.1 %); each light's path leading
+    /// and each light at most once; codes in range and decoded numbers finite; every slot above
+    /// a light containing the light's slot (up to that slot's own rounding) and each inner
+    /// slot's energy the sum of its child's slots' (within their rounding, 0.2 %); each light's path leading
     /// to its leaf; the depth within [`MAX_DEPTH`] and the paths' width matching it. Runs
     /// after every build in debug builds and in tests; [`LightTree::validate_lights`] also
     /// checks the leaves against the lights' own bounds.
@@ -493,6 +495,7 @@ impl LightTree {
         }
         let mut walk = Walk {
             tree: self,
+            ancestors: Vec::with_capacity(MAX_DEPTH as usize),
             node_seen: vec![false; n_nodes],
             leaf_seen: vec![false; self.leaves.len()],
             light_seen: vec![false; n_lights],
@@ -678,8 +681,13 @@ fn sphere_tolerance(s: &Sphere) -> f32 {
     1e-5 * (s.radius + s.center.abs().max_element()) + 1e-6
 }
 
-/// Slack of the cone containment checks, in radians.
+/// Slack of the cone containment checks against the exact light bounds, in radians.
 const CONE_TOLERANCE: f32 = 3e-4;
+
+/// Slack of the cone checks of a leaf slot against its ancestors: the leaf's own rounding (its
+/// axis error, at most 0.02, counted twice, and a step of θo and of θe) plus
+/// [`CONE_TOLERANCE`].
+const LEAF_CONE_SLACK: f32 = 0.07;
 
 impl Walk<'_> {
     fn node(&mut self, index: u32, level: u32, path: u64) -> Result<(), ValidationError> {
@@ -761,6 +769,22 @@ impl Walk<'_> {
                     if tree.paths.get(l) != Some(slot_path) {
                         return Err(ValidationError::BadPath { light: l as u32 });
                     }
+                    // Every ancestor bounds the light. The exact light is only known to
+                    // `validate_lights`; here its leaf slot, shrunk by what its own rounding
+                    // may have added, must fit: the decoded sphere reaches at most
+                    // 2·|c' − c| + 1.25 steps ≤ (√3 + 1.25) steps beyond the light's (and the
+                    // cone the axis error and a step of each angle beyond the light's).
+                    let (leaf, cone) = (node.sphere(k), node.cone(k));
+                    let shrink = 3.1 * node.scale();
+                    for (level, (a, c)) in self.ancestors.iter().enumerate() {
+                        let tol = sphere_tolerance(a) + shrink;
+                        if !a.contains(&leaf, tol) || !c.contains(&cone, LEAF_CONE_SLACK) {
+                            return Err(ValidationError::BoundsViolation {
+                                light: l as u32,
+                                level: level as u32,
+                            });
+                        }
+                    }
                 }
                 Child::Node(c) => {
                     let ci = c as usize;
@@ -774,26 +798,15 @@ impl Walk<'_> {
                         return Err(bad_number);
                     }
                     self.node_seen[ci] = true;
+                    self.ancestors.push((s, node.cone(k)));
                     self.node(c, level + 1, slot_path)?;
-                    // The slot bounds what its child's slots decode to.
+                    self.ancestors.pop();
+                    // The slot's energy is its lights', as the child's slots' are (each rounded
+                    // up by at most 2⁻¹¹).
                     let child = &tree.nodes[ci];
-                    let cone = node.cone(k);
-                    let tol = sphere_tolerance(&s);
-                    let mut sum = 0.0f64;
-                    for j in 0..4 {
-                        if child.child(j) == Child::Empty {
-                            continue;
-                        }
-                        sum += f64::from(child.energy_of(j));
-                        if !s.contains(&child.sphere(j), tol)
-                            || !cone.contains(&child.cone(j), CONE_TOLERANCE)
-                        {
-                            let light = first_light_under(tree, child, j).unwrap_or(0);
-                            return Err(ValidationError::BoundsViolation { light, level });
-                        }
-                    }
+                    let sum: f64 = child.energies().iter().map(|&x| f64::from(x)).sum();
                     let e = f64::from(e);
-                    if e < sum * (1.0 - 1e-6) || e > sum * 1.001 + 1e-37 {
+                    if (e - sum).abs() > 2e-3 * e.max(sum) + 1e-37 {
                         return Err(ValidationError::EnergyMismatch {
                             node: index,
                             slot: k as u8,
@@ -804,23 +817,6 @@ impl Walk<'_> {
         }
         Ok(())
     }
-}
-
-/// The first light under slot `k` of `node` (for error messages).
-fn first_light_under(tree: &LightTree, node: &Node4, k: usize) -> Option<u32> {
-    let mut n = node;
-    let mut k = k;
-    for _ in 0..MAX_DEPTH {
-        match n.child(k) {
-            Child::Leaf(i) => return tree.leaves.get(i as usize).copied(),
-            Child::Node(c) => {
-                n = tree.nodes.get(c as usize)?;
-                k = (0..4).find(|&j| n.child(j) != Child::Empty)?;
-            }
-            Child::Empty => return None,
-        }
-    }
-    None
 }
 
 const _: () = assert!(core::mem::size_of::<Node4>() == 64);

@@ -624,7 +624,10 @@ fn validate_small_trees() {
             check_tree(&tree, &lights);
             // Other bucket counts (clamped to 12..=64) build valid trees too.
             for buckets in [0, 12, 33, 64, 1000] {
-                let opts = BuildOptions { buckets };
+                let opts = BuildOptions {
+                    buckets,
+                    compact: buckets % 2 == 0,
+                };
                 let t = LightTree::build_with(&lights, &opts).unwrap();
                 check_tree(&t, &lights);
                 BinaryLightTree::build_with(&lights, &opts).unwrap();
@@ -640,6 +643,17 @@ fn validate_medium_trees() {
             let (lights, _) = styled_scene(7 * i as u64 + s, n);
             let tree = LightTree::build(&lights).unwrap();
             check_tree(&tree, &lights);
+            // The compact packing: valid, and fuller nodes.
+            let compact = LightTree::build_with(
+                &lights,
+                &BuildOptions {
+                    compact: true,
+                    ..BuildOptions::default()
+                },
+            )
+            .unwrap();
+            check_tree(&compact, &lights);
+            assert!(compact.stats().nodes <= tree.stats().nodes);
         }
     }
 }
@@ -657,6 +671,15 @@ fn validate_100k_lights() {
         "100k lights in {} levels of 4-wide nodes?",
         st.depth
     );
+    let compact = LightTree::build_with(
+        &lights,
+        &BuildOptions {
+            compact: true,
+            ..BuildOptions::default()
+        },
+    )
+    .unwrap();
+    check_tree(&compact, &lights);
     // A few consistency checks on the big tree.
     let bin = BinaryLightTree::build(&lights).unwrap();
     for _ in 0..4 {
@@ -664,6 +687,9 @@ fn validate_100k_lights() {
         for u in u_values(&mut rng, 50) {
             if let Some(s) = tree.sample(&imp, u) {
                 assert_eq!(s.pmf, tree.pmf(&imp, s.light));
+            }
+            if let Some(s) = compact.sample(&imp, u) {
+                assert_eq!(s.pmf, compact.pmf(&imp, s.light));
             }
             if let Some(s) = bin.sample(&imp, u) {
                 assert_eq!(s.pmf, bin.pmf(&imp, s.light));

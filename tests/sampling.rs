@@ -926,7 +926,7 @@ fn libm_free_pow10(e: i32) -> f32 {
 }
 
 /// The batch calls equal the single calls bit for bit — TL, BL (every material) and memoised
-/// importances, on random scenes of every light kind (VPLs included), batches of every length
+/// importances, on random scenes of every light kind (VPLs included), default and compact trees, batches of every length
 /// around the number of lanes, u from the edges of [0, 1) as well as inside — and reject
 /// slices of different lengths.
 #[test]
@@ -941,7 +941,11 @@ fn batch_calls_equal_single_calls() {
         } else {
             styled_scene(seed + 500, n)
         };
-        let tree = LightTree::build(&lights).unwrap();
+        let opts = manylights::BuildOptions {
+            compact: seed % 2 == 1,
+            ..manylights::BuildOptions::default()
+        };
+        let tree = LightTree::build_with(&lights, &opts).unwrap();
         let mut rng = Rng::new(seed ^ 0xBA7C);
         let m = [1usize, BATCH_LANES - 1, BATCH_LANES, BATCH_LANES + 1, 67][seed as usize % 5];
         let tl: Vec<TlImportance> = (0..m)

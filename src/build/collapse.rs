@@ -4,8 +4,8 @@
 //! every node, the slots that cover its subtree, minimising `Σ_nodes (NODE_WEIGHT + lights
 //! under the node)`: the number of nodes (the memory a tree takes) traded against the sum of
 //! all lights' depths. Slots are binary clusters, opened costlier child first on ties, as
-//! wide-BVH collapsing does; and a subtree of at most [`FREE_MAX`] lights may instead be
-//! packed free-form, its lights (in the binary tree's depth-first order, which keeps
+//! wide-BVH collapsing does; and, with [`crate::BuildOptions::compact`], a subtree of at most
+//! [`FREE_MAX`] lights may instead be packed free-form, its lights (in the binary tree's depth-first order, which keeps
 //! neighbours together) grouped into consecutive runs so that its nodes are full — the binary
 //! tree alone leaves many nodes of two or three lights at the bottom.
 //!
@@ -90,7 +90,7 @@ struct Plan {
 /// Computes the plans bottom-up. Opening is preferred on ties, so the tree stays shallow;
 /// among equal counts, the split giving the costlier child more slots wins; a free-form
 /// cover is taken only when strictly cheaper than the binary one.
-fn plan(bin: &[BinNode], free: &FreeTable) -> Vec<Plan> {
+fn plan(bin: &[BinNode], free: &FreeTable, free_max: usize) -> Vec<Plan> {
     let mut plans = vec![Plan::default(); bin.len()];
     for b in (0..bin.len()).rev() {
         if bin[b].light.is_some() {
@@ -112,7 +112,7 @@ fn plan(bin: &[BinNode], free: &FreeTable) -> Vec<Plan> {
         };
         let m = bin[b].count as usize;
         let free_cost = |k: usize| {
-            if m <= FREE_MAX {
+            if m <= free_max {
                 free.cost[m][k]
             } else {
                 u64::MAX
@@ -245,6 +245,22 @@ fn open(bin: &[BinNode], plans: &[Plan], free: &FreeTable, b: usize) -> ([Src; 4
     out
 }
 
+/// The exact bounds of a free-form run's lights: the sphere enclosing theirs and the union of
+/// their cones.
+fn exact_of_run(bin: &[BinNode], run: &Run) -> (Sphere, Cone) {
+    let mut spheres = [Sphere::enclosing(&[]); FREE_MAX];
+    let mut cone: Option<Cone> = None;
+    for (i, &b) in run.leaves[..run.len].iter().enumerate() {
+        let bounds = &bin[b as usize].bounds;
+        spheres[i] = bounds.sphere;
+        cone = Some(cone.map_or(bounds.cone, |c| c.union(bounds.cone)));
+    }
+    (
+        Sphere::enclosing(&spheres[..run.len]),
+        cone.unwrap_or(Cone::SPHERE),
+    )
+}
+
 /// A slot of the laid-out tree before quantisation.
 #[derive(Clone, Copy)]
 enum Laid {
@@ -272,6 +288,10 @@ struct Collapser<'a> {
     nodes: Vec<Node4>,
     variances: Vec<u16>,
     laid: Vec<[Laid; 4]>,
+    /// Per node, the exact bounds of its lights (the binary node's, or those of a free-form
+    /// run): what the parent's slot is widened from, so that quantisation errors do not
+    /// accumulate up the tree.
+    exact: Vec<(Sphere, Cone)>,
     leaves: Vec<u32>,
     paths: Vec<u64>,
     depth: u32,
@@ -284,6 +304,10 @@ impl Collapser<'_> {
             return Err(BuildError::TooDeep { depth: level + 1 });
         }
         self.depth = self.depth.max(level + 1);
+        self.exact[node] = match src {
+            Src::Bin(b) => (self.bin[b].bounds.sphere, self.bin[b].bounds.cone),
+            Src::Run(run) => exact_of_run(self.bin, &run),
+        };
         let (set, len) = match src {
             Src::Bin(b) if self.bin[b].light.is_some() => ([Src::Bin(b); 4], 1),
             Src::Bin(b) => open(self.bin, &self.plans, &self.free, b),
@@ -321,6 +345,8 @@ impl Collapser<'_> {
         self.nodes[node].mask = mask;
         self.nodes.resize(first + n_inner, Node4::EMPTY);
         self.laid.resize(first + n_inner, [Laid::Empty; 4]);
+        self.exact
+            .resize(first + n_inner, (Sphere::enclosing(&[]), Cone::SPHERE));
         for &(idx, c, p) in &inner[..n_inner] {
             self.fill(idx, c, p, level + 1)?;
         }
@@ -382,30 +408,16 @@ impl Collapser<'_> {
                 0.0
             };
             self.variances[i] = quantize::encode_bf16(variance);
-            // What the parent's slot must contain: the decoded slots.
-            let mut decoded = [spheres[0]; 4];
-            let mut cone: Option<Cone> = None;
-            let mut energy = 0.0f64;
-            let mut m = 0;
-            for (k, p) in parts.iter().enumerate() {
-                if p.is_none() {
-                    continue;
-                }
-                decoded[m] = node.sphere(k);
-                m += 1;
-                let c = node.cone(k);
-                cone = Some(match cone {
-                    Some(u) => u.union(c),
-                    None => c,
-                });
-                energy += f64::from(node.energy_of(k));
-            }
-            let sphere = Sphere::enclosing(&decoded[..m]);
+            // What the parent's slot bounds: the exact bounds of the node's lights (each
+            // level is rounded from the exact bounds, so rounding never compounds: a slot
+            // need not contain its child's slots, only the lights below it).
+            let (sphere, cone) = self.exact[i];
+            let energy = sum;
             summary[i] = Some(Summary {
                 bounds: LightBounds {
                     aabb: crate::bounds::Aabb::EMPTY,
                     sphere,
-                    cone: cone.unwrap_or(Cone::SPHERE),
+                    cone,
                     energy: round_up(energy),
                 },
                 count,
@@ -428,15 +440,21 @@ fn round_up(x: f64) -> f32 {
 
 /// Turns the binary tree into the flat, quantised 4-wide tree; `n_lights` is the length of
 /// the build's input (lights absent from `bin` get path 0).
-pub(crate) fn collapse(bin: &BinTree, n_lights: usize) -> Result<LightTree, BuildError> {
+/// With `compact`, subtrees of at most [`FREE_MAX`] lights may be packed free-form.
+pub(crate) fn collapse(
+    bin: &BinTree,
+    n_lights: usize,
+    compact: bool,
+) -> Result<LightTree, BuildError> {
     let free = FreeTable::new();
     let mut c = Collapser {
         bin: &bin.nodes,
-        plans: plan(&bin.nodes, &free),
+        plans: plan(&bin.nodes, &free, if compact { FREE_MAX } else { 1 }),
         free,
         nodes: Vec::with_capacity(bin.nodes.len() / 5 + 1),
         variances: Vec::new(),
         laid: Vec::with_capacity(bin.nodes.len() / 5 + 1),
+        exact: Vec::with_capacity(bin.nodes.len() / 5 + 1),
         leaves: Vec::with_capacity(bin.nodes.len() / 2 + 1),
         paths: vec![0; n_lights],
         depth: 0,
@@ -444,6 +462,7 @@ pub(crate) fn collapse(bin: &BinTree, n_lights: usize) -> Result<LightTree, Buil
     if !bin.nodes.is_empty() {
         c.nodes.push(Node4::EMPTY);
         c.laid.push([Laid::Empty; 4]);
+        c.exact.push((Sphere::enclosing(&[]), Cone::SPHERE));
         c.fill(0, Src::Bin(0), 1, 0)?;
         c.plans = Vec::new();
         c.quantise();
