@@ -6,10 +6,11 @@
 //! uniform in [0.1, 1]), 20 % one-sided triangles (edges of about 0.1 to 2, random
 //! orientation). Each light's intensity or radiance is set so that its power is the drawn one.
 //! [`point_lights`] is the points-only variant (same cube, same powers).
-//! Shading points are uniform in the same cube with uniformly random normals.
+//! Shading points are uniform in the same cube with uniformly random normals; [`surface_points`]
+//! gives them a material and a view direction in the normal's hemisphere.
 
 use glam::Vec3;
-use manylights::Light;
+use manylights::{Light, Material};
 use rand::{Rng, SeedableRng};
 use rand_pcg::Pcg64Mcg;
 use std::f32::consts::PI;
@@ -133,4 +134,24 @@ pub fn shading_points(m: usize, seed: u64) -> Vec<ShadingPoint> {
 pub fn uniforms(m: usize, seed: u64) -> Vec<f32> {
     let mut rng = Pcg64Mcg::seed_from_u64(seed ^ 0xa5a5_1234_5678_9abc);
     (0..m).map(|_| rng.random::<f32>()).collect()
+}
+
+/// `m` shading points for the BRDF-aware calls: the positions and normals of
+/// [`shading_points`]`(m, seed)`, a view direction ωo uniform in the normal's hemisphere, and
+/// `material`.
+pub fn surface_points(m: usize, seed: u64, material: Material) -> Vec<manylights::ShadingPoint> {
+    let mut rng = Pcg64Mcg::seed_from_u64(seed ^ 0x0b5e_7e00_d1ec_7104);
+    shading_points(m, seed)
+        .into_iter()
+        .map(|p| {
+            let w = unit_vector(&mut rng);
+            let wo = if w.dot(p.normal) < 0.0 { -w } else { w };
+            manylights::ShadingPoint {
+                position: p.position,
+                normal: p.normal,
+                wo,
+                material,
+            }
+        })
+        .collect()
 }
