@@ -1,14 +1,17 @@
 //! Sampling throughput of the 4-wide tree against the binary scalar baseline (same build, same
 //! TL importance, measured in one group so the ratio is read from one run), the batch calls
 //! beside the single ones (every sample a new shading point, the importances built inside the
-//! timed loop), build time, and split sampling one descent at a time against interleaved
+//! timed loop), BL sampling through a BRDF-oriented cut and split sampling with their per-point
+//! set-up, pmf queries single and batch, build time against the binary build, cut construction
+//! against one tree descent, and split sampling one descent at a time against interleaved
 //! (`sample_each`).
 //! Scene: the random scene of `mlrender bench` (fixed seed).
 
 use criterion::{criterion_group, criterion_main, BenchmarkId, Criterion, Throughput};
 use manylights::baseline::BinaryLightTree;
 use manylights::{
-    LightCut, LightSample, LightTree, Memo, MemoTable, SplitOptions, TlImportance, CUT_CAPACITY,
+    BlImportance, CutOptions, LightCut, LightSample, LightTree, Material, Memo, MemoTable,
+    SplitOptions, TlImportance, CUT_CAPACITY,
 };
 use manylights_testkit as random_scene;
 use std::hint::black_box;
@@ -16,12 +19,22 @@ use std::hint::black_box;
 const POINTS: usize = 4096;
 /// Shading points per batch call.
 const BATCH: usize = 256;
+/// The material of the BRDF-aware benches: both lobes, a glossy one of α = 0.2.
+const PLASTIC: Material = Material::Plastic {
+    albedo: 0.5,
+    specular: 0.5,
+    alpha: 0.2,
+};
 
 fn sampling(c: &mut Criterion) {
     let mut group = c.benchmark_group("sample");
+    group.sample_size(20);
     group.throughput(Throughput::Elements(POINTS as u64));
     let points = random_scene::shading_points(POINTS, 7);
+    let sps = random_scene::surface_points(POINTS, 7, PLASTIC);
     let us = random_scene::uniforms(POINTS, 7);
+    let cut_opts = CutOptions::default();
+    let split_opts = SplitOptions::default();
     for n in [1_000usize, 100_000, 1_000_000] {
         let lights = random_scene::lights(n, 7);
         let tree = LightTree::build(&lights).unwrap();
@@ -66,6 +79,55 @@ fn sampling(c: &mut Criterion) {
                 acc
             })
         });
+        // BL through the BRDF-oriented cut: the importance and the cut built at every point
+        // (what `bl` does per shading point), then one sample of the cut.
+        group.bench_with_input(BenchmarkId::new("BL cut", n), &n, |b, _| {
+            b.iter(|| {
+                let mut acc = 0.0f32;
+                for (sp, &u) in sps.iter().zip(&us) {
+                    let imp = BlImportance::new(black_box(sp)).unwrap();
+                    let cut = LightCut::build(&tree, &imp, &cut_opts);
+                    acc += cut.sample(&tree, &imp, black_box(u)).map_or(0.0, |s| s.pmf);
+                }
+                acc
+            })
+        });
+        // Split sampling: the split cut built at every point, then one light in each of its
+        // clusters (`sample_each`); an element is a shading point, not a sample.
+        group.bench_with_input(BenchmarkId::new("split", n), &n, |b, _| {
+            let mut out = [None; CUT_CAPACITY];
+            b.iter(|| {
+                let mut acc = 0.0f32;
+                for (p, &u) in points.iter().zip(&us) {
+                    let imp = TlImportance::new(p.position, p.normal);
+                    let cut = LightCut::build_split(&tree, black_box(&imp), &split_opts);
+                    let u_all = [black_box(u); CUT_CAPACITY];
+                    cut.sample_each(&tree, &imp, &u_all[..cut.len()], &mut out[..cut.len()]);
+                    acc += out[..cut.len()]
+                        .iter()
+                        .flatten()
+                        .map(|s| s.pmf)
+                        .sum::<f32>();
+                }
+                acc
+            })
+        });
+    }
+    group.finish();
+}
+
+/// pmf queries at the lights the 4-wide tree samples there: single, batch, and the binary
+/// tree's single query.
+fn pmf(c: &mut Criterion) {
+    let mut group = c.benchmark_group("pmf");
+    group.sample_size(20);
+    group.throughput(Throughput::Elements(POINTS as u64));
+    let points = random_scene::shading_points(POINTS, 7);
+    let us = random_scene::uniforms(POINTS, 7);
+    for n in [1_000usize, 100_000, 1_000_000] {
+        let lights = random_scene::lights(n, 7);
+        let tree = LightTree::build(&lights).unwrap();
+        let binary = BinaryLightTree::build(&lights).unwrap();
         let lights_of: Vec<u32> = points
             .iter()
             .zip(&us)
@@ -74,7 +136,7 @@ fn sampling(c: &mut Criterion) {
                 tree.sample(&imp, u).map_or(0, |s| s.light)
             })
             .collect();
-        group.bench_with_input(BenchmarkId::new("4-wide pmf", n), &n, |b, _| {
+        group.bench_with_input(BenchmarkId::new("4-wide", n), &n, |b, _| {
             b.iter(|| {
                 let mut acc = 0.0f32;
                 for (p, &light) in points.iter().zip(&lights_of) {
@@ -84,7 +146,17 @@ fn sampling(c: &mut Criterion) {
                 acc
             })
         });
-        group.bench_with_input(BenchmarkId::new("4-wide pmf batch", n), &n, |b, _| {
+        group.bench_with_input(BenchmarkId::new("binary", n), &n, |b, _| {
+            b.iter(|| {
+                let mut acc = 0.0f32;
+                for (p, &light) in points.iter().zip(&lights_of) {
+                    let imp = TlImportance::new(p.position, p.normal);
+                    acc += binary.pmf(black_box(&imp), black_box(light));
+                }
+                acc
+            })
+        });
+        group.bench_with_input(BenchmarkId::new("4-wide batch", n), &n, |b, _| {
             let mut imps = Vec::with_capacity(BATCH);
             let mut out = vec![0.0f32; BATCH];
             b.iter(|| {
@@ -146,23 +218,43 @@ fn memo(c: &mut Criterion) {
 fn build(c: &mut Criterion) {
     let mut group = c.benchmark_group("build");
     group.sample_size(10);
-    for n in [1_000usize, 100_000, 1_000_000] {
+    for n in [10_000usize, 100_000, 1_000_000] {
         let lights = random_scene::lights(n, 7);
         group.throughput(Throughput::Elements(n as u64));
         group.bench_with_input(BenchmarkId::new("4-wide", n), &lights, |b, lights| {
             b.iter(|| LightTree::build(black_box(lights)).unwrap())
         });
+        group.bench_with_input(BenchmarkId::new("binary", n), &lights, |b, lights| {
+            b.iter(|| BinaryLightTree::build(black_box(lights)).unwrap())
+        });
     }
     group.finish();
 }
 
+/// Cut construction per shading point (the importance's set-up included): the split cut (TL
+/// importance) and the BRDF-oriented cut (BL importance) for three materials, against the
+/// yardstick of one single-sample TL descent at the same points.
 fn cuts(c: &mut Criterion) {
     let mut group = c.benchmark_group("cut");
+    group.sample_size(20);
     group.throughput(Throughput::Elements(POINTS as u64));
     let points = random_scene::shading_points(POINTS, 7);
     let lights = random_scene::lights(100_000, 7);
     let tree = LightTree::build(&lights).unwrap();
     let opts = SplitOptions::default();
+    let us = random_scene::uniforms(POINTS, 7);
+    group.bench_function("TL descent, N=100000", |b| {
+        b.iter(|| {
+            let mut acc = 0.0f32;
+            for (p, &u) in points.iter().zip(&us) {
+                let imp = TlImportance::new(p.position, p.normal);
+                acc += tree
+                    .sample(black_box(&imp), black_box(u))
+                    .map_or(0.0, |s| s.pmf);
+            }
+            acc
+        })
+    });
     group.bench_function("split build, N=100000", |b| {
         b.iter(|| {
             let mut size = 0;
@@ -173,9 +265,32 @@ fn cuts(c: &mut Criterion) {
             size
         })
     });
+    let cut_opts = CutOptions::default();
+    for (name, material) in [
+        ("Lambert", Material::Lambert { albedo: 0.5 }),
+        (
+            "GGX 0.2",
+            Material::Ggx {
+                alpha: 0.2,
+                specular: 1.0,
+            },
+        ),
+        ("plastic 0.2", PLASTIC),
+    ] {
+        let sps = random_scene::surface_points(POINTS, 7, material);
+        group.bench_function(format!("BL build, N=100000, {name}"), |b| {
+            b.iter(|| {
+                let mut size = 0;
+                for sp in &sps {
+                    let imp = BlImportance::new(black_box(sp)).unwrap();
+                    size += LightCut::build(&tree, &imp, &cut_opts).len();
+                }
+                size
+            })
+        });
+    }
     // Split sampling at prebuilt cuts: one light per cluster, one descent at a time
     // (`sample_in`) against four interleaved (`sample_each`); same lights, same pmfs.
-    let us = random_scene::uniforms(POINTS, 7);
     let prepared: Vec<(TlImportance, LightCut)> = points
         .iter()
         .map(|p| {
@@ -215,5 +330,5 @@ fn cuts(c: &mut Criterion) {
     group.finish();
 }
 
-criterion_group!(benches, sampling, memo, build, cuts);
+criterion_group!(benches, sampling, pmf, memo, build, cuts);
 criterion_main!(benches);

@@ -1,10 +1,10 @@
-//! SPTD evaluation (scalar vs 4-wide, four caps per call) and BRDF-oriented cut construction.
+//! SPTD evaluation: scalar vs 4-wide, four caps per call (the BRDF-oriented cut's construction
+//! is in the `cut` group of `benches/sampling.rs`).
 
 use criterion::{criterion_group, criterion_main, Criterion, Throughput};
 use glam::Vec3;
 use manylights::f32x4;
 use manylights::importance::sptd::SptdGgx;
-use manylights::{BlImportance, CutOptions, LightCut, LightTree, Material, ShadingPoint};
 use manylights_testkit as random_scene;
 use std::hint::black_box;
 
@@ -47,37 +47,5 @@ fn sptd(c: &mut Criterion) {
     group.finish();
 }
 
-fn bl_cuts(c: &mut Criterion) {
-    let points = random_scene::shading_points(1024, 5);
-    let lights = random_scene::lights(100_000, 5);
-    let tree = LightTree::build(&lights).unwrap();
-    let sps: Vec<ShadingPoint> = points
-        .iter()
-        .map(|p| ShadingPoint {
-            position: p.position,
-            normal: p.normal,
-            wo: (p.normal + Vec3::new(0.3, -0.2, 0.1)).normalize(),
-            material: Material::Ggx {
-                alpha: 0.2,
-                specular: 1.0,
-            },
-        })
-        .collect();
-    let opts = CutOptions::default();
-    let mut group = c.benchmark_group("cut");
-    group.throughput(Throughput::Elements(sps.len() as u64));
-    group.bench_function("BL build, N=100000, GGX 0.2", |b| {
-        b.iter(|| {
-            let mut size = 0;
-            for sp in &sps {
-                let imp = BlImportance::new(black_box(sp)).unwrap();
-                size += LightCut::build(&tree, &imp, &opts).len();
-            }
-            size
-        })
-    });
-    group.finish();
-}
-
-criterion_group!(benches, sptd, bl_cuts);
+criterion_group!(benches, sptd);
 criterion_main!(benches);
