@@ -1,0 +1,63 @@
+//! Every direct-lighting technique per shading point: the estimator's set-up at the point
+//! (`Estimator::new`: cuts, budget) and one estimate (`Estimator::estimate`) with the core's
+//! plastic material and no occluder (`direct::Unoccluded`: every shadow ray passes, so the
+//! figures are the library's alone). The yardstick is `tl-mis`, one TL tree sample plus one
+//! BSDF sample (what pbrt-v4 and Cycles do at a shading point).
+//! Scene: the random scene of `mlrender bench` (fixed seed, 10⁵ lights); the host's uniform
+//! numbers from a 64-bit LCG restarted at the same seed in every iteration.
+
+use criterion::{criterion_group, criterion_main, Criterion, Throughput};
+use manylights::direct::{Estimator, Params, Technique, Uniforms, Unoccluded};
+use manylights::{LightSet, Material};
+use manylights_testkit as random_scene;
+use std::hint::black_box;
+
+const POINTS: usize = 1024;
+
+/// The host's random numbers (the LCG of the `direct` module's example).
+struct Lcg(u64);
+
+impl Uniforms for Lcg {
+    fn next_f64(&mut self) -> f64 {
+        self.0 = self
+            .0
+            .wrapping_mul(6364136223846793005)
+            .wrapping_add(1442695040888963407);
+        (self.0 >> 11) as f64 / (1u64 << 53) as f64
+    }
+
+    fn next_f32(&mut self) -> f32 {
+        (self.next_f64() as f32).min(1.0 - f32::EPSILON / 2.0)
+    }
+}
+
+fn direct(c: &mut Criterion) {
+    let set = LightSet::build(random_scene::lights(100_000, 13)).unwrap();
+    let plastic = Material::Plastic {
+        albedo: 0.5,
+        specular: 0.5,
+        alpha: 0.2,
+    };
+    let sps = random_scene::surface_points(POINTS, 13, plastic);
+    let params = Params::default();
+    let mut group = c.benchmark_group("direct");
+    group.sample_size(10);
+    group.throughput(Throughput::Elements(POINTS as u64));
+    for technique in Technique::ALL {
+        group.bench_function(technique.name(), |b| {
+            b.iter(|| {
+                let mut u = Lcg(13);
+                let mut acc = 0.0f64;
+                for sp in &sps {
+                    let mut est = Estimator::new(&set, black_box(sp), technique, &params).unwrap();
+                    acc += est.estimate(&Unoccluded, &mut u).unwrap();
+                }
+                acc
+            })
+        });
+    }
+    group.finish();
+}
+
+criterion_group!(benches, direct);
+criterion_main!(benches);
