@@ -17,12 +17,14 @@
 //! | [`batch`] | the batched cut queries equal the single calls bit for bit |
 //! | [`sptd`] | the BRDF-oriented cap integral: finite, ≥ 0, ≤ the albedo (with [`sptd::ALBEDO_TOLERANCE`]) |
 //! | [`vpl`] | VPL acceptance: p in (0, 1], finite scaled intensity, errors naming the field |
+//! | [`ffi`] | the C ABI with arbitrary arguments: a defined status, outputs only on success |
 
 use arbitrary::{Arbitrary, Unstructured};
 
 pub mod batch;
 pub mod bounded;
 pub mod build_bad_input;
+pub mod ffi;
 pub mod pdf_consistency;
 pub mod sptd;
 pub mod tree_bytes;
@@ -39,7 +41,7 @@ pub struct Target {
 }
 
 /// Every fuzz target.
-pub const TARGETS: [Target; 6] = [
+pub const TARGETS: [Target; 7] = [
     Target {
         name: "build_bad_input",
         run: run::<build_bad_input::Input>,
@@ -63,6 +65,10 @@ pub const TARGETS: [Target; 6] = [
     Target {
         name: "vpl",
         run: run::<vpl::Input>,
+    },
+    Target {
+        name: "ffi",
+        run: run::<ffi::Input>,
     },
 ];
 
