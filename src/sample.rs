@@ -205,8 +205,13 @@ pub(crate) struct WalkStart {
     pub floor: f32,
 }
 
-/// Descents (and pmf walks) a batch call keeps in flight (other widths are not measured yet).
-pub const BATCH_LANES: usize = 8;
+/// Descents (and pmf walks) a batch call keeps in flight. Measured with 256 shading points per
+/// call against single calls, three runs on a shared 2-core machine: at 10⁶ lights (a tree in
+/// DRAM) 16 in flight gave 1.47–2.03× (12: 1.48–1.55×, 8: 1.36–1.48×, 4: 1.17–1.30×); at 10⁵
+/// lights (a tree in the last-level cache) every width from 4 to 16 gave 1.0–1.25×, within the
+/// noise of one another. More in flight only adds state: 16 hides the most latency where
+/// there is latency to hide.
+pub const BATCH_LANES: usize = 16;
 
 impl LightTree {
     /// Samples a light at the shading point of `imp` with the uniform number `u` in [0, 1)
