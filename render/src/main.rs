@@ -7,6 +7,11 @@ use manylights_render::params::ParamArgs;
 use manylights_render::{image, render, scene};
 use std::path::PathBuf;
 
+/// Counts the heap in use, for the build's peak in `mlrender bench`.
+#[global_allocator]
+static ALLOC: manylights_render::alloc_count::CountingAlloc =
+    manylights_render::alloc_count::CountingAlloc;
+
 #[derive(Parser)]
 #[command(
     name = "mlrender",
@@ -32,9 +37,15 @@ enum Command {
         /// Seed of the scene, shading points and uniform numbers.
         #[arg(long, default_value_t = 1)]
         seed: u64,
-        /// Timed repetitions of each loop (the fastest is reported).
+        /// Timed repetitions of each build and loop (the fastest is reported).
         #[arg(long, default_value_t = 3)]
         repeats: usize,
+        /// The scene: the mixed one or point lights only.
+        #[arg(long, value_enum, default_value_t = bench::SceneKinds::Mixed)]
+        kinds: bench::SceneKinds,
+        /// Measure the builds only (time, peak heap, size, shape): no sampling passes.
+        #[arg(long)]
+        build_only: bool,
         /// Print one JSON object as the last line of stdout.
         #[arg(long)]
         json: bool,
@@ -267,6 +278,8 @@ fn main() {
             points,
             seed,
             repeats,
+            kinds,
+            build_only,
             json,
         } => {
             let report = bench::run(&bench::BenchConfig {
@@ -274,6 +287,8 @@ fn main() {
                 points,
                 seed,
                 repeats,
+                kinds,
+                build_only,
             });
             println!("{}", bench::table(&report));
             if json {

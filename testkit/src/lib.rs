@@ -5,6 +5,7 @@
 //! 20 % spots (random direction, half-angle uniform in [10°, 60°]), 20 % spheres (radius
 //! uniform in [0.1, 1]), 20 % one-sided triangles (edges of about 0.1 to 2, random
 //! orientation). Each light's intensity or radiance is set so that its power is the drawn one.
+//! [`point_lights`] is the points-only variant (same cube, same powers).
 //! Shading points are uniform in the same cube with uniformly random normals.
 
 use glam::Vec3;
@@ -87,6 +88,22 @@ pub fn lights(n: usize, seed: u64) -> Vec<Light> {
                         two_sided: false,
                     }
                 }
+            }
+        })
+        .collect()
+}
+
+/// `n` isotropic point lights uniform in the cube with power uniform in [0.1, 10], from
+/// `seed`: the scene whose build has no orientation to bound.
+pub fn point_lights(n: usize, seed: u64) -> Vec<Light> {
+    let mut rng = Pcg64Mcg::seed_from_u64(seed);
+    (0..n)
+        .map(|_| {
+            let c = in_cube(&mut rng);
+            let power = rng.random_range(0.1f32..10.0);
+            Light::Point {
+                position: c,
+                intensity: power / (4.0 * PI),
             }
         })
         .collect()

@@ -1,16 +1,45 @@
 //! `mlrender bench`: build time, memory and single-threaded sampling throughput of the 4-wide
 //! tree against the binary scalar baseline, measured in one run, plus the exactness of the
-//! pmfs.
+//! pmfs. The build's peak heap is measured with [`crate::alloc_count`] when that is the global
+//! allocator (as in `mlrender`).
 
+use crate::alloc_count;
 use manylights::baseline::BinaryLightTree;
 use manylights::{
-    BlImportance, CutOptions, LightCut, LightTree, Material, ShadingPoint as Sp, SplitOptions,
-    TlImportance, CUT_CAPACITY,
+    BlImportance, CutOptions, Light, LightCut, LightTree, Material, ShadingPoint as Sp,
+    SplitOptions, TlImportance, CUT_CAPACITY,
 };
 use manylights_testkit::{self as random_scene, ShadingPoint};
 use serde_json::json;
 use std::hint::black_box;
 use std::time::Instant;
+
+/// Which seeded scene to measure.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
+pub enum SceneKinds {
+    /// The mixed scene of points, spots, spheres and triangles ([`random_scene::lights`]).
+    Mixed,
+    /// Point lights only ([`random_scene::point_lights`]).
+    Point,
+}
+
+impl SceneKinds {
+    /// The scene's `n` lights from `seed`.
+    pub fn lights(self, n: usize, seed: u64) -> Vec<Light> {
+        match self {
+            SceneKinds::Mixed => random_scene::lights(n, seed),
+            SceneKinds::Point => random_scene::point_lights(n, seed),
+        }
+    }
+
+    /// The name used on the command line and in the report.
+    pub fn name(self) -> &'static str {
+        match self {
+            SceneKinds::Mixed => "mixed",
+            SceneKinds::Point => "point",
+        }
+    }
+}
 
 /// What to measure.
 #[derive(Clone, Copy, Debug)]
@@ -21,8 +50,37 @@ pub struct BenchConfig {
     pub points: usize,
     /// Seed of the scene, the points and the uniform numbers.
     pub seed: u64,
-    /// Timed repetitions of each sampling loop; the fastest is kept.
+    /// Timed repetitions of each build and sampling loop; the fastest is kept.
     pub repeats: usize,
+    /// The scene.
+    pub kinds: SceneKinds,
+    /// Measure the builds only (time, peak heap, size and shape), no sampling.
+    pub build_only: bool,
+}
+
+/// One timed build: the result, the time and the peak bytes allocated during it (the result
+/// included), or `None` without the counting allocator.
+fn timed_build<T>(f: impl FnOnce() -> T) -> (T, f64, Option<usize>) {
+    let base = alloc_count::reset_peak();
+    let t = Instant::now();
+    let out = f();
+    let ms = t.elapsed().as_secs_f64() * 1e3;
+    let peak = alloc_count::peak() - base;
+    (out, ms, alloc_count::installed().then_some(peak))
+}
+
+/// The fastest of `repeats` builds (the previous result is dropped before each), its time and
+/// the largest peak heap of all of them.
+fn best_build<T>(repeats: usize, mut f: impl FnMut() -> T) -> (T, f64, Option<usize>) {
+    let (mut out, mut best_ms, mut peak) = timed_build(&mut f);
+    for _ in 1..repeats.max(1) {
+        drop(out);
+        let (o, ms, p) = timed_build(&mut f);
+        out = o;
+        best_ms = best_ms.min(ms);
+        peak = peak.max(p);
+    }
+    (out, best_ms, peak)
 }
 
 /// Throughput of one pass over the shading points, in million samples per second.
@@ -43,17 +101,36 @@ fn time_pass(
 
 /// Runs the benchmark; returns the JSON report (also the source of the human table).
 pub fn run(cfg: &BenchConfig) -> serde_json::Value {
-    let lights = random_scene::lights(cfg.lights, cfg.seed);
+    let lights = cfg.kinds.lights(cfg.lights, cfg.seed);
+    let per_light = |bytes: Option<usize>| bytes.map(|b| b as f64 / cfg.lights.max(1) as f64);
+
+    let (tree, build_ms, build_peak) = best_build(cfg.repeats, || {
+        LightTree::build(&lights).expect("the bench scene is valid")
+    });
+    let (baseline, baseline_build_ms, baseline_peak) = best_build(cfg.repeats, || {
+        BinaryLightTree::build(&lights).expect("the bench scene is valid")
+    });
+    let stats = tree.stats();
+    let build_report = json!({
+        "lights": cfg.lights,
+        "kinds": cfg.kinds.name(),
+        "seed": cfg.seed,
+        "repeats": cfg.repeats.max(1),
+        "build_ms": build_ms,
+        "build_peak_bytes_per_light": per_light(build_peak),
+        "baseline_build_ms": baseline_build_ms,
+        "baseline_build_peak_bytes_per_light": per_light(baseline_peak),
+        "bytes_per_light": stats.bytes_per_light,
+        "baseline_bytes_per_light": baseline.bytes() as f64 / cfg.lights.max(1) as f64,
+        "nodes": stats.nodes,
+        "mean_fill": stats.mean_fill,
+        "depth": stats.depth,
+    });
+    if cfg.build_only {
+        return build_report;
+    }
     let points = random_scene::shading_points(cfg.points, cfg.seed);
     let us = random_scene::uniforms(cfg.points, cfg.seed);
-
-    let t = Instant::now();
-    let tree = LightTree::build(&lights).expect("the bench scene is valid");
-    let build_ms = t.elapsed().as_secs_f64() * 1e3;
-    let t = Instant::now();
-    let baseline = BinaryLightTree::build(&lights).expect("the bench scene is valid");
-    let baseline_build_ms = t.elapsed().as_secs_f64() * 1e3;
-    let stats = tree.stats();
 
     // Alternate the two samplers so that both see the same machine state; keep the best.
     let mut tl = 0.0f64;
@@ -241,17 +318,9 @@ pub fn run(cfg: &BenchConfig) -> serde_json::Value {
         None
     };
 
-    json!({
-        "lights": cfg.lights,
+    let mut report = build_report;
+    let sampling = json!({
         "points": cfg.points,
-        "seed": cfg.seed,
-        "build_ms": build_ms,
-        "baseline_build_ms": baseline_build_ms,
-        "bytes_per_light": stats.bytes_per_light,
-        "baseline_bytes_per_light": baseline.bytes() as f64 / cfg.lights.max(1) as f64,
-        "nodes": stats.nodes,
-        "mean_fill": stats.mean_fill,
-        "depth": stats.depth,
         "tl_msamples_per_s": tl,
         "baseline_msamples_per_s": base,
         "speedup": tl / base,
@@ -270,7 +339,11 @@ pub fn run(cfg: &BenchConfig) -> serde_json::Value {
         "split_each_speedup": split_each_rate / split_rate,
         "split_cut_builds_per_s": split_builds,
         "avg_split_cut_size": cut_size_sum as f64 / cfg.points.max(1) as f64,
-    })
+    });
+    if let (Some(r), Some(s)) = (report.as_object_mut(), sampling.as_object()) {
+        r.extend(s.iter().map(|(k, v)| (k.clone(), v.clone())));
+    }
+    report
 }
 
 /// The report as a human-readable table.
@@ -279,8 +352,16 @@ pub fn table(r: &serde_json::Value) -> String {
     let rows = [
         ("lights", "lights"),
         ("shading points", "points"),
-        ("build (ms)", "build_ms"),
+        ("build (ms, best of the repeats)", "build_ms"),
+        (
+            "build peak heap (bytes per light)",
+            "build_peak_bytes_per_light",
+        ),
         ("baseline build (ms)", "baseline_build_ms"),
+        (
+            "baseline build peak heap (bytes per light)",
+            "baseline_build_peak_bytes_per_light",
+        ),
         ("bytes per light", "bytes_per_light"),
         ("baseline bytes per light", "baseline_bytes_per_light"),
         ("nodes", "nodes"),
@@ -318,7 +399,11 @@ pub fn table(r: &serde_json::Value) -> String {
         ("mean split cut size", "avg_split_cut_size"),
     ];
     let mut s = String::from("| measure | value |\n|---|---|\n");
-    for (name, key) in rows {
+    if let Some(k) = r["kinds"].as_str() {
+        s.push_str(&format!("| scene | {k} |\n"));
+    }
+    // A build-only report has no sampling rows.
+    for (name, key) in rows.into_iter().filter(|(_, k)| r.get(k).is_some()) {
         s.push_str(&format!("| {name} | {} |\n", f(key)));
     }
     s

@@ -1,0 +1,74 @@
+//! `mlrender bench` in miniature: the build-only report has the build's figures (its peak heap
+//! measured by the counting allocator installed here, as in `mlrender`) and no sampling ones;
+//! the full report has both; the points-only scene is points only.
+
+use manylights::Light;
+use manylights_render::alloc_count::{self, CountingAlloc};
+use manylights_render::instruments::bench::{run, table, BenchConfig, SceneKinds};
+
+#[global_allocator]
+static ALLOC: CountingAlloc = CountingAlloc;
+
+fn config(kinds: SceneKinds, build_only: bool) -> BenchConfig {
+    BenchConfig {
+        lights: 3000,
+        points: 2000,
+        seed: 5,
+        repeats: 2,
+        kinds,
+        build_only,
+    }
+}
+
+#[test]
+fn build_only_reports_the_build() {
+    assert!(alloc_count::installed());
+    for kinds in [SceneKinds::Mixed, SceneKinds::Point] {
+        let r = run(&config(kinds, true));
+        assert_eq!(r["kinds"], kinds.name());
+        assert!(r["build_ms"].as_f64().unwrap() > 0.0);
+        let bpl = r["bytes_per_light"].as_f64().unwrap();
+        let peak = r["build_peak_bytes_per_light"].as_f64().unwrap();
+        // Everything the build allocates is counted, the finished tree included.
+        assert!(peak >= bpl, "{kinds:?}: peak {peak} < tree {bpl}");
+        assert!(peak < 1000.0, "{kinds:?}: peak {peak}");
+        assert!(r["baseline_build_peak_bytes_per_light"].as_f64().unwrap() > 0.0);
+        assert!(r["nodes"].as_u64().unwrap() > 0 && r["depth"].as_u64().unwrap() > 0);
+        assert!(r.get("tl_msamples_per_s").is_none());
+        let t = table(&r);
+        assert!(
+            t.contains("build peak heap") && !t.contains("Msamples"),
+            "{t}"
+        );
+    }
+}
+
+#[test]
+fn full_report_has_build_and_sampling() {
+    let mut cfg = config(SceneKinds::Point, false);
+    cfg.repeats = 1;
+    let r = run(&cfg);
+    assert!(r["build_peak_bytes_per_light"].as_f64().is_some());
+    assert!(r["tl_msamples_per_s"].as_f64().unwrap() > 0.0);
+    assert!(r["pmf_max_rel_err"].as_f64().unwrap() < 1e-3);
+}
+
+#[test]
+fn point_scene_is_points_in_the_cube() {
+    let lights = manylights_testkit::point_lights(500, 3);
+    assert_eq!(lights.len(), 500);
+    assert_eq!(lights, manylights_testkit::point_lights(500, 3));
+    for l in &lights {
+        match *l {
+            Light::Point {
+                position,
+                intensity,
+            } => {
+                assert!(position.abs().max_element() <= manylights_testkit::HALF_EXTENT);
+                let power = intensity * 4.0 * std::f32::consts::PI;
+                assert!((0.099..=10.001).contains(&power), "{power}");
+            }
+            _ => panic!("not a point light: {l:?}"),
+        }
+    }
+}
