@@ -247,6 +247,22 @@ impl Acc {
         self.count += b.count;
     }
 
+    /// [`Acc::add`] once the sum is omnidirectional.
+    #[inline(always)]
+    fn add_omni(&mut self, b: &Bucket) {
+        debug_assert!(self.omni);
+        self.lo = self.lo.min(b.lo);
+        self.hi = self.hi.max(b.hi);
+        self.energy += b.energy;
+        self.count += b.count;
+    }
+
+    /// [`Acc::cost`] once the sum is omnidirectional.
+    #[inline(always)]
+    fn cost_omni(&self) -> f32 {
+        self.energy * measure_full(self.lo, self.hi) * (4.0 * core::f32::consts::PI)
+    }
+
     /// Adds one light.
     #[inline(always)]
     fn add_light(&mut self, leaf: &BinNode, aabb: &Aabb) {
@@ -525,32 +541,51 @@ impl Ctx<'_> {
                 continue;
             }
             // Costs and counts of the left parts: the buckets up to full[t], for t < m − 1.
+            // Each scan unites cones until its sum is omnidirectional, then only adds boxes
+            // and energies (two loops, so that no branch depends on each bucket's kind).
             let mut left_cost = [0.0f32; MAX_BUCKETS];
             let mut left_count = [0u32; MAX_BUCKETS];
             let mut sum = Acc::EMPTY;
-            for t in 0..m - 1 {
+            let mut t = 0;
+            while t < m - 1 && !sum.omni {
                 let i = usize::from(full[t]);
                 sum.add(&acc[i], &cones[i]);
                 left_cost[t] = sum.cost();
                 left_count[t] = sum.count;
+                t += 1;
+            }
+            while t < m - 1 {
+                sum.add_omni(&acc[usize::from(full[t])]);
+                left_cost[t] = sum.cost_omni();
+                left_count[t] = sum.count;
+                t += 1;
             }
             let kr = if node_ext[axis] > 0.0 {
                 max_ext / node_ext[axis]
             } else {
                 1.0
             };
+            let mut consider = |t: usize, right_cost: f32, right_count: u32| {
+                let (nl, nr) = (left_count[t - 1] as usize, right_count as usize);
+                if nl.max(nr) <= limit {
+                    let cost = kr * (left_cost[t - 1] + right_cost);
+                    if best.is_none_or(|b| cost < b.0) {
+                        best = Some((cost, axis, usize::from(full[t]) - 1));
+                    }
+                }
+            };
             let mut sum = Acc::EMPTY;
-            for t in (1..m).rev() {
+            let mut t = m - 1;
+            while t >= 1 && !sum.omni {
                 let i = usize::from(full[t]);
                 sum.add(&acc[i], &cones[i]);
-                let (nl, nr) = (left_count[t - 1] as usize, sum.count as usize);
-                if nl.max(nr) > limit {
-                    continue;
-                }
-                let cost = kr * (left_cost[t - 1] + sum.cost());
-                if best.is_none_or(|b| cost < b.0) {
-                    best = Some((cost, axis, i - 1));
-                }
+                consider(t, sum.cost(), sum.count);
+                t -= 1;
+            }
+            while t >= 1 {
+                sum.add_omni(&acc[usize::from(full[t])]);
+                consider(t, sum.cost_omni(), sum.count);
+                t -= 1;
             }
         }
         best
