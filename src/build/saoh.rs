@@ -12,7 +12,9 @@
 //! first (in depth-first order), then the n leaves. The leaves are made before the build and
 //! serve as its working set: they are partitioned in place, together with an array of the
 //! lights' boxes (the only per-light data a leaf does not keep), and end up in left-to-right
-//! order. Nothing else is allocated per light, and nothing per node.
+//! order. Besides a bit per light for the partitions, nothing else is allocated per light,
+//! and nothing per node but for the rare split at the median (which selects on (key, index)
+//! pairs).
 
 use crate::bounds::{Aabb, Cone, LightBounds, Sphere};
 use crate::light::outward;
