@@ -1,15 +1,21 @@
 //! Sampling throughput of the 4-wide tree against the binary scalar baseline (same build, same
-//! TL importance, measured in one group so the ratio is read from one run), build time, and
-//! split sampling one descent at a time against interleaved (`sample_each`).
+//! TL importance, measured in one group so the ratio is read from one run), the batch calls
+//! beside the single ones (every sample a new shading point, the importances built inside the
+//! timed loop), build time, and split sampling one descent at a time against interleaved
+//! (`sample_each`).
 //! Scene: the random scene of `mlrender bench` (fixed seed).
 
 use criterion::{criterion_group, criterion_main, BenchmarkId, Criterion, Throughput};
 use manylights::baseline::BinaryLightTree;
-use manylights::{LightCut, LightTree, SplitOptions, TlImportance, CUT_CAPACITY};
+use manylights::{
+    LightCut, LightSample, LightTree, Memo, MemoTable, SplitOptions, TlImportance, CUT_CAPACITY,
+};
 use manylights_testkit as random_scene;
 use std::hint::black_box;
 
 const POINTS: usize = 4096;
+/// Shading points per batch call.
+const BATCH: usize = 256;
 
 fn sampling(c: &mut Criterion) {
     let mut group = c.benchmark_group("sample");
@@ -44,19 +50,91 @@ fn sampling(c: &mut Criterion) {
                 acc
             })
         });
-        group.bench_with_input(BenchmarkId::new("4-wide pmf", n), &n, |b, _| {
-            let queries: Vec<(TlImportance, u32)> = points
-                .iter()
-                .zip(&us)
-                .filter_map(|(p, &u)| {
-                    let imp = TlImportance::new(p.position, p.normal);
-                    tree.sample(&imp, u).map(|s| (imp, s.light))
-                })
-                .collect();
+        // The batch call, BATCH points at a time (a wavefront's worth).
+        group.bench_with_input(BenchmarkId::new("4-wide batch", n), &n, |b, _| {
+            let mut imps = Vec::with_capacity(BATCH);
+            let mut out: Vec<Option<LightSample>> = vec![None; BATCH];
             b.iter(|| {
                 let mut acc = 0.0f32;
-                for (imp, light) in &queries {
-                    acc += tree.pmf(black_box(imp), black_box(*light));
+                for (pc, uc) in points.chunks(BATCH).zip(us.chunks(BATCH)) {
+                    imps.clear();
+                    imps.extend(pc.iter().map(|p| TlImportance::new(p.position, p.normal)));
+                    tree.sample_batch(black_box(&imps), black_box(uc), &mut out[..pc.len()])
+                        .unwrap();
+                    acc += out[..pc.len()].iter().flatten().map(|s| s.pmf).sum::<f32>();
+                }
+                acc
+            })
+        });
+        let lights_of: Vec<u32> = points
+            .iter()
+            .zip(&us)
+            .map(|(p, &u)| {
+                let imp = TlImportance::new(p.position, p.normal);
+                tree.sample(&imp, u).map_or(0, |s| s.light)
+            })
+            .collect();
+        group.bench_with_input(BenchmarkId::new("4-wide pmf", n), &n, |b, _| {
+            b.iter(|| {
+                let mut acc = 0.0f32;
+                for (p, &light) in points.iter().zip(&lights_of) {
+                    let imp = TlImportance::new(p.position, p.normal);
+                    acc += tree.pmf(black_box(&imp), black_box(light));
+                }
+                acc
+            })
+        });
+        group.bench_with_input(BenchmarkId::new("4-wide pmf batch", n), &n, |b, _| {
+            let mut imps = Vec::with_capacity(BATCH);
+            let mut out = vec![0.0f32; BATCH];
+            b.iter(|| {
+                let mut acc = 0.0f32;
+                for (pc, lc) in points.chunks(BATCH).zip(lights_of.chunks(BATCH)) {
+                    imps.clear();
+                    imps.extend(pc.iter().map(|p| TlImportance::new(p.position, p.normal)));
+                    tree.pmf_batch(black_box(&imps), black_box(lc), &mut out[..pc.len()])
+                        .unwrap();
+                    acc += out[..pc.len()].iter().sum::<f32>();
+                }
+                acc
+            })
+        });
+    }
+    group.finish();
+}
+
+/// Eight samples per shading point, with and without a [`Memo`] (its table reused from point
+/// to point, as a renderer keeps one per thread).
+fn memo(c: &mut Criterion) {
+    const PER_POINT: usize = 8;
+    let mut group = c.benchmark_group("memo");
+    let points = random_scene::shading_points(POINTS / PER_POINT, 8);
+    let us = random_scene::uniforms(POINTS, 8);
+    group.throughput(Throughput::Elements(POINTS as u64));
+    for n in [100_000usize, 1_000_000] {
+        let lights = random_scene::lights(n, 7);
+        let tree = LightTree::build(&lights).unwrap();
+        let table = MemoTable::new();
+        group.bench_with_input(BenchmarkId::new("8 per point", n), &n, |b, _| {
+            b.iter(|| {
+                let mut acc = 0.0f32;
+                for (p, uc) in points.iter().zip(us.chunks(PER_POINT)) {
+                    let imp = TlImportance::new(p.position, p.normal);
+                    for &u in uc {
+                        acc += tree.sample(black_box(&imp), u).map_or(0.0, |s| s.pmf);
+                    }
+                }
+                acc
+            })
+        });
+        group.bench_with_input(BenchmarkId::new("8 per point, memo", n), &n, |b, _| {
+            b.iter(|| {
+                let mut acc = 0.0f32;
+                for (p, uc) in points.iter().zip(us.chunks(PER_POINT)) {
+                    let memo = Memo::new(TlImportance::new(p.position, p.normal), &tree, &table);
+                    for &u in uc {
+                        acc += tree.sample(black_box(&memo), u).map_or(0.0, |s| s.pmf);
+                    }
                 }
                 acc
             })
@@ -137,5 +215,5 @@ fn cuts(c: &mut Criterion) {
     group.finish();
 }
 
-criterion_group!(benches, sampling, build, cuts);
+criterion_group!(benches, sampling, memo, build, cuts);
 criterion_main!(benches);

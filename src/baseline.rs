@@ -14,7 +14,10 @@ use crate::importance::TlImportance;
 use crate::light::Light;
 use crate::math;
 use crate::sample::{admit, sanitize, LightSample, MIN_PMF, ONE_MINUS_EPSILON};
-use crate::tree::{path_len, SlotBounds, LEAF_BIT};
+use crate::tree::{path_len, SlotBounds};
+
+/// Bit set in a node's `child` when it is a leaf (the rest of the bits: the light).
+const LEAF_BIT: u32 = 1 << 31;
 use alloc::vec;
 use alloc::vec::Vec;
 use bytemuck::{Pod, Zeroable};

@@ -267,6 +267,35 @@ impl Sphere {
             + math::sq(f64::from(self.center.z - inner.center.z));
         math::sqrt64(d) + f64::from(inner.radius) <= f64::from(self.radius) + f64::from(tol)
     }
+
+    /// A sphere containing every sphere of `spheres` (finite): centred on the middle of their
+    /// bounding box, with the radius computed in f64 and rounded outwards. The zero sphere for
+    /// an empty slice.
+    pub fn enclosing(spheres: &[Sphere]) -> Sphere {
+        let Some(first) = spheres.first() else {
+            return Sphere {
+                center: Vec3::ZERO,
+                radius: 0.0,
+            };
+        };
+        let (mut lo, mut hi) = (first.center, first.center);
+        for s in spheres {
+            lo = lo.min(s.center - Vec3::splat(s.radius));
+            hi = hi.max(s.center + Vec3::splat(s.radius));
+        }
+        let center = lo * 0.5 + hi * 0.5;
+        let mut r = 0.0f64;
+        for s in spheres {
+            let d = math::sq(f64::from(s.center.x) - f64::from(center.x))
+                + math::sq(f64::from(s.center.y) - f64::from(center.y))
+                + math::sq(f64::from(s.center.z) - f64::from(center.z));
+            r = r.max(math::sqrt64(d) + f64::from(s.radius));
+        }
+        Sphere {
+            center,
+            radius: crate::light::outward(r),
+        }
+    }
 }
 
 /// Everything the tree keeps about one light or one cluster of lights.

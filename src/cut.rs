@@ -40,8 +40,9 @@
 //! squared, scales its relative variance into a share of the total's.
 
 use crate::importance::{BlImportance, Importance, TlImportance};
-use crate::sample::{sanitize, LightSample, LANES, MIN_PMF, ONE_MINUS_EPSILON};
-use crate::tree::{path_len, LightTree, Node4, Slot};
+use crate::sample::{sanitize, LightSample, Start, WalkStart, MIN_PMF, ONE_MINUS_EPSILON};
+use crate::tree::{path_len, Child, LightTree, Node4, Slot};
+use core::cell::Cell;
 
 /// `x > 0` (false for NaN).
 #[inline(always)]
@@ -55,6 +56,9 @@ pub const MIN_CUT_SIZE: usize = 4;
 /// Most clusters a cut holds.
 pub const CUT_CAPACITY: usize = 64;
 
+/// Descents [`LightCut::sample_each`] and the pmf walks of a cut keep in flight.
+const CUT_LANES: usize = 4;
+
 /// One cluster of a cut: a slot of a node, with its path from the root and its weight.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct Cluster {
@@ -62,7 +66,7 @@ pub struct Cluster {
     pub node: u32,
     /// The slot (0..4).
     pub slot: u8,
-    /// Path of the slot from the root, encoded as in [`LightTree::paths`].
+    /// Path of the slot from the root, encoded as in [`LightTree::path`].
     pub path: u64,
     /// Weight at the shading point (the importance the cut was built with; > 0).
     pub weight: f32,
@@ -222,10 +226,10 @@ impl LightCut {
             let d = decide(node, total);
             let mut n = 0;
             for (k, dk) in d.iter().enumerate() {
-                if !positive(dk.weight) || node.slot(k) == Slot::Empty {
+                if !positive(dk.weight) || node.child(k) == Child::Empty {
                     continue;
                 }
-                let inner = matches!(node.slot(k), Slot::Node(_));
+                let inner = matches!(node.child(k), Child::Node(_));
                 out[n] = (
                     Cluster {
                         node: node_index,
@@ -261,7 +265,7 @@ impl LightCut {
             let c = queue[head];
             head = (head + 1) % CUT_CAPACITY;
             queued -= 1;
-            let Slot::Node(child) = tree.nodes[c.node as usize].slot(usize::from(c.slot)) else {
+            let Child::Node(child) = tree.nodes[c.node as usize].child(usize::from(c.slot)) else {
                 cut.push(c);
                 continue;
             };
@@ -349,8 +353,8 @@ impl LightCut {
                 let (w, sc, glossy) = (w.to_array(), sc.to_array(), glossy.to_array());
                 let mut out = [SlotDecision::default(); 4];
                 for k in 0..4 {
-                    let c = glam::Vec3::new(node.center_x[k], node.center_y[k], node.center_z[k]);
-                    let r = node.radius[k];
+                    let sphere = node.sphere(k);
+                    let (c, r) = (sphere.center, sphere.radius);
                     let inside = (c - x).length_squared() <= r * r;
                     out[k] = SlotDecision {
                         weight: w[k],
@@ -381,15 +385,12 @@ impl LightCut {
                         continue;
                     }
                     // V[e]/E[e]² of the cluster's energies (0 for a single light).
-                    let rel_e = match node.slot(k) {
-                        Slot::Node(c) => tree
-                            .node_stats
-                            .get(c as usize)
-                            .map_or(0.0, |s| s.energy_rel_variance),
+                    let rel_e = match node.child(k) {
+                        Child::Node(c) => tree.energy_rel_variance(c),
                         _ => 0.0,
                     };
-                    let c = glam::Vec3::new(node.center_x[k], node.center_y[k], node.center_z[k]);
-                    let r = node.radius[k];
+                    let sphere = node.sphere(k);
+                    let (c, r) = (sphere.center, sphere.radius);
                     let d = (c - x).length();
                     let inside = d <= r;
                     let score = if inside {
@@ -436,7 +437,9 @@ impl LightCut {
     /// a time, interleaved, so their dependent steps overlap.
     ///
     /// ```
-    /// use manylights::{Light, LightCut, LightTree, Memo, SplitOptions, TlImportance, CUT_CAPACITY};
+    /// use manylights::{
+    ///     Light, LightCut, LightTree, Memo, MemoTable, SplitOptions, TlImportance, CUT_CAPACITY,
+    /// };
     /// use glam::Vec3;
     ///
     /// let lights: Vec<Light> = (0..200)
@@ -448,8 +451,10 @@ impl LightCut {
     /// let tree = LightTree::build(&lights)?;
     /// let at = TlImportance::new(Vec3::new(3.0, 4.0, 0.0), Vec3::Z);
     /// let cut = LightCut::build_split(&tree, &at, &SplitOptions::default());
-    /// // Many samples at this point: let the importance remember the nodes it evaluated.
-    /// let memo = Memo::new(at, &tree);
+    /// // Many samples at this point: let the importance remember the nodes it evaluated (in a
+    /// // table kept per thread and reused at every point).
+    /// let table = MemoTable::new();
+    /// let memo = Memo::new(at, &tree, &table);
     /// let (u, mut out) = ([0.5; CUT_CAPACITY], [None; CUT_CAPACITY]);
     /// cut.sample_each(&tree, &memo, &u[..cut.len()], &mut out[..cut.len()]);
     /// for (i, s) in out[..cut.len()].iter().enumerate() {
@@ -465,31 +470,21 @@ impl LightCut {
         out: &mut [Option<LightSample>],
     ) {
         let n = self.len.min(u.len()).min(out.len());
-        let mut i = 0;
-        while i < n {
-            let mut starts = [(0u32, 0f32); LANES];
-            let mut lane_of = [0usize; LANES];
-            let mut m = 0;
-            while i < n && m < LANES {
-                let c = &self.clusters[i];
-                out[i] = None;
-                match tree.slot_of(c) {
-                    Slot::Light(light) => out[i] = Some(LightSample { light, pmf: 1.0 }),
-                    Slot::Node(child) => {
-                        starts[m] = (child, u[i]);
-                        lane_of[m] = i;
-                        m += 1;
-                    }
-                    Slot::Empty => {}
-                }
-                i += 1;
-            }
-            let mut got = [None; LANES];
-            tree.descend_lanes(imp, &starts[..m], &mut got[..m]);
-            for j in 0..m {
-                out[lane_of[j]] = got[j];
-            }
-        }
+        tree.descend_many::<I, CUT_LANES>(
+            n,
+            |_| imp,
+            |i| match tree.slot_of(&self.clusters[i]) {
+                Slot::Light(light) => Err(Some(LightSample { light, pmf: 1.0 })),
+                Slot::Node(child) => Ok(Start {
+                    node: child,
+                    root: false,
+                    u: u[i],
+                    floor: MIN_PMF,
+                }),
+                Slot::Empty => Err(None),
+            },
+            |i, s| out[i] = s,
+        );
     }
 
     /// [`LightCut::pmf_in`] for many lights: `out[i]` gets exactly `pmf_in(tree, imp,
@@ -517,43 +512,54 @@ impl LightCut {
         whole: bool,
     ) {
         let n = lights.len().min(out.len());
-        let mut i = 0;
-        while i < n {
-            let mut walks = [(0u32, 0u64, 0u32, 0u32, 0f32); LANES];
-            let mut lane_of = [0usize; LANES];
-            let mut m = 0;
-            while i < n && m < LANES {
-                let light = lights[i];
-                out[i] = None;
-                let found = self.cluster_of(tree, light).and_then(|(ci, c, path)| {
-                    if whole {
-                        Some((ci, c, path, self.sample_share(ci)?.1))
-                    } else {
-                        Some((ci, c, path, MIN_PMF))
-                    }
-                });
-                if let Some((ci, c, path, floor)) = found {
+        for o in out[..n].iter_mut() {
+            *o = None;
+        }
+        // `start_of` records the cluster of each light; `emit` adds the pmf within it.
+        let cluster: [Cell<usize>; CUT_CAPACITY] = core::array::from_fn(|_| Cell::new(usize::MAX));
+        let mut done = 0;
+        while done < n {
+            let m = (n - done).min(CUT_CAPACITY);
+            let ls = &lights[done..done + m];
+            let os = &mut out[done..done + m];
+            tree.pmf_many::<I, CUT_LANES>(
+                m,
+                |_| imp,
+                |i| {
+                    let light = ls[i];
+                    cluster[i].set(usize::MAX);
+                    let found = self.cluster_of(tree, light).and_then(|(ci, c, path)| {
+                        if whole {
+                            Some((ci, c, path, self.sample_share(ci)?.1))
+                        } else {
+                            Some((ci, c, path, MIN_PMF))
+                        }
+                    });
+                    let Some((ci, c, path, floor)) = found else {
+                        return Err(f32::NAN);
+                    };
+                    cluster[i].set(ci);
                     // A cluster that is a node takes the walk; otherwise the single-light
                     // answer of `pmf_cluster`.
                     match tree.slot_of(c) {
-                        Slot::Node(child) => {
-                            out[i] = Some((ci, 0.0));
-                            walks[m] = (child, path, path_len(c.path), light, floor);
-                            lane_of[m] = i;
-                            m += 1;
-                        }
-                        _ => out[i] = Some((ci, tree.pmf_cluster(imp, c, path, light, floor))),
+                        Slot::Node(child) => Ok(WalkStart {
+                            node: child,
+                            root: false,
+                            path,
+                            from_level: path_len(c.path),
+                            light,
+                            floor,
+                        }),
+                        _ => Err(tree.pmf_cluster(imp, c, path, light, floor)),
                     }
-                }
-                i += 1;
-            }
-            let mut got = [0f32; LANES];
-            tree.pmf_lanes(imp, &walks[..m], &mut got[..m]);
-            for j in 0..m {
-                if let Some((_, p)) = &mut out[lane_of[j]] {
-                    *p = got[j];
-                }
-            }
+                },
+                |i, p| {
+                    if cluster[i].get() != usize::MAX {
+                        os[i] = Some((cluster[i].get(), p));
+                    }
+                },
+            );
+            done += m;
         }
     }
 
@@ -567,8 +573,11 @@ impl LightCut {
         lights: &[u32],
         out: &mut [f32],
     ) {
-        let mut within = [None; LANES];
-        for (ls, os) in lights.chunks(LANES).zip(out.chunks_mut(LANES)) {
+        let mut within = [None; CUT_CAPACITY];
+        for (ls, os) in lights
+            .chunks(CUT_CAPACITY)
+            .zip(out.chunks_mut(CUT_CAPACITY))
+        {
             let m = ls.len().min(os.len());
             self.walk_each(tree, imp, &ls[..m], &mut within[..m], true);
             for j in 0..m {
@@ -586,7 +595,7 @@ impl LightCut {
     /// by the difference of their leading zeros gives the cluster's. The clusters are disjoint,
     /// so at most one matches; the scan has no data-dependent branch.
     fn cluster_of(&self, tree: &LightTree, light: u32) -> Option<(usize, &Cluster, u64)> {
-        let path = *tree.paths.get(light as usize)?;
+        let path = tree.path(light);
         if path == 0 {
             return None;
         }
@@ -665,7 +674,7 @@ impl LightTree {
     fn slot_of(&self, cluster: &Cluster) -> Slot {
         self.nodes
             .get(cluster.node as usize)
-            .map_or(Slot::Empty, |n| n.slot(usize::from(cluster.slot) & 3))
+            .map_or(Slot::Empty, |n| self.slot(n, usize::from(cluster.slot) & 3))
     }
 
     /// Samples a light under `cluster` (pmf relative to it, at least [`MIN_PMF`]).

@@ -148,6 +148,13 @@ pub enum FormatError {
     BadHeader,
     /// Bytes left over after the arrays the header announces.
     TrailingBytes,
+    /// A manylights tree of another format version (version 1 stored 128-byte nodes).
+    UnsupportedVersion {
+        /// The version the bytes carry.
+        found: u8,
+        /// The version this build reads.
+        supported: u8,
+    },
     /// The arrays decode but break an invariant of the tree.
     Invalid(ValidationError),
 }
@@ -158,6 +165,10 @@ impl fmt::Display for FormatError {
             FormatError::Truncated => write!(f, "tree bytes are truncated"),
             FormatError::BadHeader => write!(f, "not a manylights tree of this format version"),
             FormatError::TrailingBytes => write!(f, "tree bytes have trailing data"),
+            FormatError::UnsupportedVersion { found, supported } => write!(
+                f,
+                "tree bytes are of format version {found}; this build reads version {supported} (rebuild the tree)"
+            ),
             FormatError::Invalid(e) => write!(f, "tree bytes decode to an invalid tree: {e}"),
         }
     }
@@ -333,3 +344,41 @@ impl fmt::Display for VplError {
 }
 
 impl core::error::Error for VplError {}
+
+/// A batch call was given slices of different lengths.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct LengthMismatch {
+    /// The argument whose length is wrong.
+    pub what: &'static str,
+    /// The length it must have (that of the first slice).
+    pub expected: usize,
+    /// Its length.
+    pub got: usize,
+}
+
+impl LengthMismatch {
+    /// `Err` unless `got == expected`.
+    pub(crate) fn check(what: &'static str, expected: usize, got: usize) -> Result<(), Self> {
+        if got == expected {
+            Ok(())
+        } else {
+            Err(LengthMismatch {
+                what,
+                expected,
+                got,
+            })
+        }
+    }
+}
+
+impl fmt::Display for LengthMismatch {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(
+            f,
+            "argument `{}` has length {}, expected {} (one entry per shading point)",
+            self.what, self.got, self.expected
+        )
+    }
+}
+
+impl core::error::Error for LengthMismatch {}

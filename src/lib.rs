@@ -65,15 +65,16 @@ pub use build::BuildOptions;
 pub use cut::{Cluster, CutOptions, LightCut, SplitOptions, CUT_CAPACITY};
 pub use direct::{Estimator, LightSampler, Occluder, Params, Technique, Uniforms};
 pub use error::{
-    BuildError, FormatError, LightField, Problem, ValidationError, VplError, VplField,
+    BuildError, FormatError, LengthMismatch, LightField, Problem, ValidationError, VplError,
+    VplField,
 };
 pub use importance::conty_kulla::Receiver;
-pub use importance::{BlImportance, Importance, Memo, TlImportance};
+pub use importance::{BlImportance, Importance, Memo, MemoTable, TlImportance};
 pub use light::{Light, MAX_COORDINATE, MAX_LIGHT_ENERGY, MAX_TOTAL_ENERGY};
 pub use light_sample::LightPoint;
 pub use light_set::{AliasTable, LightSet};
 pub use material::{Material, ShadingError, ShadingPoint};
-pub use sample::LightSample;
-pub use tree::{LightTree, Node4, NodeStats, Slot, SlotBounds, TreeStats};
+pub use sample::{LightSample, BATCH_LANES};
+pub use tree::{Child, LightTree, Node4, Slot, SlotBounds, Spheres4, TreeStats};
 pub use vpl::{Importons, Vpl, VplAcceptor};
 pub use wide::f32x4;

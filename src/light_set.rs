@@ -6,6 +6,7 @@
 
 use alloc::vec::Vec;
 
+use crate::build::BuildOptions;
 use crate::error::BuildError;
 use crate::light::Light;
 use crate::light_sample::LightPoint;
@@ -24,7 +25,12 @@ impl LightSet {
     /// Validates `lights` (errors name the light and field, as [`LightTree::build`]) and builds
     /// their tree and alias table.
     pub fn build(lights: Vec<Light>) -> Result<LightSet, BuildError> {
-        let tree = LightTree::build(&lights)?;
+        LightSet::build_with(lights, &BuildOptions::default())
+    }
+
+    /// [`LightSet::build`] with the tree built with `opts`.
+    pub fn build_with(lights: Vec<Light>, opts: &BuildOptions) -> Result<LightSet, BuildError> {
+        let tree = LightTree::build_with(&lights, opts)?;
         let power = AliasTable::new(lights.iter().map(|l| f64::from(l.energy())));
         Ok(LightSet {
             lights,

@@ -19,19 +19,15 @@ const STACK: usize = 3 * MAX_DEPTH as usize + 4;
 /// unit `d` may reach slot k's sphere (empty slots included; the caller skips them).
 #[inline(always)]
 fn may_hit4(node: &Node4, x: Vec3, d: Vec3) -> u32 {
-    let (cx, cy, cz) = (
-        f32x4::new(node.center_x),
-        f32x4::new(node.center_y),
-        f32x4::new(node.center_z),
-    );
+    let s = node.spheres4();
+    let (cx, cy, cz) = (s.x, s.y, s.z);
     let (vx, vy, vz) = (
         cx - f32x4::splat(x.x),
         cy - f32x4::splat(x.y),
         cz - f32x4::splat(x.z),
     );
     let extent = cx.abs().fast_max(cy.abs()).fast_max(cz.abs());
-    let r = f32x4::new(node.radius) * f32x4::splat(1.0 + 1e-4)
-        + f32x4::splat(1e-6) * (f32x4::ONE + extent);
+    let r = s.r * f32x4::splat(1.0 + 1e-4) + f32x4::splat(1e-6) * (f32x4::ONE + extent);
     let r2 = r * r;
     let v2 = vx * vx + vy * vy + vz * vz;
     let b = vx * f32x4::splat(d.x) + vy * f32x4::splat(d.y) + vz * f32x4::splat(d.z);
@@ -68,7 +64,7 @@ impl LightTree {
             while mask != 0 {
                 let k = mask.trailing_zeros() as usize;
                 mask &= mask - 1;
-                match node.slot(k) {
+                match self.slot(node, k) {
                     Slot::Light(l) => {
                         if let Some(lp) = lights.get(l as usize).and_then(|li| intersect(li, x, d))
                         {

@@ -1,49 +1,85 @@
-//! The light tree as flat, `bytemuck::Pod` arrays: [`Node4`] (four child slots in SoA lanes,
-//! two cache lines), per-node statistics, and per-light paths; its self-check
-//! ([`LightTree::validate`]) and its byte serialisation.
+//! The light tree as flat, `bytemuck::Pod` arrays: [`Node4`] (four child clusters quantised
+//! into one 64-byte cache line), the lights of the leaf slots in tree order, and per-light
+//! paths; its self-check ([`LightTree::validate`]) and its byte serialisation.
 
 use crate::bounds::{Cone, Sphere};
 use crate::error::{FormatError, ValidationError};
+use crate::light::Light;
 use crate::quantize;
 use alloc::vec;
 use alloc::vec::Vec;
 use bytemuck::{Pod, Zeroable};
 use glam::Vec3;
+use wide::{f32x4, i32x4};
 
 /// Deepest tree a 64-bit path can encode (2 bits per level plus a marker bit).
 pub const MAX_DEPTH: u32 = 31;
 
-/// `child` value of an empty slot.
-pub const EMPTY_SLOT: u32 = u32::MAX;
-/// Bit set in `child` when the slot is a single light (the rest of the bits: its index).
-pub const LEAF_BIT: u32 = 1 << 31;
+/// Deepest tree whose paths are stored in 32 bits (4 bytes per light instead of 8).
+pub const SHORT_PATH_DEPTH: u32 = 15;
 
-/// A tree node: four child clusters, each attribute stored as four lanes so one f32x4 load
-/// gives it for all four children. 128 bytes, aligned to a cache line.
+/// Largest number of lights (and of nodes) a tree holds.
+pub const MAX_LIGHTS: u32 = (1 << 31) - 2;
+
+/// A tree node: four child clusters in one 64-byte cache line (`repr(C)`, little-endian in
+/// the byte format). Each slot is empty, a single light, or an inner node.
 ///
-/// Empty slots have `energy = 0` and `child = EMPTY_SLOT`, and evaluate to importance 0.
+/// | offset | field | contents |
+/// |---:|---|---|
+/// | 0 | `sphere: [u32; 4]` | per slot: bytes 0–2 the centre's x, y, z codes, byte 3 the radius code |
+/// | 16 | `cone: [u32; 4]` | per slot: bits 0–15 the axis (8+8-bit octahedral), 16–23 `sin(θo/2)`, 24–31 `sin(θe/2)`, 8 bits each |
+/// | 32 | `origin: [f32; 3]` | the frame of the sphere codes |
+/// | 44 | `child_base: u32` | index of the first inner child in [`LightTree::nodes`] |
+/// | 48 | `energy: [u16; 4]` | per slot: the upper 16 bits of the cluster energy's 20-bit code (0: empty) |
+/// | 56 | `leaf_base: u32` | index of the first light slot in [`LightTree::leaf_lights`] |
+/// | 60 | `energy_low: u16` | bits 4k..4k+4: the low 4 bits of slot k's energy code |
+/// | 62 | `exponent: u8` | the frame's scale `2^(exponent − 127)` |
+/// | 63 | `mask: u8` | bit k: slot k is an inner node; bit 4 + k: slot k is a light |
+///
+/// A slot's centre is `origin + code · scale` per axis and its radius `code · scale`; its
+/// cone and energy decode as in the crate's `quantize` module (an energy code is the upper 20
+/// bits of the f32, rounded up). Every code is rounded outwards
+/// from what it bounds (see docs/formulas.md, section 14), so the decoded bounds contain the
+/// lights below the slot and importances stay conservative. The inner children of a node are
+/// consecutive nodes, `child_base`, `child_base + 1`, … in slot order, and its light slots
+/// consecutive entries of the leaf array from `leaf_base`.
+///
+/// Empty slots have energy 0 and evaluate to importance 0.
 #[repr(C, align(64))]
 #[derive(Clone, Copy, Debug, PartialEq, Pod, Zeroable)]
 pub struct Node4 {
-    /// Bounding-sphere centres, x.
-    pub center_x: [f32; 4],
-    /// Bounding-sphere centres, y.
-    pub center_y: [f32; 4],
-    /// Bounding-sphere centres, z.
-    pub center_z: [f32; 4],
-    /// Bounding-sphere radii.
-    pub radius: [f32; 4],
-    /// Cluster energies (sum of the lights' energies).
-    pub energy: [f32; 4],
-    /// Cone axes, octahedral 16+16 bits (see `quantize`).
-    pub axis: [u32; 4],
-    /// Cone angles: `sin(θo/2)` in the low, `sin(θe/2)` in the high 16 bits, rounded up.
-    pub angles: [u32; 4],
-    /// [`EMPTY_SLOT`], `LEAF_BIT | light`, or the index of a child node.
-    pub child: [u32; 4],
+    /// Sphere codes, one word per slot.
+    pub sphere: [u32; 4],
+    /// Cone codes, one word per slot.
+    pub cone: [u32; 4],
+    /// Origin of the sphere codes.
+    pub origin: [f32; 3],
+    /// Index of the first inner child node.
+    pub child_base: u32,
+    /// Slot energies: the upper 16 bits of their 20-bit codes.
+    pub energy: [u16; 4],
+    /// Index of the first light slot in the leaf array.
+    pub leaf_base: u32,
+    /// Slot energies: the low 4 bits of their codes, slot k in bits 4k..4k+4.
+    pub energy_low: u16,
+    /// Scale exponent of the sphere codes (biased by 127).
+    pub exponent: u8,
+    /// Inner-node slots in bits 0–3, light slots in bits 4–7.
+    pub mask: u8,
 }
 
-/// What a slot of a [`Node4`] holds.
+/// What a slot of a [`Node4`] holds, as the node alone knows it.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Child {
+    /// Nothing.
+    Empty,
+    /// A single light, by its index in [`LightTree::leaf_lights`].
+    Leaf(u32),
+    /// An inner node, by index in [`LightTree::nodes`].
+    Node(u32),
+}
+
+/// What a slot of a [`Node4`] holds, resolved by its tree.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Slot {
     /// Nothing.
@@ -73,74 +109,151 @@ pub struct SlotBounds {
     pub energy: f32,
 }
 
+/// Decoded sphere lanes of a node: centre x, y, z and radius of its four slots.
+#[derive(Clone, Copy, Debug)]
+pub struct Spheres4 {
+    /// Centres, x.
+    pub x: f32x4,
+    /// Centres, y.
+    pub y: f32x4,
+    /// Centres, z.
+    pub z: f32x4,
+    /// Radii.
+    pub r: f32x4,
+}
+
+#[inline(always)]
+fn byte_lane(v: i32x4, shift: u32) -> f32x4 {
+    (v.unbounded_shr_scalar(shift) & i32x4::splat(0xFF)).round_float()
+}
+
 impl Node4 {
     /// A node with four empty slots.
     pub const EMPTY: Node4 = Node4 {
-        center_x: [0.0; 4],
-        center_y: [0.0; 4],
-        center_z: [0.0; 4],
-        radius: [0.0; 4],
-        energy: [0.0; 4],
-        axis: [0; 4],
-        angles: [0; 4],
-        child: [EMPTY_SLOT; 4],
+        sphere: [0; 4],
+        cone: [0; 4],
+        origin: [0.0; 3],
+        child_base: 0,
+        energy: [0; 4],
+        leaf_base: 0,
+        energy_low: 0,
+        exponent: 127,
+        mask: 0,
     };
 
     /// What slot `k` (0..4) holds.
-    #[inline]
-    pub fn slot(&self, k: usize) -> Slot {
-        let c = self.child[k];
-        if c == EMPTY_SLOT {
-            Slot::Empty
-        } else if c & LEAF_BIT != 0 {
-            Slot::Light(c & !LEAF_BIT)
+    #[inline(always)]
+    pub fn child(&self, k: usize) -> Child {
+        let bit = 1u32 << (k & 3);
+        let below = bit - 1;
+        let m = u32::from(self.mask);
+        if m & bit != 0 {
+            Child::Node(self.child_base.wrapping_add((m & below).count_ones()))
+        } else if (m >> 4) & bit != 0 {
+            Child::Leaf(self.leaf_base.wrapping_add(((m >> 4) & below).count_ones()))
         } else {
-            Slot::Node(c)
+            Child::Empty
         }
+    }
+
+    /// Number of inner-node slots.
+    #[inline]
+    pub fn inner_count(&self) -> u32 {
+        (self.mask & 0xF).count_ones()
+    }
+
+    /// Number of light slots.
+    #[inline]
+    pub fn leaf_count(&self) -> u32 {
+        (self.mask >> 4).count_ones()
+    }
+
+    /// The scale of the sphere codes.
+    #[inline(always)]
+    pub fn scale(&self) -> f32 {
+        quantize::scale_of(self.exponent)
+    }
+
+    /// The four slots' spheres, decoded lane by lane (the twin of [`Node4::bounds`]).
+    #[inline(always)]
+    pub fn spheres4(&self) -> Spheres4 {
+        let q = i32x4::new(bytemuck::cast(self.sphere));
+        let s = f32x4::splat(self.scale());
+        Spheres4 {
+            x: byte_lane(q, 0) * s + f32x4::splat(self.origin[0]),
+            y: byte_lane(q, 8) * s + f32x4::splat(self.origin[1]),
+            z: byte_lane(q, 16) * s + f32x4::splat(self.origin[2]),
+            r: byte_lane(q, 24) * s,
+        }
+    }
+
+    /// Slot `k`'s 20-bit energy code.
+    #[inline(always)]
+    pub fn energy_code(&self, k: usize) -> u32 {
+        let k = k & 3;
+        (u32::from(self.energy[k]) << 4) | ((u32::from(self.energy_low) >> (4 * k)) & 0xF)
+    }
+
+    /// Sets slot `k`'s energy code (the upper 20 bits of an f32, see `quantize`).
+    pub fn set_energy_code(&mut self, k: usize, code: u32) {
+        let k = k & 3;
+        self.energy[k] = (code >> 4) as u16;
+        let shift = 4 * k as u32;
+        self.energy_low = (self.energy_low & !(0xF << shift)) | (((code & 0xF) as u16) << shift);
+    }
+
+    /// The four slots' energies.
+    #[inline(always)]
+    pub fn energy4(&self) -> f32x4 {
+        let bits = i32x4::new([
+            self.energy_code(0) as i32,
+            self.energy_code(1) as i32,
+            self.energy_code(2) as i32,
+            self.energy_code(3) as i32,
+        ]);
+        bytemuck::cast(bits.unbounded_shl_scalar(12))
+    }
+
+    /// The four slots' energies, as numbers.
+    #[inline]
+    pub fn energies(&self) -> [f32; 4] {
+        [0, 1, 2, 3].map(|k| self.energy_of(k))
+    }
+
+    /// Slot `k`'s energy.
+    #[inline]
+    pub fn energy_of(&self, k: usize) -> f32 {
+        quantize::decode_energy(self.energy_code(k))
     }
 
     /// Slot `k`'s bounds, decoded.
     pub fn bounds(&self, k: usize) -> SlotBounds {
-        let (cos_o, sin_o) = quantize::decode_angle(self.angles[k]);
-        let (cos_e, _) = quantize::decode_angle(self.angles[k] >> 16);
+        let k = k & 3;
+        let s = self.sphere(k);
+        let w = self.cone[k];
+        let (cos_o, sin_o) = quantize::decode_angle(w >> 16);
+        let cos_e = quantize::decode_emission(w >> 24);
         SlotBounds {
-            center: Vec3::new(self.center_x[k], self.center_y[k], self.center_z[k]),
-            radius: self.radius[k],
-            axis: quantize::decode_axis(self.axis[k]),
+            center: s.center,
+            radius: s.radius,
+            axis: quantize::decode_axis(w),
             cos_o,
             sin_o,
             cos_e,
-            energy: self.energy[k],
+            energy: self.energy_of(k),
         }
     }
 
-    pub(crate) fn sphere(&self, k: usize) -> Sphere {
-        Sphere {
-            center: Vec3::new(self.center_x[k], self.center_y[k], self.center_z[k]),
-            radius: self.radius[k],
-        }
+    /// Slot `k`'s sphere, decoded.
+    #[inline]
+    pub fn sphere(&self, k: usize) -> Sphere {
+        quantize::decode_sphere(self.sphere[k & 3], self.origin, self.scale())
     }
 
-    pub(crate) fn cone(&self, k: usize) -> Cone {
-        Cone {
-            axis: quantize::decode_axis(self.axis[k]),
-            theta_o: quantize::angle_of(self.angles[k]),
-            theta_e: quantize::angle_of(self.angles[k] >> 16),
-        }
+    /// Slot `k`'s cone, decoded.
+    pub fn cone(&self, k: usize) -> Cone {
+        quantize::decode_cone(self.cone[k & 3])
     }
-}
-
-/// Statistics of one node's whole cluster, for split sampling's variance heuristic
-/// (Conty & Kulla, "Predicted variance"): the number of lights and the variance of their
-/// energies relative to their squared mean (the mean is the cluster energy over the count;
-/// the variance is `energy_rel_variance · mean²`).
-#[repr(C)]
-#[derive(Clone, Copy, Debug, PartialEq, Pod, Zeroable)]
-pub struct NodeStats {
-    /// Lights under the node.
-    pub count: u32,
-    /// Population variance of their energies over the squared mean energy.
-    pub energy_rel_variance: f32,
 }
 
 /// Size and shape of a built tree.
@@ -162,6 +275,57 @@ pub struct TreeStats {
     pub mean_fill: f32,
 }
 
+/// Per-light paths, in 32 bits each when the tree is at most [`SHORT_PATH_DEPTH`] deep.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub(crate) enum Paths {
+    Short(Vec<u32>),
+    Long(Vec<u64>),
+}
+
+impl Paths {
+    /// Paths of `n` lights, all 0, wide enough for a tree of `depth` levels.
+    pub(crate) fn zeros(n: usize, depth: u32) -> Paths {
+        if depth <= SHORT_PATH_DEPTH {
+            Paths::Short(vec![0; n])
+        } else {
+            Paths::Long(vec![0; n])
+        }
+    }
+
+    #[inline(always)]
+    pub(crate) fn get(&self, light: usize) -> Option<u64> {
+        match self {
+            Paths::Short(p) => p.get(light).map(|&x| u64::from(x)),
+            Paths::Long(p) => p.get(light).copied(),
+        }
+    }
+
+    pub(crate) fn set(&mut self, light: usize, path: u64) {
+        match self {
+            Paths::Short(p) => p[light] = path as u32,
+            Paths::Long(p) => p[light] = path,
+        }
+    }
+
+    pub(crate) fn len(&self) -> usize {
+        match self {
+            Paths::Short(p) => p.len(),
+            Paths::Long(p) => p.len(),
+        }
+    }
+
+    fn bytes(&self) -> &[u8] {
+        match self {
+            Paths::Short(p) => bytemuck::cast_slice(p),
+            Paths::Long(p) => bytemuck::cast_slice(p),
+        }
+    }
+
+    fn byte_len(&self) -> usize {
+        self.bytes().len()
+    }
+}
+
 /// A light tree: immutable after build, `Send + Sync`, shared by all threads.
 ///
 /// Built by [`LightTree::build`]; sampled with [`LightTree::sample`] and queried with
@@ -169,8 +333,10 @@ pub struct TreeStats {
 #[derive(Clone, Debug, PartialEq)]
 pub struct LightTree {
     pub(crate) nodes: Vec<Node4>,
-    pub(crate) node_stats: Vec<NodeStats>,
-    pub(crate) paths: Vec<u64>,
+    /// Per node, the relative variance of its lights' energies (bfloat16), for split sampling.
+    pub(crate) variances: Vec<u16>,
+    pub(crate) leaves: Vec<u32>,
+    pub(crate) paths: Paths,
     pub(crate) depth: u32,
 }
 
@@ -184,8 +350,21 @@ pub(crate) fn path_len(path: u64) -> u32 {
     }
 }
 
-const MAGIC: [u8; 8] = *b"MLTREE\x00\x01";
-const HEADER: usize = 32;
+/// Format version 2: 64-byte quantised nodes, a leaf array, 32- or 64-bit paths.
+const VERSION: u8 = 2;
+const MAGIC: [u8; 7] = *b"MLTREE\x00";
+const HEADER: usize = 40;
+
+/// What [`LightTree::validate`] carries down the walk.
+struct Walk<'a> {
+    tree: &'a LightTree,
+    /// The decoded bounds of the slots above the current node.
+    ancestors: Vec<(Sphere, Cone)>,
+    node_seen: Vec<bool>,
+    leaf_seen: Vec<bool>,
+    light_seen: Vec<bool>,
+    max_depth: u32,
+}
 
 impl LightTree {
     /// The nodes; node 0 is the root (absent for a tree that samples nothing).
@@ -193,16 +372,27 @@ impl LightTree {
         &self.nodes
     }
 
-    /// Per-node statistics, parallel to [`LightTree::nodes`].
-    pub fn node_stats(&self) -> &[NodeStats] {
-        &self.node_stats
+    /// The variance of the energies of the lights under node `node`, over their squared mean
+    /// (0 for a node out of range): what split sampling's variance heuristic reads.
+    #[inline]
+    pub fn energy_rel_variance(&self, node: u32) -> f32 {
+        self.variances
+            .get(node as usize)
+            .map_or(0.0, |&v| quantize::decode_bf16(v))
     }
 
-    /// Per light: its 2-bit child choices, the root's choice in the highest pair, below a marker
-    /// bit 1 (so a path of L levels is `1 << 2L | choices`); 0 for a light that is not in the
-    /// tree (zero energy).
-    pub fn paths(&self) -> &[u64] {
-        &self.paths
+    /// The light of every light slot, in tree order: a slot [`Child::Leaf`]`(i)` holds light
+    /// `leaf_lights()[i]`.
+    pub fn leaf_lights(&self) -> &[u32] {
+        &self.leaves
+    }
+
+    /// The path of `light`: its 2-bit slot choices from the root, the root's choice in the
+    /// highest pair, below a marker bit 1 (so a path of L levels is `1 << 2L | choices`); 0 for
+    /// a light that is not in the tree (zero energy) or out of range.
+    #[inline]
+    pub fn path(&self, light: u32) -> u64 {
+        self.paths.get(light as usize).unwrap_or(0)
     }
 
     /// Number of lights the tree was built from.
@@ -210,33 +400,51 @@ impl LightTree {
         self.paths.len() as u32
     }
 
+    /// Levels of nodes (0 for an empty tree).
+    pub fn depth(&self) -> u32 {
+        self.depth
+    }
+
     /// Whether the tree samples nothing (no light has positive energy).
     pub fn is_empty(&self) -> bool {
         self.nodes.is_empty()
     }
 
-    /// Total energy of the sampled lights.
+    /// Total energy of the sampled lights (as the root's slots store it, rounded up).
     pub fn total_energy(&self) -> f32 {
         self.nodes
             .first()
-            .map_or(0.0, |n| n.energy.iter().sum::<f32>())
+            .map_or(0.0, |n| n.energies().iter().sum::<f32>())
+    }
+
+    /// What slot `k` of `node` (a node of this tree) holds.
+    #[inline(always)]
+    pub fn slot(&self, node: &Node4, k: usize) -> Slot {
+        match node.child(k) {
+            Child::Empty => Slot::Empty,
+            Child::Node(c) => Slot::Node(c),
+            Child::Leaf(i) => match self.leaves.get(i as usize) {
+                Some(&l) => Slot::Light(l),
+                None => Slot::Empty,
+            },
+        }
     }
 
     /// Size and shape.
     pub fn stats(&self) -> TreeStats {
         let bytes = core::mem::size_of_val(self.nodes.as_slice())
-            + core::mem::size_of_val(self.node_stats.as_slice())
-            + core::mem::size_of_val(self.paths.as_slice());
+            + core::mem::size_of_val(self.variances.as_slice())
+            + core::mem::size_of_val(self.leaves.as_slice())
+            + self.paths.byte_len();
         let lights = self.paths.len() as u32;
-        let sampled = self.paths.iter().filter(|&&p| p != 0).count() as u32;
-        let filled: usize = self
+        let filled: u32 = self
             .nodes
             .iter()
-            .map(|n| n.child.iter().filter(|&&c| c != EMPTY_SLOT).count())
+            .map(|n| n.inner_count() + n.leaf_count())
             .sum();
         TreeStats {
             lights,
-            sampled_lights: sampled,
+            sampled_lights: self.leaves.len() as u32,
             nodes: self.nodes.len() as u32,
             depth: self.depth,
             bytes,
@@ -253,196 +461,137 @@ impl LightTree {
         }
     }
 
-    /// Checks every invariant: each node reachable from the root exactly once and each light
-    /// at most once, numbers finite and non-negative, each inner slot's energy the sum of its
-    /// children's and its light count theirs, every slot's sphere and cone containing the
-    /// sphere and cone of every light below it, each light's path leading to its leaf, the
-    /// depth within [`MAX_DEPTH`]. Runs after every build in debug builds and in tests.
+    /// Checks every invariant: each node reachable from the root exactly once, each leaf entry
+    /// and each light at most once; codes in range and decoded numbers finite; every slot above
+    /// a light containing the light's slot (up to that slot's own rounding) and each inner
+    /// slot's energy the sum of its child's slots' (within their rounding, 0.2 %); each light's path leading
+    /// to its leaf; the depth within [`MAX_DEPTH`] and the paths' width matching it. Runs
+    /// after every build in debug builds and in tests; [`LightTree::validate_lights`] also
+    /// checks the leaves against the lights' own bounds.
     pub fn validate(&self) -> Result<(), ValidationError> {
         let n_nodes = self.nodes.len();
         let n_lights = self.paths.len();
-        if self.node_stats.len() != n_nodes || n_nodes >= LEAF_BIT as usize {
-            return Err(ValidationError::BadStats);
-        }
-        if n_lights >= LEAF_BIT as usize {
+        if n_nodes > MAX_LIGHTS as usize
+            || self.variances.len() != n_nodes
+            || n_lights > MAX_LIGHTS as usize
+            || self.leaves.len() > n_lights
+        {
             return Err(ValidationError::BadStats);
         }
         if self.depth > MAX_DEPTH {
             return Err(ValidationError::TooDeep);
         }
+        if matches!(self.paths, Paths::Short(_)) != (self.depth <= SHORT_PATH_DEPTH) {
+            return Err(ValidationError::BadStats);
+        }
         if n_nodes == 0 {
-            if self.depth != 0 || self.paths.iter().any(|&p| p != 0) {
+            if self.depth != 0
+                || !self.leaves.is_empty()
+                || (0..n_lights).any(|l| self.paths.get(l) != Some(0))
+            {
                 return Err(ValidationError::BadStats);
             }
             return Ok(());
         }
-        let mut node_seen = vec![false; n_nodes];
-        let mut light_seen = vec![false; n_lights];
-        node_seen[0] = true;
-        // Ancestor slots of the current position: (sphere, cone, node, slot).
-        let mut ancestors: Vec<(Sphere, Cone)> = Vec::with_capacity(MAX_DEPTH as usize);
-        let mut max_depth = 0;
-        self.validate_node(
-            0,
-            0,
-            1,
-            &mut node_seen,
-            &mut light_seen,
-            &mut ancestors,
-            &mut max_depth,
-        )?;
-        if let Some(i) = node_seen.iter().position(|s| !s) {
+        let mut walk = Walk {
+            tree: self,
+            ancestors: Vec::with_capacity(MAX_DEPTH as usize),
+            node_seen: vec![false; n_nodes],
+            leaf_seen: vec![false; self.leaves.len()],
+            light_seen: vec![false; n_lights],
+            max_depth: 0,
+        };
+        walk.node_seen[0] = true;
+        walk.node(0, 0, 1)?;
+        if let Some(i) = walk.node_seen.iter().position(|s| !s) {
             return Err(ValidationError::UnreachableNode { node: i as u32 });
         }
-        for (l, (&p, &seen)) in self.paths.iter().zip(&light_seen).enumerate() {
-            if (p != 0) != seen {
+        if walk.leaf_seen.iter().any(|s| !s) {
+            return Err(ValidationError::BadStats);
+        }
+        for (l, &seen) in walk.light_seen.iter().enumerate() {
+            if (self.paths.get(l) != Some(0)) != seen {
                 return Err(ValidationError::BadPath { light: l as u32 });
             }
         }
-        if max_depth != self.depth {
+        if walk.max_depth != self.depth {
             return Err(ValidationError::BadStats);
         }
         Ok(())
     }
 
-    #[allow(clippy::too_many_arguments)] // a recursive walk carrying its state
-    fn validate_node(
-        &self,
-        index: u32,
-        level: u32,
-        path: u64,
-        node_seen: &mut [bool],
-        light_seen: &mut [bool],
-        ancestors: &mut Vec<(Sphere, Cone)>,
-        max_depth: &mut u32,
-    ) -> Result<u32, ValidationError> {
-        if level >= MAX_DEPTH {
-            return Err(ValidationError::TooDeep);
+    /// [`LightTree::validate`], and every light's exact bounds inside its leaf slot's decoded
+    /// bounds (so inside every ancestor's), its energy at most the slot's, and the lights in
+    /// the tree exactly those of positive energy. `lights` is the slice the tree was built
+    /// from.
+    pub fn validate_lights(&self, lights: &[Light]) -> Result<(), ValidationError> {
+        self.validate()?;
+        if lights.len() != self.paths.len() {
+            return Err(ValidationError::BadStats);
         }
-        *max_depth = (*max_depth).max(level + 1);
-        let node = &self.nodes[index as usize];
-        let mut count = 0u32;
-        let mut filled = 0;
-        for k in 0..4 {
-            let bad_number = ValidationError::BadNumber {
-                node: index,
-                slot: k as u8,
+        for (l, light) in lights.iter().enumerate() {
+            let b = light.bounds();
+            let path = self.path(l as u32);
+            if (path != 0) != (b.energy > 0.0) {
+                return Err(ValidationError::BadPath { light: l as u32 });
+            }
+            if path == 0 {
+                continue;
+            }
+            let (node, k) = self
+                .slot_at(path)
+                .ok_or(ValidationError::BadPath { light: l as u32 })?;
+            let n = &self.nodes[node as usize];
+            let s = n.sphere(k);
+            let escapes = ValidationError::BoundsViolation {
+                light: l as u32,
+                level: path_len(path) - 1,
             };
-            let e = node.energy[k];
-            let finite = node.center_x[k].is_finite()
-                && node.center_y[k].is_finite()
-                && node.center_z[k].is_finite()
-                && node.radius[k].is_finite()
-                && node.radius[k] >= 0.0
-                && e.is_finite();
-            if !finite {
-                return Err(bad_number);
-            }
-            let slot_path = (path << 2) | k as u64;
-            match node.slot(k) {
-                Slot::Empty => {
-                    if e != 0.0 {
-                        return Err(bad_number);
-                    }
-                }
-                Slot::Light(l) => {
-                    filled += 1;
-                    if e <= 0.0 {
-                        return Err(bad_number);
-                    }
-                    let li = l as usize;
-                    if li >= light_seen.len() || light_seen[li] {
-                        return Err(ValidationError::BadLeaf {
-                            node: index,
-                            slot: k as u8,
-                        });
-                    }
-                    light_seen[li] = true;
-                    if self.paths[li] != slot_path {
-                        return Err(ValidationError::BadPath { light: l });
-                    }
-                    let (sphere, cone) = (node.sphere(k), node.cone(k));
-                    for (level, (s, c)) in ancestors.iter().enumerate() {
-                        let tol = 1e-5 * (s.radius + s.center.abs().max_element()) + 1e-6;
-                        if !s.contains(&sphere, tol) || !c.contains(&cone, 3e-4) {
-                            return Err(ValidationError::BoundsViolation {
-                                light: l,
-                                level: level as u32,
-                            });
-                        }
-                    }
-                    count += 1;
-                }
-                Slot::Node(c) => {
-                    filled += 1;
-                    let ci = c as usize;
-                    if ci >= node_seen.len() || node_seen[ci] {
-                        return Err(ValidationError::BadChild {
-                            node: index,
-                            slot: k as u8,
-                        });
-                    }
-                    if e <= 0.0 {
-                        return Err(bad_number);
-                    }
-                    node_seen[ci] = true;
-                    ancestors.push((node.sphere(k), node.cone(k)));
-                    let sub = self.validate_node(
-                        c,
-                        level + 1,
-                        slot_path,
-                        node_seen,
-                        light_seen,
-                        ancestors,
-                        max_depth,
-                    )?;
-                    ancestors.pop();
-                    let child = &self.nodes[ci];
-                    let sum: f64 = child.energy.iter().map(|&x| f64::from(x)).sum();
-                    if (sum - f64::from(e)).abs() > 1e-4 * sum.max(f64::from(e)) {
-                        return Err(ValidationError::EnergyMismatch {
-                            node: index,
-                            slot: k as u8,
-                        });
-                    }
-                    count += sub;
-                }
+            if !s.contains(&b.sphere, sphere_tolerance(&s))
+                || !n.cone(k).contains(&b.cone, CONE_TOLERANCE)
+                || n.energy_of(k) < b.energy
+            {
+                return Err(escapes);
             }
         }
-        if filled == 0 {
-            return Err(ValidationError::BadStats);
-        }
-        let st = &self.node_stats[index as usize];
-        if st.count != count || !st.energy_rel_variance.is_finite() || st.energy_rel_variance < 0.0
-        {
-            return Err(ValidationError::BadStats);
-        }
-        Ok(count)
+        Ok(())
     }
 
-    /// The tree as bytes (little-endian header, then the nodes, node statistics and paths), for
-    /// a host to cache or send to another process; read back with [`LightTree::from_bytes`].
+    /// The tree as bytes (a little-endian header, then the nodes, the node variances, the leaf
+    /// array and the paths), for a host to cache or send to another process; read back with
+    /// [`LightTree::from_bytes`]. Format version 2.
     pub fn as_bytes(&self) -> Vec<u8> {
         let mut out = Vec::with_capacity(
             HEADER
                 + core::mem::size_of_val(self.nodes.as_slice())
-                + core::mem::size_of_val(self.node_stats.as_slice())
-                + core::mem::size_of_val(self.paths.as_slice()),
+                + core::mem::size_of_val(self.variances.as_slice())
+                + core::mem::size_of_val(self.leaves.as_slice())
+                + self.paths.byte_len(),
         );
         out.extend_from_slice(&MAGIC);
+        out.push(VERSION);
         out.extend_from_slice(&(self.nodes.len() as u64).to_le_bytes());
         out.extend_from_slice(&(self.paths.len() as u64).to_le_bytes());
+        out.extend_from_slice(&(self.leaves.len() as u64).to_le_bytes());
         out.extend_from_slice(&self.depth.to_le_bytes());
         out.extend_from_slice(&0x0102_0304u32.to_ne_bytes());
         out.extend_from_slice(bytemuck::cast_slice(&self.nodes));
-        out.extend_from_slice(bytemuck::cast_slice(&self.node_stats));
-        out.extend_from_slice(bytemuck::cast_slice(&self.paths));
+        out.extend_from_slice(bytemuck::cast_slice(&self.variances));
+        out.extend_from_slice(bytemuck::cast_slice(&self.leaves));
+        out.extend_from_slice(self.paths.bytes());
         out
     }
 
     /// Reads a tree written by [`LightTree::as_bytes`] on a machine of the same byte order,
-    /// and validates it fully: corrupt bytes give an error, never a panic or a bad tree.
+    /// and validates it fully: corrupt bytes give an error, never a panic or a bad tree; bytes
+    /// of another format version give [`FormatError::UnsupportedVersion`].
     pub fn from_bytes(bytes: &[u8]) -> Result<LightTree, FormatError> {
+        if bytes.len() >= 8 && bytes[..7] == MAGIC && bytes[7] != VERSION {
+            return Err(FormatError::UnsupportedVersion {
+                found: bytes[7],
+                supported: VERSION,
+            });
+        }
         if bytes.len() < HEADER {
             return Err(FormatError::Truncated);
         }
@@ -456,20 +605,25 @@ impl LightTree {
             b.copy_from_slice(&bytes[o..o + 4]);
             b
         };
-        if bytes[..8] != MAGIC || u32_at(28) != 0x0102_0304u32.to_ne_bytes() {
+        if bytes[..7] != MAGIC || u32_at(36) != 0x0102_0304u32.to_ne_bytes() {
             return Err(FormatError::BadHeader);
         }
         let n_nodes = u64_at(8);
         let n_lights = u64_at(16);
-        let depth = u32::from_le_bytes(u32_at(24));
-        if n_nodes >= u64::from(LEAF_BIT) || n_lights >= u64::from(LEAF_BIT) {
+        let n_leaves = u64_at(24);
+        let depth = u32::from_le_bytes(u32_at(32));
+        let max = u64::from(MAX_LIGHTS);
+        if n_nodes > max || n_lights > max || n_leaves > n_lights || depth > MAX_DEPTH {
             return Err(FormatError::Invalid(ValidationError::BadStats));
         }
-        let (n_nodes, n_lights) = (n_nodes as usize, n_lights as usize);
+        let (n_nodes, n_lights, n_leaves) =
+            (n_nodes as usize, n_lights as usize, n_leaves as usize);
+        let path_width = if depth <= SHORT_PATH_DEPTH { 4 } else { 8 };
         let node_bytes = n_nodes * core::mem::size_of::<Node4>();
-        let stat_bytes = n_nodes * core::mem::size_of::<NodeStats>();
-        let path_bytes = n_lights * 8;
-        let need = HEADER + node_bytes + stat_bytes + path_bytes;
+        let variance_bytes = n_nodes * 2;
+        let leaf_bytes = n_leaves * 4;
+        let path_bytes = n_lights * path_width;
+        let need = HEADER + node_bytes + variance_bytes + leaf_bytes + path_bytes;
         if bytes.len() < need {
             return Err(FormatError::Truncated);
         }
@@ -479,12 +633,20 @@ impl LightTree {
         let mut o = HEADER;
         let nodes: Vec<Node4> = bytemuck::pod_collect_to_vec(&bytes[o..o + node_bytes]);
         o += node_bytes;
-        let node_stats: Vec<NodeStats> = bytemuck::pod_collect_to_vec(&bytes[o..o + stat_bytes]);
-        o += stat_bytes;
-        let paths: Vec<u64> = bytemuck::pod_collect_to_vec(&bytes[o..o + path_bytes]);
+        let variances: Vec<u16> = bytemuck::pod_collect_to_vec(&bytes[o..o + variance_bytes]);
+        o += variance_bytes;
+        let leaves: Vec<u32> = bytemuck::pod_collect_to_vec(&bytes[o..o + leaf_bytes]);
+        o += leaf_bytes;
+        let raw = &bytes[o..o + path_bytes];
+        let paths = if path_width == 4 {
+            Paths::Short(bytemuck::pod_collect_to_vec(raw))
+        } else {
+            Paths::Long(bytemuck::pod_collect_to_vec(raw))
+        };
         let tree = LightTree {
             nodes,
-            node_stats,
+            variances,
+            leaves,
             paths,
             depth,
         };
@@ -492,7 +654,7 @@ impl LightTree {
         Ok(tree)
     }
 
-    /// The `(node, slot)` a path (encoded as in [`LightTree::paths`]) ends at; `None` when the
+    /// The `(node, slot)` a path (encoded as in [`LightTree::path`]) ends at; `None` when the
     /// path leaves the tree.
     pub fn slot_at(&self, path: u64) -> Option<(u32, usize)> {
         let levels = path_len(path);
@@ -505,8 +667,8 @@ impl LightTree {
             if level + 1 == levels {
                 return Some((node, k));
             }
-            match self.nodes.get(node as usize)?.slot(k) {
-                Slot::Node(c) => node = c,
+            match self.nodes.get(node as usize)?.child(k) {
+                Child::Node(c) => node = c,
                 _ => return None,
             }
         }
@@ -514,5 +676,148 @@ impl LightTree {
     }
 }
 
-const _: () = assert!(core::mem::size_of::<Node4>() == 128);
+/// Slack of the sphere containment checks: f32 rounding of the decoded centres.
+fn sphere_tolerance(s: &Sphere) -> f32 {
+    1e-5 * (s.radius + s.center.abs().max_element()) + 1e-6
+}
+
+/// Slack of the cone containment checks against the exact light bounds, in radians.
+const CONE_TOLERANCE: f32 = 3e-4;
+
+/// Slack of the cone checks of a leaf slot against its ancestors: the leaf's own rounding (its
+/// axis error, at most 0.02, counted twice, and a step of θo and of θe) plus
+/// [`CONE_TOLERANCE`].
+const LEAF_CONE_SLACK: f32 = 0.07;
+
+impl Walk<'_> {
+    fn node(&mut self, index: u32, level: u32, path: u64) -> Result<(), ValidationError> {
+        if level >= MAX_DEPTH {
+            return Err(ValidationError::TooDeep);
+        }
+        self.max_depth = self.max_depth.max(level + 1);
+        let tree = self.tree;
+        let node = &tree.nodes[index as usize];
+        let bad_stats = ValidationError::BadStats;
+        let m = node.mask;
+        if m == 0 || (m & (m >> 4) & 0xF) != 0 || !(1..=254).contains(&node.exponent) {
+            return Err(bad_stats);
+        }
+        if !node.origin.iter().all(|x| x.is_finite()) {
+            return Err(ValidationError::BadNumber {
+                node: index,
+                slot: 0,
+            });
+        }
+        let v = tree.energy_rel_variance(index);
+        if !v.is_finite() || v < 0.0 {
+            return Err(bad_stats);
+        }
+        let n_inner = node.inner_count() as usize;
+        if (node.child_base as usize).saturating_add(n_inner) > tree.nodes.len() {
+            return Err(ValidationError::BadChild {
+                node: index,
+                slot: 0,
+            });
+        }
+        if (node.leaf_base as usize).saturating_add(node.leaf_count() as usize) > tree.leaves.len()
+        {
+            return Err(ValidationError::BadLeaf {
+                node: index,
+                slot: 0,
+            });
+        }
+        for k in 0..4 {
+            let bad_number = ValidationError::BadNumber {
+                node: index,
+                slot: k as u8,
+            };
+            let code = node.energy_code(k);
+            // Codes of +∞ and NaN (and negative numbers) are rejected.
+            if code >= 0x7F800 {
+                return Err(bad_number);
+            }
+            let e = node.energy_of(k);
+            let s = node.sphere(k);
+            if !(s.center.is_finite() && s.radius.is_finite()) {
+                return Err(bad_number);
+            }
+            let slot_path = (path << 2) | k as u64;
+            match node.child(k) {
+                Child::Empty => {
+                    if code != 0 {
+                        return Err(bad_number);
+                    }
+                }
+                Child::Leaf(i) => {
+                    if e <= 0.0 {
+                        return Err(bad_number);
+                    }
+                    let bad_leaf = ValidationError::BadLeaf {
+                        node: index,
+                        slot: k as u8,
+                    };
+                    let i = i as usize;
+                    if self.leaf_seen[i] {
+                        return Err(bad_leaf);
+                    }
+                    self.leaf_seen[i] = true;
+                    let l = tree.leaves[i] as usize;
+                    if l >= self.light_seen.len() || self.light_seen[l] {
+                        return Err(bad_leaf);
+                    }
+                    self.light_seen[l] = true;
+                    if tree.paths.get(l) != Some(slot_path) {
+                        return Err(ValidationError::BadPath { light: l as u32 });
+                    }
+                    // Every ancestor bounds the light. The exact light is only known to
+                    // `validate_lights`; here its leaf slot, shrunk by what its own rounding
+                    // may have added, must fit: the decoded sphere reaches at most
+                    // 2·|c' − c| + 1.25 steps ≤ (√3 + 1.25) steps beyond the light's (and the
+                    // cone the axis error and a step of each angle beyond the light's).
+                    let (leaf, cone) = (node.sphere(k), node.cone(k));
+                    let shrink = 3.1 * node.scale();
+                    for (level, (a, c)) in self.ancestors.iter().enumerate() {
+                        let tol = sphere_tolerance(a) + shrink;
+                        if !a.contains(&leaf, tol) || !c.contains(&cone, LEAF_CONE_SLACK) {
+                            return Err(ValidationError::BoundsViolation {
+                                light: l as u32,
+                                level: level as u32,
+                            });
+                        }
+                    }
+                }
+                Child::Node(c) => {
+                    let ci = c as usize;
+                    if self.node_seen[ci] {
+                        return Err(ValidationError::BadChild {
+                            node: index,
+                            slot: k as u8,
+                        });
+                    }
+                    if e <= 0.0 {
+                        return Err(bad_number);
+                    }
+                    self.node_seen[ci] = true;
+                    self.ancestors.push((s, node.cone(k)));
+                    self.node(c, level + 1, slot_path)?;
+                    self.ancestors.pop();
+                    // The slot's energy is its lights', as the child's slots' are (each rounded
+                    // up by at most 2⁻¹¹).
+                    let child = &tree.nodes[ci];
+                    let sum: f64 = child.energies().iter().map(|&x| f64::from(x)).sum();
+                    let e = f64::from(e);
+                    if (e - sum).abs() > 2e-3 * e.max(sum) + 1e-37 {
+                        return Err(ValidationError::EnergyMismatch {
+                            node: index,
+                            slot: k as u8,
+                        });
+                    }
+                }
+            }
+        }
+        Ok(())
+    }
+}
+
+const _: () = assert!(core::mem::size_of::<Node4>() == 64);
 const _: () = assert!(core::mem::align_of::<Node4>() == 64);

@@ -18,9 +18,11 @@
 //!    Carlo), GGX within the SPTD's documented accuracy (MIS Monte Carlo);
 //! 6. bad shading points: `BlImportance::new` names the field, never panics.
 //!
-//! Two regressions are kept at the end: BL of a zero-extent cluster (point and spot lights,
-//! coincident lights) used to ignore the BRDF (it now takes the point limit `f cos`), and BL
-//! used to overflow to +∞ where TL is finite (it is now clamped to `MAX_IMPORTANCE`).
+//! Regressions are kept at the end: BL of a zero-extent cluster (point and spot lights,
+//! coincident lights) used to ignore the BRDF (it now takes the point limit `f cos`), BL
+//! used to overflow to +∞ where TL is finite (it is now clamped to `MAX_IMPORTANCE`), huge and
+//! tiny normals and ωo, and three found by the `sptd` fuzz target (the SPTD lobe of a tiny
+//! normal, the cap of a cluster closer than 1e-6, an infinite cap axis).
 //!
 //! Everything is seeded. Contribution is decided by `common::contributes` (f64, from the
 //! light's geometry alone) for a reflective receiver whose normal is the one BL uses (turned to
@@ -41,10 +43,11 @@ use common::{
 use glam::{DVec3, Vec3};
 use manylights::cut::MIN_CUT_SIZE;
 use manylights::importance::brdf_oriented::DEFENSIVE;
+use manylights::importance::sptd::SptdGgx;
 use manylights::material::ShadingField;
 use manylights::{
-    BlImportance, CutOptions, Importance, Light, LightCut, LightTree, Material, Node4, Receiver,
-    ShadingPoint, Slot, CUT_CAPACITY,
+    f32x4, BlImportance, Child, CutOptions, Importance, Light, LightCut, LightTree, Material,
+    Node4, Receiver, ShadingPoint, Slot, SlotBounds, CUT_CAPACITY,
 };
 use std::f64::consts::PI;
 
@@ -161,10 +164,10 @@ fn bl_point(
     }
     let nodes = tree.nodes();
     let node = &nodes[rng.below(nodes.len())];
-    let filled: Vec<usize> = (0..4).filter(|&k| node.slot(k) != Slot::Empty).collect();
+    let filled: Vec<usize> = (0..4).filter(|&k| node.child(k) != Child::Empty).collect();
     let k = filled[rng.below(filled.len())];
-    let c = Vec3::new(node.center_x[k], node.center_y[k], node.center_z[k]);
-    let x = c + rng.unit() * (node.radius[k] * rng.f32());
+    let c = node.sphere(k).center;
+    let x = c + rng.unit() * (node.sphere(k).radius * rng.f32());
     random_bl_at(rng, x)
 }
 
@@ -198,8 +201,8 @@ fn reaches(light: &Light, imp: &BlImportance) -> bool {
 
 /// The f32 test `build` uses for "x is inside the slot's bounding sphere", same operations.
 fn inside(node: &Node4, k: usize, x: Vec3) -> bool {
-    let c = Vec3::new(node.center_x[k], node.center_y[k], node.center_z[k]);
-    let r = node.radius[k];
+    let c = node.sphere(k).center;
+    let r = node.sphere(k).radius;
     (c - x).length_squared() <= r * r
 }
 
@@ -331,7 +334,7 @@ fn check_lanes(imp: &BlImportance, node: &Node4, report: &mut LaneReport) -> Res
 fn stress_points(rng: &mut Rng, node: &Node4, lights: &[Light], half: f32) -> Vec<Vec3> {
     let mut xs = Vec::new();
     for k in 0..4 {
-        if node.slot(k) == Slot::Empty {
+        if node.child(k) == Child::Empty {
             continue;
         }
         push_sphere_points(rng, &node.bounds(k), &mut xs);
@@ -445,13 +448,18 @@ fn eval4_matches_scalar_on_random_nodes() {
 // 2. Conservativeness of BL alone
 // ---------------------------------------------------------------------------------------------
 
+/// A cap integral this small is far below the defensive share (1/(2π) · cos θ' over Ω ≥ the
+/// cap's solid angle) for every cap the tests draw.
+const NEGLIGIBLE_SC: f32 = 1e-12;
+
 /// What a conservativeness check saw.
 #[derive(Clone, Copy, Debug, Default)]
 struct ConservativeReport {
     /// (light, point) pairs where the light reaches the point.
     contributing: usize,
-    /// Of those, pairs where the light's own leaf slot has SC = 0: only the defensive share
-    /// keeps them. Lights of zero extent (points, spots) always have SC = 0 …
+    /// Of those, pairs where the light's own leaf slot has a negligible SC (below
+    /// [`NEGLIGIBLE_SC`]): only the defensive share keeps them. Lights of zero extent (points,
+    /// spots) have a leaf sphere of the quantisation's size, so a tiny cap …
     zero_sc: usize,
     /// … so these are the pairs of a light of positive extent (sphere, disk, triangle) whose
     /// leaf SC is 0: the SPTD (or the form factor) rounds a cap it subtends to nothing.
@@ -460,7 +468,7 @@ struct ConservativeReport {
 
 /// SC of the leaf slot holding `light`, if any.
 fn leaf_sc(tree: &LightTree, imp: &BlImportance, light: u32) -> Option<f32> {
-    let path = *tree.paths().get(light as usize)?;
+    let path = tree.path(light);
     let (node, k) = tree.slot_at(path)?;
     Some(
         imp.eval(&tree.nodes()[node as usize].bounds(k))
@@ -485,7 +493,7 @@ fn check_conservative_at(
         report.contributing += 1;
         let l = l as u32;
         let sc = leaf_sc(tree, imp, l);
-        report.zero_sc += usize::from(sc == Some(0.0));
+        report.zero_sc += usize::from(sc.is_some_and(|sc| sc < NEGLIGIBLE_SC));
         let extended = !matches!(light, Light::Point { .. } | Light::Spot { .. });
         report.zero_sc_extended += usize::from(sc == Some(0.0) && extended);
         let p = tree.pmf(imp, l);
@@ -553,9 +561,10 @@ fn contributing_lights_have_positive_bl_pmf() {
 }
 
 /// Property 2 where SC is 0 or negligible: a mirror-like GGX lobe (α = 0.005, specular 1) and
-/// tiny lights (spheres and one-sided disks of radius 1e-4 to 1e-2, points and spots)
-/// scattered over the upper hemisphere at distances 10 to 10^4 (caps down to 1e-8 rad), most
-/// of them far from the mirror direction, a quarter within 0.01 rad of the horizon; views from
+/// tiny lights (spheres and one-sided disks of radius 1e-4 to 1e-2, points and spots) in
+/// tight groups of four scattered over the upper hemisphere at distances 10 to 10^4 (caps down
+/// to 1e-8 rad), most of them far from the mirror direction, a quarter within 0.01 rad of the
+/// horizon; views from
 /// the normal to grazing, the normal given either way up. Every light that reaches x keeps a
 /// positive pmf through the tree and through cuts of every δ. Asserts that many contributing
 /// lights have a leaf SC of exactly 0 (so the defensive share is what keeps them) and reports
@@ -568,18 +577,25 @@ fn glossy_tiny_caps_far_from_the_mirror_keep_a_positive_pmf() {
     let mut near_horizon = 0usize;
     for scene in 0..12 {
         let mut lights = Vec::new();
+        // Lights come in tight groups of four (1e-5 of their distance apart), so that a leaf
+        // node's quantisation frame, and with it the decoded leaf spheres, stays as small as
+        // the lights themselves: caps down to 1e-8 rad reach the importance.
+        let mut base = Vec3::ZERO;
         for i in 0..200 {
-            // Directions over the upper hemisphere of +z, every fourth within 0.01 rad of the
-            // horizon (above it).
-            let dir = if i % 4 == 0 {
-                let phi = 2.0 * std::f32::consts::PI * rng.f32();
-                let e = rng.range(1e-3, 1e-2);
-                Vec3::new(e.cos() * phi.cos(), e.cos() * phi.sin(), e.sin())
-            } else {
-                let u = rng.unit();
-                Vec3::new(u.x, u.y, u.z.abs())
-            };
-            let p = dir * rng.log_range(10.0, 1e4);
+            // Directions over the upper hemisphere of +z, every fourth group within 0.01 rad of
+            // the horizon (above it).
+            if i % 4 == 0 {
+                let dir = if i % 16 == 0 {
+                    let phi = 2.0 * std::f32::consts::PI * rng.f32();
+                    let e = rng.range(1e-3, 1e-2);
+                    Vec3::new(e.cos() * phi.cos(), e.cos() * phi.sin(), e.sin())
+                } else {
+                    let u = rng.unit();
+                    Vec3::new(u.x, u.y, u.z.abs())
+                };
+                base = dir * rng.log_range(10.0, 1e4);
+            }
+            let p = base + rng.unit() * (base.length() * 1e-5);
             let light = match rng.below(4) {
                 0 => Light::Sphere {
                     center: p,
@@ -662,8 +678,8 @@ fn glossy_tiny_caps_far_from_the_mirror_keep_a_positive_pmf() {
     assert!(report.contributing > 10_000, "{report:?}");
     assert!(
         report.zero_sc > 100,
-        "only {} contributing lights with a leaf SC of 0: the test does not reach the case it \
-         is for",
+        "only {} contributing lights with a negligible leaf SC: the test does not reach the \
+         case it is for",
         report.zero_sc
     );
 }
@@ -1028,7 +1044,7 @@ fn check_bl_cut(
         for (i, c) in clusters.iter().enumerate() {
             let node = &nodes[c.node as usize];
             let k = usize::from(c.slot);
-            let Slot::Node(child) = node.slot(k) else {
+            let Child::Node(child) = node.child(k) else {
                 continue;
             };
             let is_inside = inside(node, k, x);
@@ -1236,7 +1252,7 @@ fn bl_cut_delta_zero_and_infinite() {
             for c in cut.clusters() {
                 let node = &tree.nodes()[c.node as usize];
                 let k = usize::from(c.slot);
-                match node.slot(k) {
+                match tree.slot(node, k) {
                     Slot::Light(_) => singles += 1,
                     _ => assert!(
                         c.score == 0.0 && !inside(node, k, imp.position()),
@@ -1588,7 +1604,9 @@ fn single_sphere(
     }];
     let tree = LightTree::build(&lights).unwrap();
     let node = &tree.nodes()[0];
-    let k = (0..4).find(|&k| node.slot(k) == Slot::Light(0)).unwrap();
+    let k = (0..4)
+        .find(|&k| tree.slot(node, k) == Slot::Light(0))
+        .unwrap();
     let b = node.bounds(k);
     let imp = BlImportance::new(&ShadingPoint {
         position: Vec3::ZERO,
@@ -2487,5 +2505,149 @@ fn tiny_normal_and_wo_are_accepted() {
         let e = BlImportance::new(&sp(normal, wo)).unwrap_err();
         assert_eq!(e.field, field);
         assert!(format!("{e}").contains("zero length"), "{e}");
+    }
+}
+
+/// Found by the `sptd` fuzz target (`fuzz/regressions/sptd/crash-d332…`): `SptdGgx::oriented`
+/// took the f32 length of the normal and ωo, so a tiny normal such as `(−1.3e-35, …)` (whose
+/// squared length underflows) gave a zero lobe, albedo 0, although the vector is not zero;
+/// a huge one (whose length overflows) did the same. Both are now normalised in f64, as
+/// `BlImportance` does, and give the lobe of the unit vectors.
+#[test]
+fn sptd_oriented_keeps_the_lobe_of_tiny_and_huge_vectors() {
+    let alpha = 0.52156866;
+    let wo = Vec3::new(-0.66107404, -0.09010743, 0.74489045);
+    let tiny = Vec3::new(-1.2550414e-35, -1.2556307e-35, -1.2556307e-35);
+    let unit = -Vec3::ONE.normalize();
+    for (normal, wo) in [
+        (tiny, wo),
+        (unit * 1e30, wo),
+        (unit, wo * 1e-30),
+        (unit * f32::MAX, wo * 3e38),
+    ] {
+        let g = SptdGgx::oriented(alpha, normal, wo);
+        // The lobe of the unit vectors, normalised here in f64.
+        let f64_unit = |v: Vec3| v.as_dvec3().normalize().as_vec3();
+        let reference = SptdGgx::oriented(alpha, f64_unit(normal), f64_unit(wo));
+        assert!(reference.albedo() > 0.0);
+        assert!(
+            (g.albedo() - reference.albedo()).abs() <= 1e-6 * reference.albedo(),
+            "normal {normal} wo {wo}: albedo {} against {}",
+            g.albedo(),
+            reference.albedo()
+        );
+        for (axis, sin) in [(-unit, 0.3), (Vec3::new(0.6, 0.0, -0.8), 0.05)] {
+            let (a, b) = (g.integral(axis, sin), reference.integral(axis, sin));
+            assert!(
+                (a - b).abs() <= 1e-4 * b + 1e-30,
+                "normal {normal} wo {wo}: {a} against {b}"
+            );
+        }
+    }
+    // Only the zero vector and non-finite ones give the zero lobe.
+    for normal in [Vec3::ZERO, Vec3::new(f32::NAN, 0.0, 1.0), Vec3::INFINITY] {
+        assert_eq!(SptdGgx::oriented(alpha, normal, wo).albedo(), 0.0);
+    }
+}
+
+/// Found by the `sptd` fuzz target (`fuzz/regressions/sptd/crash-c13f…`): a cluster closer to
+/// the shading point than 1e-6 (d² below `MIN_DISTANCE2`) had its direction x → cluster
+/// divided by the floored distance, not the true one, so the cap axis was no longer a unit
+/// vector (here of length 1e-11) and SC was 13.7 against an albedo of 0.38; TL's cosines came
+/// from the same short vector. The direction and θu now come from the true distance: SC is
+/// that of the same cluster seen from afar, at the same angle and r/d.
+#[test]
+fn a_cluster_a_femtometre_away_keeps_its_cap() {
+    let sp = |position: Vec3| ShadingPoint {
+        position,
+        normal: Vec3::new(-0.9885642, -0.13474585, -0.067708194),
+        wo: Vec3::new(-1.2556307e-35, -1.2556307e-35, -1.2556307e-35),
+        material: Material::Ggx {
+            alpha: 1.0,
+            specular: 0.9981384,
+        },
+    };
+    let bounds = SlotBounds {
+        center: Vec3::new(-1.4254985e-17, -1.9430202e-18, -9.763446e-19),
+        radius: 9.193633e-20,
+        axis: Vec3::new(-0.81778926, -0.5062899, -0.2736631),
+        cos_o: -0.27366307,
+        sin_o: 0.9618256,
+        cos_e: 0.6026346,
+        energy: 1.0,
+    };
+    let position = Vec3::new(0.0, 0.0, -1.406094e-35);
+    let imp = BlImportance::new(&sp(position)).unwrap();
+    let near = imp.eval(&bounds);
+    // The same cluster 1e16 times farther and larger.
+    let far = BlImportance::new(&sp(Vec3::ZERO))
+        .unwrap()
+        .eval(&SlotBounds {
+            center: bounds.center * 1e16,
+            radius: bounds.radius * 1e16,
+            ..bounds
+        });
+    assert!(
+        near.cap_integral <= imp.albedo(),
+        "SC {} above the albedo {}",
+        near.cap_integral,
+        imp.albedo()
+    );
+    assert!(
+        (near.cap_integral - far.cap_integral).abs() <= 1e-4 * far.cap_integral,
+        "SC {} near, {} far",
+        near.cap_integral,
+        far.cap_integral
+    );
+    // The 4-wide twin agrees through a tree holding a sphere light there.
+    let lights = [Light::Sphere {
+        center: bounds.center,
+        radius: bounds.radius,
+        radiance: 1.0,
+    }];
+    let tree = LightTree::build(&lights).unwrap();
+    let node = &tree.nodes()[0];
+    let (w, sc) = imp.eval4_with_integrals(node);
+    let e = imp.eval(&node.bounds(0));
+    for (four, one) in [(w, e.importance), (sc, e.cap_integral)] {
+        let four = four.to_array()[0];
+        assert!(
+            (four - one).abs() <= 1e-4 * four.max(one) + 1e-30,
+            "4-wide {four} against scalar {one}"
+        );
+    }
+    assert!(e.cap_integral <= imp.albedo(), "{e:?}");
+}
+
+/// Found by the `sptd` fuzz target (`fuzz/regressions/sptd/crash-8526…`): an infinite cap
+/// axis (no unit vector: outside the evaluators' domain) made the Lambert part of
+/// `cap_integrals` NaN (`s² · cos ω` with `s = 0`, `cos ω = ∞`), against the module's promise
+/// of no NaN. `cos ω` is now clamped to 1 there, as `lambert_visible` clamps it.
+#[test]
+fn sptd_cap_integrals_of_an_infinite_axis_are_not_nan() {
+    let g = SptdGgx::oriented(
+        0.52156866,
+        Vec3::new(-0.9885642, -0.13474585, -0.067708194),
+        Vec3::new(8.662181e-8, 1.1806951e-8, -1.0),
+    );
+    let axis = Vec3::new(f32::NEG_INFINITY, -8.229016e-31, 6.770577e22);
+    for sin in [-1.2544506e-35, 0.0, 0.5] {
+        let c = g.cap_integrals(axis, sin);
+        assert!(
+            !(c.ggx.is_nan() || c.lambert.is_nan() || c.visible.is_nan()),
+            "sin σ {sin}: {c:?}"
+        );
+        let c4 = g.cap_integrals4(
+            f32x4::splat(axis.x),
+            f32x4::splat(axis.y),
+            f32x4::splat(axis.z),
+            f32x4::splat(sin),
+        );
+        for v in [c4.ggx, c4.lambert, c4.visible] {
+            assert!(
+                v.to_array().iter().all(|x| !x.is_nan()),
+                "sin σ {sin}: {c4:?}"
+            );
+        }
     }
 }

@@ -32,12 +32,12 @@ use common::{
     proptest_config, random_importance, random_normal, ring_scene, styled_scene, u_values, Rng,
     SceneSpec, RECEIVERS, Z_999,
 };
-use glam::{DVec3, Vec3};
+use glam::Vec3;
 use manylights::cut::MIN_CUT_SIZE;
 use manylights::sample::MIN_PMF;
 use manylights::{
-    Importance, Light, LightCut, LightTree, Node4, Receiver, Slot, SplitOptions, TlImportance,
-    CUT_CAPACITY,
+    Child, Importance, Light, LightCut, LightTree, Node4, Receiver, Slot, SplitOptions,
+    TlImportance, CUT_CAPACITY,
 };
 use proptest::prelude::{any, prop_oneof, Strategy};
 use proptest::test_runner::TestCaseError;
@@ -58,8 +58,8 @@ const EXTRA_U: usize = 6;
 
 /// The f32 test the cut uses for "x is inside the slot's bounding sphere", same operations.
 fn inside(node: &Node4, k: usize, x: Vec3) -> bool {
-    let c = Vec3::new(node.center_x[k], node.center_y[k], node.center_z[k]);
-    (c - x).length() <= node.radius[k]
+    let c = node.sphere(k).center;
+    (c - x).length() <= node.sphere(k).radius
 }
 
 /// The split criterion of `cut.rs` / docs/formulas.md, section 5 in f64 for slot `k` of `node` (weight
@@ -76,18 +76,14 @@ fn reference_score(
     w: f32,
     total: f64,
 ) -> Option<(f64, f64)> {
-    let c = DVec3::new(
-        f64::from(node.center_x[k]),
-        f64::from(node.center_y[k]),
-        f64::from(node.center_z[k]),
-    );
-    let r = f64::from(node.radius[k]);
+    let c = node.sphere(k).center.as_dvec3();
+    let r = f64::from(node.sphere(k).radius);
     let d = (c - x.as_dvec3()).length();
     if d - r < 1e-3 * d {
         return None;
     }
-    let rel_e = match node.slot(k) {
-        Slot::Node(c) => f64::from(tree.node_stats()[c as usize].energy_rel_variance),
+    let rel_e = match tree.slot(node, k) {
+        Slot::Node(c) => f64::from(tree.energy_rel_variance(c)),
         _ => 0.0,
     };
     let a = (d - r).max(1e-6 * d.max(1.0));
@@ -132,10 +128,10 @@ fn cut_point(rng: &mut Rng, tree: &LightTree, lights: &[Light], half: f32) -> Tl
     }
     let nodes = tree.nodes();
     let node = &nodes[rng.below(nodes.len())];
-    let filled: Vec<usize> = (0..4).filter(|&k| node.slot(k) != Slot::Empty).collect();
+    let filled: Vec<usize> = (0..4).filter(|&k| node.child(k) != Child::Empty).collect();
     let k = filled[rng.below(filled.len())];
-    let c = Vec3::new(node.center_x[k], node.center_y[k], node.center_z[k]);
-    let x = c + rng.unit() * (node.radius[k] * rng.f32());
+    let c = node.sphere(k).center;
+    let x = c + rng.unit() * (node.sphere(k).radius * rng.f32());
     TlImportance::with_receiver(x, random_normal(rng), RECEIVERS[rng.below(3)])
 }
 
@@ -325,7 +321,7 @@ fn check_cut(
     if sampled <= cap {
         for (i, c) in clusters.iter().enumerate() {
             let node = &nodes[c.node as usize];
-            if let Slot::Node(_) = node.slot(usize::from(c.slot)) {
+            if let Child::Node(_) = node.child(usize::from(c.slot)) {
                 let wants = c.score > opts.threshold;
                 ensure!(
                     !inside(node, usize::from(c.slot), x) && !wants,
@@ -352,7 +348,7 @@ fn check_cut(
         for (i, c) in clusters.iter().enumerate() {
             let node = &nodes[c.node as usize];
             let k = usize::from(c.slot);
-            let Slot::Node(child) = node.slot(k) else {
+            let Child::Node(child) = node.child(k) else {
                 continue;
             };
             if !(inside(node, k, x) || c.score > opts.threshold) {
@@ -1046,7 +1042,7 @@ fn max_size_one_four_point_lights() {
             "max_size 1 {opts:?}: the cut has {} clusters {:?} (root slots {:?})",
             cut.len(),
             cut.clusters(),
-            tree.nodes()[0].child
+            tree.nodes()[0].mask
         );
     }
 }
@@ -1102,7 +1098,7 @@ fn threshold_zero_splits_everything_that_fits() {
             for c in cut.clusters() {
                 let node = &tree.nodes()[c.node as usize];
                 let k = usize::from(c.slot);
-                match node.slot(k) {
+                match tree.slot(node, k) {
                     Slot::Light(_) => lights_clusters += 1,
                     _ => assert!(
                         c.score == 0.0 && !inside(node, k, imp.position()),

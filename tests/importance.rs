@@ -11,7 +11,7 @@ use common::{
 };
 use glam::{DVec3, Vec3};
 use manylights::baseline::BinaryLightTree;
-use manylights::{Light, LightTree, Node4, Receiver, SlotBounds, TlImportance};
+use manylights::{Importance, Light, LightTree, Node4, Receiver, SlotBounds, TlImportance};
 use proptest::prelude::{any, prop_oneof, Strategy};
 use proptest::test_runner::TestCaseError;
 
@@ -244,19 +244,22 @@ fn eval_matches_math_md_formula() {
             theta_o,
             theta_e,
         };
-        let (qa, qe) = manylights::quantize::encode_cone(&cone);
-        let mut node = Node4::EMPTY;
-        node.center_x[0] = c.x;
-        node.center_y[0] = c.y;
-        node.center_z[0] = c.z;
-        node.radius[0] = match rng.below(3) {
+        let radius = match rng.below(3) {
             0 => 0.0,
             _ => rng.log_range(1e-3, 50.0),
         };
-        node.energy[0] = rng.log_range(1e-3, 1e3);
-        node.axis[0] = qa;
-        node.angles[0] = qe;
-        node.child[0] = 0x8000_0000;
+        let sphere = manylights::bounds::Sphere { center: c, radius };
+        let (origin, exponent, words) = manylights::quantize::encode_spheres(&[sphere]);
+        let mut node = Node4::EMPTY;
+        node.origin = origin;
+        node.exponent = exponent;
+        node.sphere[0] = words[0];
+        node.set_energy_code(
+            0,
+            manylights::quantize::encode_energy(rng.log_range(1e-3, 1e3)),
+        );
+        node.cone[0] = manylights::quantize::encode_cone(&cone);
+        node.mask = 0x10;
         let b = node.bounds(0);
         let receiver = RECEIVERS[rng.below(3)];
         let imp = TlImportance::with_receiver(x, rng.unit(), receiver);
@@ -528,5 +531,39 @@ fn tiny_and_huge_normals_keep_the_surface() {
         let imp = TlImportance::new(Vec3::ZERO, normal);
         assert_eq!(imp.receiver(), Receiver::Omnidirectional, "normal {normal}");
         assert_eq!(imp.normal(), Vec3::ZERO);
+    }
+}
+
+/// The same defect the `sptd` fuzz target found for BL (`tests/bl.rs`,
+/// `a_cluster_a_femtometre_away_keeps_its_cap`): the direction x → cluster was divided by the
+/// distance floored at `MIN_DISTANCE2` (1e-6), so within 1e-6 it shrank, here to a tenth of
+/// a unit vector, and a narrow spot 1e-7 above x pointing straight at it looked as if it
+/// pointed away: importance 0, pmf 0, the tree sampled nothing although the spot lights x.
+/// The direction now comes from the true distance, down to distances whose square is below
+/// f32's normal range.
+#[test]
+fn a_spot_a_tenth_of_a_micrometre_away_is_sampled() {
+    for d in [1e-7f32, 1e-12, 1e-20, 1e-30] {
+        let lights = [Light::Spot {
+            position: Vec3::new(0.0, 0.0, d),
+            direction: -Vec3::Z,
+            intensity: 1.0,
+            half_angle: 0.1,
+            falloff_start: 0.05,
+        }];
+        let tree = LightTree::build(&lights).unwrap();
+        let imp = TlImportance::new(Vec3::ZERO, Vec3::Z);
+        assert_eq!(tree.pmf(&imp, 0), 1.0, "d = {d}");
+        let s = tree
+            .sample(&imp, 0.5)
+            .unwrap_or_else(|| panic!("d = {d}: no sample"));
+        assert_eq!((s.light, s.pmf), (0, 1.0), "d = {d}");
+        let b = tree.nodes()[0].bounds(0);
+        let (one, four) = (imp.eval_slot(&b), imp.eval4(&tree.nodes()[0]).to_array()[0]);
+        assert!(one > 0.0 && one.is_finite(), "d = {d}: {one}");
+        assert!(
+            (one - four).abs() <= 1e-4 * one.max(four),
+            "d = {d}: scalar {one}, 4-wide {four}"
+        );
     }
 }

@@ -148,7 +148,8 @@ fn check_scene(
     let bin = BinaryLightTree::build(lights).map_err(|e| TestCaseError::fail(format!("{e}")))?;
     prop_assert!(tree.validate().is_ok(), "{:?}", tree.validate());
     // Exactly the lights of positive energy are in the tree.
-    for (l, (light, &path)) in lights.iter().zip(tree.paths()).enumerate() {
+    for (l, light) in lights.iter().enumerate() {
+        let path = tree.path(l as u32);
         prop_assert_eq!(
             path != 0,
             light.energy() > 0.0,
@@ -262,7 +263,7 @@ fn only_zero_energy_lights_sample_nothing() {
 /// public nodes and `eval4`: at each node the slot weights are the importances, or below the
 /// root the slots' energies when all importances are 0; at the root a zero sum means no light.
 fn reference_pmf(tree: &LightTree, imp: &TlImportance, light: u32) -> f64 {
-    let path = tree.paths()[light as usize];
+    let path = tree.path(light);
     if path == 0 {
         return 0.0;
     }
@@ -279,11 +280,11 @@ fn reference_pmf(tree: &LightTree, imp: &TlImportance, light: u32) -> f64 {
         } else if level == 0 {
             return 0.0;
         } else {
-            let e = n.energy.map(f64::from);
+            let e = n.energies().map(f64::from);
             (e, e.iter().sum())
         };
         pmf *= w[k] / sum;
-        match n.slot(k) {
+        match tree.slot(n, k) {
             Slot::Node(c) => node = c as usize,
             Slot::Light(l) => {
                 assert_eq!(l, light, "path of light {light} ends at light {l}");
@@ -555,7 +556,7 @@ fn far_field_frequencies_follow_power() {
 fn lights_under(tree: &LightTree, node: u32, out: &mut Vec<u32>) {
     let n = &tree.nodes()[node as usize];
     for k in 0..4 {
-        match n.slot(k) {
+        match tree.slot(n, k) {
             Slot::Light(l) => out.push(l),
             Slot::Node(c) => lights_under(tree, c, out),
             Slot::Empty => {}
@@ -577,7 +578,7 @@ fn zero_importance_fallback() {
     let mut fallback = Vec::new();
     for (i, parent) in tree.nodes().iter().enumerate() {
         for k in 0..4 {
-            if let Slot::Node(c) = parent.slot(k) {
+            if let Slot::Node(c) = tree.slot(parent, k) {
                 let child = &tree.nodes()[c as usize];
                 let positive = imp.eval(&parent.bounds(k)) > 0.0;
                 let w = imp.eval4(child).to_array();
@@ -612,8 +613,8 @@ fn zero_importance_fallback() {
         // Leaf slots of the fallback node: pmfs in the ratio of their energies.
         let node = &tree.nodes()[c as usize];
         let leaves: Vec<(u32, f32)> = (0..4)
-            .filter_map(|k| match node.slot(k) {
-                Slot::Light(l) => Some((l, node.energy[k])),
+            .filter_map(|k| match tree.slot(node, k) {
+                Slot::Light(l) => Some((l, node.energy_of(k))),
                 _ => None,
             })
             .collect();
@@ -922,4 +923,112 @@ fn libm_free_pow10(e: i32) -> f32 {
         x = if e < 0 { x / 10.0 } else { x * 10.0 };
     }
     x as f32
+}
+
+/// The batch calls equal the single calls bit for bit — TL, BL (every material) and memoised
+/// importances, on random scenes of every light kind (VPLs included), default and compact trees, batches of every length
+/// around the number of lanes, u from the edges of [0, 1) as well as inside — and reject
+/// slices of different lengths.
+#[test]
+fn batch_calls_equal_single_calls() {
+    use manylights::{BlImportance, Material, Memo, MemoTable, ShadingPoint, BATCH_LANES};
+    let table = MemoTable::new();
+    let mut compared = 0usize;
+    for seed in 0..24u64 {
+        let n = [1usize, 3, 50, 700, 4000][seed as usize % 5];
+        let (lights, half) = if seed % 3 == 2 {
+            vpl_scene(seed + 500, n)
+        } else {
+            styled_scene(seed + 500, n)
+        };
+        let opts = manylights::BuildOptions {
+            compact: seed % 2 == 1,
+            ..manylights::BuildOptions::default()
+        };
+        let tree = LightTree::build_with(&lights, &opts).unwrap();
+        let mut rng = Rng::new(seed ^ 0xBA7C);
+        let m = [1usize, BATCH_LANES - 1, BATCH_LANES, BATCH_LANES + 1, 67][seed as usize % 5];
+        let tl: Vec<TlImportance> = (0..m)
+            .map(|_| random_importance(&mut rng, &lights, half))
+            .collect();
+        let bl: Vec<BlImportance> = tl
+            .iter()
+            .map(|t| {
+                let material = match rng.below(3) {
+                    0 => Material::Lambert { albedo: 0.8 },
+                    1 => Material::Ggx {
+                        alpha: rng.log_range(0.01, 1.0),
+                        specular: 1.0,
+                    },
+                    _ => Material::Plastic {
+                        albedo: 0.5,
+                        specular: 0.5,
+                        alpha: rng.log_range(0.01, 1.0),
+                    },
+                };
+                let n = if t.normal() == Vec3::ZERO {
+                    Vec3::Z
+                } else {
+                    t.normal()
+                };
+                BlImportance::new(&ShadingPoint {
+                    position: t.position(),
+                    normal: n,
+                    wo: n + rng.unit() * 0.9,
+                    material,
+                })
+                .unwrap()
+            })
+            .collect();
+        let us: Vec<f32> = (0..m)
+            .map(|j| match j % 7 {
+                0 => 0.0,
+                1 => manylights::sample::ONE_MINUS_EPSILON,
+                _ => rng.f32(),
+            })
+            .collect();
+        let memos: Vec<Memo<'_, TlImportance>> =
+            tl.iter().map(|&t| Memo::new(t, &tree, &table)).collect();
+        let mut out = vec![None; m];
+        let mut pmfs = vec![0.0f32; m];
+        macro_rules! check {
+            ($imps:expr) => {{
+                let imps = $imps;
+                tree.sample_batch(imps, &us, &mut out).unwrap();
+                for j in 0..m {
+                    assert_eq!(
+                        out[j],
+                        tree.sample(&imps[j], us[j]),
+                        "seed {seed} point {j}"
+                    );
+                }
+                // The pmfs of the sampled lights and of arbitrary ones (out of range included).
+                let ls: Vec<u32> = (0..m)
+                    .map(|j| match out[j] {
+                        Some(s) if j % 3 != 0 => s.light,
+                        _ => rng.below(n + 2) as u32,
+                    })
+                    .collect();
+                tree.pmf_batch(imps, &ls, &mut pmfs).unwrap();
+                for j in 0..m {
+                    assert_eq!(
+                        pmfs[j].to_bits(),
+                        tree.pmf(&imps[j], ls[j]).to_bits(),
+                        "seed {seed} point {j} light {}",
+                        ls[j]
+                    );
+                }
+                compared += m;
+            }};
+        }
+        check!(&tl[..]);
+        check!(&bl[..]);
+        check!(&memos[..]);
+        // Slices of different lengths are an error naming the argument.
+        let e = tree.sample_batch(&tl, &us[..m - 1], &mut out).unwrap_err();
+        assert_eq!((e.what, e.expected, e.got), ("us", m, m - 1));
+        let e = tree.pmf_batch(&tl, &[0], &mut pmfs[..m]);
+        assert!(m == 1 || e.unwrap_err().what == "lights");
+    }
+    assert!(compared > 1000, "{compared}");
 }

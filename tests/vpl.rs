@@ -2,7 +2,9 @@
 //! acceptance is unbiased (mean accepted scaled energy = the candidates' energy), ε ≥ 1 keeps
 //! everything, p ∈ (0, 1], a candidate that contributes nothing is kept with probability ε, the
 //! first frame keeps everything, the 4-wide contribution equals the scalar one lane by lane,
-//! bad input is an error naming the field; the VPL light's bounds, energy and point sampling.
+//! bad input is an error naming the field; the VPL light's bounds, energy and point sampling;
+//! two regressions at the end (a kept VPL stays a valid light whatever ε, found by the `vpl`
+//! fuzz target; no NaN estimate next to an importon).
 //! (The VPL kind's tree properties run with every other kind's in `sampling.rs` and
 //! `importance.rs`, over `vpl_scene`.)
 
@@ -667,4 +669,101 @@ fn accepted_vpls_build_into_a_tree() {
     }
     let s = tree.sample(&at, 0.37).unwrap();
     assert_eq!(s.pmf, tree.pmf(&at, s.light));
+}
+
+/// Found by the `vpl` fuzz target (`fuzz/regressions/vpl/crash-e6f2…`): with a tiny ε (here
+/// the subnormal 3.2e-40) a candidate no importon sees has p = ε, and its kept intensity I/p
+/// overflowed to +∞ (for I = 0.79); with ε = 1e-30 it was finite but no valid light (energy
+/// above `MAX_LIGHT_ENERGY`), so the tree build rejected the accepted set. p is now at least
+/// πI/MAX_LIGHT_ENERGY (plus a rounding margin): the kept VPL is always a valid light. A
+/// candidate whose own energy exceeds the limit is rejected, as a `Light::Vpl` is.
+#[test]
+fn tiny_epsilon_keeps_vpls_valid_lights() {
+    let mut imp = Importons::new();
+    imp.push_diffuse(Vec3::new(10.0, 0.0, 0.0), Vec3::Z, 0.5)
+        .unwrap();
+    let unseen = |intensity: f32| Vpl {
+        position: Vec3::new(-0.0625, -0.0625, -0.0625),
+        normal: -Vec3::Z,
+        intensity,
+    };
+    let limit = manylights::MAX_LIGHT_ENERGY / PI;
+    for epsilon in [
+        3.20707e-40,
+        f32::from_bits(1),
+        1e-30,
+        1e-20,
+        DEFAULT_EPSILON,
+    ] {
+        let mut acc = acceptor_with(imp.clone(), 1e6, epsilon);
+        for intensity in [0.0, 1e-30, 0.7943282, 1e10, 1e20, 1e23, limit * 0.999_99] {
+            let c = unseen(intensity);
+            let p = acc.probability(&c).unwrap();
+            assert!(
+                p >= epsilon && p <= 1.0,
+                "ε {epsilon}, I {intensity}: p = {p}"
+            );
+            let a = acc
+                .accept(&c, 0.0)
+                .unwrap()
+                .expect("ξ = 0 keeps every candidate");
+            assert_eq!(a.probability, p);
+            assert!(
+                a.vpl.intensity.is_finite(),
+                "ε {epsilon}, I {intensity}: {a:?}"
+            );
+            if let Err(e) = LightTree::build(&[a.vpl.light()]) {
+                panic!("ε {epsilon}, I {intensity}: {a:?} is no valid light: {e}");
+            }
+            // At the paper's ε, any intensity far below the limit keeps the paper's p = ε.
+            if epsilon == DEFAULT_EPSILON && intensity <= 1e20 {
+                assert_eq!(p, epsilon, "I {intensity}");
+            }
+        }
+        let too_bright = unseen(limit * 1.0001);
+        let e = acc.probability(&too_bright).unwrap_err();
+        assert_eq!(
+            (e.field, e.problem),
+            (VplField::Intensity, Problem::EnergyTooLarge)
+        );
+        assert_eq!(
+            acc.accept(&too_bright, 0.5).unwrap_err().field,
+            VplField::Intensity
+        );
+    }
+}
+
+/// Φ̃_i was NaN for a bright candidate a few nanometres from an importon: f · (G · I) with
+/// G · I overflowing to +∞ and f = 0 for a miss (misses sit at the origin) or a glossy lane.
+/// The product is now (f · G) · I: Φ̃_i is +∞ where the contribution overflows, never NaN.
+#[test]
+fn a_candidate_on_an_importon_has_no_nan_estimate() {
+    let mut imp = Importons::new();
+    imp.push_miss();
+    imp.push_diffuse(Vec3::new(5.0, 0.0, 0.0), Vec3::Z, 0.5)
+        .unwrap();
+    imp.push_diffuse(Vec3::new(0.0, 0.0, 0.0), Vec3::Z, 0.5)
+        .unwrap();
+    let acc = acceptor_with(imp, 1.0, DEFAULT_EPSILON);
+    for intensity in [1e21f32, 3e23] {
+        let c = Vpl {
+            position: Vec3::new(0.0, 0.0, 3.3e-10),
+            normal: -Vec3::Z,
+            intensity,
+        };
+        let phi = acc.estimate(&c).unwrap();
+        assert!(phi == f32::INFINITY, "I {intensity}: Φ̃_i = {phi}");
+        assert_eq!(acc.probability(&c).unwrap(), 1.0);
+        for j in 0..3 {
+            let v = acc
+                .importons()
+                .contribution(j, c.position, -Vec3::Z, intensity, f32::INFINITY);
+            assert!(!v.is_nan(), "importon {j}: {v}");
+            let v4 = acc
+                .importons()
+                .contribution4(0, c.position, -Vec3::Z, intensity, f32::INFINITY)
+                .to_array()[j];
+            assert_eq!(v.to_bits(), v4.to_bits(), "importon {j}");
+        }
+    }
 }

@@ -1,71 +1,8 @@
-//! Raw, unbounded floats (NaN, ±∞, subnormals, huge) as lights: the build returns an error or a
-//! tree that validates; it never panics.
+//! The `build_bad_input` target: its input and checks are `manylights_fuzz_checks::build_bad_input`'s (shared with
+//! the core's replay of `regressions/build_bad_input/`, `tests/fuzz_regressions.rs`).
 #![no_main]
 
-use arbitrary::Arbitrary;
-use glam::Vec3;
 use libfuzzer_sys::fuzz_target;
-use manylights::{Light, LightTree};
+use manylights_fuzz_checks::build_bad_input::{check, Input};
 
-#[derive(Arbitrary, Debug)]
-enum RawLight {
-    Point([f32; 3], f32),
-    Spot([f32; 3], [f32; 3], f32, f32, f32),
-    Sphere([f32; 3], f32, f32),
-    Disk([f32; 3], [f32; 3], f32, f32, bool),
-    Triangle([[f32; 3]; 3], f32, bool),
-    Vpl([f32; 3], [f32; 3], f32),
-}
-
-fn v(a: [f32; 3]) -> Vec3 {
-    Vec3::from_array(a)
-}
-
-impl RawLight {
-    fn light(&self) -> Light {
-        match *self {
-            RawLight::Point(p, i) => Light::Point {
-                position: v(p),
-                intensity: i,
-            },
-            RawLight::Spot(p, d, i, h, f) => Light::Spot {
-                position: v(p),
-                direction: v(d),
-                intensity: i,
-                half_angle: h,
-                falloff_start: f,
-            },
-            RawLight::Sphere(c, r, l) => Light::Sphere {
-                center: v(c),
-                radius: r,
-                radiance: l,
-            },
-            RawLight::Disk(c, n, r, l, two_sided) => Light::Disk {
-                center: v(c),
-                normal: v(n),
-                radius: r,
-                radiance: l,
-                two_sided,
-            },
-            RawLight::Triangle(t, l, two_sided) => Light::Triangle {
-                vertices: [v(t[0]), v(t[1]), v(t[2])],
-                radiance: l,
-                two_sided,
-            },
-            RawLight::Vpl(p, n, i) => Light::Vpl {
-                position: v(p),
-                normal: v(n),
-                intensity: i,
-            },
-        }
-    }
-}
-
-fuzz_target!(|raw: Vec<RawLight>| {
-    let lights: Vec<Light> = raw.iter().take(512).map(RawLight::light).collect();
-    if let Ok(tree) = LightTree::build(&lights) {
-        if let Err(e) = tree.validate() {
-            panic!("a built tree does not validate: {e:?}\n{lights:?}");
-        }
-    }
-});
+fuzz_target!(|input: Input| check(&input));

@@ -1,53 +1,8 @@
-//! Arbitrary bytes, and mutations of a valid tree's bytes, to `LightTree::from_bytes`: an error
-//! or a tree that validates and samples without panicking.
+//! The `tree_bytes` target: its input and checks are `manylights_fuzz_checks::tree_bytes`'s (shared with
+//! the core's replay of `regressions/tree_bytes/`, `tests/fuzz_regressions.rs`).
 #![no_main]
 
-use arbitrary::Arbitrary;
-use glam::Vec3;
 use libfuzzer_sys::fuzz_target;
-use manylights::{Light, LightTree, TlImportance};
+use manylights_fuzz_checks::tree_bytes::{check, Input};
 
-#[derive(Arbitrary, Debug)]
-struct Input {
-    /// Raw bytes, or (with `mutate`) byte edits of a valid tree.
-    bytes: Vec<u8>,
-    mutate: bool,
-    edits: Vec<(u16, u8)>,
-    u: f32,
-}
-
-fn valid_tree_bytes() -> Vec<u8> {
-    let lights: Vec<Light> = (0..40)
-        .map(|i| {
-            let t = i as f32;
-            Light::Sphere {
-                center: Vec3::new(t.sin() * 5.0, t.cos() * 5.0, 1.0 + (t * 0.37).sin()),
-                radius: 0.1 + 0.01 * t,
-                radiance: 1.0 + t,
-            }
-        })
-        .collect();
-    LightTree::build(&lights).expect("valid lights").as_bytes()
-}
-
-fuzz_target!(|input: Input| {
-    let bytes = if input.mutate {
-        let mut b = valid_tree_bytes();
-        let n = b.len();
-        for &(at, value) in &input.edits {
-            b[at as usize % n] = value;
-        }
-        b
-    } else {
-        input.bytes
-    };
-    if let Ok(tree) = LightTree::from_bytes(&bytes) {
-        tree.validate()
-            .expect("from_bytes returned a tree that does not validate");
-        let imp = TlImportance::new(Vec3::ZERO, Vec3::Z);
-        if let Some(s) = tree.sample(&imp, input.u) {
-            assert!(s.pmf > 0.0 && s.pmf.is_finite(), "{s:?}");
-            assert_eq!(s.pmf, tree.pmf(&imp, s.light));
-        }
-    }
-});
+fuzz_target!(|input: Input| check(&input));

@@ -1,35 +1,100 @@
-//! Collapse of the binary SAOH tree into 4-wide [`Node4`]s. The binary tree's clusters are
-//! kept; which of them become slots of one node is chosen by a dynamic programme over the
-//! binary tree that minimises the number of nodes (the memory a tree takes), opening the
-//! costlier child first on ties, as wide-BVH collapsing does. Every set of slots covers its
-//! node's subtree exactly, so the 4-wide tree bounds what the binary one bounds.
+//! Collapse of the binary SAOH tree into 4-wide [`Node4`]s, and their quantisation.
+//!
+//! **Which clusters become slots.** A dynamic programme over the binary tree chooses, for
+//! every node, the slots that cover its subtree, minimising `Σ_nodes (NODE_WEIGHT + lights
+//! under the node)`: the number of nodes (the memory a tree takes) traded against the sum of
+//! all lights' depths. Slots are binary clusters, opened costlier child first on ties, as
+//! wide-BVH collapsing does; and, with [`crate::BuildOptions::compact`], a subtree of at most
+//! [`FREE_MAX`] lights may instead be packed free-form, its lights (in the binary tree's
+//! left-to-right order, which keeps neighbours together) grouped into consecutive runs so that
+//! its nodes are full — the binary tree alone leaves many nodes of two or three lights at the
+//! bottom.
+//!
+//! **What the slots store.** The nodes are laid out top-down (the inner children of a node
+//! consecutive, its lights consecutive in the leaf array), and each is quantised as soon as
+//! its children are: a light slot bounds the light's exact bounds, an inner slot the exact
+//! bounds of the lights below it (the binary cluster's sphere and cone, or those enclosing a
+//! free-form run's lights) and the sum of their energies, each rounded outwards by
+//! `quantize`. Rounding never compounds: a slot need not contain its child's slots, only the
+//! lights below it.
+//!
+//! **Memory.** The binary tree's leaves are contiguous per subtree, so a free-form run is a
+//! range of them. Only inner binary nodes have a plan (16 bytes). The layout and the
+//! quantisation are one depth-first walk that returns each node's energy sums to its parent,
+//! so nothing per node is kept besides the finished arrays; the paths are written in their
+//! final width (32 bits while the tree is at most [`SHORT_PATH_DEPTH`] deep, widened once if
+//! it gets deeper).
 
 use super::saoh::{children, BinNode, BinTree};
+use crate::bounds::{Cone, Sphere};
 use crate::error::BuildError;
 use crate::quantize;
-use crate::tree::{LightTree, Node4, NodeStats, LEAF_BIT, MAX_DEPTH};
+use crate::tree::{LightTree, Node4, Paths, MAX_DEPTH, SHORT_PATH_DEPTH};
 use alloc::vec;
 use alloc::vec::Vec;
-use bytemuck::Zeroable;
 
-struct Collapser<'a> {
-    bin: &'a [BinNode],
-    plans: Vec<Plan>,
-    nodes: Vec<Node4>,
-    stats: Vec<NodeStats>,
-    paths: Vec<u64>,
-    depth: u32,
+/// Weight of one node against one level of one light's path in the collapse objective
+/// `Σ_nodes (NODE_WEIGHT + lights under the node)`.
+const NODE_WEIGHT: u64 = 8;
+
+/// Largest subtree (in lights) the collapse may pack free-form.
+pub(crate) const FREE_MAX: usize = 16;
+
+/// `split` value of a free-form cover.
+const FREE: u8 = u8::MAX;
+
+/// The free-form packing of a run of `m ≤ FREE_MAX` consecutive lights into at most `k`
+/// slots: `cost[m][k]` of the objective, `first[m][k]` the number of lights the first slot
+/// takes (a run of more than one light becomes a node packed the same way with 4 slots).
+struct FreeTable {
+    cost: [[u64; 5]; FREE_MAX + 1],
+    first: [[u8; 5]; FREE_MAX + 1],
 }
 
-/// Per inner binary node, the result of the collapse's dynamic programme: `g(k)` is the fewest
-/// [`Node4`]s needed below a set of at most `k` slots covering the node's subtree (`g(1)`: the
-/// node kept as one slot), and `split(k)` how that set is formed (0 = keep the node as one
-/// slot, `j` = open it, giving `j` slots to the left child and `k − j` to the right). A leaf
+impl FreeTable {
+    fn new() -> FreeTable {
+        let mut t = FreeTable {
+            cost: [[0; 5]; FREE_MAX + 1],
+            first: [[1; 5]; FREE_MAX + 1],
+        };
+        for m in 2..=FREE_MAX {
+            // k ≥ 2 first (it only needs shorter runs), then k = 1: one node of all m.
+            for k in 2..=4 {
+                let mut best = (u64::MAX, 1u8);
+                for s in 1..m {
+                    let c = t.cost[s][1].saturating_add(t.cost[m - s][k - 1]);
+                    if c < best.0 {
+                        best = (c, s as u8);
+                    }
+                }
+                t.cost[m][k] = best.0;
+                t.first[m][k] = best.1;
+            }
+            let one = NODE_WEIGHT + m as u64 + t.cost[m][4];
+            t.cost[m][1] = one;
+            t.first[m][1] = m as u8;
+            for k in 2..=4 {
+                if one < t.cost[m][k] {
+                    t.cost[m][k] = one;
+                    t.first[m][k] = m as u8;
+                }
+            }
+        }
+        t
+    }
+}
+
+/// Per inner binary node, the result of the collapse's dynamic programme: `g(k)` is the
+/// objective below a set of at most `k` slots covering the node's subtree (`g(1)`: the node
+/// kept as one slot), and `split(k)` how that set is formed (0 = keep the node as one slot,
+/// `j` = open it, giving `j` slots to the left child and `k − j` to the right, [`FREE`] =
+/// free-form); `own_free`: the node's own 4 slots, when it is one node, are free-form. A leaf
 /// has no plan: its `g` and `split` are all 0.
 ///
-/// Packed into 16 bytes: `g(2)`, `g(3)`, `g(4)` as 40-bit numbers and the three splits in 5
-/// bits. `g(1)` is `g(4) + NODE_WEIGHT + count` (the node as a 4-wide node of its own opens
-/// its best 4-slot set), so it is not stored. Every `g` is at most the root's `g(1)`, which
+/// Packed into 16 bytes: `g(2)`, `g(3)`, `g(4)` as 40-bit numbers in bits 0–119, the splits
+/// for k = 2, 3, 4 in 2, 2 and 3 bits (bits 120–126, [`FREE`] as all ones) and `own_free` in
+/// bit 127. `g(1)` is `g(4) + NODE_WEIGHT + count` (the node as a 4-wide node of its own takes
+/// its best 4-slot cover), so it is not stored. Every `g` is at most the root's `g(1)`, which
 /// is at most `Σ_inner (NODE_WEIGHT + count) ≤ (NODE_WEIGHT + MAX_DEPTH) · n < 2^37` for
 /// `n < 2^31` lights, so 40 bits always hold it.
 #[derive(Clone, Copy, Default)]
@@ -38,17 +103,24 @@ struct Plan(u128);
 const G_BITS: u32 = 40;
 const G_MASK: u64 = (1 << G_BITS) - 1;
 
+/// (shift, mask) of `split(k)` for k = 2, 3, 4.
+const SPLIT_FIELDS: [(u32, u8); 3] = [(120, 3), (122, 3), (124, 7)];
+
 impl Plan {
     /// `g` holds `g(2), g(3), g(4)`, `split` the splits for k = 2, 3, 4.
-    fn new(g: [u64; 3], split: [u8; 3]) -> Plan {
-        debug_assert!(g.iter().all(|&v| v <= G_MASK) && split[0] <= 1 && split[1] <= 2);
+    fn new(g: [u64; 3], split: [u8; 3], own_free: bool) -> Plan {
+        debug_assert!(g.iter().all(|&v| v <= G_MASK));
+        debug_assert!(split[0] <= 1 || split[0] == FREE);
+        debug_assert!(split[1] <= 2 || split[1] == FREE);
+        debug_assert!(split[2] <= 3 || split[2] == FREE);
         let mut p = 0u128;
         for (i, &v) in g.iter().enumerate() {
             p |= u128::from(v & G_MASK) << (G_BITS * i as u32);
         }
-        p |= u128::from(split[0] & 1) << 120;
-        p |= u128::from(split[1] & 3) << 121;
-        p |= u128::from(split[2] & 3) << 123;
+        for (&s, &(shift, mask)) in split.iter().zip(&SPLIT_FIELDS) {
+            p |= u128::from(s & mask) << shift;
+        }
+        p |= u128::from(own_free) << 127;
         Plan(p)
     }
 
@@ -58,18 +130,24 @@ impl Plan {
         (self.0 >> (G_BITS * (k as u32 - 2))) as u64 & G_MASK
     }
 
-    /// `split(k)` for `k` in 2..=4.
+    /// `split(k)` for `k` in 2..=4 ([`FREE`] for a free-form cover).
     #[inline]
-    fn split(self, k: usize) -> usize {
-        let (shift, mask) = [(120, 1), (121, 3), (123, 3)][k - 2];
-        (self.0 >> shift) as usize & mask
+    fn split(self, k: usize) -> u8 {
+        let (shift, mask) = SPLIT_FIELDS[k - 2];
+        let s = (self.0 >> shift) as u8 & mask;
+        if s == mask {
+            FREE
+        } else {
+            s
+        }
+    }
+
+    /// Whether the node's own 4 slots are free-form.
+    #[inline]
+    fn own_free(self) -> bool {
+        self.0 >> 127 != 0
     }
 }
-
-/// Weight of one node against one level of one light's path in the collapse objective
-/// `Σ_nodes (NODE_WEIGHT + lights under the node)`: the second term is the sum of all
-/// lights' depths, so the objective trades memory against the length of a descent.
-const NODE_WEIGHT: u64 = 8;
 
 /// `g(k)` of binary node `b` for `k` in 1..=4 (index 0 unused).
 #[inline]
@@ -90,8 +168,9 @@ fn g_of(bin: &[BinNode], plans: &[Plan], b: usize) -> [u64; 5] {
 
 /// Computes the plans bottom-up (children follow their parent among the inner nodes, and
 /// leaves come last). Opening is preferred on ties, so the tree stays shallow; among equal
-/// counts, the split giving the costlier child more slots wins.
-fn plan(bin: &[BinNode]) -> Vec<Plan> {
+/// counts, the split giving the costlier child more slots wins; a free-form cover is taken
+/// only when strictly cheaper than the binary one.
+fn plan(bin: &[BinNode], free: &FreeTable, free_max: usize) -> Vec<Plan> {
     let inner = bin.len() / 2;
     let mut plans = vec![Plan::default(); inner];
     for b in (0..inner).rev() {
@@ -110,13 +189,27 @@ fn plan(bin: &[BinNode]) -> Vec<Plan> {
             }
             best
         };
-        // The node as a 4-wide node of its own.
-        let (open4, j4) = best_open(4);
-        let own = open4.saturating_add(NODE_WEIGHT + u64::from(bin[b].count));
+        let m = bin[b].count as usize;
+        let free_cost = |k: usize| {
+            if m <= free_max {
+                free.cost[m][k]
+            } else {
+                u64::MAX
+            }
+        };
+        let open4 = best_open(4);
+        let own_free = free_cost(4) < open4.0;
+        let own = open4
+            .0
+            .min(free_cost(4))
+            .saturating_add(NODE_WEIGHT + u64::from(bin[b].count));
         let mut g = [0u64; 3];
         let mut split = [0u8; 3];
         for k in 2..=4 {
-            let (open, j) = if k == 4 { (open4, j4) } else { best_open(k) };
+            let (mut open, mut j) = if k == 4 { open4 } else { best_open(k) };
+            if free_cost(k) < open {
+                (open, j) = (free_cost(k), FREE);
+            }
             if open <= own {
                 g[k - 2] = open;
                 split[k - 2] = j;
@@ -125,30 +218,96 @@ fn plan(bin: &[BinNode]) -> Vec<Plan> {
             }
         }
         debug_assert_eq!(g[2] + NODE_WEIGHT + u64::from(bin[b].count), own);
-        plans[b] = Plan::new(g, split);
+        plans[b] = Plan::new(g, split, own_free);
     }
     plans
 }
 
+/// A run of consecutive binary leaves (`len` of them from index `start` of the binary tree)
+/// packed free-form.
+#[derive(Clone, Copy)]
+struct Run {
+    start: u32,
+    len: u32,
+}
+
+/// What becomes one slot.
+#[derive(Clone, Copy)]
+enum Src {
+    /// A binary node (a leaf, or an inner node that becomes a node of its own).
+    Bin(usize),
+    /// A free-form run of two or more lights, a node of its own.
+    Run(Run),
+}
+
+/// The binary leaves of subtree `b` (at most [`FREE_MAX`] lights), left to right.
+fn run_of(bin: &[BinNode], b: usize) -> Run {
+    let n = &bin[b];
+    debug_assert!(n.count as usize <= FREE_MAX);
+    Run {
+        start: (bin.len() / 2 + n.first()) as u32,
+        len: n.count,
+    }
+}
+
+/// Appends the slots of the free-form cover of `run` with at most `k` slots.
+fn free_slots(free: &FreeTable, run: Run, k: usize, out: &mut ([Src; 4], usize)) {
+    let len = run.len as usize;
+    let mut start = 0;
+    let mut k = k;
+    while start < len {
+        let m = len - start;
+        let s = usize::from(free.first[m][k]).clamp(1, m);
+        out.0[out.1] = if s == 1 {
+            Src::Bin(run.start as usize + start)
+        } else {
+            Src::Run(Run {
+                start: run.start + start as u32,
+                len: s as u32,
+            })
+        };
+        out.1 += 1;
+        start += s;
+        k = k.saturating_sub(1).max(1);
+    }
+}
+
 /// Appends to `out` the slots that cover binary node `b` with at most `k` slots.
-fn frontier(bin: &[BinNode], plans: &[Plan], b: usize, k: usize, out: &mut ([usize; 4], usize)) {
+fn frontier(
+    bin: &[BinNode],
+    plans: &[Plan],
+    free: &FreeTable,
+    b: usize,
+    k: usize,
+    out: &mut ([Src; 4], usize),
+) {
     let j = if k >= 2 && bin[b].light.is_none() {
         plans[b].split(k)
     } else {
         0
     };
-    if j == 0 {
-        out.0[out.1] = b;
-        out.1 += 1;
-    } else {
-        let (l, r) = children(bin, b);
-        frontier(bin, plans, l, j, out);
-        frontier(bin, plans, r, k - j, out);
+    match j {
+        0 => {
+            out.0[out.1] = Src::Bin(b);
+            out.1 += 1;
+        }
+        FREE => free_slots(free, run_of(bin, b), k, out),
+        j => {
+            let j = usize::from(j);
+            let (l, r) = children(bin, b);
+            frontier(bin, plans, free, l, j, out);
+            frontier(bin, plans, free, r, k - j, out);
+        }
     }
 }
 
-/// The up-to-four binary descendants of inner node `b` that become one node's slots.
-fn open(bin: &[BinNode], plans: &[Plan], b: usize) -> ([usize; 4], usize) {
+/// The up-to-four slots of the node that inner binary node `b` becomes.
+fn open(bin: &[BinNode], plans: &[Plan], free: &FreeTable, b: usize) -> ([Src; 4], usize) {
+    let mut out = ([Src::Bin(0); 4], 0usize);
+    if plans[b].own_free() {
+        free_slots(free, run_of(bin, b), 4, &mut out);
+        return out;
+    }
     let (l, r) = children(bin, b);
     let (gl, gr) = (g_of(bin, plans, l), g_of(bin, plans, r));
     let mut best = (u64::MAX, 1);
@@ -158,90 +317,222 @@ fn open(bin: &[BinNode], plans: &[Plan], b: usize) -> ([usize; 4], usize) {
             best = (c, j);
         }
     }
-    let mut out = ([0usize; 4], 0usize);
-    frontier(bin, plans, l, best.1, &mut out);
-    frontier(bin, plans, r, 4 - best.1, &mut out);
+    frontier(bin, plans, free, l, best.1, &mut out);
+    frontier(bin, plans, free, r, 4 - best.1, &mut out);
     out
 }
 
-fn write_slot(node: &mut Node4, k: usize, b: &BinNode) {
-    let s = &b.bounds.sphere;
-    node.center_x[k] = s.center.x;
-    node.center_y[k] = s.center.y;
-    node.center_z[k] = s.center.z;
-    node.radius[k] = s.radius;
-    node.energy[k] = b.bounds.energy;
-    let (axis, angles) = quantize::encode_cone(&b.bounds.cone);
-    node.axis[k] = axis;
-    node.angles[k] = angles;
-}
-
-fn stats_of(b: &BinNode) -> NodeStats {
-    NodeStats {
-        count: b.count,
-        energy_rel_variance: b.energy_rel_variance(),
+/// The exact bounds of what `src` covers: a binary node's sphere and cone, or for a free-form
+/// run the sphere enclosing its lights' and the union of their cones.
+fn exact_of(bin: &[BinNode], src: Src) -> (Sphere, Cone) {
+    match src {
+        Src::Bin(b) => (bin[b].bounds.sphere, bin[b].bounds.cone),
+        Src::Run(run) => {
+            let leaves = &bin[run.start as usize..(run.start + run.len) as usize];
+            let mut spheres = [Sphere::enclosing(&[]); FREE_MAX];
+            let mut cone: Option<Cone> = None;
+            for (s, leaf) in spheres.iter_mut().zip(leaves) {
+                *s = leaf.bounds.sphere;
+                cone = Some(cone.map_or(leaf.bounds.cone, |c| c.union(leaf.bounds.cone)));
+            }
+            (
+                Sphere::enclosing(&spheres[..leaves.len()]),
+                cone.unwrap_or(Cone::SPHERE),
+            )
+        }
     }
 }
 
+/// What a slot's parent needs of the lights below it: their number and the sums of their
+/// energies and squared energies (in f64, summed in slot order).
+#[derive(Clone, Copy)]
+struct Sums {
+    count: u32,
+    energy: f64,
+    energy_sq: f64,
+}
+
+/// One slot's exact bounds and the sums of its lights.
+#[derive(Clone, Copy)]
+struct Part {
+    sphere: Sphere,
+    cone: Cone,
+    energy: f32,
+    sums: Sums,
+}
+
+struct Collapser<'a> {
+    bin: &'a [BinNode],
+    plans: Vec<Plan>,
+    free: FreeTable,
+    nodes: Vec<Node4>,
+    variances: Vec<u16>,
+    leaves: Vec<u32>,
+    paths: Paths,
+    depth: u32,
+}
+
 impl Collapser<'_> {
-    fn fill(&mut self, node: usize, b: usize, path: u64, level: u32) -> Result<(), BuildError> {
+    /// Lays out node `node` from `src` (an inner binary node, a free-form run, or the lone
+    /// light of a one-light tree), then, depth
+    /// first, its children, and quantises it. Returns the sums of its lights.
+    fn fill(&mut self, node: usize, src: Src, path: u64, level: u32) -> Result<Sums, BuildError> {
         if level >= MAX_DEPTH {
             return Err(BuildError::TooDeep { depth: level + 1 });
         }
         self.depth = self.depth.max(level + 1);
-        let (set, len) = if self.bin[b].light.is_some() {
-            ([b, 0, 0, 0], 1)
-        } else {
-            open(self.bin, &self.plans, b)
+        if self.depth > SHORT_PATH_DEPTH {
+            if let Paths::Short(short) = &self.paths {
+                self.paths = Paths::Long(short.iter().map(|&p| u64::from(p)).collect());
+            }
+        }
+        let (set, len) = match src {
+            Src::Bin(b) if self.bin[b].light.is_some() => ([src; 4], 1), // a single light
+            Src::Bin(b) => open(self.bin, &self.plans, &self.free, b),
+            Src::Run(run) => {
+                let mut out = ([Src::Bin(0); 4], 0usize);
+                free_slots(&self.free, run, 4, &mut out);
+                out
+            }
         };
-        self.stats[node] = stats_of(&self.bin[b]);
         let first = self.nodes.len();
-        let mut inner = [(0usize, 0usize, 0u64); 4];
         let mut n_inner = 0;
+        let mut mask = 0u8;
+        let leaf_base = self.leaves.len() as u32;
         for (k, &c) in set[..len].iter().enumerate() {
-            let slot_path = (path << 2) | k as u64;
-            write_slot(&mut self.nodes[node], k, &self.bin[c]);
-            match self.bin[c].light {
-                Some(l) => {
-                    self.nodes[node].child[k] = LEAF_BIT | l;
-                    self.paths[l as usize] = slot_path;
+            match c {
+                Src::Bin(b) if self.bin[b].light.is_some() => {
+                    let light = self.bin[b].light.unwrap_or(0);
+                    mask |= 1 << (4 + k);
+                    self.leaves.push(light);
+                    self.paths.set(light as usize, (path << 2) | k as u64);
                 }
-                None => {
-                    let idx = first + n_inner;
-                    self.nodes[node].child[k] = idx as u32;
-                    inner[n_inner] = (idx, c, slot_path);
+                _ => {
+                    mask |= 1 << k;
                     n_inner += 1;
                 }
             }
         }
         self.nodes.resize(first + n_inner, Node4::EMPTY);
-        self.stats.resize(first + n_inner, NodeStats::zeroed());
-        for &(idx, c, p) in &inner[..n_inner] {
-            self.fill(idx, c, p, level + 1)?;
+        self.variances.resize(first + n_inner, 0);
+
+        // The children, depth first, then this node's slots from their exact bounds.
+        let mut parts = [Part {
+            sphere: Sphere::enclosing(&[]),
+            cone: Cone::SPHERE,
+            energy: 0.0,
+            sums: Sums {
+                count: 0,
+                energy: 0.0,
+                energy_sq: 0.0,
+            },
+        }; 4];
+        let mut idx = first;
+        for (k, &c) in set[..len].iter().enumerate() {
+            parts[k] = match c {
+                Src::Bin(b) if self.bin[b].light.is_some() => {
+                    let n = &self.bin[b];
+                    let e = f64::from(n.bounds.energy);
+                    Part {
+                        sphere: n.bounds.sphere,
+                        cone: n.bounds.cone,
+                        energy: n.bounds.energy,
+                        sums: Sums {
+                            count: 1,
+                            energy: e,
+                            energy_sq: e * e,
+                        },
+                    }
+                }
+                _ => {
+                    let sums = self.fill(idx, c, (path << 2) | k as u64, level + 1)?;
+                    idx += 1;
+                    let (sphere, cone) = exact_of(self.bin, c);
+                    Part {
+                        sphere,
+                        cone,
+                        energy: round_up(sums.energy),
+                        sums,
+                    }
+                }
+            };
         }
-        Ok(())
+        let parts = &parts[..len];
+
+        let mut spheres = [Sphere::enclosing(&[]); 4];
+        for (s, p) in spheres.iter_mut().zip(parts) {
+            *s = p.sphere;
+        }
+        let (origin, exponent, words) = quantize::encode_spheres(&spheres[..len]);
+        let (mut count, mut sum, mut sq) = (0u32, 0.0f64, 0.0f64);
+        let out = &mut self.nodes[node];
+        out.origin = origin;
+        out.exponent = exponent;
+        out.child_base = first as u32;
+        out.leaf_base = leaf_base;
+        out.mask = mask;
+        for (k, p) in parts.iter().enumerate() {
+            out.sphere[k] = words[k];
+            out.cone[k] = quantize::encode_cone(&p.cone);
+            out.set_energy_code(k, quantize::encode_energy(p.energy));
+            count += p.sums.count;
+            sum += p.sums.energy;
+            sq += p.sums.energy_sq;
+        }
+        let mean = sum / f64::from(count.max(1));
+        let variance = if mean > 0.0 {
+            ((sq / f64::from(count.max(1)) - mean * mean).max(0.0) / (mean * mean)) as f32
+        } else {
+            0.0
+        };
+        self.variances[node] = quantize::encode_bf16(variance);
+        Ok(Sums {
+            count,
+            energy: sum,
+            energy_sq: sq,
+        })
     }
 }
 
-/// Turns the binary tree into the flat 4-wide tree; `n_lights` is the length of the build's
-/// input (lights absent from `bin` get path 0).
-pub(crate) fn collapse(bin: &BinTree, n_lights: usize) -> Result<LightTree, BuildError> {
+/// `x` as the smallest f32 at least `x`.
+fn round_up(x: f64) -> f32 {
+    let f = x as f32;
+    if f64::from(f) < x {
+        crate::math::next_up(f)
+    } else {
+        f
+    }
+}
+
+/// Turns the binary tree into the flat, quantised 4-wide tree; `n_lights` is the length of
+/// the build's input (lights absent from `bin` get path 0).
+/// With `compact`, subtrees of at most [`FREE_MAX`] lights may be packed free-form.
+pub(crate) fn collapse(
+    bin: &BinTree,
+    n_lights: usize,
+    compact: bool,
+) -> Result<LightTree, BuildError> {
+    let free = FreeTable::new();
+    let n_leaves = bin.nodes.len().div_ceil(2);
     let mut c = Collapser {
         bin: &bin.nodes,
-        plans: plan(&bin.nodes),
+        plans: plan(&bin.nodes, &free, if compact { FREE_MAX } else { 1 }),
+        free,
         nodes: Vec::with_capacity(bin.nodes.len() / 5 + 1),
-        stats: Vec::with_capacity(bin.nodes.len() / 5 + 1),
-        paths: vec![0; n_lights],
+        variances: Vec::with_capacity(bin.nodes.len() / 5 + 1),
+        leaves: Vec::with_capacity(n_leaves),
+        paths: Paths::zeros(n_lights, 0),
         depth: 0,
     };
     if !bin.nodes.is_empty() {
         c.nodes.push(Node4::EMPTY);
-        c.stats.push(NodeStats::zeroed());
-        c.fill(0, 0, 1, 0)?;
+        c.variances.push(0);
+        c.fill(0, Src::Bin(0), 1, 0)?;
     }
     Ok(LightTree {
         nodes: c.nodes,
-        node_stats: c.stats,
+        variances: c.variances,
+        leaves: c.leaves,
         paths: c.paths,
         depth: c.depth,
     })

@@ -51,8 +51,6 @@ pub(crate) struct BinNode {
     pub light: Option<u32>,
     /// Position of the subtree's first light among the leaves.
     first: u32,
-    /// See [`BinNode::energy_rel_variance`].
-    rel_var: f32,
 }
 
 impl BinNode {
@@ -70,7 +68,6 @@ impl BinNode {
         count: 0,
         light: None,
         first: 0,
-        rel_var: 0.0,
     };
 
     /// The leaf of light `light` with bounds `b`.
@@ -85,27 +82,15 @@ impl BinNode {
             count: 1,
             light: Some(light),
             first: 0,
-            rel_var: 0.0,
         }
     }
 
-    /// Variance of the lights' energies over their squared mean (dimensionless, at most
-    /// `count − 1`, so it fits an f32 whatever the energies).
-    pub fn energy_rel_variance(&self) -> f32 {
-        self.rel_var
+    /// Position of the subtree's first light among the leaves: the leaves of a subtree of
+    /// `count` lights are `first .. first + count`, left to right.
+    #[inline]
+    pub fn first(&self) -> usize {
+        self.first as usize
     }
-}
-
-/// [`BinNode::energy_rel_variance`] of `count` lights whose energies sum to `sum` and whose
-/// squared energies sum to `sq` (both summed in f64 up the tree).
-fn rel_variance(count: u32, sum: f64, sq: f64) -> f32 {
-    let n = f64::from(count);
-    let mean = sum / n;
-    if mean <= 0.0 {
-        return 0.0;
-    }
-    let var = (sq / n - mean * mean).max(0.0);
-    (var / (mean * mean)) as f32
 }
 
 /// The binary tree; node 0 is the root.
@@ -358,8 +343,8 @@ struct Split {
 impl Ctx<'_> {
     /// Builds the subtree over `leaves` (the leaves from position `lo`, with their boxes) as
     /// inner node `b` (when it has two lights or more); `geo`: box of the node's geometry,
-    /// `cbox`: box of its centroids (both from the parent). Returns the sums of the lights'
-    /// energies and of their squares.
+    /// `cbox`: box of its centroids (both from the parent). Returns the sum of the lights'
+    /// energies (in f64).
     #[allow(clippy::too_many_arguments)]
     fn build_rec(
         &mut self,
@@ -370,12 +355,11 @@ impl Ctx<'_> {
         depth: u32,
         geo: Aabb,
         cbox: Aabb,
-    ) -> (f64, f64) {
+    ) -> f64 {
         let n = leaves.len();
         if n == 1 {
             leaves[0].first = lo as u32;
-            let e = f64::from(leaves[0].bounds.energy);
-            return (e, e * e);
+            return f64::from(leaves[0].bounds.energy);
         }
         let center = geo.center();
         let (split, radius) = if n <= SWEEP_MAX {
@@ -386,8 +370,8 @@ impl Ctx<'_> {
         let mid = split.mid;
         let (ll, lr) = leaves.split_at_mut(mid);
         let (bl, br) = boxes.split_at_mut(mid);
-        let (ls, lsq) = self.build_rec(ll, bl, lo, b + 1, depth + 1, split.left.0, split.left.1);
-        let (rs, rsq) = self.build_rec(
+        let ls = self.build_rec(ll, bl, lo, b + 1, depth + 1, split.left.0, split.left.1);
+        let rs = self.build_rec(
             lr,
             br,
             lo + mid,
@@ -407,7 +391,7 @@ impl Ctx<'_> {
             lr[0].bounds.cone
         };
         let cone = left_cone.union(right_cone);
-        let (energy_sum, energy_sq_sum) = (ls + rs, lsq + rsq);
+        let energy_sum = ls + rs;
         let count = n as u32;
         let energy = energy_sum as f32;
         self.inner[b] = BinNode {
@@ -424,9 +408,8 @@ impl Ctx<'_> {
             count,
             light: None,
             first: lo as u32,
-            rel_var: rel_variance(count, energy_sum, energy_sq_sum),
         };
-        (energy_sum, energy_sq_sum)
+        energy_sum
     }
 
     /// Chooses a split and partitions the lights around it. Also returns the radius of the

@@ -264,7 +264,7 @@ impl BlImportance {
         let floor = f32x4::splat(COS_FLOOR);
         let brdf = avg + f32x4::splat(self.defensive) * cos_ip.fast_max(floor);
         let live = v.emits & cos_ip.simd_gt(f32x4::splat(-COS_SLACK));
-        let energy = f32x4::new(node.energy);
+        let energy = node.energy4();
         let value = (energy * v.cos_tp.fast_max(floor) / v.d2c * brdf)
             .fast_min(f32x4::splat(MAX_IMPORTANCE));
         (live.select(value, zero), sc, glossy)

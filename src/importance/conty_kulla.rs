@@ -12,6 +12,8 @@
 //! - `d_min = r / 2` ([`DISTANCE_CLAMP_FRACTION`]): clusters around x are not ranked by a
 //!   distance that means nothing inside them; `d²` also never drops below [`MIN_DISTANCE2`]
 //!   (x on a point light), which with the energy caps of the build keeps importances finite.
+//!   The floor is the falloff's only: the direction x → cluster and θu come from the true
+//!   distance, however small (a cluster 1e-7 away is still seen in its direction).
 //! - Conservative under f32 rounding: a cluster within [`COS_SLACK`] of a zero boundary
 //!   keeps a small positive importance ([`COS_FLOOR`] as its cosine) instead of 0.
 //! - The receiver is reflective (cos θi' clamped at 0), transmissive (|cos θi|), or
@@ -33,6 +35,11 @@ pub const COS_SLACK: f32 = 2e-6;
 pub const COS_FLOOR: f32 = 1e-6;
 
 const CLAMP2: f32 = DISTANCE_CLAMP_FRACTION * DISTANCE_CLAMP_FRACTION;
+
+/// `2^100`: a vector whose squared length is below `f32::MIN_POSITIVE` (length below about
+/// 1e-19) is scaled by it, exactly, before it is normalised; its squared length is then at
+/// least about 3e-30 and at most about 2e22.
+const TINY_SCALE: f32 = 1.267_650_6e30;
 
 /// How the shading point receives light.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -183,9 +190,17 @@ impl ClusterView {
         let r2 = b.radius * b.radius;
         let d2c = d2.max(CLAMP2 * r2).max(MIN_DISTANCE2);
         let inside = d2 <= r2;
-        let inv_d = 1.0 / math::sqrt(d2.max(MIN_DISTANCE2));
+        // The direction and r/d from the true distance (MIN_DISTANCE2 floors only the
+        // falloff): a d² below f32's normal range is first scaled by TINY_SCALE², exactly.
+        let (vx, vy, vz, l2, k) = if d2 >= f32::MIN_POSITIVE {
+            (vx, vy, vz, d2, 1.0)
+        } else {
+            let (x, y, z) = (vx * TINY_SCALE, vy * TINY_SCALE, vz * TINY_SCALE);
+            (x, y, z, x * x + y * y + z * z, TINY_SCALE)
+        };
+        let inv_d = 1.0 / math::sqrt(l2.max(f32::MIN_POSITIVE));
         let (wx, wy, wz) = (vx * inv_d, vy * inv_d, vz * inv_d);
-        let sin_u = (b.radius * inv_d).min(1.0);
+        let sin_u = (b.radius * k * inv_d).min(1.0);
         let cos_u = math::sqrt((1.0 - sin_u * sin_u).max(0.0));
         // cos θ' = cos(max(0, θ − θo − θu)) from the subtraction identity.
         let a = b.axis;
@@ -227,14 +242,10 @@ pub(crate) struct ClusterView4 {
     pub emits: f32x4,
 }
 
+/// Byte `shift / 8` of each lane, as a number.
 #[inline(always)]
-fn low16(v: i32x4) -> f32x4 {
-    (v & i32x4::splat(0xFFFF)).round_float()
-}
-
-#[inline(always)]
-fn high16(v: i32x4) -> f32x4 {
-    (v.unbounded_shr_scalar(16) & i32x4::splat(0xFFFF)).round_float()
+fn byte(v: i32x4, shift: u32) -> f32x4 {
+    (v.unbounded_shr_scalar(shift) & i32x4::splat(0xFF)).round_float()
 }
 
 impl ClusterView4 {
@@ -243,38 +254,49 @@ impl ClusterView4 {
         let zero = f32x4::ZERO;
         let one = f32x4::ONE;
         let two = f32x4::splat(2.0);
-        let vx = f32x4::new(node.center_x) - f32x4::splat(p.x);
-        let vy = f32x4::new(node.center_y) - f32x4::splat(p.y);
-        let vz = f32x4::new(node.center_z) - f32x4::splat(p.z);
+        let s = node.spheres4();
+        let vx = s.x - f32x4::splat(p.x);
+        let vy = s.y - f32x4::splat(p.y);
+        let vz = s.z - f32x4::splat(p.z);
         let d2 = vx * vx + vy * vy + vz * vz;
-        let radius = f32x4::new(node.radius);
+        let radius = s.r;
         let r2 = radius * radius;
         let min_d2 = f32x4::splat(MIN_DISTANCE2);
         let d2c = d2.fast_max(f32x4::splat(CLAMP2) * r2).fast_max(min_d2);
         let inside = d2.simd_le(r2);
-        let inv_d = one / d2.fast_max(min_d2).sqrt();
+        // As the scalar form: the direction from the true distance, tiny ones scaled first.
+        let min_normal = f32x4::splat(f32::MIN_POSITIVE);
+        let tiny = d2.simd_lt(min_normal);
+        let (vx, vy, vz, l2, k) = if tiny.any() {
+            let k = tiny.select(f32x4::splat(TINY_SCALE), one);
+            let (x, y, z) = (vx * k, vy * k, vz * k);
+            (x, y, z, x * x + y * y + z * z, k)
+        } else {
+            (vx, vy, vz, d2, one)
+        };
+        let inv_d = one / l2.fast_max(min_normal).sqrt();
         let (wx, wy, wz) = (vx * inv_d, vy * inv_d, vz * inv_d);
-        let sin_u = (radius * inv_d).fast_min(one);
+        let sin_u = (radius * k * inv_d).fast_min(one);
         let cos_u = (one - sin_u * sin_u).fast_max(zero).sqrt();
 
         // Cone axis (octahedral decode) and angles, as `quantize::decode_*`.
-        let q = i32x4::new(bytemuck::cast(node.axis));
-        let scale = f32x4::splat(2.0 / 65535.0);
-        let x = low16(q) * scale - one;
-        let y = high16(q) * scale - one;
+        let q = i32x4::new(bytemuck::cast(node.cone));
+        let scale = f32x4::splat(2.0 / 255.0);
+        let x = byte(q, 0) * scale - one;
+        let y = byte(q, 8) * scale - one;
         let z = one - x.abs() - y.abs();
         let t = (-z).fast_max(zero);
         let x = x.simd_ge(zero).select(x - t, x + t);
         let y = y.simd_ge(zero).select(y - t, y + t);
         let inv = one / (x * x + y * y + z * z).sqrt();
         let (ax, ay, az) = (x * inv, y * inv, z * inv);
-        let qa = i32x4::new(bytemuck::cast(node.angles));
-        let qscale = f32x4::splat(1.0 / 65535.0);
-        let so = low16(qa) * qscale;
+        let qscale = f32x4::splat(1.0 / 255.0);
+        let so = byte(q, 16) * qscale;
         let cos_o = one - two * so * so;
         let sin_o = two * so * (one - so * so).fast_max(zero).sqrt();
-        let se = high16(qa) * qscale;
-        let cos_e = one - two * se * se;
+        // θe as `quantize::decode_emission`: (255² − q²) / 255².
+        let qe = byte(q, 24);
+        let cos_e = (f32x4::splat(65025.0) - qe * qe) * f32x4::splat(1.0 / 65025.0);
 
         let cos_t = -(ax * wx + ay * wy + az * wz);
         let sin_t = (one - cos_t * cos_t).fast_max(zero).sqrt();
@@ -298,7 +320,7 @@ impl ClusterView4 {
 
 impl Importance for TlImportance {
     /// The 4-wide twin of [`TlImportance::eval`], operation for operation.
-    #[inline]
+    #[inline(always)]
     fn eval4(&self, node: &Node4) -> f32x4 {
         let zero = f32x4::ZERO;
         if !self.valid {
@@ -308,7 +330,7 @@ impl Importance for TlImportance {
         let cos_ip = self.receiver_cos4(&v);
         let floor = f32x4::splat(COS_FLOOR);
         let live = v.emits & cos_ip.simd_gt(f32x4::splat(-COS_SLACK));
-        let energy = f32x4::new(node.energy);
+        let energy = node.energy4();
         let value = energy * v.cos_tp.fast_max(floor) * cos_ip.fast_max(floor) / v.d2c;
         live.select(value, zero)
     }

@@ -13,7 +13,7 @@ pub mod sptd;
 
 pub use brdf_oriented::BlImportance;
 pub use conty_kulla::TlImportance;
-pub use memo::Memo;
+pub use memo::{Memo, MemoTable, MEMO_SLOTS};
 
 use crate::tree::{Node4, SlotBounds};
 use wide::f32x4;

@@ -3,6 +3,7 @@
 
 use super::{err, Importons, Unoccluded, Visibility, Vpl};
 use crate::error::{Problem, VplError, VplField};
+use crate::light::MAX_LIGHT_ENERGY;
 
 /// The paper's ε = 0.05: the lowest acceptance probability of a candidate.
 pub const DEFAULT_EPSILON: f32 = 0.05;
@@ -107,6 +108,23 @@ pub struct VplAcceptor {
     g_max: f32,
     importons: Importons,
     stats: AcceptStats,
+}
+
+/// The least acceptance probability of a (validated) candidate of energy `E = πI`:
+/// `E/MAX_LIGHT_ENERGY`, raised by 1e-6 for rounding (and to `f32::MIN_POSITIVE` below it), so
+/// that a kept VPL's energy `E/p` stays within [`MAX_LIGHT_ENERGY`] whatever ε: the accepted
+/// VPL is a valid [`crate::Light`], and its intensity `I/p` is finite. For any ordinary
+/// intensity it is far below ε (3e-24 for I = 1), so p is the paper's.
+fn probability_floor(c: &Vpl) -> f32 {
+    let e = core::f64::consts::PI * f64::from(c.intensity);
+    let f = e / f64::from(MAX_LIGHT_ENERGY) * (1.0 + 1e-6);
+    if f <= 0.0 {
+        0.0
+    } else if f < f64::from(f32::MIN_POSITIVE) {
+        f32::MIN_POSITIVE
+    } else {
+        f as f32
+    }
 }
 
 fn check_count(field: VplField, n: usize) -> Result<(), VplError> {
@@ -235,7 +253,7 @@ impl VplAcceptor {
     }
 
     /// Φ̃_i, the candidate's average contribution over the importons (0 with none), without
-    /// occlusion.
+    /// occlusion: never negative or NaN (+∞ where f·G·I overflows f32, which gives p = 1).
     pub fn estimate(&self, candidate: &Vpl) -> Result<f32, VplError> {
         let m = candidate.validate()?;
         Ok(self.estimate_unit(candidate, m, None::<&mut Unoccluded>))
@@ -274,19 +292,22 @@ impl VplAcceptor {
             return 0.0;
         }
         let n = n as f32;
+        let floor = probability_floor(c);
         // Monotone in the partial sum: f32 division and addition round monotonically.
-        let enough = |s: f32| early && self.probability_of(s / n) >= 1.0;
+        let enough = |s: f32| early && self.probability_of(s / n, floor) >= 1.0;
         self.importons
             .total(c.position, m, c.intensity, self.g_max, vis, enough)
             / n
     }
 
-    fn probability_of(&self, phi_i: f32) -> f32 {
+    /// p from Φ̃_i and the candidate's [`probability_floor`].
+    fn probability_of(&self, phi_i: f32, floor: f32) -> f32 {
         let phi_v = self.target() as f32;
         if phi_v <= 0.0 || phi_v.is_nan() {
             return 1.0; // first frame (or a target below f32): no importance sampling
         }
         let p = phi_i / phi_v + self.epsilon;
+        let p = if p < floor { floor } else { p };
         if p < 1.0 {
             p
         } else {
@@ -294,10 +315,12 @@ impl VplAcceptor {
         }
     }
 
-    /// The acceptance probability p of `candidate`, in (0, 1], without occlusion.
+    /// The acceptance probability p of `candidate`, in (0, 1], without occlusion: the paper's
+    /// `min(Φ̃_i/Φ̃_v + ε, 1)`, raised where needed so that the kept VPL's energy `πI/p`
+    /// stays within [`MAX_LIGHT_ENERGY`] (only for intensities within a factor 1/ε of it).
     pub fn probability(&self, candidate: &Vpl) -> Result<f32, VplError> {
         let phi = self.estimate(candidate)?;
-        Ok(self.probability_of(phi))
+        Ok(self.probability_of(phi, probability_floor(candidate)))
     }
 
     /// The acceptance probability p of `candidate` with the host's visibility test.
@@ -307,7 +330,8 @@ impl VplAcceptor {
         visibility: &mut V,
     ) -> Result<f32, VplError> {
         let m = candidate.validate()?;
-        Ok(self.probability_of(self.estimate_until(candidate, m, Some(visibility), true)))
+        let phi = self.estimate_until(candidate, m, Some(visibility), true);
+        Ok(self.probability_of(phi, probability_floor(candidate)))
     }
 
     /// Decides `candidate` with the uniform number `xi` in [0, 1), ignoring occlusion: the
@@ -343,7 +367,8 @@ impl VplAcceptor {
         let m = candidate.validate()?;
         // No need to look at the importons while Φ̃_total = 0: p = 1.
         let p = if self.target() > 0.0 {
-            self.probability_of(self.estimate_until(candidate, m, vis, true))
+            let phi = self.estimate_until(candidate, m, vis, true);
+            self.probability_of(phi, probability_floor(candidate))
         } else {
             1.0
         };

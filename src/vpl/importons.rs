@@ -215,8 +215,10 @@ impl Importons {
             (-(f32x4::splat(m.x) * dx + f32x4::splat(m.y) * dy + f32x4::splat(m.z) * dz)).max(zero);
         let den = (d2 * d2).max(f32x4::splat(f32::MIN_POSITIVE));
         let g = ((cos_x * cos_y) / den).min(f32x4::splat(g_max));
-        let gi = g * f32x4::splat(intensity);
-        let mut c = self.kd[b] * gi;
+        // (f · G) · I, not f · (G · I): G · I may overflow to +∞ (G reaches ~1e19 a nanometre
+        // from an importon), and a miss's or a glossy lane's f = 0 must then give 0, not NaN.
+        let i = f32x4::splat(intensity);
+        let mut c = (self.kd[b] * g) * i;
         // Glossy lanes: their BRDF, one lane at a time.
         let first = self.lobes.partition_point(|l| l.index < 4 * b);
         for lobe in self.lobes[first..]
@@ -225,7 +227,7 @@ impl Importons {
         {
             let lane = lobe.index % 4;
             let f = lobe_f(lobe, y, self.position(lobe.index));
-            c = with_lane(c, lane, f * gi.to_array()[lane]);
+            c = with_lane(c, lane, (f * g.to_array()[lane]) * intensity);
         }
         c
     }
@@ -249,10 +251,10 @@ impl Importons {
         let cos_y = (-(m.x * dx + m.y * dy + m.z * dz)).max(0.0);
         let den = (d2 * d2).max(f32::MIN_POSITIVE);
         let g = ((cos_x * cos_y) / den).min(g_max);
-        let gi = g * intensity;
+        // (f · G) · I, as the 4-wide form (see there).
         match self.lobes.binary_search_by_key(&j, |l| l.index) {
-            Ok(k) => lobe_f(&self.lobes[k], y, self.position(j)) * gi,
-            Err(_) => lane(&self.kd) * gi,
+            Ok(k) => (lobe_f(&self.lobes[k], y, self.position(j)) * g) * intensity,
+            Err(_) => (lane(&self.kd) * g) * intensity,
         }
     }
 

@@ -15,6 +15,11 @@
 //! accept if ξ ≤ p_i; the accepted VPL has intensity I_i / p_i
 //! ```
 //!
+//! One addition: p_i is at least `πI_i / MAX_LIGHT_ENERGY` (with a margin for rounding), so
+//! that an accepted VPL is a valid [`Light`] (energy within [`crate::MAX_LIGHT_ENERGY`]) with a
+//! finite intensity whatever ε; it only matters for intensities within a factor 1/ε of that
+//! limit, and like any positive p independent of ξ it keeps the estimate unbiased.
+//!
 //! `c_ij = f_j · G_ij · V_ij · I_i` is the radiance VPL i sends through importon j towards the
 //! camera: f_j the importon's BRDF, `G = max(0, cos θ_j) · max(0, cos θ_i) / d²` (optionally
 //! clamped, [`VplAcceptor::with_geometry_clamp`]), V the host's visibility test
@@ -40,7 +45,7 @@ pub use acceptor::{AcceptStats, Accepted, VplAcceptor, DEFAULT_EPSILON};
 pub use importons::{Importons, DEFAULT_IMPORTONS};
 
 use crate::error::{Problem, VplError, VplField};
-use crate::light::{Light, MAX_COORDINATE};
+use crate::light::{Light, MAX_COORDINATE, MAX_LIGHT_ENERGY};
 use glam::Vec3;
 
 /// A VPL candidate (or an accepted VPL): a point emitting `intensity · max(0, cos θ)` about its
@@ -71,7 +76,8 @@ impl Vpl {
     }
 
     /// Checks every field: finite position within [`MAX_COORDINATE`], finite non-zero normal,
-    /// finite non-negative intensity. Returns the unit normal.
+    /// finite non-negative intensity whose energy πI is at most [`MAX_LIGHT_ENERGY`] (as for
+    /// [`Light::Vpl`]). Returns the unit normal.
     pub fn validate(&self) -> Result<Vec3, VplError> {
         check_position(VplField::Position, self.position)?;
         let n = unit(VplField::Normal, self.normal)?;
@@ -80,6 +86,13 @@ impl Vpl {
         }
         if self.intensity < 0.0 {
             return Err(err(VplField::Intensity, Problem::Negative, self.intensity));
+        }
+        if core::f64::consts::PI * f64::from(self.intensity) > f64::from(MAX_LIGHT_ENERGY) {
+            return Err(err(
+                VplField::Intensity,
+                Problem::EnergyTooLarge,
+                self.intensity,
+            ));
         }
         Ok(n)
     }

@@ -3,7 +3,9 @@
 //! (disjointness, coverage of the opened nodes, `pmf_in` ownership).
 
 use super::Rng;
-use manylights::{Cluster, Importance, LightCut, LightSample, LightTree, Memo, Node4, Slot};
+use manylights::{
+    Child, Cluster, Importance, LightCut, LightSample, LightTree, Memo, MemoTable, Node4, Slot,
+};
 use std::collections::HashSet;
 
 macro_rules! ensure {
@@ -31,7 +33,7 @@ pub fn is_prefix(p: u64, q: u64) -> bool {
 
 /// Every light under slot `k` of node `node`, by walking the nodes (independent of paths).
 pub fn lights_in_slot(tree: &LightTree, node: u32, k: usize, out: &mut Vec<u32>) {
-    match tree.nodes()[node as usize].slot(k) {
+    match tree.slot(&tree.nodes()[node as usize], k) {
         Slot::Light(l) => out.push(l),
         Slot::Node(c) => {
             for j in 0..4 {
@@ -51,7 +53,7 @@ pub fn positive(x: f32) -> bool {
 pub fn positive_slots<I: Importance>(imp: &I, node: &Node4) -> usize {
     let w = imp.eval4(node).to_array();
     (0..4)
-        .filter(|&k| node.slot(k) != Slot::Empty && w[k] > 0.0)
+        .filter(|&k| node.child(k) != Child::Empty && w[k] > 0.0)
         .count()
 }
 
@@ -71,7 +73,7 @@ pub fn dead_subtree<I: Importance>(
         if !positive(wk) {
             continue;
         }
-        match n.slot(k) {
+        match tree.slot(n, k) {
             Slot::Empty => {}
             Slot::Light(_) => return false,
             Slot::Node(c) => {
@@ -104,7 +106,7 @@ pub fn check_cluster_slot(
     let node = &nodes[c.node as usize];
     let k = usize::from(c.slot);
     ensure!(
-        node.slot(k) != Slot::Empty,
+        node.child(k) != Child::Empty,
         "cluster {i} {c:?} is an empty slot {ctx}"
     );
     ensure!(
@@ -164,7 +166,7 @@ pub fn check_coverage<I: Importance>(
         for up in 1..levels(c.path) {
             let p = c.path >> (2 * up);
             let (an, ak) = tree.slot_at(p).unwrap();
-            match nodes[an as usize].slot(ak) {
+            match tree.slot(&nodes[an as usize], ak) {
                 Slot::Node(child) => {
                     opened.insert(child);
                     ancestors.insert(p);
@@ -184,20 +186,20 @@ pub fn check_coverage<I: Importance>(
         } else {
             ancestors.iter().copied().find(|&p| {
                 let (an, ak) = tree.slot_at(p).unwrap();
-                nodes[an as usize].slot(ak) == Slot::Node(o)
+                tree.slot(&nodes[an as usize], ak) == Slot::Node(o)
             })
         };
         let base = base.ok_or_else(|| format!("opened node {o} has no ancestor path"))?;
         for (k, &wk) in w.iter().enumerate() {
             let p = (base << 2) | k as u64;
-            if node.slot(k) == Slot::Empty
+            if node.child(k) == Child::Empty
                 || !positive(wk)
                 || cluster_paths.contains(&p)
                 || ancestors.contains(&p)
             {
                 continue;
             }
-            let dead = match node.slot(k) {
+            let dead = match tree.slot(node, k) {
                 Slot::Node(child) => dead_subtree(tree, imp, child, &mut drops),
                 _ => false,
             };
@@ -236,7 +238,7 @@ pub fn check_pmf_in<I: Importance>(
             _ => {
                 return Err(format!(
                     "light {l} (path {:#b}) is under cluster {:?} but pmf_in says {got:?} {ctx}",
-                    tree.paths()[l],
+                    tree.path(l as u32),
                     owner[l]
                 ))
             }
@@ -330,7 +332,8 @@ pub fn check_batched<I: Importance + Copy>(
     us: &[f32],
     ctx: &str,
 ) -> Result<(), String> {
-    let memo = Memo::new(imp, tree);
+    let table = MemoTable::new();
+    let memo = Memo::new(imp, tree, &table);
     for pass in 0..2 {
         let imp_b: &dyn Importance = if pass == 0 { &imp } else { &memo };
         let len = cut.len();

@@ -448,7 +448,7 @@ pub fn lanes_match_scalar<I: Importance + std::fmt::Debug>(
                  absolute) for {b:?} of {node:?} at {imp:?}"
             ));
         }
-        if node.energy[k] == 0.0 && (w != 0.0 || s != 0.0) {
+        if node.energy_of(k) == 0.0 && (w != 0.0 || s != 0.0) {
             return Err(format!(
                 "lane {k}: zero-energy slot has importance {w} / {s} at {imp:?}"
             ));
@@ -463,30 +463,35 @@ pub fn lanes_match_scalar<I: Importance + std::fmt::Debug>(
 /// whole input domain of the decode is covered, not only what the build produces.
 pub fn random_node(rng: &mut Rng, x: Vec3) -> Node4 {
     let mut node = Node4::EMPTY;
+    // The frame: a scale from 2⁻³⁰ to 2⁴ (codes of 255 steps reach from ~2e-7 to 4e3 away),
+    // the origin at x (so centres can be exactly x) or offset so the codes straddle it.
+    node.exponent = (127 - 30 + rng.below(35)) as u8;
+    let scale = f32::from_bits(u32::from(node.exponent) << 23);
+    node.origin = if rng.chance(0.3) {
+        x.to_array()
+    } else {
+        let o = Vec3::new(rng.f32(), rng.f32(), rng.f32()) * (255.0 * scale);
+        (x - o).to_array()
+    };
     for k in 0..4 {
         if rng.chance(0.15) {
             continue; // empty slot
         }
-        let c = match rng.below(4) {
-            0 => x,
-            1 => x + rng.unit() * rng.log_range(1e-6, 1e-2),
-            _ => x + rng.unit() * rng.log_range(1e-3, 1e3),
+        let b = |rng: &mut Rng| rng.below(256) as u8;
+        let centre = if rng.chance(0.25) {
+            [0, 0, 0]
+        } else {
+            [b(rng), b(rng), b(rng)]
         };
-        node.center_x[k] = c.x;
-        node.center_y[k] = c.y;
-        node.center_z[k] = c.z;
-        node.radius[k] = match rng.below(4) {
-            0 => 0.0,
-            _ => rng.log_range(1e-6, 1e3),
-        };
-        node.energy[k] = rng.log_range(1e-20, 1e20);
-        node.axis[k] = rng.next_u64() as u32;
-        node.angles[k] = match rng.below(4) {
+        let radius = if rng.chance(0.25) { 0 } else { b(rng) };
+        node.sphere[k] = u32::from_le_bytes([centre[0], centre[1], centre[2], radius]);
+        node.energy[k] = (rng.log_range(1e-20, 1e20).to_bits() >> 16) as u16;
+        node.cone[k] = match rng.below(4) {
             0 => 0xFFFF_FFFF,
-            1 => (rng.next_u64() as u32) & 0xFFFF_0000,
+            1 => (rng.next_u64() as u32) & 0xFF00_FFFF,
             _ => rng.next_u64() as u32,
         };
-        node.child[k] = 0x8000_0000 | k as u32;
+        node.mask |= 1 << (4 + k);
     }
     node
 }

@@ -6,7 +6,7 @@
 
 use glam::Vec3;
 use manylights::baseline::BinaryLightTree;
-use manylights::{Light, LightTree};
+use manylights::{BuildOptions, Light, LightTree};
 
 /// SplitMix64 (Steele, Lea, Flood 2014).
 struct Rng(u64);
@@ -137,17 +137,35 @@ fn fnv(words: impl IntoIterator<Item = u32>) -> u64 {
     h
 }
 
+/// FNV-1a (64 bits) of bytes.
+fn fnv_bytes(bytes: &[u8]) -> u64 {
+    let mut h = 0xcbf2_9ce4_8422_2325u64;
+    for &b in bytes {
+        h = (h ^ u64::from(b)).wrapping_mul(0x0000_0100_0000_01b3);
+    }
+    h
+}
+
 /// Hashes of the binary tree (every node of [`BinaryLightTree`]: bounds, energy, child) and of
-/// the 4-wide tree's paths (which binary clusters became the slots of which node) of `lights`.
-pub fn hashes(lights: &[Light]) -> (u64, u64) {
+/// the 4-wide tree's byte form ([`LightTree::as_bytes`]: nodes, variances, leaf array, paths),
+/// built with the default options and with [`BuildOptions::compact`], of `lights`.
+pub fn hashes(lights: &[Light]) -> (u64, u64, u64) {
     let binary = BinaryLightTree::build(lights).expect("valid scene");
     let words: &[u32] = bytemuck::cast_slice(binary.nodes());
     let tree = LightTree::build(lights).expect("valid scene");
-    let paths = tree
-        .paths()
-        .iter()
-        .flat_map(|&p| [p as u32, (p >> 32) as u32]);
-    (fnv(words.iter().copied()), fnv(paths))
+    let compact = LightTree::build_with(
+        lights,
+        &BuildOptions {
+            compact: true,
+            ..BuildOptions::default()
+        },
+    )
+    .expect("valid scene");
+    (
+        fnv(words.iter().copied()),
+        fnv_bytes(&tree.as_bytes()),
+        fnv_bytes(&compact.as_bytes()),
+    )
 }
 
 /// The scenes hashed: (seed, lights, style).

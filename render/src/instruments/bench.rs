@@ -6,9 +6,10 @@
 use crate::alloc_count;
 use manylights::baseline::BinaryLightTree;
 use manylights::{
-    BlImportance, CutOptions, Light, LightCut, LightTree, Material, ShadingPoint as Sp,
-    SplitOptions, TlImportance, CUT_CAPACITY,
+    BlImportance, CutOptions, Light, LightCut, LightTree, Material, Memo, MemoTable,
+    ShadingPoint as Sp, SplitOptions, TlImportance, CUT_CAPACITY,
 };
+use manylights_ffi as ffi;
 use manylights_testkit::{self as random_scene, ShadingPoint};
 use serde_json::json;
 use std::hint::black_box;
@@ -97,6 +98,12 @@ fn best_build<T>(repeats: usize, mut f: impl FnMut() -> T) -> (T, BuildTime) {
     (out, best)
 }
 
+/// Shading points per batch call (a wavefront's worth).
+const BATCH: usize = 256;
+
+/// Samples per shading point in the Memo comparison.
+const MEMO_SAMPLES: usize = 8;
+
 /// Throughput of one pass over the shading points, in million samples per second.
 fn time_pass(
     points: &[ShadingPoint],
@@ -110,6 +117,115 @@ fn time_pass(
         acc += f64::from(f(black_box(&imp), black_box(u)));
     }
     let s = t.elapsed().as_secs_f64();
+    (points.len() as f64 / s / 1e6, acc)
+}
+
+/// The C ABI's descriptor of a light.
+fn ffi_light(l: &Light) -> ffi::ml_light {
+    let v = |v: glam::Vec3| ffi::ml_vec3 {
+        x: v.x,
+        y: v.y,
+        z: v.z,
+    };
+    let mut d = ffi::ml_light::default();
+    match *l {
+        Light::Point {
+            position,
+            intensity,
+        } => {
+            d.kind = ffi::ml_light_kind::Point as u32;
+            d.position = v(position);
+            d.power = intensity;
+        }
+        Light::Spot {
+            position,
+            direction,
+            intensity,
+            half_angle,
+            falloff_start,
+        } => {
+            d.kind = ffi::ml_light_kind::Spot as u32;
+            d.position = v(position);
+            d.direction = v(direction);
+            d.power = intensity;
+            d.half_angle = half_angle;
+            d.falloff_start = falloff_start;
+        }
+        Light::Sphere {
+            center,
+            radius,
+            radiance,
+        } => {
+            d.kind = ffi::ml_light_kind::Sphere as u32;
+            d.position = v(center);
+            d.radius = radius;
+            d.power = radiance;
+        }
+        Light::Disk {
+            center,
+            normal,
+            radius,
+            radiance,
+            two_sided,
+        } => {
+            d.kind = ffi::ml_light_kind::Disk as u32;
+            d.position = v(center);
+            d.direction = v(normal);
+            d.radius = radius;
+            d.power = radiance;
+            d.two_sided = u32::from(two_sided);
+        }
+        Light::Triangle {
+            vertices,
+            radiance,
+            two_sided,
+        } => {
+            d.kind = ffi::ml_light_kind::Triangle as u32;
+            d.position = v(vertices[0]);
+            d.direction = v(vertices[1]);
+            d.vertex2 = v(vertices[2]);
+            d.power = radiance;
+            d.two_sided = u32::from(two_sided);
+        }
+        Light::Vpl {
+            position,
+            normal,
+            intensity,
+        } => {
+            d.kind = ffi::ml_light_kind::Vpl as u32;
+            d.position = v(position);
+            d.direction = v(normal);
+            d.power = intensity;
+        }
+    }
+    d
+}
+
+/// Throughput of the C ABI's batch TL sampling (`ml_tree_sample_tl_batch`, called through its
+/// `extern "C"` symbol) over the points, in million samples per second.
+fn time_ffi_batch(
+    tree: *const ffi::ml_tree,
+    points: &[ffi::ml_tl_point],
+    us: &[f32],
+    out: &mut [ffi::ml_light_sample],
+) -> (f64, f64) {
+    let t = Instant::now();
+    for ((p, u), o) in points
+        .chunks(BATCH)
+        .zip(us.chunks(BATCH))
+        .zip(out.chunks_mut(BATCH))
+    {
+        let status = ffi::ml_tree_sample_tl_batch(
+            black_box(tree),
+            p.as_ptr(),
+            u.as_ptr(),
+            p.len(),
+            o.as_mut_ptr(),
+        );
+        assert_eq!(status, ffi::ML_OK, "the bench's batch call is valid");
+    }
+    let s = t.elapsed().as_secs_f64();
+    let acc = out.iter().map(|o| f64::from(o.pmf)).sum();
     (points.len() as f64 / s / 1e6, acc)
 }
 
@@ -148,11 +264,49 @@ pub fn run(cfg: &BenchConfig) -> serde_json::Value {
     let points = random_scene::shading_points(cfg.points, cfg.seed);
     let us = random_scene::uniforms(cfg.points, cfg.seed);
 
-    // Alternate the two samplers so that both see the same machine state; keep the best.
+    // The same lights and points through the C ABI.
+    let descs: Vec<ffi::ml_light> = lights.iter().map(ffi_light).collect();
+    let mut ffi_tree: *mut ffi::ml_tree = std::ptr::null_mut();
+    let status = ffi::ml_tree_build(descs.as_ptr(), descs.len(), std::ptr::null(), &mut ffi_tree);
+    assert_eq!(status, ffi::ML_OK, "the bench scene is valid");
+    let ffi_points: Vec<ffi::ml_tl_point> = points
+        .iter()
+        .map(|p| ffi::ml_tl_point {
+            position: p.position.into(),
+            normal: p.normal.into(),
+        })
+        .collect();
+    let mut ffi_out = vec![ffi::ml_light_sample::default(); points.len()];
+
+    // Alternate the samplers so that all see the same machine state; keep the best of each.
     let mut tl = 0.0f64;
     let mut base = 0.0f64;
+    let mut ffi_batch = 0.0f64;
+    let mut tl_batch = 0.0f64;
     let mut checksum = 0.0;
+    let mut imps: Vec<TlImportance> = Vec::with_capacity(BATCH);
+    let mut batch_out: Vec<Option<manylights::LightSample>> = vec![None; BATCH];
     for _ in 0..cfg.repeats.max(1) {
+        // The C ABI's batch call over the same chunks.
+        let (r, c) = time_ffi_batch(ffi_tree, &ffi_points, &us, &mut ffi_out);
+        ffi_batch = ffi_batch.max(r);
+        checksum += c;
+        // The batch call, BATCH shading points at a time, the importances built in the loop.
+        let t = Instant::now();
+        let mut acc = 0.0f64;
+        for (pc, uc) in points.chunks(BATCH).zip(us.chunks(BATCH)) {
+            imps.clear();
+            imps.extend(pc.iter().map(|p| TlImportance::new(p.position, p.normal)));
+            tree.sample_batch(black_box(&imps), black_box(uc), &mut batch_out[..pc.len()])
+                .expect("one u per point");
+            acc += batch_out[..pc.len()]
+                .iter()
+                .flatten()
+                .map(|s| f64::from(s.pmf))
+                .sum::<f64>();
+        }
+        tl_batch = tl_batch.max(points.len() as f64 / t.elapsed().as_secs_f64() / 1e6);
+        checksum += acc;
         let (r, c) = time_pass(&points, &us, |imp, u| {
             tree.sample(imp, u).map_or(0.0, |s| s.pmf)
         });
@@ -165,6 +319,20 @@ pub fn run(cfg: &BenchConfig) -> serde_json::Value {
         checksum += c;
     }
     black_box(checksum);
+    // The C ABI's batch samples are the Rust core's, bit for bit.
+    let ffi_equal = ffi_points
+        .iter()
+        .zip(&us)
+        .zip(&ffi_out)
+        .all(|((p, &u), o)| {
+            let s = tree.sample(&TlImportance::new(p.position.into(), p.normal.into()), u);
+            ffi::ml_light_sample::from(s) == *o
+        });
+    assert!(
+        ffi_equal,
+        "the C ABI's batch samples differ from the core's"
+    );
+    assert_eq!(ffi::ml_tree_free(ffi_tree), ffi::ML_OK);
 
     // The samples once more, kept for the pmf queries.
     let samples: Vec<Option<manylights::LightSample>> = points
@@ -174,8 +342,39 @@ pub fn run(cfg: &BenchConfig) -> serde_json::Value {
         .collect();
     let returned = samples.iter().filter(|s| s.is_some()).count();
     let mut pmf_rate = 0.0f64;
+    let mut pmf_batch_rate = 0.0f64;
     let mut max_rel = 0.0f64;
+    let queried: Vec<(usize, u32)> = samples
+        .iter()
+        .enumerate()
+        .filter_map(|(j, s)| s.map(|s| (j, s.light)))
+        .collect();
+    let mut batch_pmfs = vec![0.0f32; BATCH];
     for _ in 0..cfg.repeats.max(1) {
+        // The same queries through the batch call.
+        let t = Instant::now();
+        let mut acc = 0.0f64;
+        let mut lights_of = Vec::with_capacity(BATCH);
+        for chunk in queried.chunks(BATCH) {
+            imps.clear();
+            lights_of.clear();
+            for &(j, l) in chunk {
+                imps.push(TlImportance::new(points[j].position, points[j].normal));
+                lights_of.push(l);
+            }
+            tree.pmf_batch(
+                black_box(&imps),
+                black_box(&lights_of),
+                &mut batch_pmfs[..chunk.len()],
+            )
+            .expect("one light per point");
+            acc += batch_pmfs[..chunk.len()]
+                .iter()
+                .map(|&q| f64::from(q))
+                .sum::<f64>();
+        }
+        black_box(acc);
+        pmf_batch_rate = pmf_batch_rate.max(queried.len() as f64 / t.elapsed().as_secs_f64() / 1e6);
         let t = Instant::now();
         let mut acc = 0.0f64;
         let mut n = 0usize;
@@ -192,6 +391,42 @@ pub fn run(cfg: &BenchConfig) -> serde_json::Value {
         }
         black_box(acc);
         pmf_rate = pmf_rate.max(n as f64 / t.elapsed().as_secs_f64() / 1e6);
+    }
+
+    // Eight samples per shading point, with and without a Memo (its table reused from point to
+    // point, as a renderer keeps one per thread).
+    let table = MemoTable::new();
+    let mut memo_rate = 0.0f64;
+    let mut no_memo_rate = 0.0f64;
+    let per = MEMO_SAMPLES;
+    let memo_points = &points[..points.len() / per];
+    for _ in 0..cfg.repeats.max(1) {
+        let t = Instant::now();
+        let mut acc = 0.0f64;
+        for (p, uc) in memo_points.iter().zip(us.chunks(per)) {
+            let imp = TlImportance::new(p.position, p.normal);
+            for &u in uc {
+                acc += tree
+                    .sample(black_box(&imp), u)
+                    .map_or(0.0, |s| f64::from(s.pmf));
+            }
+        }
+        black_box(acc);
+        no_memo_rate =
+            no_memo_rate.max((memo_points.len() * per) as f64 / t.elapsed().as_secs_f64() / 1e6);
+        let t = Instant::now();
+        let mut acc = 0.0f64;
+        for (p, uc) in memo_points.iter().zip(us.chunks(per)) {
+            let memo = Memo::new(TlImportance::new(p.position, p.normal), &tree, &table);
+            for &u in uc {
+                acc += tree
+                    .sample(black_box(&memo), u)
+                    .map_or(0.0, |s| f64::from(s.pmf));
+            }
+        }
+        black_box(acc);
+        memo_rate =
+            memo_rate.max((memo_points.len() * per) as f64 / t.elapsed().as_secs_f64() / 1e6);
     }
 
     // Split sampling: build the Conty–Kulla cut, then one sample per cluster.
@@ -340,7 +575,17 @@ pub fn run(cfg: &BenchConfig) -> serde_json::Value {
         "tl_msamples_per_s": tl,
         "baseline_msamples_per_s": base,
         "speedup": tl / base,
+        "tl_batch_msamples_per_s": tl_batch,
+        "batch_speedup": tl_batch / tl,
+        "batch_size": BATCH,
+        "batch_lanes": manylights::BATCH_LANES,
+        "ffi_batch_msamples_per_s": ffi_batch,
+        "ffi_batch_vs_tl_batch": ffi_batch / tl_batch,
         "pmf_mqueries_per_s": pmf_rate,
+        "pmf_batch_mqueries_per_s": pmf_batch_rate,
+        "tl_8_per_point_msamples_per_s": no_memo_rate,
+        "tl_8_per_point_memo_msamples_per_s": memo_rate,
+        "memo_speedup": memo_rate / no_memo_rate,
         "pmf_max_rel_err": max_rel,
         "pmf_sum_max_err": pmf_sum_max_err,
         "returned_fraction": returned as f64 / cfg.points.max(1) as f64,
@@ -391,7 +636,27 @@ pub fn table(r: &serde_json::Value) -> String {
         ("4-wide TL (Msamples/s)", "tl_msamples_per_s"),
         ("binary baseline (Msamples/s)", "baseline_msamples_per_s"),
         ("speedup", "speedup"),
+        (
+            "4-wide TL, batch of 256 points (Msamples/s)",
+            "tl_batch_msamples_per_s",
+        ),
+        ("batch / single", "batch_speedup"),
+        (
+            "C ABI batch TL, ml_tree_sample_tl_batch (Msamples/s)",
+            "ffi_batch_msamples_per_s",
+        ),
+        ("C ABI batch / Rust batch", "ffi_batch_vs_tl_batch"),
         ("pmf queries (M/s)", "pmf_mqueries_per_s"),
+        ("pmf queries, batch (M/s)", "pmf_batch_mqueries_per_s"),
+        (
+            "8 samples per point (Msamples/s)",
+            "tl_8_per_point_msamples_per_s",
+        ),
+        (
+            "8 samples per point with a Memo (Msamples/s)",
+            "tl_8_per_point_memo_msamples_per_s",
+        ),
+        ("Memo / no Memo", "memo_speedup"),
         ("pmf max rel. error", "pmf_max_rel_err"),
         ("pmf sum max error", "pmf_sum_max_err"),
         ("points with a sample", "returned_fraction"),

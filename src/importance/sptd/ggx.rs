@@ -164,15 +164,20 @@ impl SptdGgx {
     /// In world space: `normal` (flipped if `wo` is below it) and the direction towards the
     /// viewer `wo`; neither needs to be normalised. Cap axes given to the evaluators are then
     /// world directions, so no per-cluster frame change is needed. A zero or non-finite
-    /// normal or `wo` gives a zero lobe.
+    /// normal or `wo` gives a zero lobe; any other length is fine (a tiny or huge vector,
+    /// whose f32 length would underflow or overflow, is normalised in f64).
     pub fn oriented(alpha: f32, normal: Vec3, wo: Vec3) -> SptdGgx {
-        let ln = normal.length();
-        let lo = wo.length();
-        if !(ln > 0.0 && ln.is_finite() && lo > 0.0 && lo.is_finite()) {
+        let unit = |v: Vec3| {
+            let l2 = v.length_squared();
+            if math::len2_is_safe(l2) {
+                Some(v / math::sqrt(l2))
+            } else {
+                math::unit(v)
+            }
+        };
+        let (Some(mut n), Some(wo)) = (unit(normal), unit(wo)) else {
             return SptdGgx::zero();
-        }
-        let mut n = normal / ln;
-        let wo = wo / lo;
+        };
         let mut cos_o = n.dot(wo);
         if cos_o < 0.0 {
             n = -n;
@@ -379,9 +384,11 @@ impl SptdGgx {
         let (lens, l, v) = if (s - cos_omega) * (s + cos_omega) <= 0.0 {
             if cos_omega > 0.0 {
                 let a = cap.one_minus_cos;
+                // cos ω ≤ 1 for a unit axis; the clamp keeps an infinite one from giving NaN.
+                let c = if cos_omega < 1.0 { cos_omega } else { 1.0 };
                 (
                     2.0 * PI * mapped.one_minus_cos,
-                    s * s * cos_omega * PI,
+                    s * s * c * PI,
                     2.0 * (a * PI),
                 )
             } else {
@@ -441,7 +448,8 @@ impl SptdGgx {
         let crossing = ((s - cos_omega) * (s + cos_omega)).simd_gt(zero);
         let above = cos_omega.simd_gt(zero);
         let lens = above.select(f32x4::splat(2.0 * PI) * mapped.one_minus_cos, zero);
-        let l = above.select(s * s * cos_omega * pi, zero);
+        let c = cos_omega.simd_lt(f32x4::ONE).select(cos_omega, f32x4::ONE);
+        let l = above.select(s * s * c * pi, zero);
         let v = above.select(f32x4::splat(2.0) * (cap.one_minus_cos * pi), zero);
         // Only groups with a cap across the horizon pay for the intersections (same per-lane
         // choice as the scalar form, so the two agree lane by lane).

@@ -1,6 +1,6 @@
 //! Bounded lights, shading points and materials for the targets that check sampling, so that
 //! they test pdf consistency rather than overflow (the build's bad-input target takes raw
-//! floats).
+//! floats), and the values with a range of their own that the `sptd` and `vpl` targets draw.
 
 use arbitrary::Arbitrary;
 use glam::Vec3;
@@ -60,6 +60,8 @@ impl BLight {
                 position: v(p),
                 intensity: pos(i, 0.0),
             },
+            // Just under π, not π: the spot's angle as the targets have always drawn it.
+            #[allow(clippy::approx_constant)]
             BLight::Spot(p, d, i, h, f) => {
                 let half = pos(h, 1e-3).min(3.14);
                 Light::Spot {
@@ -157,5 +159,64 @@ pub fn unit(u: f32) -> f32 {
         u.abs().fract().min(1.0 - f32::EPSILON / 2.0)
     } else {
         0.0
+    }
+}
+
+/// A number: as given (any f32, NaN and ±∞ included), or `k/65535`, in [0, 1].
+#[derive(Arbitrary, Debug, Clone, Copy)]
+pub enum Real {
+    /// As given.
+    Raw(f32),
+    /// `k/65535`.
+    Unit(u16),
+}
+
+impl Real {
+    /// The number.
+    pub fn value(self) -> f32 {
+        match self {
+            Real::Raw(x) => x,
+            Real::Unit(k) => f32::from(k) / 65535.0,
+        }
+    }
+}
+
+/// A direction: components as given (zero, NaN, huge and tiny included), or a unit vector at
+/// the polar angle `θ = a/65535 · π` from +z and the azimuth `φ = b/65536 · 2π`.
+#[derive(Arbitrary, Debug, Clone, Copy)]
+pub enum Dir {
+    /// As given.
+    Raw([f32; 3]),
+    /// Polar angles `(a, b)`.
+    Polar(u16, u16),
+}
+
+impl Dir {
+    /// The vector.
+    pub fn vector(self) -> Vec3 {
+        match self {
+            Dir::Raw(a) => Vec3::from_array(a),
+            Dir::Polar(a, b) => {
+                let theta = f32::from(a) / 65535.0 * core::f32::consts::PI;
+                let phi = f32::from(b) / 65536.0 * core::f32::consts::TAU;
+                Vec3::new(
+                    theta.sin() * phi.cos(),
+                    theta.sin() * phi.sin(),
+                    theta.cos(),
+                )
+            }
+        }
+    }
+}
+
+/// The unit vector of `v`, normalised in f64 (so that tiny and huge vectors keep their
+/// direction); `None` when `v` is zero or not finite.
+pub fn unit64(v: Vec3) -> Option<Vec3> {
+    let d = [v.x, v.y, v.z].map(f64::from);
+    let l = (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt();
+    if l > 0.0 && l.is_finite() {
+        Some(Vec3::new((d[0] / l) as f32, (d[1] / l) as f32, (d[2] / l) as f32).normalize())
+    } else {
+        None
     }
 }

@@ -1,0 +1,363 @@
+//! Light cuts: the BRDF-oriented cut (Liu et al. 2019, section 4.1) and the split-sampling cut
+//! (Conty & Kulla), their sampling, pmfs, size, IB(x) and one sample per cluster.
+
+use crate::arg;
+use crate::error::{ml_status, Error, Result};
+use crate::ffi_fn;
+use crate::tree::{bl_importance, check_light, ml_tree, tree_arg, TreeData};
+use crate::types::{ml_light_sample, ml_shading_point, ml_tl_point, tl_point, unit};
+use manylights::{BlImportance, CutOptions, LightCut, SplitOptions, TlImportance, CUT_CAPACITY};
+use std::sync::Arc;
+
+/// The largest cut: clusters a cut may hold.
+pub const ML_CUT_CAPACITY: usize = 64;
+const _: () = assert!(ML_CUT_CAPACITY == CUT_CAPACITY);
+
+/// `*cluster` of `ml_cut_pmf_in` for a light in no cluster of the cut.
+pub const ML_NO_CLUSTER: u32 = u32::MAX;
+
+/// Options of the BRDF-oriented cut (`ml_cut_options_default` fills the defaults).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ml_cut_options {
+    /// Split a cluster whose BRDF integral over its cap exceeds δ (finite, ≥ 0; default 0.5).
+    pub delta: f32,
+    /// Most clusters, in [4, 64] (default 32).
+    pub max_size: usize,
+}
+
+/// Options of the split-sampling cut (`ml_split_options_default` fills the defaults).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ml_split_options {
+    /// Split while the cluster's share of the variance exceeds this (finite, ≥ 0; default
+    /// 1e-3).
+    pub threshold: f32,
+    /// Most clusters, in [4, 64] (default 32).
+    pub max_size: usize,
+}
+
+/// The importance a cut was built with (its sampling and pmfs use the same one).
+#[derive(Clone, Copy, Debug)]
+enum CutImportance {
+    None,
+    Tl(TlImportance),
+    Bl(BlImportance),
+}
+
+/// A light cut (opaque): per-thread state, rebuilt for each shading point. It keeps the tree
+/// it was last built on alive. Not to be used by two threads at once.
+pub struct ml_cut {
+    tree: Option<Arc<TreeData>>,
+    cut: LightCut,
+    imp: CutImportance,
+}
+
+impl ml_cut {
+    fn built(&self) -> Result<(&TreeData, &LightCut, CutImportance)> {
+        match (&self.tree, self.imp) {
+            (Some(t), imp) if !matches!(imp, CutImportance::None) => Ok((t, &self.cut, imp)),
+            _ => Err(Error::state(
+                "cut: not built yet (call ml_cut_build or ml_cut_build_split first)",
+            )),
+        }
+    }
+}
+
+fn max_size(v: usize, name: &str) -> Result<usize> {
+    if (4..=ML_CUT_CAPACITY).contains(&v) {
+        Ok(v)
+    } else {
+        Err(Error::invalid(format_args!(
+            "{name} must be in [4, 64] (got {v})"
+        )))
+    }
+}
+
+fn non_negative(v: f32, name: &str) -> Result<f32> {
+    if v.is_finite() && v >= 0.0 {
+        Ok(v)
+    } else {
+        Err(Error::invalid(format_args!(
+            "{name} must be finite and non-negative (got {v})"
+        )))
+    }
+}
+
+/// Fills `*out` with the default BRDF-oriented cut options (δ = 0.5, 32 clusters).
+///
+/// Errors: `ML_ERR_NULL` if `out` is NULL.
+#[no_mangle]
+pub extern "C" fn ml_cut_options_default(out: *mut ml_cut_options) -> ml_status {
+    ffi_fn!("ml_cut_options_default", {
+        let d = CutOptions::default();
+        arg::out(out, "out")?.write(ml_cut_options {
+            delta: d.delta,
+            max_size: d.max_size,
+        });
+        Ok(())
+    })
+}
+
+/// Fills `*out` with the default split-sampling options (threshold 1e-3, 32 clusters).
+///
+/// Errors: `ML_ERR_NULL` if `out` is NULL.
+#[no_mangle]
+pub extern "C" fn ml_split_options_default(out: *mut ml_split_options) -> ml_status {
+    ffi_fn!("ml_split_options_default", {
+        let d = SplitOptions::default();
+        arg::out(out, "out")?.write(ml_split_options {
+            threshold: d.threshold,
+            max_size: d.max_size,
+        });
+        Ok(())
+    })
+}
+
+/// The core's cut options of checked C options (NULL: defaults).
+pub(crate) fn cut_options(o: Option<&ml_cut_options>, name: &str) -> Result<CutOptions> {
+    Ok(match o {
+        None => CutOptions::default(),
+        Some(o) => CutOptions {
+            delta: non_negative(o.delta, &format!("{name}.delta"))?,
+            max_size: max_size(o.max_size, &format!("{name}.max_size"))?,
+        },
+    })
+}
+
+/// The core's split options of checked C options (NULL: defaults).
+pub(crate) fn split_options(o: Option<&ml_split_options>, name: &str) -> Result<SplitOptions> {
+    Ok(match o {
+        None => SplitOptions::default(),
+        Some(o) => SplitOptions {
+            threshold: non_negative(o.threshold, &format!("{name}.threshold"))?,
+            max_size: max_size(o.max_size, &format!("{name}.max_size"))?,
+        },
+    })
+}
+
+/// Creates an empty cut. Free it with `ml_cut_free`.
+///
+/// Errors: `ML_ERR_NULL` if `out` is NULL.
+#[no_mangle]
+pub extern "C" fn ml_cut_create(out: *mut *mut ml_cut) -> ml_status {
+    ffi_fn!("ml_cut_create", {
+        let out = arg::out(out, "out")?;
+        out.write(arg::into_handle(ml_cut {
+            tree: None,
+            cut: LightCut::new(),
+            imp: CutImportance::None,
+        }));
+        Ok(())
+    })
+}
+
+/// Frees a cut (NULL: nothing).
+#[no_mangle]
+pub extern "C" fn ml_cut_free(cut: *mut ml_cut) -> ml_status {
+    ffi_fn!("ml_cut_free", { arg::free_handle(cut, "cut") })
+}
+
+/// Builds the BRDF-oriented light cut of `tree` at `sp` (Liu et al. 2019, section 4.1: a
+/// cluster is split while x is inside its bounding sphere or its BRDF integral exceeds δ), with
+/// `options` (NULL: defaults). The cut is unchanged on error.
+///
+/// Errors: `ML_ERR_NULL` (`cut`, `tree`, `sp`); `ML_ERR_INVALID_ARGUMENT` (a bad shading point
+/// or option).
+#[no_mangle]
+pub extern "C" fn ml_cut_build(
+    cut: *mut ml_cut,
+    tree: *const ml_tree,
+    sp: *const ml_shading_point,
+    options: *const ml_cut_options,
+) -> ml_status {
+    ffi_fn!("ml_cut_build", {
+        let cut = arg::get_mut(cut, "cut")?;
+        let data = tree_arg(tree)?;
+        let sp = arg::get(sp, "sp")?;
+        let opts = cut_options(arg::opt(options, "options")?, "options")?;
+        let imp = bl_importance(sp, &|| "sp".into())?;
+        cut.cut = LightCut::build(data.tree(), &imp, &opts);
+        cut.imp = CutImportance::Bl(imp);
+        if !cut.tree.as_ref().is_some_and(|t| Arc::ptr_eq(t, data)) {
+            cut.tree = Some(Arc::clone(data));
+        }
+        Ok(())
+    })
+}
+
+/// Builds the split-sampling cut of `tree` at `point` (Conty & Kulla: a cluster is split while
+/// its share of the variance is large, and always when the point is inside it), with
+/// `options` (NULL: defaults). The cut is unchanged on error.
+///
+/// Errors: `ML_ERR_NULL` (`cut`, `tree`, `point`); `ML_ERR_INVALID_ARGUMENT` (a non-finite
+/// point, a bad option).
+#[no_mangle]
+pub extern "C" fn ml_cut_build_split(
+    cut: *mut ml_cut,
+    tree: *const ml_tree,
+    point: *const ml_tl_point,
+    options: *const ml_split_options,
+) -> ml_status {
+    ffi_fn!("ml_cut_build_split", {
+        let cut = arg::get_mut(cut, "cut")?;
+        let data = tree_arg(tree)?;
+        let point = arg::get(point, "point")?;
+        let opts = split_options(arg::opt(options, "options")?, "options")?;
+        let (x, n) = tl_point(point, &|| "point".into())?;
+        let imp = TlImportance::new(x, n);
+        cut.cut = LightCut::build_split(data.tree(), &imp, &opts);
+        cut.imp = CutImportance::Tl(imp);
+        if !cut.tree.as_ref().is_some_and(|t| Arc::ptr_eq(t, data)) {
+            cut.tree = Some(Arc::clone(data));
+        }
+        Ok(())
+    })
+}
+
+/// The number of clusters of the cut (0 when no light can contribute).
+///
+/// Errors: `ML_ERR_NULL` (`cut`, `out`); `ML_ERR_STATE` (never built).
+#[no_mangle]
+pub extern "C" fn ml_cut_size(cut: *const ml_cut, out: *mut usize) -> ml_status {
+    ffi_fn!("ml_cut_size", {
+        let cut = arg::get(cut, "cut")?;
+        let out = arg::out(out, "out")?;
+        let (_, c, _) = cut.built()?;
+        out.write(c.len());
+        Ok(())
+    })
+}
+
+/// IB(x): the largest BRDF integral over the clusters of a BRDF-oriented cut (Liu et al.
+/// 2019, section 4.2), what the BRDF-aware sample budget is computed from; for a split cut,
+/// its largest normalised variance.
+///
+/// Errors: `ML_ERR_NULL` (`cut`, `out`); `ML_ERR_STATE` (never built).
+#[no_mangle]
+pub extern "C" fn ml_cut_ib(cut: *const ml_cut, out: *mut f32) -> ml_status {
+    ffi_fn!("ml_cut_ib", {
+        let cut = arg::get(cut, "cut")?;
+        let out = arg::out(out, "out")?;
+        let (_, c, _) = cut.built()?;
+        out.write(c.max_score());
+        Ok(())
+    })
+}
+
+/// Samples one light of the whole cut with `u` in [0, 1): a cluster in proportion to its
+/// weight, then a light in it; the pmf is the product (`ML_NO_LIGHT` for an empty cut).
+///
+/// Errors: `ML_ERR_NULL` (`cut`, `out`); `ML_ERR_INVALID_ARGUMENT` (`u` outside [0, 1));
+/// `ML_ERR_STATE` (never built).
+#[no_mangle]
+pub extern "C" fn ml_cut_sample(
+    cut: *const ml_cut,
+    u: f32,
+    out: *mut ml_light_sample,
+) -> ml_status {
+    ffi_fn!("ml_cut_sample", {
+        let cut = arg::get(cut, "cut")?;
+        let out = arg::out(out, "out")?;
+        let (t, c, imp) = cut.built()?;
+        let u = unit(u, &|| "u".into())?;
+        let s = match imp {
+            CutImportance::Tl(i) => c.sample(t.tree(), &i, u),
+            CutImportance::Bl(i) => c.sample(t.tree(), &i, u),
+            CutImportance::None => None,
+        };
+        out.write(s.into());
+        Ok(())
+    })
+}
+
+/// The probability that `ml_cut_sample` returns `light`: exactly the pmf it reports.
+///
+/// Errors: `ML_ERR_NULL` (`cut`, `out`); `ML_ERR_INVALID_ARGUMENT` (`light` out of range);
+/// `ML_ERR_STATE` (never built).
+#[no_mangle]
+pub extern "C" fn ml_cut_pmf(cut: *const ml_cut, light: u32, out: *mut f32) -> ml_status {
+    ffi_fn!("ml_cut_pmf", {
+        let cut = arg::get(cut, "cut")?;
+        let out = arg::out(out, "out")?;
+        let (t, c, imp) = cut.built()?;
+        check_light(light, t.tree().light_count() as usize, "light")?;
+        let p = match imp {
+            CutImportance::Tl(i) => c.pmf(t.tree(), &i, light),
+            CutImportance::Bl(i) => c.pmf(t.tree(), &i, light),
+            CutImportance::None => 0.0,
+        };
+        out.write(p);
+        Ok(())
+    })
+}
+
+/// Split sampling: one light in each cluster, `out[i]` for cluster i with `us[i]` in [0, 1),
+/// its pmf relative to the cluster (the estimate sums each cluster's contribution divided by
+/// it). `count` must be the cut's size. The descents run four at a time, interleaved.
+///
+/// Errors: `ML_ERR_NULL` (`cut`; `us`, `out` when `count` > 0); `ML_ERR_INVALID_ARGUMENT`
+/// (`count` not the cut's size, `us[i]` outside [0, 1)); `ML_ERR_STATE` (never built).
+#[no_mangle]
+pub extern "C" fn ml_cut_sample_clusters(
+    cut: *const ml_cut,
+    us: *const f32,
+    count: usize,
+    out: *mut ml_light_sample,
+) -> ml_status {
+    ffi_fn!("ml_cut_sample_clusters", {
+        let cut = arg::get(cut, "cut")?;
+        let us = arg::slice(us, count, "us")?;
+        let mut out = arg::out_slice(out, count, "out")?;
+        let (t, c, imp) = cut.built()?;
+        if count != c.len() {
+            return Err(Error::invalid(format_args!(
+                "count must be the cut's size, {} (got {count})",
+                c.len()
+            )));
+        }
+        for (i, &u) in us.iter().enumerate() {
+            unit(u, &|| format!("us[{i}]"))?;
+        }
+        let mut res = [None; CUT_CAPACITY];
+        match imp {
+            CutImportance::Tl(i) => c.sample_each(t.tree(), &i, us, &mut res[..count]),
+            CutImportance::Bl(i) => c.sample_each(t.tree(), &i, us, &mut res[..count]),
+            CutImportance::None => {}
+        }
+        for (i, r) in res[..count].iter().enumerate() {
+            out.set(i, (*r).into());
+        }
+        Ok(())
+    })
+}
+
+/// The cluster of the cut holding `light` (`ML_NO_CLUSTER` if none) and the light's pmf
+/// within it (what `ml_cut_sample_clusters` reports for it; 0 with `ML_NO_CLUSTER`).
+///
+/// Errors: `ML_ERR_NULL` (`cut`, `cluster`, `pmf`); `ML_ERR_INVALID_ARGUMENT` (`light` out of
+/// range); `ML_ERR_STATE` (never built).
+#[no_mangle]
+pub extern "C" fn ml_cut_pmf_in(
+    cut: *const ml_cut,
+    light: u32,
+    cluster: *mut u32,
+    pmf: *mut f32,
+) -> ml_status {
+    ffi_fn!("ml_cut_pmf_in", {
+        let cut = arg::get(cut, "cut")?;
+        let cluster = arg::out(cluster, "cluster")?;
+        let pmf = arg::out(pmf, "pmf")?;
+        let (t, c, imp) = cut.built()?;
+        check_light(light, t.tree().light_count() as usize, "light")?;
+        let r = match imp {
+            CutImportance::Tl(i) => c.pmf_in(t.tree(), &i, light),
+            CutImportance::Bl(i) => c.pmf_in(t.tree(), &i, light),
+            CutImportance::None => None,
+        };
+        let (k, p) = r.map_or((ML_NO_CLUSTER, 0.0), |(k, p)| (k as u32, p));
+        cluster.write(k);
+        pmf.write(p);
+        Ok(())
+    })
+}

@@ -1,0 +1,633 @@
+//! Direct illumination: every `direct` technique as one call with host callbacks (shadow ray
+//! or first-surface distance, uniform numbers), and the lower level (light samples with their
+//! weights; BSDF samples whose hits the host reports with its pdf).
+
+use crate::arg;
+use crate::cut::{cut_options, ml_cut_options, ml_split_options, split_options};
+use crate::error::{ml_status, Error, Result};
+use crate::ffi_fn;
+use crate::tree::{ml_tree, tree_arg, TreeData};
+use crate::types::{
+    finite3, ml_light_point, ml_shading_point, ml_vec3, shading_error, shading_point,
+};
+use core::ffi::c_void;
+use glam::Vec3;
+use manylights::direct::{
+    BsdfDraw, DirectError, LambertMode, LightDraw, Occluder, Params, Step, Technique, Uniforms,
+};
+use manylights::mis::MAX_BUDGET;
+use manylights::{Estimator, LightSet};
+use std::cell::Cell;
+use std::sync::Arc;
+
+/// A direct-lighting technique (`technique` arguments take these values).
+#[repr(u32)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum ml_technique {
+    /// One light uniformly, a point on it.
+    Uniform = 0,
+    /// One light in proportion to its power (an alias table).
+    Power = 1,
+    /// One light by tree descent with the Conty–Kulla importance.
+    Tl = 2,
+    /// Conty & Kulla's split sampling: one light in each cluster of the split cut.
+    TlSplit = 3,
+    /// One light from the BRDF-oriented cut of Liu et al. 2019.
+    Bl = 4,
+    /// `tl-split` plus BRDF-aware samples in equal numbers (BL and BSDF).
+    MisEqual = 5,
+    /// The method of Liu et al. 2019: `tl-split` plus BRDF-aware samples allocated adaptively
+    /// (their Algorithm 1), sequential MIS weights.
+    Full = 6,
+    /// One `tl` light sample plus one BSDF sample, power heuristic (pbrt-v4's and Cycles').
+    TlMis = 7,
+    /// One `bl` light sample plus one BSDF sample, power heuristic: the default.
+    BlMis = 8,
+}
+
+/// The technique a renderer should use without a reason to choose another (`bl-mis`).
+pub const ML_TECHNIQUE_DEFAULT: u32 = 8;
+const _: () = assert!(ML_TECHNIQUE_DEFAULT == ml_technique::BlMis as u32);
+
+/// What `full` does at a Lambert-only shading point.
+#[repr(u32)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum ml_lambert_mode {
+    /// TL split alone (the default).
+    TlOnly = 0,
+    /// TL split plus the budget's BSDF samples.
+    TbBudget = 1,
+    /// TL split plus one BSDF sample.
+    TbOne = 2,
+    /// As at glossy points: BL and BSDF samples allocated adaptively.
+    BlTb = 3,
+}
+
+/// The estimators' parameters (`ml_direct_params_default` fills the defaults).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ml_direct_params {
+    /// The split-sampling cut (`tl-split`, `mis-equal`, `full`).
+    pub split: ml_split_options,
+    /// The BRDF-oriented cut (`bl`, `bl-mis`, `mis-equal`, `full`).
+    pub cut: ml_cut_options,
+    /// Nmax of the BRDF-aware budget N = ceil(Nmax · IB(x)), in [1, 64] (default 50).
+    pub n_max: u32,
+    /// An `ml_lambert_mode` (default `ML_LAMBERT_MODE_TL_ONLY`).
+    pub lambert: u32,
+    /// 1 for the balance heuristic instead of the power heuristic (default 0).
+    pub balance_heuristic: u32,
+}
+
+/// The host's uniform numbers: `next_f32(user_data)` and `next_f64(user_data)` return the
+/// next number in [0, 1) (`next_f64` with more bits, for choosing among many lights; NULL:
+/// `next_f32` is used). A number outside [0, 1) fails the call with
+/// `ML_ERR_INVALID_ARGUMENT`. Callbacks must return normally (no longjmp, no C++ exception).
+#[repr(C)]
+#[derive(Clone, Copy, Debug)]
+pub struct ml_uniforms {
+    /// The next uniform number in [0, 1) (required).
+    pub next_f32: Option<unsafe extern "C" fn(user_data: *mut c_void) -> f32>,
+    /// The next uniform number in [0, 1) with 53 bits (optional).
+    pub next_f64: Option<unsafe extern "C" fn(user_data: *mut c_void) -> f64>,
+    /// Passed to both.
+    pub user_data: *mut c_void,
+}
+
+/// The host's visibility, one of two callbacks (both NULL: nothing is occluded):
+/// `occluded(user_data, x, d, t)` returns non-zero if a surface lies on the ray from `x` along
+/// the unit `d` before distance `t` (a shadow ray); `first_hit(user_data, x, d)` returns the
+/// distance to the first surface along the ray (+infinity for none; not NaN). `occluded` is
+/// used when both are set. Callbacks must return normally.
+#[repr(C)]
+#[derive(Clone, Copy, Debug)]
+pub struct ml_visibility {
+    /// Shadow ray.
+    pub occluded:
+        Option<unsafe extern "C" fn(user_data: *mut c_void, x: ml_vec3, d: ml_vec3, t: f32) -> i32>,
+    /// First-surface distance.
+    pub first_hit:
+        Option<unsafe extern "C" fn(user_data: *mut c_void, x: ml_vec3, d: ml_vec3) -> f32>,
+    /// Passed to both.
+    pub user_data: *mut c_void,
+}
+
+/// The kind of an `ml_step`.
+#[repr(u32)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum ml_step_kind {
+    /// A light point to shade: evaluate `value = f · radiance · cos θi` towards
+    /// `point.direction`, test visibility up to `point.distance`, and if it contributes, weigh
+    /// it with `ml_estimator_weigh` (passing the BSDF's pdf of the direction if
+    /// `needs_bsdf_pdf`) and add `value · scale`.
+    Light = 0,
+    /// A BSDF sample to take with `u0`, `u1`: sample the BSDF, cast the ray and report the
+    /// direction, its pdf and the first surface's distance to `ml_estimator_bsdf_hits`.
+    Bsdf = 1,
+    /// The estimate is complete.
+    Done = 2,
+}
+
+/// One step of an estimate (see `ml_step_kind`).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct ml_step {
+    /// An `ml_step_kind`.
+    pub kind: u32,
+    /// Light step: the light's index.
+    pub light: u32,
+    /// Light step: the probability of having chosen it.
+    pub pmf: f32,
+    /// Light step: 1 if `ml_estimator_weigh` uses the host's BSDF pdf of the direction.
+    pub needs_bsdf_pdf: u32,
+    /// Light step: the point on the light.
+    pub point: ml_light_point,
+    /// BSDF step: the first uniform number for sampling the BSDF.
+    pub u0: f32,
+    /// BSDF step: the second uniform number.
+    pub u1: f32,
+}
+
+/// A sample's MIS weight and density: its contribution is `value · scale`, with `value = f ·
+/// L · cos θi` (or one channel of it) evaluated by the host.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct ml_weighted {
+    /// The MIS weight, in [0, 1].
+    pub weight: f32,
+    /// The density the sample was drawn with (solid angle; 1 for point, spot and VPL lights).
+    pub pdf: f32,
+    /// `weight / pdf` as the one-call estimator applies it (finite, ≥ 0).
+    pub scale: f32,
+}
+
+/// A light a BSDF ray reached, for `ml_estimator_bsdf_hits`'s callback: the host shades it
+/// (`value = f · point.radiance · cos θi` with its own f) and adds `value · weighted.scale`.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct ml_light_hit {
+    /// The light's index.
+    pub light: u32,
+    /// The point the ray reached on it.
+    pub point: ml_light_point,
+    /// Its weight and the BSDF's density.
+    pub weighted: ml_weighted,
+}
+
+/// Called by `ml_estimator_bsdf_hits` for each light reached.
+pub type ml_hit_fn = Option<unsafe extern "C" fn(user_data: *mut c_void, hit: *const ml_light_hit)>;
+
+/// A per-point estimator (opaque): per-thread state, set up for one shading point and
+/// technique by `ml_estimator_set_point`, then any number of estimates. It keeps its tree
+/// alive. Not to be used by two threads at once.
+pub struct ml_estimator {
+    // Declared before `tree`, so dropped first: it borrows the light set `tree` owns.
+    est: Option<Estimator<'static>>,
+    last_light: Option<LightDraw>,
+    last_bsdf: Option<BsdfDraw>,
+    tree: Arc<TreeData>,
+}
+
+impl From<manylights::direct::Weighted> for ml_weighted {
+    fn from(w: manylights::direct::Weighted) -> ml_weighted {
+        ml_weighted {
+            weight: w.weight(),
+            pdf: w.pdf(),
+            scale: w.contribution(1.0),
+        }
+    }
+}
+
+/// The technique of a C value.
+fn technique(t: u32) -> Result<Technique> {
+    Technique::ALL.get(t as usize).copied().ok_or_else(|| {
+        Error::invalid(format_args!(
+            "technique: {t} is not an ml_technique (0 to 8)"
+        ))
+    })
+}
+
+/// Fills `*out` with the default parameters.
+///
+/// Errors: `ML_ERR_NULL` if `out` is NULL.
+#[no_mangle]
+pub extern "C" fn ml_direct_params_default(out: *mut ml_direct_params) -> ml_status {
+    ffi_fn!("ml_direct_params_default", {
+        let p = Params::default();
+        arg::out(out, "out")?.write(ml_direct_params {
+            split: ml_split_options {
+                threshold: p.split.threshold,
+                max_size: p.split.max_size,
+            },
+            cut: ml_cut_options {
+                delta: p.cut.delta,
+                max_size: p.cut.max_size,
+            },
+            n_max: p.n_max,
+            lambert: ml_lambert_mode::TlOnly as u32,
+            balance_heuristic: 0,
+        });
+        Ok(())
+    })
+}
+
+/// The core's parameters of checked C ones (NULL: defaults).
+fn params(p: Option<&ml_direct_params>) -> Result<Params> {
+    let Some(p) = p else {
+        return Ok(Params::default());
+    };
+    if !(1..=MAX_BUDGET).contains(&p.n_max) {
+        return Err(Error::invalid(format_args!(
+            "params.n_max must be in [1, {MAX_BUDGET}] (got {})",
+            p.n_max
+        )));
+    }
+    let lambert = *LambertMode::ALL.get(p.lambert as usize).ok_or_else(|| {
+        Error::invalid(format_args!(
+            "params.lambert: {} is not an ml_lambert_mode (0 to 3)",
+            p.lambert
+        ))
+    })?;
+    let power = match p.balance_heuristic {
+        0 => true,
+        1 => false,
+        v => {
+            return Err(Error::invalid(format_args!(
+                "params.balance_heuristic must be 0 or 1 (got {v})"
+            )))
+        }
+    };
+    Ok(Params {
+        split: split_options(Some(&p.split), "params.split")?,
+        cut: cut_options(Some(&p.cut), "params.cut")?,
+        n_max: p.n_max,
+        lambert,
+        power,
+    })
+}
+
+/// The host's uniform numbers as the core asks for them.
+struct HostUniforms {
+    f32: unsafe extern "C" fn(*mut c_void) -> f32,
+    f64: Option<unsafe extern "C" fn(*mut c_void) -> f64>,
+    user: *mut c_void,
+}
+
+impl HostUniforms {
+    fn new(u: &ml_uniforms) -> Result<HostUniforms> {
+        Ok(HostUniforms {
+            f32: u
+                .next_f32
+                .ok_or_else(|| Error::null("uniforms->next_f32"))?,
+            f64: u.next_f64,
+            user: u.user_data,
+        })
+    }
+}
+
+impl Uniforms for HostUniforms {
+    #[inline]
+    fn next_f32(&mut self) -> f32 {
+        // SAFETY: a host callback with its own user data (the caller's contract).
+        unsafe { (self.f32)(self.user) }
+    }
+
+    #[inline]
+    fn next_f64(&mut self) -> f64 {
+        match self.f64 {
+            // SAFETY: as above.
+            Some(f) => unsafe { f(self.user) },
+            None => f64::from(self.next_f32()),
+        }
+    }
+}
+
+/// The host's visibility as the core's occluder; remembers a NaN distance from `first_hit`.
+struct HostVisibility {
+    vis: Option<ml_visibility>,
+    bad: Cell<Option<f32>>,
+}
+
+impl Occluder for HostVisibility {
+    #[inline]
+    fn occluded(&self, x: Vec3, d: Vec3, t: f32) -> bool {
+        let Some(v) = self.vis else {
+            return false;
+        };
+        if let Some(f) = v.occluded {
+            // SAFETY: a host callback with its own user data (the caller's contract).
+            return unsafe { f(v.user_data, x.into(), d.into(), t) } != 0;
+        }
+        if let Some(f) = v.first_hit {
+            // SAFETY: as above.
+            let h = unsafe { f(v.user_data, x.into(), d.into()) };
+            if h.is_nan() || h < 0.0 {
+                self.bad.set(Some(h));
+                return true;
+            }
+            return h < t;
+        }
+        false
+    }
+}
+
+/// A core estimator error in the C arguments' terms.
+fn direct_error(e: DirectError) -> Error {
+    match e {
+        DirectError::Shading(s) => shading_error(s, &|| "sp".into()),
+        DirectError::Uniform { value } => Error::invalid(format_args!(
+            "uniforms: a number from next_f32 or next_f64 is outside [0, 1) (got {value})"
+        )),
+        DirectError::BsdfPdf { value } => Error::invalid(format_args!(
+            "bsdf_pdf must be finite and non-negative (got {value})"
+        )),
+        DirectError::Direction { length_squared } => Error::invalid(format_args!(
+            "direction must be finite and non-zero (squared length {length_squared})"
+        )),
+        DirectError::HitDistance { value } => Error::invalid(format_args!(
+            "hit_distance must be non-negative or +infinity (got {value})"
+        )),
+    }
+}
+
+/// One estimate with the core's material and the host's callbacks.
+fn estimate_with(
+    est: &mut Estimator<'_>,
+    vis: Option<&ml_visibility>,
+    u: &ml_uniforms,
+) -> Result<f64> {
+    let mut u = HostUniforms::new(u)?;
+    let occ = HostVisibility {
+        vis: vis.copied(),
+        bad: Cell::new(None),
+    };
+    let r = est.estimate(&occ, &mut u).map_err(direct_error)?;
+    if let Some(h) = occ.bad.get() {
+        return Err(Error::invalid(format_args!(
+            "visibility->first_hit returned {h} (must be non-negative or +infinity)"
+        )));
+    }
+    Ok(r)
+}
+
+/// The shading point of a checked C one.
+fn sp_arg(sp: *const ml_shading_point) -> Result<manylights::ShadingPoint> {
+    shading_point(arg::get(sp, "sp")?, &|| "sp".into())
+}
+
+/// One estimate of the radiance reflected at `sp` towards `sp->wo` from the tree's lights,
+/// with `technique` (an `ml_technique`), `params` (NULL: defaults), the host's `visibility`
+/// (NULL: nothing occluded) and `uniforms`, with the core's material (`sp->material`). The
+/// estimate is finite and ≥ 0; its expectation is the reflected radiance (every technique is
+/// unbiased). For many estimates at one point, `ml_estimator_*` sets up once.
+///
+/// Errors: `ML_ERR_NULL` (`tree`, `sp`, `uniforms`, `uniforms->next_f32`, `out`);
+/// `ML_ERR_INVALID_ARGUMENT` (a bad shading point, technique or parameter; a uniform number
+/// outside [0, 1); a NaN or negative `first_hit`); `ML_ERR_STATE` (a tree loaded from bytes).
+#[no_mangle]
+pub extern "C" fn ml_direct_estimate(
+    tree: *const ml_tree,
+    sp: *const ml_shading_point,
+    technique_: u32,
+    params_: *const ml_direct_params,
+    visibility: *const ml_visibility,
+    uniforms: *const ml_uniforms,
+    out: *mut f64,
+) -> ml_status {
+    ffi_fn!("ml_direct_estimate", {
+        let data = tree_arg(tree)?;
+        let sp = sp_arg(sp)?;
+        let t = technique(technique_)?;
+        let p = params(arg::opt(params_, "params")?)?;
+        let vis = arg::opt(visibility, "visibility")?;
+        let u = arg::get(uniforms, "uniforms")?;
+        let out = arg::out(out, "out")?;
+        let set = data.set()?;
+        let mut est = Estimator::new(set, &sp, t, &p).map_err(direct_error)?;
+        out.write(estimate_with(&mut est, vis, u)?);
+        Ok(())
+    })
+}
+
+/// Creates an estimator for the lights of `tree` (built by `ml_tree_build`). Set it up for a
+/// shading point with `ml_estimator_set_point`. Free it with `ml_estimator_free`.
+///
+/// Errors: `ML_ERR_NULL` (`tree`, `out`); `ML_ERR_STATE` (a tree loaded from bytes).
+#[no_mangle]
+pub extern "C" fn ml_estimator_create(
+    tree: *const ml_tree,
+    out: *mut *mut ml_estimator,
+) -> ml_status {
+    ffi_fn!("ml_estimator_create", {
+        let data = tree_arg(tree)?;
+        let out = arg::out(out, "out")?;
+        data.set()?;
+        out.write(arg::into_handle(ml_estimator {
+            est: None,
+            last_light: None,
+            last_bsdf: None,
+            tree: Arc::clone(data),
+        }));
+        Ok(())
+    })
+}
+
+/// Frees an estimator (NULL: nothing).
+#[no_mangle]
+pub extern "C" fn ml_estimator_free(est: *mut ml_estimator) -> ml_status {
+    ffi_fn!("ml_estimator_free", { arg::free_handle(est, "est") })
+}
+
+/// Sets the estimator up for the shading point `sp` with `technique` and `params` (NULL:
+/// defaults): builds what the technique needs there (its cuts, its budget). On error the
+/// estimator keeps its previous set-up.
+///
+/// Errors: `ML_ERR_NULL` (`est`, `sp`); `ML_ERR_INVALID_ARGUMENT` (a bad shading point,
+/// technique or parameter).
+#[no_mangle]
+pub extern "C" fn ml_estimator_set_point(
+    est: *mut ml_estimator,
+    sp: *const ml_shading_point,
+    technique_: u32,
+    params_: *const ml_direct_params,
+) -> ml_status {
+    ffi_fn!("ml_estimator_set_point", {
+        let h = arg::get_mut(est, "est")?;
+        let sp = sp_arg(sp)?;
+        let t = technique(technique_)?;
+        let p = params(arg::opt(params_, "params")?)?;
+        let set: &LightSet = h.tree.set()?;
+        // SAFETY: the light set lives in `h.tree`'s allocation, which `h` keeps alive and never
+        // replaces; `h.est` is declared before `h.tree` (dropped first) and the reference never
+        // leaves the handle.
+        let set: &'static LightSet = unsafe { &*(set as *const LightSet) };
+        let e = Estimator::new(set, &sp, t, &p).map_err(direct_error)?;
+        h.est = Some(e);
+        h.last_light = None;
+        h.last_bsdf = None;
+        Ok(())
+    })
+}
+
+fn set_up(h: &mut ml_estimator) -> Result<&mut Estimator<'static>> {
+    h.est
+        .as_mut()
+        .ok_or_else(|| Error::state("est: not set up (call ml_estimator_set_point first)"))
+}
+
+/// One estimate at the estimator's shading point with the core's material: as
+/// `ml_direct_estimate`, without the set-up.
+///
+/// Errors: `ML_ERR_NULL` (`est`, `uniforms`, `uniforms->next_f32`, `out`);
+/// `ML_ERR_INVALID_ARGUMENT` (a uniform number outside [0, 1), a bad `first_hit`);
+/// `ML_ERR_STATE` (not set up).
+#[no_mangle]
+pub extern "C" fn ml_estimator_estimate(
+    est: *mut ml_estimator,
+    visibility: *const ml_visibility,
+    uniforms: *const ml_uniforms,
+    out: *mut f64,
+) -> ml_status {
+    ffi_fn!("ml_estimator_estimate", {
+        let h = arg::get_mut(est, "est")?;
+        let vis = arg::opt(visibility, "visibility")?;
+        let u = arg::get(uniforms, "uniforms")?;
+        let out = arg::out(out, "out")?;
+        let e = set_up(h)?;
+        out.write(estimate_with(e, vis, u)?);
+        h.last_light = None;
+        h.last_bsdf = None;
+        Ok(())
+    })
+}
+
+/// Starts a new estimate of the lower level (forgetting the current one); then call
+/// `ml_estimator_next` until it gives `ML_STEP_KIND_DONE`, adding up the contributions.
+///
+/// Errors: `ML_ERR_NULL` (`est`); `ML_ERR_STATE` (not set up).
+#[no_mangle]
+pub extern "C" fn ml_estimator_start(est: *mut ml_estimator) -> ml_status {
+    ffi_fn!("ml_estimator_start", {
+        let h = arg::get_mut(est, "est")?;
+        set_up(h)?.start();
+        h.last_light = None;
+        h.last_bsdf = None;
+        Ok(())
+    })
+}
+
+/// The next step of the estimate begun by `ml_estimator_start`, drawing uniform numbers from
+/// `uniforms` as needed (see `ml_step_kind`). After `ML_STEP_KIND_DONE` it keeps giving it.
+///
+/// Errors: `ML_ERR_NULL` (`est`, `uniforms`, `uniforms->next_f32`, `out`);
+/// `ML_ERR_INVALID_ARGUMENT` (a uniform number outside [0, 1)); `ML_ERR_STATE` (not set up).
+#[no_mangle]
+pub extern "C" fn ml_estimator_next(
+    est: *mut ml_estimator,
+    uniforms: *const ml_uniforms,
+    out: *mut ml_step,
+) -> ml_status {
+    ffi_fn!("ml_estimator_next", {
+        let h = arg::get_mut(est, "est")?;
+        let u = arg::get(uniforms, "uniforms")?;
+        let out = arg::out(out, "out")?;
+        let mut u = HostUniforms::new(u)?;
+        let step = set_up(h)?.next(&mut u).map_err(direct_error)?;
+        let s = match step {
+            Step::Light(d) => {
+                h.last_light = Some(d);
+                ml_step {
+                    kind: ml_step_kind::Light as u32,
+                    light: d.light,
+                    pmf: d.pmf,
+                    needs_bsdf_pdf: u32::from(d.needs_bsdf_pdf),
+                    point: Some(d.point).into(),
+                    ..ml_step::default()
+                }
+            }
+            Step::Bsdf(b) => {
+                h.last_bsdf = Some(b);
+                ml_step {
+                    kind: ml_step_kind::Bsdf as u32,
+                    u0: b.u[0],
+                    u1: b.u[1],
+                    ..ml_step::default()
+                }
+            }
+            Step::Done => ml_step {
+                kind: ml_step_kind::Done as u32,
+                ..ml_step::default()
+            },
+        };
+        out.write(s);
+        Ok(())
+    })
+}
+
+/// The weight and density of the last light step, given the host's BSDF pdf of its direction
+/// (used only where the step's `needs_bsdf_pdf` is 1; pass 0 otherwise). Weigh a light step
+/// only if it contributes (its value is positive and it is visible).
+///
+/// Errors: `ML_ERR_NULL` (`est`, `out`); `ML_ERR_INVALID_ARGUMENT` (`bsdf_pdf` NaN, negative
+/// or infinite); `ML_ERR_STATE` (not set up, or no light step yielded since the last start).
+#[no_mangle]
+pub extern "C" fn ml_estimator_weigh(
+    est: *mut ml_estimator,
+    bsdf_pdf: f32,
+    out: *mut ml_weighted,
+) -> ml_status {
+    ffi_fn!("ml_estimator_weigh", {
+        let h = arg::get_mut(est, "est")?;
+        let out = arg::out(out, "out")?;
+        let draw = h.last_light;
+        let e = set_up(h)?;
+        let draw = draw.ok_or_else(|| Error::state("est: no light step to weigh"))?;
+        out.write(e.weigh(&draw, bsdf_pdf).map_err(direct_error)?.into());
+        Ok(())
+    })
+}
+
+/// Reports the last BSDF step's sample: the host sampled `direction` (world space, any
+/// positive length) with density `bsdf_pdf` (solid angle), and its ray's first surface is at
+/// `hit_distance` (+infinity for none). Calls `each(user_data, hit)` for every light reached in
+/// front of it with non-zero radiance, with its weight (the host adds `value ·
+/// hit->weighted.scale`); `*any_hit` gets 1 if any was reached (what the adaptive allocation
+/// learns), else 0.
+///
+/// Errors: `ML_ERR_NULL` (`est`, `each`, `any_hit`); `ML_ERR_INVALID_ARGUMENT` (a zero or
+/// non-finite `direction`, a bad `bsdf_pdf`, a NaN or negative `hit_distance`);
+/// `ML_ERR_STATE` (not set up, or no BSDF step yielded since the last start).
+#[no_mangle]
+pub extern "C" fn ml_estimator_bsdf_hits(
+    est: *mut ml_estimator,
+    direction: ml_vec3,
+    bsdf_pdf: f32,
+    hit_distance: f32,
+    each: ml_hit_fn,
+    user_data: *mut c_void,
+    any_hit: *mut u32,
+) -> ml_status {
+    ffi_fn!("ml_estimator_bsdf_hits", {
+        let h = arg::get_mut(est, "est")?;
+        let each = each.ok_or_else(|| Error::null("each"))?;
+        let any_hit = arg::out(any_hit, "any_hit")?;
+        let draw = h.last_bsdf;
+        let e = set_up(h)?;
+        let draw = draw.ok_or_else(|| Error::state("est: no BSDF step to report"))?;
+        let d = finite3(direction, &|| "direction".into())?;
+        let hit = e
+            .bsdf_hits(&draw, d, bsdf_pdf, hit_distance, |lh| {
+                let c = ml_light_hit {
+                    light: lh.light,
+                    point: Some(lh.point).into(),
+                    weighted: lh.weighted.into(),
+                };
+                // SAFETY: a host callback with its own user data; `c` outlives the call.
+                unsafe { each(user_data, &c) };
+            })
+            .map_err(direct_error)?;
+        h.last_bsdf = None;
+        any_hit.write(u32::from(hit));
+        Ok(())
+    })
+}

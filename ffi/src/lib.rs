@@ -1,0 +1,112 @@
+//! The C ABI of manylights: everything a C or C++ renderer needs, behind one header
+//! (`include/manylights.h`, generated from this crate by cbindgen) and one library.
+//!
+//! Conventions (`ffi/README.md` states them for C users): every function is prefixed `ml_`
+//! and returns an [`ml_status`] (the one exception is [`ml_last_error_message`]); outputs go
+//! through out-params written only on success; handles are opaque, created by `*_create` /
+//! `*_build` / `*_load` and released by `*_free`, which accepts NULL; on failure the
+//! thread-local [`ml_last_error_message`] names the function, the argument, the light index
+//! and the field that were wrong.
+//!
+//! Inside: every export runs its body through [`ffi_fn!`], the one panic boundary; every
+//! pointer becomes a reference through the typed helpers of the `arg` module. This crate is
+//! the only place of the project with `unsafe` code.
+
+#![allow(non_camel_case_types)]
+#![allow(clippy::not_unsafe_ptr_arg_deref)]
+#![deny(missing_docs)]
+
+mod arg;
+pub mod brdf;
+pub mod cut;
+pub mod direct;
+mod error;
+pub mod tree;
+pub mod types;
+pub mod vpl;
+
+pub use brdf::*;
+pub use cut::*;
+pub use direct::*;
+pub use error::*;
+pub use tree::*;
+pub use types::*;
+pub use vpl::*;
+
+/// Major version of the library (the `version` of `ffi/Cargo.toml`).
+pub const ML_VERSION_MAJOR: u32 = 0;
+/// Minor version of the library.
+pub const ML_VERSION_MINOR: u32 = 1;
+/// Patch version of the library.
+pub const ML_VERSION_PATCH: u32 = 0;
+
+/// The one panic boundary: runs the body of an exported function, converts its
+/// `Result<(), Error>` into an [`ml_status`] (recording the message of an error for
+/// [`ml_last_error_message`]) and turns a panic into [`ML_ERR_INTERNAL`] with its message, so
+/// that no panic crosses into C. The second form has a typed fallback for functions that
+/// return something else.
+#[macro_export]
+#[doc(hidden)]
+macro_rules! ffi_fn {
+    ($name:literal, $body:block) => {{
+        match ::std::panic::catch_unwind(::std::panic::AssertUnwindSafe(
+            || -> ::core::result::Result<(), $crate::Error> { $body },
+        )) {
+            Ok(Ok(())) => $crate::ML_OK,
+            Ok(Err(e)) => e.report($name),
+            Err(payload) => $crate::Error::from_panic(payload).report($name),
+        }
+    }};
+    ($name:literal, $fallback:expr, $body:block) => {{
+        match ::std::panic::catch_unwind(::std::panic::AssertUnwindSafe(|| $body)) {
+            Ok(v) => v,
+            Err(payload) => {
+                $crate::Error::from_panic(payload).report($name);
+                $fallback
+            }
+        }
+    }};
+}
+
+/// Writes the library's version (`major.minor.patch`, as the `ML_VERSION_*` macros of the
+/// header it was built with) to the three out-params.
+///
+/// Errors: `ML_ERR_NULL` if any pointer is NULL.
+#[no_mangle]
+pub extern "C" fn ml_version(major: *mut u32, minor: *mut u32, patch: *mut u32) -> ml_status {
+    ffi_fn!("ml_version", {
+        let major = arg::out(major, "major")?;
+        let minor = arg::out(minor, "minor")?;
+        let patch = arg::out(patch, "patch")?;
+        major.write(ML_VERSION_MAJOR);
+        minor.write(ML_VERSION_MINOR);
+        patch.write(ML_VERSION_PATCH);
+        Ok(())
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn version_macros_match_cargo_toml() {
+        let parse = |s: &str| s.parse::<u32>().unwrap();
+        assert_eq!(ML_VERSION_MAJOR, parse(env!("CARGO_PKG_VERSION_MAJOR")));
+        assert_eq!(ML_VERSION_MINOR, parse(env!("CARGO_PKG_VERSION_MINOR")));
+        assert_eq!(ML_VERSION_PATCH, parse(env!("CARGO_PKG_VERSION_PATCH")));
+    }
+
+    #[test]
+    fn header_version_macros_match_cargo_toml() {
+        let header = include_str!("../include/manylights.h");
+        for (name, v) in [
+            ("ML_VERSION_MAJOR", env!("CARGO_PKG_VERSION_MAJOR")),
+            ("ML_VERSION_MINOR", env!("CARGO_PKG_VERSION_MINOR")),
+            ("ML_VERSION_PATCH", env!("CARGO_PKG_VERSION_PATCH")),
+        ] {
+            let line = format!("#define {name} {v}");
+            assert!(header.contains(&line), "the header lacks `{line}`");
+        }
+    }
+}

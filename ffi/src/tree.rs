@@ -1,0 +1,607 @@
+//! The light tree: build from light descriptors, free, stats, serialize / load, TL and BL
+//! sampling and pmfs (single and batch), points on lights.
+
+use crate::arg;
+use crate::error::{ml_status, Error, Result};
+use crate::ffi_fn;
+use crate::types::{
+    build_error, finite3, light, ml_light, ml_light_point, ml_light_sample, ml_shading_point,
+    ml_tl_point, ml_vec3, shading_point, tl_point, unit,
+};
+use manylights::light_sample::{pdf_point, sample_point};
+use manylights::{BlImportance, BuildOptions, Light, LightSet, LightTree, TlImportance};
+use std::sync::Arc;
+
+/// What a tree handle holds: the lights with their tree (built from descriptors), or a tree
+/// alone (loaded from bytes).
+#[derive(Debug)]
+pub(crate) enum TreeData {
+    /// Built by `ml_tree_build`.
+    Set(LightSet),
+    /// Loaded by `ml_tree_load`: sampling and pmfs only.
+    Tree(LightTree),
+}
+
+impl TreeData {
+    #[inline]
+    pub(crate) fn tree(&self) -> &LightTree {
+        match self {
+            TreeData::Set(s) => s.tree(),
+            TreeData::Tree(t) => t,
+        }
+    }
+
+    /// The lights and their tree, for calls that need the lights.
+    pub(crate) fn set(&self) -> Result<&LightSet> {
+        match self {
+            TreeData::Set(s) => Ok(s),
+            TreeData::Tree(_) => Err(Error::state(
+                "tree: loaded from bytes, it holds no light descriptors (build it with \
+                 ml_tree_build for points on lights and the direct estimators)",
+            )),
+        }
+    }
+
+    /// The light of index `light` (checked).
+    pub(crate) fn light(&self, light: u32, name: &str) -> Result<&Light> {
+        let set = self.set()?;
+        check_light(light, set.len(), name)?;
+        Ok(&set.lights()[light as usize])
+    }
+}
+
+/// A light tree (opaque). Immutable once built: one tree may be shared by any number of
+/// threads, each calling the `const ml_tree *` functions at once. Cuts and estimators made
+/// from it keep it alive: it may be freed before them.
+pub struct ml_tree {
+    pub(crate) data: Arc<TreeData>,
+}
+
+/// Options of `ml_tree_build` (`ml_build_options_default` fills the defaults).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ml_build_options {
+    /// SAOH buckets per axis, in [12, 64]; 0 for the default (12).
+    pub buckets: u32,
+}
+
+/// Size and shape of a tree.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct ml_tree_statistics {
+    /// Lights the tree was built from.
+    pub lights: usize,
+    /// Lights in the tree (those with positive energy).
+    pub sampled_lights: usize,
+    /// Tree nodes.
+    pub nodes: usize,
+    /// Bytes of the tree's arrays (nodes, node statistics, light paths).
+    pub bytes: usize,
+    /// Levels of nodes (0 for a tree that samples nothing).
+    pub depth: u32,
+    /// 1 if the tree holds its light descriptors (built by `ml_tree_build`), 0 if loaded.
+    pub has_lights: u32,
+    /// Total energy of the sampled lights.
+    pub total_energy: f32,
+}
+
+/// Checks a light index against a count.
+#[inline]
+pub(crate) fn check_light(light: u32, count: usize, name: &str) -> Result<()> {
+    if (light as usize) < count {
+        Ok(())
+    } else {
+        Err(Error::invalid(format_args!(
+            "{name}: light index {light} is out of range (the tree has {count} lights)"
+        )))
+    }
+}
+
+/// The tree behind a handle.
+#[inline]
+pub(crate) fn tree_arg<'a>(tree: *const ml_tree) -> Result<&'a Arc<TreeData>> {
+    Ok(&arg::get(tree, "tree")?.data)
+}
+
+/// Fills `*out` with the default build options.
+///
+/// Errors: `ML_ERR_NULL` if `out` is NULL.
+#[no_mangle]
+pub extern "C" fn ml_build_options_default(out: *mut ml_build_options) -> ml_status {
+    ffi_fn!("ml_build_options_default", {
+        arg::out(out, "out")?.write(ml_build_options { buckets: 0 });
+        Ok(())
+    })
+}
+
+/// Builds a tree from `count` light descriptors (`lights` may be NULL when `count` is 0: a
+/// tree that samples nothing) with `options` (NULL: the defaults). Light indices everywhere
+/// else are positions in this array. Every light is validated: the error names its index and
+/// field, e.g. `lights[17].radius must be positive (got -1)`. Lights of zero power or area are
+/// accepted and never sampled. Free the tree with `ml_tree_free`.
+///
+/// Errors: `ML_ERR_NULL` (`lights` with `count` > 0, `out`); `ML_ERR_INVALID_ARGUMENT` (a bad
+/// light, a bad option, too many lights, a total energy above 1e26).
+#[no_mangle]
+pub extern "C" fn ml_tree_build(
+    lights: *const ml_light,
+    count: usize,
+    options: *const ml_build_options,
+    out: *mut *mut ml_tree,
+) -> ml_status {
+    ffi_fn!("ml_tree_build", {
+        let descs = arg::slice(lights, count, "lights")?;
+        let options = arg::opt(options, "options")?;
+        let out = arg::out(out, "out")?;
+        let mut opts = BuildOptions::default();
+        if let Some(o) = options {
+            match o.buckets {
+                0 => {}
+                b @ 12..=64 => opts.buckets = b as usize,
+                b => {
+                    return Err(Error::invalid(format_args!(
+                        "options.buckets must be 0 or in [12, 64] (got {b})"
+                    )))
+                }
+            }
+        }
+        if count >= 0x7fff_fffe {
+            return Err(Error::invalid(format_args!(
+                "count: {count} lights, at most 2147483645 are supported"
+            )));
+        }
+        let mut core = Vec::with_capacity(count);
+        for (i, l) in descs.iter().enumerate() {
+            core.push(light(l, i, "lights")?);
+        }
+        let set = LightSet::build_with(core, &opts).map_err(|e| build_error(e, descs, "lights"))?;
+        out.write(arg::into_handle(ml_tree {
+            data: Arc::new(TreeData::Set(set)),
+        }));
+        Ok(())
+    })
+}
+
+/// Frees a tree (NULL: nothing). Cuts and estimators made from it stay valid.
+#[no_mangle]
+pub extern "C" fn ml_tree_free(tree: *mut ml_tree) -> ml_status {
+    ffi_fn!("ml_tree_free", { arg::free_handle(tree, "tree") })
+}
+
+/// The tree's size and shape.
+///
+/// Errors: `ML_ERR_NULL` (`tree`, `out`).
+#[no_mangle]
+pub extern "C" fn ml_tree_stats(tree: *const ml_tree, out: *mut ml_tree_statistics) -> ml_status {
+    ffi_fn!("ml_tree_stats", {
+        let data = tree_arg(tree)?;
+        let out = arg::out(out, "out")?;
+        let t = data.tree();
+        let s = t.stats();
+        out.write(ml_tree_statistics {
+            lights: s.lights as usize,
+            sampled_lights: s.sampled_lights as usize,
+            nodes: s.nodes as usize,
+            bytes: s.bytes,
+            depth: s.depth,
+            has_lights: u32::from(matches!(**data, TreeData::Set(_))),
+            total_energy: t.total_energy(),
+        });
+        Ok(())
+    })
+}
+
+/// The number of bytes `ml_tree_serialize` writes for this tree.
+///
+/// Errors: `ML_ERR_NULL` (`tree`, `out`).
+#[no_mangle]
+pub extern "C" fn ml_tree_serialized_size(tree: *const ml_tree, out: *mut usize) -> ml_status {
+    ffi_fn!("ml_tree_serialized_size", {
+        let data = tree_arg(tree)?;
+        let out = arg::out(out, "out")?;
+        out.write(data.tree().as_bytes().len());
+        Ok(())
+    })
+}
+
+/// Writes the tree as bytes (an opaque, versioned format for the same library version and
+/// byte order; the light descriptors are not included) to `buffer` of `capacity` bytes, and
+/// their number to `*written`. Read back with `ml_tree_load`.
+///
+/// Errors: `ML_ERR_NULL` (`tree`, `buffer` with `capacity` > 0, `written`);
+/// `ML_ERR_BUFFER_TOO_SMALL` when `capacity` is below `ml_tree_serialized_size`.
+#[no_mangle]
+pub extern "C" fn ml_tree_serialize(
+    tree: *const ml_tree,
+    buffer: *mut u8,
+    capacity: usize,
+    written: *mut usize,
+) -> ml_status {
+    ffi_fn!("ml_tree_serialize", {
+        let data = tree_arg(tree)?;
+        let mut buf = arg::out_slice(buffer, capacity, "buffer")?;
+        let written = arg::out(written, "written")?;
+        let bytes = data.tree().as_bytes();
+        if bytes.len() > buf.len() {
+            return Err(Error::too_small(format_args!(
+                "capacity: {capacity} bytes, the tree needs {}",
+                bytes.len()
+            )));
+        }
+        for (i, &b) in bytes.iter().enumerate() {
+            buf.set(i, b);
+        }
+        written.write(bytes.len());
+        Ok(())
+    })
+}
+
+/// Loads a tree written by `ml_tree_serialize`. Every byte is validated: corrupt, truncated or
+/// foreign bytes give `ML_ERR_FORMAT`, never a crash or a bad tree. The loaded tree samples
+/// and answers pmfs (TL, BL, cuts); it has no light descriptors, so points on lights and the
+/// direct estimators need a tree from `ml_tree_build` (they return `ML_ERR_STATE`).
+///
+/// Errors: `ML_ERR_NULL` (`bytes` with `len` > 0, `out`); `ML_ERR_FORMAT`.
+#[no_mangle]
+pub extern "C" fn ml_tree_load(bytes: *const u8, len: usize, out: *mut *mut ml_tree) -> ml_status {
+    ffi_fn!("ml_tree_load", {
+        let bytes = arg::slice(bytes, len, "bytes")?;
+        let out = arg::out(out, "out")?;
+        let tree =
+            LightTree::from_bytes(bytes).map_err(|e| Error::format(format_args!("bytes: {e}")))?;
+        out.write(arg::into_handle(ml_tree {
+            data: Arc::new(TreeData::Tree(tree)),
+        }));
+        Ok(())
+    })
+}
+
+/// Samples a light with TL importance (Conty & Kulla) at `point` with the uniform number `u`
+/// in [0, 1): `*out` gets the light and its pmf, or `ML_NO_LIGHT` when none can contribute.
+///
+/// Errors: `ML_ERR_NULL` (`tree`, `point`, `out`); `ML_ERR_INVALID_ARGUMENT` (a non-finite
+/// position or normal, `u` outside [0, 1)).
+#[no_mangle]
+pub extern "C" fn ml_tree_sample_tl(
+    tree: *const ml_tree,
+    point: *const ml_tl_point,
+    u: f32,
+    out: *mut ml_light_sample,
+) -> ml_status {
+    ffi_fn!("ml_tree_sample_tl", {
+        let data = tree_arg(tree)?;
+        let point = arg::get(point, "point")?;
+        let out = arg::out(out, "out")?;
+        let (x, n) = tl_point(point, &|| "point".into())?;
+        let u = unit(u, &|| "u".into())?;
+        out.write(data.tree().sample(&TlImportance::new(x, n), u).into());
+        Ok(())
+    })
+}
+
+/// The probability that `ml_tree_sample_tl` returns `light` at `point`: exactly the pmf it
+/// reports (0 for lights that cannot contribute or have no energy).
+///
+/// Errors: `ML_ERR_NULL` (`tree`, `point`, `out`); `ML_ERR_INVALID_ARGUMENT` (a non-finite
+/// point, `light` out of range).
+#[no_mangle]
+pub extern "C" fn ml_tree_pmf_tl(
+    tree: *const ml_tree,
+    point: *const ml_tl_point,
+    light: u32,
+    out: *mut f32,
+) -> ml_status {
+    ffi_fn!("ml_tree_pmf_tl", {
+        let data = tree_arg(tree)?;
+        let point = arg::get(point, "point")?;
+        let out = arg::out(out, "out")?;
+        let (x, n) = tl_point(point, &|| "point".into())?;
+        let t = data.tree();
+        check_light(light, t.light_count() as usize, "light")?;
+        out.write(t.pmf(&TlImportance::new(x, n), light));
+        Ok(())
+    })
+}
+
+/// Samples a light with the BRDF-oriented importance (Liu et al. 2019) at the shading point
+/// `sp` with `u` in [0, 1), by tree descent.
+///
+/// Errors: `ML_ERR_NULL` (`tree`, `sp`, `out`); `ML_ERR_INVALID_ARGUMENT` (a bad shading
+/// point: the message names its field; `u` outside [0, 1)).
+#[no_mangle]
+pub extern "C" fn ml_tree_sample_bl(
+    tree: *const ml_tree,
+    sp: *const ml_shading_point,
+    u: f32,
+    out: *mut ml_light_sample,
+) -> ml_status {
+    ffi_fn!("ml_tree_sample_bl", {
+        let data = tree_arg(tree)?;
+        let sp = arg::get(sp, "sp")?;
+        let out = arg::out(out, "out")?;
+        let imp = bl_importance(sp, &|| "sp".into())?;
+        let u = unit(u, &|| "u".into())?;
+        out.write(data.tree().sample(&imp, u).into());
+        Ok(())
+    })
+}
+
+/// The probability that `ml_tree_sample_bl` returns `light` at `sp`.
+///
+/// Errors: `ML_ERR_NULL` (`tree`, `sp`, `out`); `ML_ERR_INVALID_ARGUMENT` (a bad shading
+/// point, `light` out of range).
+#[no_mangle]
+pub extern "C" fn ml_tree_pmf_bl(
+    tree: *const ml_tree,
+    sp: *const ml_shading_point,
+    light: u32,
+    out: *mut f32,
+) -> ml_status {
+    ffi_fn!("ml_tree_pmf_bl", {
+        let data = tree_arg(tree)?;
+        let sp = arg::get(sp, "sp")?;
+        let out = arg::out(out, "out")?;
+        let imp = bl_importance(sp, &|| "sp".into())?;
+        let t = data.tree();
+        check_light(light, t.light_count() as usize, "light")?;
+        out.write(t.pmf(&imp, light));
+        Ok(())
+    })
+}
+
+/// The BL importance of a checked shading point.
+#[inline]
+pub(crate) fn bl_importance(
+    sp: &ml_shading_point,
+    path: &dyn Fn() -> String,
+) -> Result<BlImportance> {
+    let s = shading_point(sp, path)?;
+    BlImportance::new(&s).map_err(|e| crate::types::shading_error(e, path))
+}
+
+/// Shading points per call of the core's batch sampling (the importances of a chunk are built
+/// into one buffer per call).
+const CHUNK: usize = 1024;
+
+/// Whether a TL point is finite (the fast path of the check; [`tl_point`] words an error).
+#[inline(always)]
+fn tl_point_ok(p: &ml_tl_point) -> bool {
+    let (a, b) = (p.position, p.normal);
+    (a.x + a.y + a.z + b.x + b.y + b.z).is_finite()
+}
+
+/// The core's batch call, whose slices the caller sized alike (a length mismatch would be a
+/// bug here, reported as an internal error).
+#[inline]
+fn batch_call(r: core::result::Result<(), manylights::LengthMismatch>) -> Result<()> {
+    r.map_err(|e| Error::internal(format_args!("batch lengths: {e}")))
+}
+
+/// Checks a batch's arrays and returns the number of elements.
+fn batch_len(count: usize) -> Result<usize> {
+    arg::check_count::<ml_shading_point>(count, "count")?;
+    Ok(count)
+}
+
+/// `count` TL samples at once, bit for bit what `count` calls of `ml_tree_sample_tl` give:
+/// `out[j]` for `points[j]` and `us[j]` (the throughput path). Every input is checked before
+/// anything is written.
+///
+/// Errors: `ML_ERR_NULL` (`tree`; `points`, `us`, `out` when `count` > 0);
+/// `ML_ERR_INVALID_ARGUMENT` naming the element (`points[j].normal`, `us[j]`).
+#[no_mangle]
+pub extern "C" fn ml_tree_sample_tl_batch(
+    tree: *const ml_tree,
+    points: *const ml_tl_point,
+    us: *const f32,
+    count: usize,
+    out: *mut ml_light_sample,
+) -> ml_status {
+    ffi_fn!("ml_tree_sample_tl_batch", {
+        let data = tree_arg(tree)?;
+        let n = batch_len(count)?;
+        let points = arg::slice(points, n, "points")?;
+        let us = arg::slice(us, n, "us")?;
+        let mut out = arg::out_slice(out, n, "out")?;
+        for (j, (p, &u)) in points.iter().zip(us).enumerate() {
+            if !(tl_point_ok(p) && (0.0..1.0).contains(&u)) {
+                tl_point(p, &|| format!("points[{j}]"))?;
+                unit(u, &|| format!("us[{j}]"))?;
+            }
+        }
+        let t = data.tree();
+        let mut imps = Vec::with_capacity(n.min(CHUNK));
+        let mut res = vec![None; n.min(CHUNK)];
+        for start in (0..n).step_by(CHUNK) {
+            let m = CHUNK.min(n - start);
+            imps.clear();
+            imps.extend(
+                points[start..start + m]
+                    .iter()
+                    .map(|p| TlImportance::new(p.position.into(), p.normal.into())),
+            );
+            batch_call(t.sample_batch(&imps, &us[start..start + m], &mut res[..m]))?;
+            for (i, r) in res[..m].iter().enumerate() {
+                out.set(start + i, (*r).into());
+            }
+        }
+        Ok(())
+    })
+}
+
+/// `count` TL pmfs at once: `out[j]` = `ml_tree_pmf_tl(points[j], lights[j])`, bit for bit.
+///
+/// Errors: `ML_ERR_NULL` (`tree`; `points`, `lights`, `out` when `count` > 0);
+/// `ML_ERR_INVALID_ARGUMENT` naming the element (`points[j].position`, `lights[j]`).
+#[no_mangle]
+pub extern "C" fn ml_tree_pmf_tl_batch(
+    tree: *const ml_tree,
+    points: *const ml_tl_point,
+    lights: *const u32,
+    count: usize,
+    out: *mut f32,
+) -> ml_status {
+    ffi_fn!("ml_tree_pmf_tl_batch", {
+        let data = tree_arg(tree)?;
+        let n = batch_len(count)?;
+        let points = arg::slice(points, n, "points")?;
+        let lights = arg::slice(lights, n, "lights")?;
+        let mut out = arg::out_slice(out, n, "out")?;
+        let t = data.tree();
+        let nl = t.light_count() as usize;
+        for (j, (p, &l)) in points.iter().zip(lights).enumerate() {
+            if !(tl_point_ok(p) && (l as usize) < nl) {
+                tl_point(p, &|| format!("points[{j}]"))?;
+                check_light(l, nl, &format!("lights[{j}]"))?;
+            }
+        }
+        let mut imps = Vec::with_capacity(n.min(CHUNK));
+        let mut res = vec![0f32; n.min(CHUNK)];
+        for start in (0..n).step_by(CHUNK) {
+            let m = CHUNK.min(n - start);
+            imps.clear();
+            imps.extend(
+                points[start..start + m]
+                    .iter()
+                    .map(|p| TlImportance::new(p.position.into(), p.normal.into())),
+            );
+            batch_call(t.pmf_batch(&imps, &lights[start..start + m], &mut res[..m]))?;
+            for (i, &r) in res[..m].iter().enumerate() {
+                out.set(start + i, r);
+            }
+        }
+        Ok(())
+    })
+}
+
+/// `count` BL samples at once: `out[j]` = `ml_tree_sample_bl(points[j], us[j])`, bit for bit.
+///
+/// Errors: `ML_ERR_NULL` (`tree`; `points`, `us`, `out` when `count` > 0);
+/// `ML_ERR_INVALID_ARGUMENT` naming the element (`points[j].material.alpha`, `us[j]`).
+#[no_mangle]
+pub extern "C" fn ml_tree_sample_bl_batch(
+    tree: *const ml_tree,
+    points: *const ml_shading_point,
+    us: *const f32,
+    count: usize,
+    out: *mut ml_light_sample,
+) -> ml_status {
+    ffi_fn!("ml_tree_sample_bl_batch", {
+        let data = tree_arg(tree)?;
+        let n = batch_len(count)?;
+        let points = arg::slice(points, n, "points")?;
+        let us = arg::slice(us, n, "us")?;
+        let mut out = arg::out_slice(out, n, "out")?;
+        for (j, (p, &u)) in points.iter().zip(us).enumerate() {
+            bl_importance(p, &|| format!("points[{j}]"))?;
+            unit(u, &|| format!("us[{j}]"))?;
+        }
+        let t = data.tree();
+        let mut imps = Vec::with_capacity(n.min(CHUNK));
+        let mut res = vec![None; n.min(CHUNK)];
+        for start in (0..n).step_by(CHUNK) {
+            let m = CHUNK.min(n - start);
+            imps.clear();
+            for (j, p) in points[start..start + m].iter().enumerate() {
+                imps.push(bl_importance(p, &|| format!("points[{}]", start + j))?);
+            }
+            batch_call(t.sample_batch(&imps, &us[start..start + m], &mut res[..m]))?;
+            for (i, r) in res[..m].iter().enumerate() {
+                out.set(start + i, (*r).into());
+            }
+        }
+        Ok(())
+    })
+}
+
+/// `count` BL pmfs at once: `out[j]` = `ml_tree_pmf_bl(points[j], lights[j])`, bit for bit.
+///
+/// Errors: `ML_ERR_NULL` (`tree`; `points`, `lights`, `out` when `count` > 0);
+/// `ML_ERR_INVALID_ARGUMENT` naming the element.
+#[no_mangle]
+pub extern "C" fn ml_tree_pmf_bl_batch(
+    tree: *const ml_tree,
+    points: *const ml_shading_point,
+    lights: *const u32,
+    count: usize,
+    out: *mut f32,
+) -> ml_status {
+    ffi_fn!("ml_tree_pmf_bl_batch", {
+        let data = tree_arg(tree)?;
+        let n = batch_len(count)?;
+        let points = arg::slice(points, n, "points")?;
+        let lights = arg::slice(lights, n, "lights")?;
+        let mut out = arg::out_slice(out, n, "out")?;
+        let t = data.tree();
+        let nl = t.light_count() as usize;
+        for (j, (p, &l)) in points.iter().zip(lights).enumerate() {
+            bl_importance(p, &|| format!("points[{j}]"))?;
+            check_light(l, nl, &format!("lights[{j}]"))?;
+        }
+        let mut imps = Vec::with_capacity(n.min(CHUNK));
+        let mut res = vec![0f32; n.min(CHUNK)];
+        for start in (0..n).step_by(CHUNK) {
+            let m = CHUNK.min(n - start);
+            imps.clear();
+            for (j, p) in points[start..start + m].iter().enumerate() {
+                imps.push(bl_importance(p, &|| format!("points[{}]", start + j))?);
+            }
+            batch_call(t.pmf_batch(&imps, &lights[start..start + m], &mut res[..m]))?;
+            for (i, &r) in res[..m].iter().enumerate() {
+                out.set(start + i, r);
+            }
+        }
+        Ok(())
+    })
+}
+
+/// Samples a point on light `light` as seen from `x`, with `u0`, `u1` in [0, 1): its position,
+/// direction, distance, solid-angle pdf and arriving radiance (`pdf = 0` when the light cannot
+/// reach x). The sample's contribution to an estimate is `f · radiance · cos θ / (pmf · pdf)`.
+///
+/// Errors: `ML_ERR_NULL` (`tree`, `out`); `ML_ERR_INVALID_ARGUMENT` (`light` out of range, a
+/// non-finite `x`, `u0` or `u1` outside [0, 1)); `ML_ERR_STATE` (a tree loaded from bytes).
+#[no_mangle]
+pub extern "C" fn ml_light_sample_point(
+    tree: *const ml_tree,
+    light: u32,
+    x: ml_vec3,
+    u0: f32,
+    u1: f32,
+    out: *mut ml_light_point,
+) -> ml_status {
+    ffi_fn!("ml_light_sample_point", {
+        let data = tree_arg(tree)?;
+        let out = arg::out(out, "out")?;
+        let l = data.light(light, "light")?;
+        let x = finite3(x, &|| "x".into())?;
+        let u0 = unit(u0, &|| "u0".into())?;
+        let u1 = unit(u1, &|| "u1".into())?;
+        out.write(sample_point(l, x, [u0, u1]).into());
+        Ok(())
+    })
+}
+
+/// The solid-angle pdf at `x` with which `ml_light_sample_point` returns the point `point` of
+/// light `light` (0 for point, spot and VPL lights, and where it returns none).
+///
+/// Errors: `ML_ERR_NULL` (`tree`, `out`); `ML_ERR_INVALID_ARGUMENT` (`light` out of range,
+/// non-finite `x` or `point`); `ML_ERR_STATE` (a tree loaded from bytes).
+#[no_mangle]
+pub extern "C" fn ml_light_pdf_point(
+    tree: *const ml_tree,
+    light: u32,
+    x: ml_vec3,
+    point: ml_vec3,
+    out: *mut f32,
+) -> ml_status {
+    ffi_fn!("ml_light_pdf_point", {
+        let data = tree_arg(tree)?;
+        let out = arg::out(out, "out")?;
+        let l = data.light(light, "light")?;
+        let x = finite3(x, &|| "x".into())?;
+        let p = finite3(point, &|| "point".into())?;
+        out.write(pdf_point(l, x, p));
+        Ok(())
+    })
+}

@@ -1,0 +1,446 @@
+//! The plain C structs and enums of the ABI, and their checked conversion into the core's
+//! types (every error names the argument, the element index and the field).
+
+use crate::error::{Error, Result};
+use glam::Vec3;
+use manylights::error::{LightField, Problem};
+use manylights::material::ShadingField;
+use manylights::{
+    BuildError, Light, LightPoint, LightSample, Material, ShadingError, ShadingPoint,
+};
+
+/// A 3-vector (positions, directions, normals).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct ml_vec3 {
+    /// x.
+    pub x: f32,
+    /// y.
+    pub y: f32,
+    /// z.
+    pub z: f32,
+}
+
+impl From<ml_vec3> for Vec3 {
+    #[inline]
+    fn from(v: ml_vec3) -> Vec3 {
+        Vec3::new(v.x, v.y, v.z)
+    }
+}
+
+impl From<Vec3> for ml_vec3 {
+    #[inline]
+    fn from(v: Vec3) -> ml_vec3 {
+        ml_vec3 {
+            x: v.x,
+            y: v.y,
+            z: v.z,
+        }
+    }
+}
+
+/// The kind of an `ml_light` (the value of its `kind` field).
+#[repr(u32)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum ml_light_kind {
+    /// Isotropic point light: `position`, `power` = intensity (W/sr).
+    Point = 0,
+    /// Spot light: `position`, `direction` (axis, any non-zero length), `power` = intensity on
+    /// the axis, `half_angle` θs in (0, π], `falloff_start` θf in [0, θs] (radians).
+    Spot = 1,
+    /// Sphere light: `position` = centre, `radius` > 0, `power` = radiance (W/(m²·sr)).
+    Sphere = 2,
+    /// Disk light: `position` = centre, `direction` = normal (the emitting side when
+    /// one-sided), `radius` > 0, `power` = radiance, `two_sided` 0 or 1.
+    Disk = 3,
+    /// Triangle light: vertices `position`, `direction`, `vertex2` (one-sided lights emit on
+    /// the side of (v1 − v0) × (v2 − v0)), `power` = radiance, `two_sided` 0 or 1.
+    Triangle = 4,
+    /// Virtual point light (Keller 1997): `position`, `direction` = normal, `power` =
+    /// intensity along the normal (a one-sided Lambertian point emitter, intensity
+    /// `power · max(0, cos θ)`).
+    Vpl = 5,
+}
+
+/// One light, as given to `ml_tree_build`. Which fields a kind reads is listed at each
+/// `ml_light_kind`; the others are ignored (zero them). Coordinates finite with magnitude at
+/// most 1e15; `power` finite and ≥ 0 (0: accepted and never sampled).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct ml_light {
+    /// An `ml_light_kind`.
+    pub kind: u32,
+    /// Disk and triangle lights: 1 to emit on both sides, 0 for one side.
+    pub two_sided: u32,
+    /// Position (point, spot, VPL), centre (sphere, disk) or vertex 0 (triangle).
+    pub position: ml_vec3,
+    /// Axis (spot), normal (disk, VPL) or vertex 1 (triangle).
+    pub direction: ml_vec3,
+    /// Vertex 2 (triangle).
+    pub vertex2: ml_vec3,
+    /// Intensity in W/sr (point, spot, VPL) or radiance in W/(m²·sr) (sphere, disk, triangle).
+    pub power: f32,
+    /// Radius (sphere, disk).
+    pub radius: f32,
+    /// Spot half-angle θs in radians, in (0, π].
+    pub half_angle: f32,
+    /// Spot falloff start θf in radians, in [0, θs].
+    pub falloff_start: f32,
+}
+
+/// The kind of an `ml_material` (the value of its `kind` field).
+#[repr(u32)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum ml_material_kind {
+    /// Diffuse: f = albedo/π (reads `albedo`).
+    Lambert = 0,
+    /// Glossy: f = specular · GGX(α) (reads `specular`, `alpha`).
+    Ggx = 1,
+    /// Plastic: f = albedo/π + specular · GGX(α) (reads all three).
+    Plastic = 2,
+}
+
+/// A surface's reflectance: albedo and specular weight in [0, 1], GGX roughness α in (0, 1].
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct ml_material {
+    /// An `ml_material_kind`.
+    pub kind: u32,
+    /// Diffuse albedo in [0, 1] (Lambert, plastic).
+    pub albedo: f32,
+    /// Weight of the GGX lobe in [0, 1] (GGX, plastic).
+    pub specular: f32,
+    /// GGX roughness α in (0, 1] (GGX, plastic).
+    pub alpha: f32,
+}
+
+/// A point being shaded for BRDF-aware techniques (BL sampling, cuts, estimators, BRDF
+/// sampling): position, normal and direction towards the viewer (finite, non-zero; any
+/// length), and the material.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct ml_shading_point {
+    /// Position.
+    pub position: ml_vec3,
+    /// Surface normal (any finite, non-zero length).
+    pub normal: ml_vec3,
+    /// Direction towards the viewer, ωo (any finite, non-zero length).
+    pub wo: ml_vec3,
+    /// The material.
+    pub material: ml_material,
+}
+
+/// A point for TL (Conty–Kulla) importance: position and normal (finite; the zero normal
+/// makes the point receive from every direction).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct ml_tl_point {
+    /// Position.
+    pub position: ml_vec3,
+    /// Surface normal (any finite length; zero: omnidirectional).
+    pub normal: ml_vec3,
+}
+
+/// `light` of an `ml_light_sample` when no light was sampled (no light can contribute).
+pub const ML_NO_LIGHT: u32 = u32::MAX;
+
+/// A sampled light: its index in the array the tree was built from and the probability of
+/// the choice (finite, in [2⁻¹²⁶, 1]); `light = ML_NO_LIGHT` and `pmf = 0` when no light can
+/// contribute.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct ml_light_sample {
+    /// The light's index, or `ML_NO_LIGHT`.
+    pub light: u32,
+    /// Its probability (0 with `ML_NO_LIGHT`).
+    pub pmf: f32,
+}
+
+impl ml_light_sample {
+    /// No light.
+    pub const NONE: ml_light_sample = ml_light_sample {
+        light: ML_NO_LIGHT,
+        pmf: 0.0,
+    };
+}
+
+impl From<Option<LightSample>> for ml_light_sample {
+    #[inline]
+    fn from(s: Option<LightSample>) -> ml_light_sample {
+        match s {
+            Some(s) => ml_light_sample {
+                light: s.light,
+                pmf: s.pmf,
+            },
+            None => ml_light_sample::NONE,
+        }
+    }
+}
+
+/// A point on a light seen from a shading point x (sampled, or reached by a ray).
+/// `pdf = 0` (and every other field 0) when there is none.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct ml_light_point {
+    /// The point on the light (point, spot and VPL: their position).
+    pub position: ml_vec3,
+    /// Unit surface normal there (zero for point, spot and VPL lights).
+    pub normal: ml_vec3,
+    /// Unit direction from x to `position`.
+    pub direction: ml_vec3,
+    /// Distance from x to `position` (> 0).
+    pub distance: f32,
+    /// Solid-angle pdf of `direction` at x (> 0, finite); 1 for delta lights; 0: no point.
+    pub pdf: f32,
+    /// What the estimate multiplies by (≥ 0): the radiance arriving at x for area lights,
+    /// `I · falloff / d²` for point, spot and VPL lights.
+    pub radiance: f32,
+    /// 1 for point, spot and VPL lights (`pdf` is a Dirac delta reported as 1), else 0.
+    pub delta: u32,
+}
+
+impl From<Option<LightPoint>> for ml_light_point {
+    #[inline]
+    fn from(p: Option<LightPoint>) -> ml_light_point {
+        match p {
+            Some(p) => ml_light_point {
+                position: p.position.into(),
+                normal: p.normal.into(),
+                direction: p.direction.into(),
+                distance: p.distance,
+                pdf: p.pdf,
+                radiance: p.radiance,
+                delta: u32::from(p.delta),
+            },
+            None => ml_light_point::default(),
+        }
+    }
+}
+
+/// What is wrong with a value, in words.
+pub(crate) fn describe(p: Problem) -> &'static str {
+    match p {
+        Problem::NotFinite => "is NaN or infinite",
+        Problem::Negative => "is negative",
+        Problem::NotPositive => "must be positive",
+        Problem::ZeroLength => "has zero length",
+        Problem::OutOfRange => "is out of range",
+        Problem::EnergyTooLarge => "gives an energy above MAX_LIGHT_ENERGY (1e24)",
+    }
+}
+
+fn kind_name(kind: u32) -> &'static str {
+    match kind {
+        0 => "point",
+        1 => "spot",
+        2 => "sphere",
+        3 => "disk",
+        4 => "triangle",
+        _ => "VPL",
+    }
+}
+
+/// The C field of a light's core field, with the core's name where they differ.
+fn light_field(kind: u32, f: LightField) -> String {
+    let (c, core) = match f {
+        LightField::Position => ("position", None),
+        LightField::Center => ("position", Some("centre")),
+        LightField::Direction => ("direction", Some("axis")),
+        LightField::Normal => ("direction", Some("normal")),
+        LightField::Radius => ("radius", None),
+        LightField::Vertex(0) => ("position", Some("vertex 0")),
+        LightField::Vertex(1) => ("direction", Some("vertex 1")),
+        LightField::Vertex(_) => ("vertex2", None),
+        LightField::Intensity => ("power", Some("intensity")),
+        LightField::Radiance => ("power", Some("radiance")),
+        LightField::HalfAngle => ("half_angle", None),
+        LightField::FalloffStart => ("falloff_start", None),
+    };
+    match core {
+        Some(core) => format!("{c} (the {} light's {core})", kind_name(kind)),
+        None => c.to_string(),
+    }
+}
+
+/// The core light of an `ml_light` (the kind and `two_sided` checked; the rest is checked by
+/// the build, [`build_error`] words its errors).
+pub(crate) fn light(l: &ml_light, index: usize, name: &str) -> Result<Light> {
+    let two_sided = match l.two_sided {
+        0 => false,
+        1 => true,
+        v => {
+            return Err(Error::invalid(format_args!(
+                "{name}[{index}].two_sided must be 0 or 1 (got {v})"
+            )))
+        }
+    };
+    let (p, d, v2) = (l.position.into(), l.direction.into(), l.vertex2.into());
+    Ok(match l.kind {
+        0 => Light::Point {
+            position: p,
+            intensity: l.power,
+        },
+        1 => Light::Spot {
+            position: p,
+            direction: d,
+            intensity: l.power,
+            half_angle: l.half_angle,
+            falloff_start: l.falloff_start,
+        },
+        2 => Light::Sphere {
+            center: p,
+            radius: l.radius,
+            radiance: l.power,
+        },
+        3 => Light::Disk {
+            center: p,
+            normal: d,
+            radius: l.radius,
+            radiance: l.power,
+            two_sided,
+        },
+        4 => Light::Triangle {
+            vertices: [p, d, v2],
+            radiance: l.power,
+            two_sided,
+        },
+        5 => Light::Vpl {
+            position: p,
+            normal: d,
+            intensity: l.power,
+        },
+        k => {
+            return Err(Error::invalid(format_args!(
+                "{name}[{index}].kind: {k} is not an ml_light_kind (0 to 5)"
+            )))
+        }
+    })
+}
+
+/// A build error in the C struct's terms.
+pub(crate) fn build_error(e: BuildError, lights: &[ml_light], name: &str) -> Error {
+    match e {
+        BuildError::InvalidLight {
+            index,
+            field,
+            problem,
+            value,
+        } => {
+            let kind = lights.get(index).map_or(0, |l| l.kind);
+            Error::invalid(format_args!(
+                "{name}[{index}].{} {} (got {value})",
+                light_field(kind, field),
+                describe(problem)
+            ))
+        }
+        BuildError::TooManyLights { count } => Error::invalid(format_args!(
+            "count: {count} lights, at most 2147483646 are supported"
+        )),
+        BuildError::TotalEnergyTooLarge => Error::invalid(format_args!(
+            "{name}: the lights' total energy exceeds MAX_TOTAL_ENERGY (1e26)"
+        )),
+        other => Error::invalid(format_args!("{name}: {other}")),
+    }
+}
+
+/// The core material (kind checked; values are checked with the shading point).
+pub(crate) fn material(m: &ml_material, path: &dyn Fn() -> String) -> Result<Material> {
+    Ok(match m.kind {
+        0 => Material::Lambert { albedo: m.albedo },
+        1 => Material::Ggx {
+            alpha: m.alpha,
+            specular: m.specular,
+        },
+        2 => Material::Plastic {
+            albedo: m.albedo,
+            specular: m.specular,
+            alpha: m.alpha,
+        },
+        k => {
+            return Err(Error::invalid(format_args!(
+                "{}.kind: {k} is not an ml_material_kind (0 to 2)",
+                path()
+            )))
+        }
+    })
+}
+
+/// A shading point error in the C struct's terms.
+pub(crate) fn shading_error(e: ShadingError, path: &dyn Fn() -> String) -> Error {
+    let field = match e.field {
+        ShadingField::Position => "position",
+        ShadingField::Normal => "normal",
+        ShadingField::Wo => "wo",
+        ShadingField::Albedo => "material.albedo",
+        ShadingField::Specular => "material.specular",
+        ShadingField::Alpha => "material.alpha",
+    };
+    let what = match (e.field, e.problem) {
+        (_, Problem::NotFinite) => "is NaN or infinite",
+        (_, Problem::ZeroLength) => "has zero length",
+        (ShadingField::Alpha, _) => "must be in (0, 1]",
+        (ShadingField::Albedo | ShadingField::Specular, _) => "must be in [0, 1]",
+        _ => describe(e.problem),
+    };
+    Error::invalid(format_args!("{}.{field} {what} (got {})", path(), e.value))
+}
+
+/// The checked core shading point of an `ml_shading_point`; `path` names it in errors
+/// (`sp`, `points[12]`).
+pub(crate) fn shading_point(
+    sp: &ml_shading_point,
+    path: &dyn Fn() -> String,
+) -> Result<ShadingPoint> {
+    let s = ShadingPoint {
+        position: sp.position.into(),
+        normal: sp.normal.into(),
+        wo: sp.wo.into(),
+        material: material(&sp.material, &|| format!("{}.material", path()))?,
+    };
+    s.validate().map_err(|e| shading_error(e, path))?;
+    Ok(s)
+}
+
+/// Checks a vector is finite.
+#[inline]
+pub(crate) fn finite3(v: ml_vec3, path: &dyn Fn() -> String) -> Result<Vec3> {
+    for c in [v.x, v.y, v.z] {
+        if !c.is_finite() {
+            return Err(Error::invalid(format_args!(
+                "{} is NaN or infinite (got {c})",
+                path()
+            )));
+        }
+    }
+    Ok(v.into())
+}
+
+/// Checks a finite, non-zero direction.
+pub(crate) fn direction3(v: ml_vec3, path: &dyn Fn() -> String) -> Result<Vec3> {
+    let d = finite3(v, path)?;
+    if d == Vec3::ZERO {
+        return Err(Error::invalid(format_args!("{} has zero length", path())));
+    }
+    Ok(d)
+}
+
+/// The TL point's position and normal, checked finite.
+#[inline]
+pub(crate) fn tl_point(p: &ml_tl_point, path: &dyn Fn() -> String) -> Result<(Vec3, Vec3)> {
+    let x = finite3(p.position, &|| format!("{}.position", path()))?;
+    let n = finite3(p.normal, &|| format!("{}.normal", path()))?;
+    Ok((x, n))
+}
+
+/// A uniform number, checked in [0, 1).
+#[inline]
+pub(crate) fn unit(u: f32, path: &dyn Fn() -> String) -> Result<f32> {
+    if (0.0..1.0).contains(&u) {
+        Ok(u)
+    } else {
+        Err(Error::invalid(format_args!(
+            "{} must be in [0, 1) (got {u})",
+            path()
+        )))
+    }
+}

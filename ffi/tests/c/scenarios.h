@@ -1,0 +1,1325 @@
+/*
+ * The scenarios of the C ABI's tests, written once in the common subset of C99 and C++17 and
+ * compiled into both test programs (test_abi.c, test_abi.cpp) with -Wall -Wextra -Werror.
+ *
+ * Every check failure is printed with its line and counted; a program exits non-zero if any
+ * failed. Bad-input checks are recorded per function ("cover" lines on stdout), which the
+ * Rust harness compares with the functions the header declares.
+ */
+#ifndef ML_TEST_SCENARIOS_H
+#define ML_TEST_SCENARIOS_H
+
+#include "manylights.h"
+
+#include <math.h>
+#include <stdint.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#define ML_PI 3.14159265358979323846
+
+static int g_failures = 0;
+
+#define CHECK(cond)                                                                       \
+    do {                                                                                  \
+        if (!(cond)) {                                                                    \
+            fprintf(stderr, "%s:%d: check failed: %s\n", __FILE__, __LINE__, #cond);      \
+            g_failures++;                                                                 \
+        }                                                                                 \
+    } while (0)
+
+#define OK(call)                                                                          \
+    do {                                                                                  \
+        ml_status s_ = (call);                                                            \
+        if (s_ != ML_OK) {                                                                \
+            fprintf(stderr, "%s:%d: %s failed with %d: %s\n", __FILE__, __LINE__, #call,  \
+                    (int)s_, ml_last_error_message());                                    \
+            g_failures++;                                                                 \
+        }                                                                                 \
+    } while (0)
+
+/* ---- deterministic numbers ---------------------------------------------------------- */
+
+typedef struct rng {
+    uint64_t s;
+} rng;
+
+static uint64_t rng_next(rng *r) {
+    uint64_t z = (r->s += 0x9E3779B97F4A7C15ull);
+    z = (z ^ (z >> 30)) * 0xBF58476D1CE4E5B9ull;
+    z = (z ^ (z >> 27)) * 0x94D049BB133111EBull;
+    return z ^ (z >> 31);
+}
+
+/* Uniform in [0, 1) with 24 bits. */
+static float rng_f32(rng *r) { return (float)(rng_next(r) >> 40) * (1.0f / 16777216.0f); }
+
+/* Uniform in [0, 1) with 53 bits. */
+static double rng_f64(rng *r) { return (double)(rng_next(r) >> 11) * (1.0 / 9007199254740992.0); }
+
+static float rng_range(rng *r, float a, float b) { return a + (b - a) * rng_f32(r); }
+
+static float cb_f32(void *user) { return rng_f32((rng *)user); }
+static double cb_f64(void *user) { return rng_f64((rng *)user); }
+
+static ml_uniforms uniforms_of(rng *r) {
+    ml_uniforms u;
+    u.next_f32 = cb_f32;
+    u.next_f64 = cb_f64;
+    u.user_data = r;
+    return u;
+}
+
+static ml_vec3 v3(float x, float y, float z) {
+    ml_vec3 v;
+    v.x = x;
+    v.y = y;
+    v.z = z;
+    return v;
+}
+
+static uint32_t bits(float f) {
+    uint32_t b;
+    memcpy(&b, &f, sizeof b);
+    return b;
+}
+
+/* ---- scenes -------------------------------------------------------------------------- */
+
+/* Light i of a seeded set: every kind in turn, above the plane z = 0 region. */
+static ml_light make_light(rng *r, size_t i) {
+    ml_light l;
+    memset(&l, 0, sizeof l);
+    l.kind = (uint32_t)(i % 6);
+    l.position = v3(rng_range(r, -10, 10), rng_range(r, -10, 10), rng_range(r, 1, 6));
+    l.power = rng_range(r, 0.1f, 2.0f);
+    switch (l.kind) {
+    case ML_LIGHT_KIND_SPOT:
+        l.direction = v3(rng_range(r, -0.5f, 0.5f), rng_range(r, -0.5f, 0.5f), -1.0f);
+        l.half_angle = rng_range(r, 0.2f, 1.2f);
+        l.falloff_start = l.half_angle * 0.5f;
+        break;
+    case ML_LIGHT_KIND_SPHERE:
+        l.radius = rng_range(r, 0.02f, 0.2f);
+        break;
+    case ML_LIGHT_KIND_DISK:
+        l.direction = v3(rng_range(r, -0.3f, 0.3f), rng_range(r, -0.3f, 0.3f), -1.0f);
+        l.radius = rng_range(r, 0.05f, 0.3f);
+        l.two_sided = (uint32_t)(i / 6 % 2);
+        break;
+    case ML_LIGHT_KIND_TRIANGLE:
+        l.direction = v3(l.position.x + rng_range(r, 0.1f, 0.4f), l.position.y,
+                         l.position.z + rng_range(r, -0.1f, 0.1f));
+        l.vertex2 = v3(l.position.x, l.position.y + rng_range(r, 0.1f, 0.4f), l.position.z);
+        l.two_sided = (uint32_t)(i / 6 % 2);
+        break;
+    case ML_LIGHT_KIND_VPL:
+        l.direction = v3(rng_range(r, -0.5f, 0.5f), rng_range(r, -0.5f, 0.5f), -1.0f);
+        break;
+    default:
+        break;
+    }
+    return l;
+}
+
+static ml_light *make_lights(size_t n, uint64_t seed) {
+    rng r;
+    size_t i;
+    ml_light *ls = (ml_light *)malloc(n * sizeof(ml_light));
+    r.s = seed;
+    for (i = 0; i < n; i++) ls[i] = make_light(&r, i);
+    return ls;
+}
+
+static ml_tl_point make_tl_point(rng *r) {
+    ml_tl_point p;
+    p.position = v3(rng_range(r, -11, 11), rng_range(r, -11, 11), rng_range(r, -0.5f, 0.5f));
+    p.normal = v3(rng_range(r, -0.4f, 0.4f), rng_range(r, -0.4f, 0.4f), 1.0f);
+    return p;
+}
+
+static ml_material lambert(float albedo) {
+    ml_material m;
+    memset(&m, 0, sizeof m);
+    m.kind = ML_MATERIAL_KIND_LAMBERT;
+    m.albedo = albedo;
+    return m;
+}
+
+static ml_material plastic(float albedo, float specular, float alpha) {
+    ml_material m;
+    m.kind = ML_MATERIAL_KIND_PLASTIC;
+    m.albedo = albedo;
+    m.specular = specular;
+    m.alpha = alpha;
+    return m;
+}
+
+static ml_shading_point make_sp(rng *r) {
+    ml_shading_point sp;
+    ml_tl_point p = make_tl_point(r);
+    sp.position = p.position;
+    sp.normal = p.normal;
+    sp.wo = v3(rng_range(r, -1, 1), rng_range(r, -1, 1), 1.0f);
+    sp.material = plastic(rng_range(r, 0.1f, 0.9f), rng_range(r, 0.0f, 1.0f),
+                          rng_range(r, 0.05f, 1.0f));
+    return sp;
+}
+
+static ml_tree *build_tree(const ml_light *lights, size_t n) {
+    ml_tree *tree = NULL;
+    OK(ml_tree_build(lights, n, NULL, &tree));
+    return tree;
+}
+
+/* ---- bad-input bookkeeping ----------------------------------------------------------- */
+
+typedef struct coverage {
+    const char *name;
+    int nulls;
+    int invalids;
+} coverage;
+
+static coverage g_cov[160];
+static int g_ncov = 0;
+
+static void record(const char *fn, int invalid) {
+    int i;
+    for (i = 0; i < g_ncov; i++) {
+        if (strcmp(g_cov[i].name, fn) == 0) break;
+    }
+    if (i == g_ncov) {
+        if (g_ncov == (int)(sizeof g_cov / sizeof g_cov[0])) return;
+        g_cov[g_ncov].name = fn;
+        g_cov[g_ncov].nulls = 0;
+        g_cov[g_ncov].invalids = 0;
+        g_ncov++;
+    }
+    if (invalid) {
+        g_cov[i].invalids++;
+    } else {
+        g_cov[i].nulls++;
+    }
+}
+
+/* The call returned `want` and the message starts with "fn: " and contains `part`. */
+static void bad_check(const char *fn, int invalid, ml_status got, ml_status want, const char *part,
+                      int line) {
+    const char *msg = ml_last_error_message();
+    size_t n = strlen(fn);
+    record(fn, invalid);
+    if (got != want) {
+        fprintf(stderr, "line %d: %s returned %d, expected %d (message: %s)\n", line, fn, (int)got,
+                (int)want, msg);
+        g_failures++;
+        return;
+    }
+    if (want == ML_OK) return;
+    if (strncmp(msg, fn, n) != 0 || msg[n] != ':' || strstr(msg, part) == NULL) {
+        fprintf(stderr, "line %d: %s: message \"%s\" lacks \"%s\"\n", line, fn, msg, part);
+        g_failures++;
+    }
+}
+
+/* A NULL argument: ML_ERR_NULL naming it. */
+#define BAD_NULL(fn, call, part) bad_check(#fn, 0, (call), ML_ERR_NULL, part, __LINE__)
+/* An invalid value: `status` with a message containing `part`. */
+#define BAD_VALUE(fn, call, status, part) bad_check(#fn, 1, (call), status, part, __LINE__)
+/* A free function given NULL: accepted. */
+#define FREE_NULL(fn, call) bad_check(#fn, 0, (call), ML_OK, "", __LINE__)
+/* A pointer one byte past an aligned object: misaligned for any T of alignment > 1. */
+#define MISALIGN(T, p) ((T *)(void *)((char *)(p) + 1))
+
+static void print_coverage(void) {
+    int i, total = 0;
+    for (i = 0; i < g_ncov; i++) {
+        printf("cover %s %d %d\n", g_cov[i].name, g_cov[i].nulls, g_cov[i].invalids);
+        total += g_cov[i].nulls + g_cov[i].invalids;
+    }
+    printf("bad-input checks: %d over %d functions\n", total, g_ncov);
+}
+
+/* ---- sampling from a shared tree ------------------------------------------------------ */
+
+typedef struct sample_job {
+    const ml_tree *tree;
+    uint64_t seed;
+    size_t points;
+    int failures;
+    double checksum;
+} sample_job;
+
+#define JOB_CHECK(job, cond)                                                              \
+    do {                                                                                  \
+        if (!(cond)) {                                                                    \
+            fprintf(stderr, "%s:%d: check failed: %s\n", __FILE__, __LINE__, #cond);      \
+            (job)->failures++;                                                            \
+        }                                                                                 \
+    } while (0)
+
+#define BATCH 128
+
+/* One thread's work on the shared tree: TL and BL samples, each equal to its pmf query, and
+ * the batch calls equal to the single calls bit for bit; its own error message. */
+static void sample_job_run(sample_job *job) {
+    rng r;
+    ml_tl_point pts[BATCH];
+    ml_shading_point sps[BATCH];
+    float us[BATCH], pmfs[BATCH];
+    uint32_t lights[BATCH];
+    ml_light_sample out[BATCH];
+    size_t done = 0, i;
+    char expect[64];
+    r.s = job->seed;
+    while (done < job->points) {
+        for (i = 0; i < BATCH; i++) {
+            pts[i] = make_tl_point(&r);
+            sps[i] = make_sp(&r);
+            us[i] = rng_f32(&r);
+        }
+        JOB_CHECK(job, ml_tree_sample_tl_batch(job->tree, pts, us, BATCH, out) == ML_OK);
+        for (i = 0; i < BATCH; i++) {
+            ml_light_sample s;
+            float q = -1;
+            JOB_CHECK(job, ml_tree_sample_tl(job->tree, &pts[i], us[i], &s) == ML_OK);
+            JOB_CHECK(job, s.light == out[i].light && bits(s.pmf) == bits(out[i].pmf));
+            lights[i] = s.light == ML_NO_LIGHT ? 0 : s.light;
+            if (s.light != ML_NO_LIGHT) {
+                JOB_CHECK(job, s.pmf > 0 && s.pmf <= 1);
+                JOB_CHECK(job, ml_tree_pmf_tl(job->tree, &pts[i], s.light, &q) == ML_OK);
+                JOB_CHECK(job, bits(q) == bits(s.pmf));
+                job->checksum += (double)s.pmf;
+            } else {
+                JOB_CHECK(job, s.pmf == 0);
+            }
+        }
+        JOB_CHECK(job, ml_tree_pmf_tl_batch(job->tree, pts, lights, BATCH, pmfs) == ML_OK);
+        for (i = 0; i < BATCH; i++) {
+            float q = -1;
+            JOB_CHECK(job, ml_tree_pmf_tl(job->tree, &pts[i], lights[i], &q) == ML_OK);
+            JOB_CHECK(job, bits(q) == bits(pmfs[i]));
+        }
+        JOB_CHECK(job, ml_tree_sample_bl_batch(job->tree, sps, us, BATCH, out) == ML_OK);
+        for (i = 0; i < BATCH; i++) {
+            ml_light_sample s;
+            float q = -1;
+            JOB_CHECK(job, ml_tree_sample_bl(job->tree, &sps[i], us[i], &s) == ML_OK);
+            JOB_CHECK(job, s.light == out[i].light && bits(s.pmf) == bits(out[i].pmf));
+            lights[i] = s.light == ML_NO_LIGHT ? 1 : s.light;
+            if (s.light != ML_NO_LIGHT) {
+                JOB_CHECK(job, ml_tree_pmf_bl(job->tree, &sps[i], s.light, &q) == ML_OK);
+                JOB_CHECK(job, bits(q) == bits(s.pmf) && q > 0);
+            }
+        }
+        JOB_CHECK(job, ml_tree_pmf_bl_batch(job->tree, sps, lights, BATCH, pmfs) == ML_OK);
+        for (i = 0; i < BATCH; i++) {
+            float q = -1;
+            JOB_CHECK(job, ml_tree_pmf_bl(job->tree, &sps[i], lights[i], &q) == ML_OK);
+            JOB_CHECK(job, bits(q) == bits(pmfs[i]));
+        }
+        done += BATCH;
+    }
+    /* The last error message is this thread's own. */
+    snprintf(expect, sizeof expect, "(got %llu)", (unsigned long long)(job->seed % 1000 + 2));
+    JOB_CHECK(job, ml_tree_sample_tl(job->tree, &pts[0], (float)(job->seed % 1000 + 2), out) ==
+                       ML_ERR_INVALID_ARGUMENT);
+    JOB_CHECK(job, strstr(ml_last_error_message(), expect) != NULL);
+}
+
+/* ---- pmf consistency with the Rust core: a dump the Rust harness replays -------------- */
+
+static void dump_light(FILE *f, const ml_light *l) {
+    fprintf(f, "L %u %u %08x %08x %08x %08x %08x %08x %08x %08x %08x %08x %08x %08x %08x\n",
+            (unsigned)l->kind, (unsigned)l->two_sided, bits(l->position.x), bits(l->position.y),
+            bits(l->position.z), bits(l->direction.x), bits(l->direction.y), bits(l->direction.z),
+            bits(l->vertex2.x), bits(l->vertex2.y), bits(l->vertex2.z), bits(l->power),
+            bits(l->radius), bits(l->half_angle), bits(l->falloff_start));
+}
+
+static void dump_tl(FILE *f, char tag, const ml_tl_point *p, uint32_t x, uint32_t light, float pmf) {
+    fprintf(f, "%c %08x %08x %08x %08x %08x %08x %08x %u %08x\n", tag, bits(p->position.x),
+            bits(p->position.y), bits(p->position.z), bits(p->normal.x), bits(p->normal.y),
+            bits(p->normal.z), (unsigned)x, (unsigned)light, bits(pmf));
+}
+
+static void dump_bl(FILE *f, char tag, const ml_shading_point *p, uint32_t x, uint32_t light,
+                    float pmf) {
+    fprintf(f,
+            "%c %08x %08x %08x %08x %08x %08x %08x %08x %08x %u %08x %08x %08x %08x %u %08x\n",
+            tag, bits(p->position.x), bits(p->position.y), bits(p->position.z),
+            bits(p->normal.x), bits(p->normal.y), bits(p->normal.z), bits(p->wo.x),
+            bits(p->wo.y), bits(p->wo.z), (unsigned)p->material.kind, bits(p->material.albedo),
+            bits(p->material.specular), bits(p->material.alpha), (unsigned)x, (unsigned)light,
+            bits(pmf));
+}
+
+/* Writes the lights, then TL and BL samples (S, B: the u's bits, the light, the pmf) and
+ * pmf queries (Q, P: the light asked, the pmf) the Rust harness recomputes with the core. */
+static void dump_consistency(const char *path, const ml_tree *tree, const ml_light *lights,
+                             size_t n) {
+    FILE *f = fopen(path, "w");
+    rng r;
+    size_t i;
+    if (f == NULL) {
+        fprintf(stderr, "cannot write %s\n", path);
+        g_failures++;
+        return;
+    }
+    r.s = 77;
+    for (i = 0; i < n; i++) dump_light(f, &lights[i]);
+    for (i = 0; i < 500; i++) {
+        ml_tl_point p = make_tl_point(&r);
+        ml_shading_point sp = make_sp(&r);
+        float u = rng_f32(&r), q = 0;
+        uint32_t l = (uint32_t)(rng_next(&r) % n);
+        ml_light_sample s;
+        OK(ml_tree_sample_tl(tree, &p, u, &s));
+        dump_tl(f, 'S', &p, bits(u), s.light, s.pmf);
+        OK(ml_tree_pmf_tl(tree, &p, l, &q));
+        dump_tl(f, 'Q', &p, 0, l, q);
+        OK(ml_tree_sample_bl(tree, &sp, u, &s));
+        dump_bl(f, 'B', &sp, bits(u), s.light, s.pmf);
+        OK(ml_tree_pmf_bl(tree, &sp, l, &q));
+        dump_bl(f, 'P', &sp, 0, l, q);
+    }
+    fclose(f);
+}
+
+/* ---- the tree: stats, serialization ---------------------------------------------------- */
+
+static void scenario_tree(const ml_tree *tree, size_t n) {
+    ml_tree_statistics st;
+    size_t size = 0, written = 0;
+    uint8_t *buf;
+    ml_tree *loaded = NULL;
+    rng r;
+    int i;
+    OK(ml_tree_stats(tree, &st));
+    CHECK(st.lights == n);
+    CHECK(st.sampled_lights > 0 && st.sampled_lights <= n);
+    CHECK(st.nodes > 0 && st.depth > 0 && st.bytes > 0 && st.has_lights == 1);
+    CHECK(st.total_energy > 0);
+
+    OK(ml_tree_serialized_size(tree, &size));
+    CHECK(size > 0);
+    buf = (uint8_t *)malloc(size);
+    OK(ml_tree_serialize(tree, buf, size, &written));
+    CHECK(written == size);
+    OK(ml_tree_load(buf, size, &loaded));
+    if (loaded != NULL) {
+        OK(ml_tree_stats(loaded, &st));
+        CHECK(st.lights == n && st.has_lights == 0);
+        r.s = 5;
+        for (i = 0; i < 200; i++) {
+            ml_tl_point p = make_tl_point(&r);
+            float u = rng_f32(&r);
+            ml_light_sample a, b;
+            OK(ml_tree_sample_tl(tree, &p, u, &a));
+            OK(ml_tree_sample_tl(loaded, &p, u, &b));
+            CHECK(a.light == b.light && bits(a.pmf) == bits(b.pmf));
+        }
+    }
+    /* Corrupt bytes: a flipped byte in the header, a truncation. */
+    {
+        ml_tree *bad = NULL;
+        buf[0] ^= 0x5a;
+        CHECK(ml_tree_load(buf, size, &bad) == ML_ERR_FORMAT && bad == NULL);
+        buf[0] ^= 0x5a;
+        buf[8] ^= 0x01;
+        CHECK(ml_tree_load(buf, size, &bad) == ML_ERR_FORMAT && bad == NULL);
+        buf[8] ^= 0x01;
+        CHECK(ml_tree_load(buf, size - 1, &bad) == ML_ERR_FORMAT && bad == NULL);
+        CHECK(ml_tree_load(buf, 7, &bad) == ML_ERR_FORMAT && bad == NULL);
+    }
+    OK(ml_tree_free(loaded));
+    free(buf);
+}
+
+/* ---- cuts ---------------------------------------------------------------------------- */
+
+static void scenario_cut(const ml_tree *tree, size_t n) {
+    ml_cut *cut = NULL;
+    rng r;
+    int k;
+    OK(ml_cut_create(&cut));
+    r.s = 99;
+    for (k = 0; k < 50; k++) {
+        ml_shading_point sp = make_sp(&r);
+        ml_tl_point tp;
+        size_t size = 0, i;
+        float ib = -1;
+        float us[ML_CUT_CAPACITY];
+        ml_light_sample out[ML_CUT_CAPACITY];
+        OK(ml_cut_build(cut, tree, &sp, NULL));
+        OK(ml_cut_size(cut, &size));
+        CHECK(size <= ML_CUT_CAPACITY);
+        OK(ml_cut_ib(cut, &ib));
+        CHECK(ib >= 0 && ib == ib);
+        for (i = 0; i < 20; i++) {
+            ml_light_sample s;
+            float q = -1;
+            OK(ml_cut_sample(cut, rng_f32(&r), &s));
+            if (s.light != ML_NO_LIGHT) {
+                CHECK(s.light < n);
+                OK(ml_cut_pmf(cut, s.light, &q));
+                CHECK(bits(q) == bits(s.pmf) && q > 0);
+            }
+        }
+        tp.position = sp.position;
+        tp.normal = sp.normal;
+        OK(ml_cut_build_split(cut, tree, &tp, NULL));
+        OK(ml_cut_size(cut, &size));
+        CHECK(size >= 1 && size <= 32);
+        for (i = 0; i < size; i++) us[i] = rng_f32(&r);
+        OK(ml_cut_sample_clusters(cut, us, size, out));
+        for (i = 0; i < size; i++) {
+            uint32_t cluster = 99;
+            float q = -1;
+            if (out[i].light == ML_NO_LIGHT) continue;
+            OK(ml_cut_pmf_in(cut, out[i].light, &cluster, &q));
+            CHECK(cluster == (uint32_t)i && bits(q) == bits(out[i].pmf) && q > 0);
+        }
+    }
+    OK(ml_cut_free(cut));
+}
+
+/* ---- points on lights, BRDFs ---------------------------------------------------------- */
+
+static void scenario_points(const ml_tree *tree, const ml_light *lights, size_t n) {
+    rng r;
+    int k;
+    r.s = 1234;
+    for (k = 0; k < 300; k++) {
+        uint32_t l = (uint32_t)(rng_next(&r) % n);
+        ml_vec3 x = v3(rng_range(&r, -5, 5), rng_range(&r, -5, 5), 0);
+        ml_light_point p;
+        OK(ml_light_sample_point(tree, l, x, rng_f32(&r), rng_f32(&r), &p));
+        if (p.pdf > 0) {
+            float q = -1;
+            CHECK(p.distance > 0 && p.radiance >= 0);
+            OK(ml_light_pdf_point(tree, l, x, p.position, &q));
+            if (p.delta) {
+                CHECK(q == 0 && p.pdf == 1);
+            } else if (lights[l].kind == ML_LIGHT_KIND_SPHERE || lights[l].kind == ML_LIGHT_KIND_DISK) {
+                CHECK(fabs(q - p.pdf) <= 1e-2 * p.pdf);
+            }
+        }
+    }
+    for (k = 0; k < 300; k++) {
+        ml_shading_point sp = make_sp(&r);
+        ml_brdf_draw d;
+        OK(ml_brdf_sample(&sp, rng_f32(&r), rng_f32(&r), &d));
+        if (d.pdf > 0) {
+            float q = -1, f = -1;
+            OK(ml_brdf_pdf(&sp, d.wi, &q));
+            OK(ml_brdf_eval(&sp, d.wi, &f));
+            CHECK(fabs(q - d.pdf) <= 1e-3 * d.pdf);
+            CHECK(fabs(f - d.value) <= 1e-3 * d.value + 1e-6);
+        }
+    }
+}
+
+/* ---- direct lighting against a closed form --------------------------------------------- */
+
+/* 40 sphere lights and 10 point lights above the point (0, 0, 0) with normal +z, all entirely
+ * above its horizon: the radiance a Lambert surface of albedo rho reflects is
+ *   sum over spheres of rho · L · (r/d)² · cos θ  (irradiance π L sin²α cos θ)
+ *   + sum over points of rho/π · I · cos θ / d². */
+#define DIRECT_LIGHTS 50
+
+static double direct_scene(ml_light *ls, float rho) {
+    rng r;
+    int i;
+    double exact = 0;
+    r.s = 4242;
+    for (i = 0; i < DIRECT_LIGHTS; i++) {
+        ml_light l;
+        double d, c;
+        memset(&l, 0, sizeof l);
+        l.position = v3(rng_range(&r, -3, 3), rng_range(&r, -3, 3), rng_range(&r, 1.5f, 4));
+        d = sqrt((double)l.position.x * l.position.x + (double)l.position.y * l.position.y +
+                 (double)l.position.z * l.position.z);
+        c = l.position.z / d;
+        if (i % 5 == 4) {
+            l.kind = ML_LIGHT_KIND_POINT;
+            l.power = rng_range(&r, 0.5f, 2);
+            exact += rho / ML_PI * l.power * c / (d * d);
+        } else {
+            l.kind = ML_LIGHT_KIND_SPHERE;
+            l.radius = rng_range(&r, 0.05f, 0.2f);
+            l.power = rng_range(&r, 0.5f, 3);
+            exact += rho * l.power * ((double)l.radius * l.radius) / (d * d) * c;
+        }
+        ls[i] = l;
+    }
+    return exact;
+}
+
+static ml_shading_point direct_point(float rho) {
+    ml_shading_point sp;
+    sp.position = v3(0, 0, 0);
+    sp.normal = v3(0, 0, 1);
+    sp.wo = v3(0.3f, 0.1f, 1);
+    sp.material = lambert(rho);
+    return sp;
+}
+
+/* Mean and standard error of the estimates; checks the mean is within 5 standard errors of
+ * `exact` (plus 1e-4 relative, the f32 arithmetic). */
+typedef struct running {
+    double sum, sum2;
+    long n;
+} running;
+
+static void running_add(running *s, double x) {
+    s->sum += x;
+    s->sum2 += x * x;
+    s->n++;
+}
+
+static int running_check(const running *s, double exact, const char *what, int line) {
+    double mean = s->sum / (double)s->n;
+    double var = (s->sum2 / (double)s->n - mean * mean) * (double)s->n / (double)(s->n - 1);
+    double se = sqrt(var > 0 ? var : 0) / sqrt((double)s->n);
+    double tol = 5 * se + 1e-4 * exact;
+    if (fabs(mean - exact) > tol) {
+        fprintf(stderr, "line %d: %s: mean %.6g, exact %.6g, |diff| %.3g > %.3g (n = %ld)\n", line,
+                what, mean, exact, fabs(mean - exact), tol, s->n);
+        g_failures++;
+        return 0;
+    }
+    printf("unbiased %s: mean %.6g, exact %.6g, 1 se %.3g, n %ld\n", what, mean, exact, se, s->n);
+    return 1;
+}
+
+static const char *const technique_names[9] = {"uniform",  "power", "tl",     "tl-split", "bl",
+                                               "mis-equal", "full", "tl-mis", "bl-mis"};
+
+static float never_hit(void *user, ml_vec3 x, ml_vec3 d) {
+    (void)user;
+    (void)x;
+    (void)d;
+    return (float)INFINITY;
+}
+
+static int32_t always_occluded(void *user, ml_vec3 x, ml_vec3 d, float t) {
+    (void)x;
+    (void)d;
+    (void)t;
+    ++*(long *)user;
+    return 1;
+}
+
+/* The one call, every technique: unbiased against the closed form. */
+static void scenario_direct(void) {
+    ml_light ls[DIRECT_LIGHTS];
+    const float rho = 0.8f;
+    double exact = direct_scene(ls, rho);
+    ml_tree *tree = build_tree(ls, DIRECT_LIGHTS);
+    ml_shading_point sp = direct_point(rho);
+    ml_estimator *est = NULL;
+    uint32_t t;
+    rng r;
+    ml_uniforms u = uniforms_of(&r);
+    r.s = 31337;
+    OK(ml_estimator_create(tree, &est));
+    for (t = 0; t < 9; t++) {
+        running s = {0, 0, 0};
+        long k, n = (t == ML_TECHNIQUE_FULL || t == ML_TECHNIQUE_MIS_EQUAL ||
+                     t == ML_TECHNIQUE_TL_SPLIT) ? 1500 : 6000;
+        OK(ml_estimator_set_point(est, &sp, t, NULL));
+        for (k = 0; k < n; k++) {
+            double e = -1;
+            OK(ml_estimator_estimate(est, NULL, &u, &e));
+            CHECK(e >= 0 && e == e);
+            running_add(&s, e);
+        }
+        running_check(&s, exact, technique_names[t], __LINE__);
+        /* The one call without a handle gives an estimate of the same quantity. */
+        {
+            double e = -1;
+            OK(ml_direct_estimate(tree, &sp, t, NULL, NULL, &u, &e));
+            CHECK(e >= 0 && e == e);
+        }
+    }
+    /* Visibility callbacks: a first-surface distance of +infinity changes nothing; a shadow
+     * ray that always hits leaves nothing. */
+    {
+        ml_visibility vis;
+        running s = {0, 0, 0};
+        long k, calls = 0;
+        vis.occluded = NULL;
+        vis.first_hit = never_hit;
+        vis.user_data = NULL;
+        for (k = 0; k < 6000; k++) {
+            double e = -1;
+            OK(ml_direct_estimate(tree, &sp, ML_TECHNIQUE_DEFAULT, NULL, &vis, &u, &e));
+            running_add(&s, e);
+        }
+        running_check(&s, exact, "bl-mis with first_hit", __LINE__);
+        vis.occluded = always_occluded;
+        vis.first_hit = NULL;
+        vis.user_data = &calls;
+        for (k = 0; k < 200; k++) {
+            double e = -1;
+            OK(ml_direct_estimate(tree, &sp, ML_TECHNIQUE_TL_MIS, NULL, &vis, &u, &e));
+            CHECK(e == 0);
+        }
+        CHECK(calls > 0);
+    }
+    OK(ml_estimator_free(est));
+    OK(ml_tree_free(tree));
+}
+
+/* The lower level with the host's own Lambert BSDF (cosine sampling by Malley's method). */
+typedef struct host_hit {
+    double sum;
+    float f;
+    float cos_theta;
+} host_hit;
+
+static void on_hit(void *user, const ml_light_hit *hit) {
+    host_hit *h = (host_hit *)user;
+    double value = (double)h->f * hit->point.radiance * h->cos_theta;
+    h->sum += value * hit->weighted.scale;
+}
+
+static double host_estimate(ml_estimator *est, ml_uniforms *u, float rho, int *steps) {
+    double sum = 0;
+    float f = rho / (float)ML_PI;
+    OK(ml_estimator_start(est));
+    for (;;) {
+        ml_step s;
+        if (ml_estimator_next(est, u, &s) != ML_OK) {
+            g_failures++;
+            fprintf(stderr, "ml_estimator_next: %s\n", ml_last_error_message());
+            break;
+        }
+        ++*steps;
+        if (s.kind == ML_STEP_KIND_DONE) break;
+        if (s.kind == ML_STEP_KIND_LIGHT) {
+            float c = s.point.direction.z;
+            ml_weighted w;
+            double value;
+            if (c <= 0 || s.point.radiance <= 0) continue;
+            value = (double)f * s.point.radiance * c;
+            OK(ml_estimator_weigh(est, s.needs_bsdf_pdf ? c / (float)ML_PI : 0, &w));
+            CHECK(w.weight >= 0 && w.weight <= 1 && w.scale >= 0);
+            sum += value * w.scale;
+        } else {
+            float r = sqrtf(s.u0), phi = 2 * (float)ML_PI * s.u1;
+            float z = sqrtf(1 - s.u0 > 0 ? 1 - s.u0 : 0);
+            ml_vec3 wi = v3(r * cosf(phi), r * sinf(phi), z);
+            host_hit h;
+            uint32_t any = 7;
+            if (z <= 0) continue;
+            h.sum = 0;
+            h.f = f;
+            h.cos_theta = z;
+            OK(ml_estimator_bsdf_hits(est, wi, z / (float)ML_PI, (float)INFINITY, on_hit, &h,
+                                      &any));
+            CHECK(any == 0 || any == 1);
+            sum += h.sum;
+        }
+    }
+    return sum;
+}
+
+static void scenario_lower_level(void) {
+    ml_light ls[DIRECT_LIGHTS];
+    const float rho = 0.6f;
+    double exact = direct_scene(ls, rho);
+    ml_tree *tree = build_tree(ls, DIRECT_LIGHTS);
+    ml_shading_point sp = direct_point(rho);
+    ml_estimator *est = NULL;
+    uint32_t t;
+    rng r;
+    ml_uniforms u = uniforms_of(&r);
+    r.s = 2718;
+    OK(ml_estimator_create(tree, &est));
+    /* The tree may go first: the estimator keeps what it needs. */
+    OK(ml_tree_free(tree));
+    for (t = 0; t < 9; t++) {
+        running s = {0, 0, 0};
+        long k, n = (t == ML_TECHNIQUE_FULL || t == ML_TECHNIQUE_MIS_EQUAL ||
+                     t == ML_TECHNIQUE_TL_SPLIT) ? 1500 : 6000;
+        int steps = 0;
+        OK(ml_estimator_set_point(est, &sp, t, NULL));
+        for (k = 0; k < n; k++) running_add(&s, host_estimate(est, &u, rho, &steps));
+        CHECK(steps >= n);
+        running_check(&s, exact, technique_names[t], __LINE__);
+    }
+    OK(ml_estimator_free(est));
+}
+
+/* ---- VPL acceptance -------------------------------------------------------------------- */
+
+static int32_t count_visible(void *user, ml_vec3 importon, ml_vec3 vpl) {
+    (void)importon;
+    (void)vpl;
+    ++*(long *)user;
+    return 1;
+}
+
+static void scenario_vpl(void) {
+    ml_acceptor_options o;
+    ml_acceptor *acc = NULL;
+    ml_importon imps[100];
+    ml_accept_stats st;
+    ml_vpl_visibility vis;
+    ml_light *accepted = (ml_light *)malloc(3000 * sizeof(ml_light));
+    size_t n_acc = 0;
+    long calls = 0;
+    rng r;
+    int i;
+    r.s = 8080;
+    OK(ml_acceptor_options_default(&o));
+    o.pixels = 64 * 64;
+    o.wanted = 100;
+    OK(ml_acceptor_create(&o, &acc));
+    memset(imps, 0, sizeof imps);
+    for (i = 0; i < 100; i++) {
+        imps[i].hit = i % 10 == 9 ? 0 : 1;
+        imps[i].position = v3(rng_range(&r, -2, 2), rng_range(&r, -2, 2), 0);
+        imps[i].normal = v3(0, 0, 1);
+        imps[i].wo = v3(0, 0.2f, 1);
+        imps[i].material = i % 7 == 3 ? plastic(0.4f, 0.5f, 0.3f) : lambert(0.5f);
+    }
+    OK(ml_acceptor_set_importons(acc, imps, 100));
+    /* First frame: Φ̃_total = 0, every candidate is kept unchanged. */
+    for (i = 0; i < 20; i++) {
+        ml_vpl c;
+        ml_vpl_decision d;
+        c.position = v3(rng_range(&r, -3, 3), rng_range(&r, -3, 3), rng_range(&r, 0.5f, 3));
+        c.normal = v3(0, 0, -1);
+        c.intensity = 1.5f;
+        OK(ml_acceptor_accept(acc, &c, rng_f32(&r), NULL, &d));
+        CHECK(d.accepted == 1 && d.probability == 1 && d.vpl.intensity == 1.5f);
+    }
+    OK(ml_acceptor_reset_stats(acc));
+    OK(ml_acceptor_set_total_luminance(acc, 4e4));
+    OK(ml_acceptor_update(acc, 4e4));
+    vis.visible = count_visible;
+    vis.user_data = &calls;
+    for (i = 0; i < 3000; i++) {
+        ml_vpl c;
+        ml_vpl_decision d;
+        float p0 = -1, p1 = -1;
+        c.position = v3(rng_range(&r, -6, 6), rng_range(&r, -6, 6), rng_range(&r, 0.3f, 4));
+        c.normal = v3(rng_range(&r, -0.5f, 0.5f), rng_range(&r, -0.5f, 0.5f), -1);
+        c.intensity = rng_range(&r, 0.5f, 2);
+        if (i % 50 == 0) {
+            OK(ml_acceptor_probability(acc, &c, NULL, &p0));
+            OK(ml_acceptor_probability(acc, &c, &vis, &p1));
+            CHECK(p0 > 0 && p0 <= 1 && p0 == p1);
+        }
+        OK(ml_acceptor_accept(acc, &c, rng_f32(&r), i % 2 ? &vis : NULL, &d));
+        if (d.accepted) {
+            CHECK(d.probability > 0 && d.probability <= 1);
+            CHECK(fabs(d.vpl.intensity - c.intensity / d.probability) <= 1e-5 * d.vpl.intensity);
+            accepted[n_acc].kind = ML_LIGHT_KIND_VPL;
+            accepted[n_acc].two_sided = 0;
+            accepted[n_acc].position = d.vpl.position;
+            accepted[n_acc].direction = d.vpl.normal;
+            accepted[n_acc].vertex2 = v3(0, 0, 0);
+            accepted[n_acc].power = d.vpl.intensity;
+            accepted[n_acc].radius = 0;
+            accepted[n_acc].half_angle = 0;
+            accepted[n_acc].falloff_start = 0;
+            n_acc++;
+        }
+    }
+    CHECK(calls > 0);
+    OK(ml_acceptor_stats(acc, &st));
+    CHECK(st.candidates == 3000 && st.accepted == n_acc);
+    CHECK(st.acceptance_rate > 0.01 && st.acceptance_rate < 0.99);
+    /* Unbiased: the accepted energy's ratio to the candidates' is 1 within 5 sd. */
+    CHECK(fabs(st.energy_ratio - 1) <= 5 * st.energy_ratio_sd + 1e-9);
+    OK(ml_acceptor_reset_stats(acc));
+    OK(ml_acceptor_stats(acc, &st));
+    CHECK(st.candidates == 0 && st.accepted == 0);
+    /* The accepted VPLs are lights of a tree. */
+    {
+        ml_tree *tree = build_tree(accepted, n_acc);
+        ml_tl_point p;
+        ml_light_sample s;
+        float q = -1;
+        p.position = v3(0, 0, 0);
+        p.normal = v3(0, 0, 1);
+        OK(ml_tree_sample_tl(tree, &p, 0.5f, &s));
+        CHECK(s.light != ML_NO_LIGHT);
+        if (s.light != ML_NO_LIGHT) {
+            OK(ml_tree_pmf_tl(tree, &p, s.light, &q));
+            CHECK(bits(q) == bits(s.pmf));
+        }
+        OK(ml_tree_free(tree));
+    }
+    OK(ml_acceptor_free(acc));
+    free(accepted);
+}
+
+/* ---- bad input: every function, NULL and an invalid value ------------------------------ */
+
+static float bad_uniform(void *user) {
+    (void)user;
+    return 1.5f;
+}
+
+static float nan_hit(void *user, ml_vec3 x, ml_vec3 d) {
+    (void)user;
+    (void)x;
+    (void)d;
+    return (float)NAN;
+}
+
+static void scenario_bad_input(const ml_tree *tree, size_t n) {
+    ml_light ls[4];
+    ml_tree *t = NULL, *loaded = NULL;
+    ml_tl_point p, pts[8];
+    ml_shading_point sp, sps[8];
+    ml_light_sample s, outs[8];
+    float us[8], f = 0, q = 0;
+    uint32_t lights[8], u32s[4];
+    size_t sz = 0, written = 0;
+    uint8_t buf[64], *bytes;
+    ml_tree_statistics st;
+    ml_build_options bo;
+    ml_cut_options co;
+    ml_split_options so;
+    ml_direct_params dp;
+    ml_acceptor_options ao;
+    ml_cut *cut = NULL, *fresh = NULL;
+    ml_estimator *est = NULL;
+    ml_acceptor *acc = NULL;
+    ml_light_point lp;
+    ml_brdf_draw bd;
+    ml_step step;
+    ml_weighted w;
+    ml_visibility vis;
+    ml_vpl_visibility vvis;
+    ml_vpl cand;
+    ml_vpl_decision dec;
+    ml_importon imps[4];
+    ml_accept_stats ast;
+    const char *name = NULL;
+    double e = 0, dbl[2];
+    rng r;
+    ml_uniforms u = uniforms_of(&r), badu = uniforms_of(&r), nullu = uniforms_of(&r);
+    int i;
+    r.s = 1;
+    badu.next_f32 = bad_uniform;
+    badu.next_f64 = NULL;
+    nullu.next_f32 = NULL;
+
+    /* version, status names, option defaults */
+    BAD_NULL(ml_version, ml_version(NULL, &u32s[0], &u32s[1]), "`major` is NULL");
+    BAD_VALUE(ml_version, ml_version(&u32s[0], MISALIGN(uint32_t, &u32s[1]), &u32s[2]),
+              ML_ERR_INVALID_ARGUMENT, "`minor` is misaligned");
+    OK(ml_version(&u32s[0], &u32s[1], &u32s[2]));
+    CHECK(u32s[0] == ML_VERSION_MAJOR && u32s[1] == ML_VERSION_MINOR && u32s[2] == ML_VERSION_PATCH);
+    BAD_NULL(ml_status_name, ml_status_name(ML_OK, NULL), "`out` is NULL");
+    BAD_VALUE(ml_status_name, ml_status_name(ML_OK, MISALIGN(const char *, dbl)),
+              ML_ERR_INVALID_ARGUMENT, "misaligned");
+    OK(ml_status_name(ML_ERR_FORMAT, &name));
+    CHECK(name != NULL && strcmp(name, "ML_ERR_FORMAT") == 0);
+    OK(ml_status_name(99, &name));
+    CHECK(name != NULL && strcmp(name, "unknown") == 0);
+    BAD_NULL(ml_build_options_default, ml_build_options_default(NULL), "`out`");
+    BAD_VALUE(ml_build_options_default, ml_build_options_default(MISALIGN(ml_build_options, dbl)),
+              ML_ERR_INVALID_ARGUMENT, "misaligned");
+    BAD_NULL(ml_cut_options_default, ml_cut_options_default(NULL), "`out`");
+    BAD_VALUE(ml_cut_options_default, ml_cut_options_default(MISALIGN(ml_cut_options, dbl)),
+              ML_ERR_INVALID_ARGUMENT, "misaligned");
+    BAD_NULL(ml_split_options_default, ml_split_options_default(NULL), "`out`");
+    BAD_VALUE(ml_split_options_default, ml_split_options_default(MISALIGN(ml_split_options, dbl)),
+              ML_ERR_INVALID_ARGUMENT, "misaligned");
+    BAD_NULL(ml_direct_params_default, ml_direct_params_default(NULL), "`out`");
+    BAD_VALUE(ml_direct_params_default, ml_direct_params_default(MISALIGN(ml_direct_params, &dp)),
+              ML_ERR_INVALID_ARGUMENT, "misaligned");
+    BAD_NULL(ml_acceptor_options_default, ml_acceptor_options_default(NULL), "`out`");
+    BAD_VALUE(ml_acceptor_options_default,
+              ml_acceptor_options_default(MISALIGN(ml_acceptor_options, &ao)),
+              ML_ERR_INVALID_ARGUMENT, "misaligned");
+
+    /* tree build: every kind of bad light */
+    memset(ls, 0, sizeof ls);
+    for (i = 0; i < 4; i++) {
+        ls[i].kind = ML_LIGHT_KIND_SPHERE;
+        ls[i].position = v3((float)i, 0, 2);
+        ls[i].radius = 0.1f;
+        ls[i].power = 1;
+    }
+    BAD_NULL(ml_tree_build, ml_tree_build(NULL, 3, NULL, &t), "`lights` is NULL");
+    BAD_NULL(ml_tree_build, ml_tree_build(ls, 4, NULL, NULL), "`out` is NULL");
+    ls[1].position.y = (float)NAN;
+    BAD_VALUE(ml_tree_build, ml_tree_build(ls, 4, NULL, &t), ML_ERR_INVALID_ARGUMENT,
+              "lights[1].position (the sphere light's centre) is NaN or infinite");
+    ls[1].position.y = 0;
+    ls[2].power = -1;
+    BAD_VALUE(ml_tree_build, ml_tree_build(ls, 4, NULL, &t), ML_ERR_INVALID_ARGUMENT,
+              "lights[2].power (the sphere light's radiance) is negative (got -1)");
+    ls[2].power = 1;
+    ls[3].radius = -1;
+    BAD_VALUE(ml_tree_build, ml_tree_build(ls, 4, NULL, &t), ML_ERR_INVALID_ARGUMENT,
+              "lights[3].radius must be positive (got -1)");
+    ls[3].radius = 0.1f;
+    ls[0].kind = 9;
+    BAD_VALUE(ml_tree_build, ml_tree_build(ls, 4, NULL, &t), ML_ERR_INVALID_ARGUMENT,
+              "lights[0].kind: 9 is not an ml_light_kind");
+    ls[0].kind = ML_LIGHT_KIND_DISK;
+    ls[0].direction = v3(0, 0, -1);
+    ls[0].two_sided = 2;
+    BAD_VALUE(ml_tree_build, ml_tree_build(ls, 4, NULL, &t), ML_ERR_INVALID_ARGUMENT,
+              "lights[0].two_sided must be 0 or 1");
+    ls[0].two_sided = 0;
+    ls[0].direction = v3(0, 0, 0);
+    BAD_VALUE(ml_tree_build, ml_tree_build(ls, 4, NULL, &t), ML_ERR_INVALID_ARGUMENT,
+              "lights[0].direction (the disk light's normal) has zero length");
+    ls[0].kind = ML_LIGHT_KIND_SPOT;
+    ls[0].direction = v3(0, 0, -1);
+    ls[0].half_angle = 4;
+    BAD_VALUE(ml_tree_build, ml_tree_build(ls, 4, NULL, &t), ML_ERR_INVALID_ARGUMENT,
+              "lights[0].half_angle is out of range (got 4)");
+    ls[0].half_angle = 0.5f;
+    BAD_VALUE(ml_tree_build, ml_tree_build(ls, (size_t)-1, NULL, &t), ML_ERR_INVALID_ARGUMENT,
+              "overflow");
+    bo.buckets = 5;
+    BAD_VALUE(ml_tree_build, ml_tree_build(ls, 4, &bo, &t), ML_ERR_INVALID_ARGUMENT,
+              "options.buckets must be 0 or in [12, 64] (got 5)");
+    CHECK(t == NULL); /* no output on failure */
+    bo.buckets = 32;
+    OK(ml_tree_build(ls, 4, &bo, &t));
+    FREE_NULL(ml_tree_free, ml_tree_free(NULL));
+
+    BAD_NULL(ml_tree_stats, ml_tree_stats(NULL, &st), "`tree` is NULL");
+    BAD_VALUE(ml_tree_stats, ml_tree_stats(tree, MISALIGN(ml_tree_statistics, &st)),
+              ML_ERR_INVALID_ARGUMENT, "`out` is misaligned");
+    BAD_NULL(ml_tree_serialized_size, ml_tree_serialized_size(tree, NULL), "`out`");
+    BAD_VALUE(ml_tree_serialized_size, ml_tree_serialized_size(MISALIGN(ml_tree, t), &sz),
+              ML_ERR_INVALID_ARGUMENT, "`tree` is misaligned");
+    BAD_NULL(ml_tree_serialize, ml_tree_serialize(t, NULL, 100, &written), "`buffer` is NULL");
+    written = 12345;
+    BAD_VALUE(ml_tree_serialize, ml_tree_serialize(t, buf, sizeof buf, &written),
+              ML_ERR_BUFFER_TOO_SMALL, "capacity: 64 bytes, the tree needs");
+    CHECK(written == 12345);
+    OK(ml_tree_serialized_size(t, &sz));
+    bytes = (uint8_t *)malloc(sz);
+    OK(ml_tree_serialize(t, bytes, sz, &written));
+    BAD_NULL(ml_tree_load, ml_tree_load(NULL, 10, &loaded), "`bytes` is NULL");
+    BAD_NULL(ml_tree_load, ml_tree_load(bytes, sz, NULL), "`out` is NULL");
+    bytes[0] ^= 1;
+    BAD_VALUE(ml_tree_load, ml_tree_load(bytes, sz, &loaded), ML_ERR_FORMAT, "bytes: not a manylights tree");
+    bytes[0] ^= 1;
+    BAD_VALUE(ml_tree_load, ml_tree_load(bytes, sz - 8, &loaded), ML_ERR_FORMAT, "truncated");
+    OK(ml_tree_load(bytes, sz, &loaded));
+    free(bytes);
+
+    /* sampling and pmfs */
+    p.position = v3(0, 0, 0);
+    p.normal = v3(0, 0, 1);
+    r.s = 3;
+    sp = make_sp(&r);
+    s.light = 777;
+    BAD_NULL(ml_tree_sample_tl, ml_tree_sample_tl(tree, NULL, 0.5f, &s), "`point` is NULL");
+    BAD_VALUE(ml_tree_sample_tl, ml_tree_sample_tl(tree, &p, 1.0f, &s), ML_ERR_INVALID_ARGUMENT,
+              "u must be in [0, 1) (got 1)");
+    BAD_VALUE(ml_tree_sample_tl, ml_tree_sample_tl(tree, &p, (float)NAN, &s),
+              ML_ERR_INVALID_ARGUMENT, "u must be in [0, 1) (got NaN)");
+    p.normal.x = (float)INFINITY;
+    BAD_VALUE(ml_tree_sample_tl, ml_tree_sample_tl(tree, &p, 0.5f, &s), ML_ERR_INVALID_ARGUMENT,
+              "point.normal is NaN or infinite (got inf)");
+    p.normal.x = 0;
+    CHECK(s.light == 777);
+    BAD_NULL(ml_tree_pmf_tl, ml_tree_pmf_tl(tree, &p, 0, NULL), "`out` is NULL");
+    BAD_VALUE(ml_tree_pmf_tl, ml_tree_pmf_tl(tree, &p, (uint32_t)n, &f), ML_ERR_INVALID_ARGUMENT,
+              "light: light index 10000 is out of range (the tree has 10000 lights)");
+    BAD_NULL(ml_tree_sample_bl, ml_tree_sample_bl(tree, NULL, 0.5f, &s), "`sp` is NULL");
+    sp.material.alpha = 0;
+    BAD_VALUE(ml_tree_sample_bl, ml_tree_sample_bl(tree, &sp, 0.5f, &s), ML_ERR_INVALID_ARGUMENT,
+              "sp.material.alpha must be in (0, 1] (got 0)");
+    sp.material.alpha = 0.3f;
+    sp.material.albedo = 2;
+    BAD_VALUE(ml_tree_sample_bl, ml_tree_sample_bl(tree, &sp, 0.5f, &s), ML_ERR_INVALID_ARGUMENT,
+              "sp.material.albedo must be in [0, 1] (got 2)");
+    sp.material.albedo = 0.5f;
+    sp.material.kind = 7;
+    BAD_VALUE(ml_tree_sample_bl, ml_tree_sample_bl(tree, &sp, 0.5f, &s), ML_ERR_INVALID_ARGUMENT,
+              "sp.material.kind: 7 is not an ml_material_kind");
+    sp.material.kind = ML_MATERIAL_KIND_GGX;
+    sp.wo = v3(0, 0, 0);
+    BAD_VALUE(ml_tree_sample_bl, ml_tree_sample_bl(tree, &sp, 0.5f, &s), ML_ERR_INVALID_ARGUMENT,
+              "sp.wo has zero length");
+    sp.wo = v3(0, 0.5f, 1);
+    BAD_NULL(ml_tree_pmf_bl, ml_tree_pmf_bl(NULL, &sp, 0, &f), "`tree` is NULL");
+    BAD_VALUE(ml_tree_pmf_bl, ml_tree_pmf_bl(tree, &sp, 4000000000u, &f), ML_ERR_INVALID_ARGUMENT,
+              "light index 4000000000 is out of range");
+
+    r.s = 11;
+    for (i = 0; i < 8; i++) {
+        pts[i] = make_tl_point(&r);
+        sps[i] = make_sp(&r);
+        us[i] = rng_f32(&r);
+        lights[i] = (uint32_t)i;
+    }
+    outs[0].light = 555;
+    BAD_NULL(ml_tree_sample_tl_batch, ml_tree_sample_tl_batch(tree, pts, NULL, 8, outs),
+             "`us` is NULL");
+    us[3] = -0.5f;
+    BAD_VALUE(ml_tree_sample_tl_batch, ml_tree_sample_tl_batch(tree, pts, us, 8, outs),
+              ML_ERR_INVALID_ARGUMENT, "us[3] must be in [0, 1) (got -0.5)");
+    us[3] = 0.25f;
+    pts[5].position.z = (float)NAN;
+    BAD_VALUE(ml_tree_sample_tl_batch, ml_tree_sample_tl_batch(tree, pts, us, 8, outs),
+              ML_ERR_INVALID_ARGUMENT, "points[5].position is NaN or infinite");
+    BAD_VALUE(ml_tree_sample_tl_batch, ml_tree_sample_tl_batch(tree, pts, us, (size_t)-1, outs),
+              ML_ERR_INVALID_ARGUMENT, "overflow");
+    CHECK(outs[0].light == 555);
+    BAD_NULL(ml_tree_pmf_tl_batch, ml_tree_pmf_tl_batch(tree, pts, lights, 8, NULL), "`out` is NULL");
+    pts[5].position.z = 0;
+    lights[2] = (uint32_t)n + 5;
+    BAD_VALUE(ml_tree_pmf_tl_batch, ml_tree_pmf_tl_batch(tree, pts, lights, 8, us),
+              ML_ERR_INVALID_ARGUMENT, "lights[2]: light index 10005 is out of range");
+    lights[2] = 2;
+    BAD_NULL(ml_tree_sample_bl_batch, ml_tree_sample_bl_batch(tree, NULL, us, 8, outs),
+             "`points` is NULL");
+    sps[1].material.alpha = 2;
+    BAD_VALUE(ml_tree_sample_bl_batch, ml_tree_sample_bl_batch(tree, sps, us, 8, outs),
+              ML_ERR_INVALID_ARGUMENT, "points[1].material.alpha must be in (0, 1] (got 2)");
+    sps[1].material.alpha = 0.5f;
+    BAD_NULL(ml_tree_pmf_bl_batch, ml_tree_pmf_bl_batch(tree, sps, NULL, 8, us), "`lights` is NULL");
+    lights[0] = (uint32_t)-1;
+    BAD_VALUE(ml_tree_pmf_bl_batch, ml_tree_pmf_bl_batch(tree, sps, lights, 8, us),
+              ML_ERR_INVALID_ARGUMENT, "lights[0]: light index 4294967295 is out of range");
+    lights[0] = 0;
+    /* Empty batches are fine, with NULL arrays. */
+    OK(ml_tree_sample_tl_batch(tree, NULL, NULL, 0, NULL));
+    OK(ml_tree_pmf_bl_batch(tree, NULL, NULL, 0, NULL));
+
+    /* points on lights */
+    BAD_NULL(ml_light_sample_point, ml_light_sample_point(tree, 0, v3(0, 0, 0), 0.5f, 0.5f, NULL),
+             "`out` is NULL");
+    BAD_VALUE(ml_light_sample_point, ml_light_sample_point(tree, 0, v3(0, 0, 0), 1.0f, 0.5f, &lp),
+              ML_ERR_INVALID_ARGUMENT, "u0 must be in [0, 1) (got 1)");
+    BAD_VALUE(ml_light_sample_point,
+              ml_light_sample_point(tree, (uint32_t)n, v3(0, 0, 0), 0.5f, 0.5f, &lp),
+              ML_ERR_INVALID_ARGUMENT, "light: light index 10000 is out of range");
+    BAD_VALUE(ml_light_sample_point,
+              ml_light_sample_point(tree, 0, v3((float)NAN, 0, 0), 0.5f, 0.5f, &lp),
+              ML_ERR_INVALID_ARGUMENT, "x is NaN or infinite");
+    BAD_VALUE(ml_light_sample_point, ml_light_sample_point(loaded, 0, v3(0, 0, 0), 0.5f, 0.5f, &lp),
+              ML_ERR_STATE, "no light descriptors");
+    BAD_NULL(ml_light_pdf_point, ml_light_pdf_point(NULL, 0, v3(0, 0, 0), v3(0, 0, 1), &f),
+             "`tree` is NULL");
+    BAD_VALUE(ml_light_pdf_point,
+              ml_light_pdf_point(tree, 0, v3(0, 0, 0), v3(0, (float)INFINITY, 1), &f),
+              ML_ERR_INVALID_ARGUMENT, "point is NaN or infinite");
+
+    /* cuts */
+    BAD_NULL(ml_cut_create, ml_cut_create(NULL), "`out` is NULL");
+    BAD_VALUE(ml_cut_create, ml_cut_create(MISALIGN(ml_cut *, dbl)), ML_ERR_INVALID_ARGUMENT,
+              "misaligned");
+    OK(ml_cut_create(&cut));
+    OK(ml_cut_create(&fresh));
+    FREE_NULL(ml_cut_free, ml_cut_free(NULL));
+    BAD_NULL(ml_cut_build, ml_cut_build(cut, tree, NULL, NULL), "`sp` is NULL");
+    BAD_NULL(ml_cut_build, ml_cut_build(NULL, tree, &sp, NULL), "`cut` is NULL");
+    OK(ml_cut_options_default(&co));
+    co.max_size = 100;
+    BAD_VALUE(ml_cut_build, ml_cut_build(cut, tree, &sp, &co), ML_ERR_INVALID_ARGUMENT,
+              "options.max_size must be in [4, 64] (got 100)");
+    co.max_size = 16;
+    co.delta = (float)NAN;
+    BAD_VALUE(ml_cut_build, ml_cut_build(cut, tree, &sp, &co), ML_ERR_INVALID_ARGUMENT,
+              "options.delta must be finite and non-negative");
+    co.delta = 0.5f;
+    OK(ml_cut_build(cut, tree, &sp, &co));
+    OK(ml_split_options_default(&so));
+    so.threshold = -1;
+    BAD_NULL(ml_cut_build_split, ml_cut_build_split(cut, NULL, &p, NULL), "`tree` is NULL");
+    BAD_VALUE(ml_cut_build_split, ml_cut_build_split(cut, tree, &p, &so), ML_ERR_INVALID_ARGUMENT,
+              "options.threshold must be finite and non-negative (got -1)");
+    BAD_NULL(ml_cut_size, ml_cut_size(cut, NULL), "`out` is NULL");
+    BAD_VALUE(ml_cut_size, ml_cut_size(fresh, &sz), ML_ERR_STATE, "cut: not built yet");
+    BAD_NULL(ml_cut_ib, ml_cut_ib(NULL, &f), "`cut` is NULL");
+    BAD_VALUE(ml_cut_ib, ml_cut_ib(fresh, &f), ML_ERR_STATE, "not built yet");
+    BAD_NULL(ml_cut_sample, ml_cut_sample(cut, 0.5f, NULL), "`out` is NULL");
+    BAD_VALUE(ml_cut_sample, ml_cut_sample(cut, 2.0f, &s), ML_ERR_INVALID_ARGUMENT,
+              "u must be in [0, 1) (got 2)");
+    BAD_NULL(ml_cut_pmf, ml_cut_pmf(cut, 0, NULL), "`out` is NULL");
+    BAD_VALUE(ml_cut_pmf, ml_cut_pmf(cut, (uint32_t)n, &f), ML_ERR_INVALID_ARGUMENT,
+              "light index 10000 is out of range");
+    OK(ml_cut_size(cut, &sz));
+    BAD_NULL(ml_cut_sample_clusters, ml_cut_sample_clusters(cut, NULL, 3, outs), "`us` is NULL");
+    BAD_VALUE(ml_cut_sample_clusters, ml_cut_sample_clusters(cut, us, sz == 3 ? 2 : 3, outs),
+              ML_ERR_INVALID_ARGUMENT, "count must be the cut's size");
+    BAD_NULL(ml_cut_pmf_in, ml_cut_pmf_in(cut, 0, NULL, &f), "`cluster` is NULL");
+    BAD_VALUE(ml_cut_pmf_in, ml_cut_pmf_in(cut, (uint32_t)n + 1, &u32s[0], &f), ML_ERR_INVALID_ARGUMENT,
+              "light index 10001 is out of range");
+
+    /* BRDFs */
+    BAD_NULL(ml_brdf_sample, ml_brdf_sample(NULL, 0.5f, 0.5f, &bd), "`sp` is NULL");
+    BAD_VALUE(ml_brdf_sample, ml_brdf_sample(&sp, 0.5f, 1.0f, &bd), ML_ERR_INVALID_ARGUMENT,
+              "u1 must be in [0, 1) (got 1)");
+    BAD_NULL(ml_brdf_pdf, ml_brdf_pdf(&sp, v3(0, 0, 1), NULL), "`out` is NULL");
+    BAD_VALUE(ml_brdf_pdf, ml_brdf_pdf(&sp, v3(0, 0, 0), &f), ML_ERR_INVALID_ARGUMENT,
+              "wi has zero length");
+    BAD_NULL(ml_brdf_eval, ml_brdf_eval(NULL, v3(0, 0, 1), &f), "`sp` is NULL");
+    BAD_VALUE(ml_brdf_eval, ml_brdf_eval(&sp, v3((float)NAN, 0, 1), &f), ML_ERR_INVALID_ARGUMENT,
+              "wi is NaN or infinite");
+
+    /* direct estimators */
+    BAD_NULL(ml_direct_estimate, ml_direct_estimate(tree, &sp, 0, NULL, NULL, NULL, &e),
+             "`uniforms` is NULL");
+    BAD_NULL(ml_direct_estimate, ml_direct_estimate(tree, &sp, 0, NULL, NULL, &nullu, &e),
+             "`uniforms->next_f32` is NULL");
+    BAD_VALUE(ml_direct_estimate, ml_direct_estimate(tree, &sp, 9, NULL, NULL, &u, &e),
+              ML_ERR_INVALID_ARGUMENT, "technique: 9 is not an ml_technique");
+    e = -7;
+    BAD_VALUE(ml_direct_estimate, ml_direct_estimate(tree, &sp, ML_TECHNIQUE_TL, NULL, NULL, &badu, &e),
+              ML_ERR_INVALID_ARGUMENT, "uniforms: a number from next_f32 or next_f64 is outside [0, 1) (got 1.5)");
+    CHECK(e == -7);
+    OK(ml_direct_params_default(&dp));
+    dp.n_max = 0;
+    BAD_VALUE(ml_direct_estimate, ml_direct_estimate(tree, &sp, 0, &dp, NULL, &u, &e),
+              ML_ERR_INVALID_ARGUMENT, "params.n_max must be in [1, 64] (got 0)");
+    dp.n_max = 50;
+    BAD_VALUE(ml_direct_estimate, ml_direct_estimate(loaded, &sp, 0, NULL, NULL, &u, &e), ML_ERR_STATE,
+              "loaded from bytes");
+    vis.occluded = NULL;
+    vis.first_hit = nan_hit;
+    vis.user_data = NULL;
+    BAD_VALUE(ml_direct_estimate, ml_direct_estimate(tree, &sp, ML_TECHNIQUE_TL, NULL, &vis, &u, &e),
+              ML_ERR_INVALID_ARGUMENT, "visibility->first_hit returned NaN");
+    BAD_NULL(ml_estimator_create, ml_estimator_create(NULL, &est), "`tree` is NULL");
+    BAD_VALUE(ml_estimator_create, ml_estimator_create(loaded, &est), ML_ERR_STATE, "loaded from bytes");
+    OK(ml_estimator_create(tree, &est));
+    FREE_NULL(ml_estimator_free, ml_estimator_free(NULL));
+    BAD_NULL(ml_estimator_estimate, ml_estimator_estimate(est, NULL, &u, NULL), "`out` is NULL");
+    BAD_VALUE(ml_estimator_estimate, ml_estimator_estimate(est, NULL, &u, &e), ML_ERR_STATE,
+              "est: not set up");
+    BAD_NULL(ml_estimator_start, ml_estimator_start(NULL), "`est` is NULL");
+    BAD_VALUE(ml_estimator_start, ml_estimator_start(est), ML_ERR_STATE, "not set up");
+    BAD_NULL(ml_estimator_set_point, ml_estimator_set_point(est, NULL, 0, NULL), "`sp` is NULL");
+    sp.normal.z = (float)NAN;
+    BAD_VALUE(ml_estimator_set_point, ml_estimator_set_point(est, &sp, 0, NULL),
+              ML_ERR_INVALID_ARGUMENT, "sp.normal is NaN or infinite");
+    sp.normal.z = 1;
+    dp.lambert = 7;
+    BAD_VALUE(ml_estimator_set_point, ml_estimator_set_point(est, &sp, 0, &dp),
+              ML_ERR_INVALID_ARGUMENT, "params.lambert: 7 is not an ml_lambert_mode");
+    dp.lambert = 0;
+    OK(ml_estimator_set_point(est, &sp, ML_TECHNIQUE_BL_MIS, &dp));
+    OK(ml_estimator_start(est));
+    BAD_NULL(ml_estimator_next, ml_estimator_next(est, NULL, &step), "`uniforms` is NULL");
+    BAD_VALUE(ml_estimator_next, ml_estimator_next(est, &badu, &step), ML_ERR_INVALID_ARGUMENT,
+              "outside [0, 1)");
+    BAD_NULL(ml_estimator_weigh, ml_estimator_weigh(est, 0, NULL), "`out` is NULL");
+    OK(ml_estimator_start(est));
+    BAD_VALUE(ml_estimator_weigh, ml_estimator_weigh(est, 0, &w), ML_ERR_STATE,
+              "no light step to weigh");
+    BAD_NULL(ml_estimator_bsdf_hits,
+             ml_estimator_bsdf_hits(est, v3(0, 0, 1), 1, (float)INFINITY, NULL, NULL, u32s), "`each` is NULL");
+    BAD_VALUE(ml_estimator_bsdf_hits,
+              ml_estimator_bsdf_hits(est, v3(0, 0, 1), 1, (float)INFINITY, on_hit, NULL, u32s),
+              ML_ERR_STATE, "no BSDF step to report");
+    /* Walk to the light step and the BSDF step of bl-mis, then give each a bad value. */
+    for (i = 0; i < 4; i++) {
+        OK(ml_estimator_next(est, &u, &step));
+        if (step.kind == ML_STEP_KIND_LIGHT) {
+            BAD_VALUE(ml_estimator_weigh, ml_estimator_weigh(est, (float)NAN, &w),
+                      ML_ERR_INVALID_ARGUMENT, "bsdf_pdf must be finite and non-negative (got NaN)");
+        } else if (step.kind == ML_STEP_KIND_BSDF) {
+            host_hit h = {0, 0, 0};
+            BAD_VALUE(ml_estimator_bsdf_hits,
+                      ml_estimator_bsdf_hits(est, v3(0, 0, 0), 1, (float)INFINITY, on_hit, &h, u32s),
+                      ML_ERR_INVALID_ARGUMENT, "direction must be finite and non-zero");
+            BAD_VALUE(ml_estimator_bsdf_hits,
+                      ml_estimator_bsdf_hits(est, v3(0, 0, 1), 1, -1, on_hit, &h, u32s),
+                      ML_ERR_INVALID_ARGUMENT, "hit_distance must be non-negative or +infinity (got -1)");
+        }
+    }
+    OK(ml_estimator_free(est));
+
+    /* VPL acceptance */
+    OK(ml_acceptor_options_default(&ao));
+    BAD_NULL(ml_acceptor_create, ml_acceptor_create(NULL, &acc), "`options` is NULL");
+    BAD_VALUE(ml_acceptor_create, ml_acceptor_create(&ao, &acc), ML_ERR_INVALID_ARGUMENT,
+              "options.pixels must be positive (got 0)");
+    ao.pixels = 100;
+    ao.wanted = 10;
+    ao.epsilon = -1;
+    BAD_VALUE(ml_acceptor_create, ml_acceptor_create(&ao, &acc), ML_ERR_INVALID_ARGUMENT,
+              "options.epsilon must be positive (got -1)");
+    CHECK(acc == NULL);
+    ao.epsilon = 0.05f;
+    OK(ml_acceptor_create(&ao, &acc));
+    FREE_NULL(ml_acceptor_free, ml_acceptor_free(NULL));
+    memset(imps, 0, sizeof imps);
+    for (i = 0; i < 4; i++) {
+        imps[i].hit = 1;
+        imps[i].normal = v3(0, 0, 1);
+        imps[i].wo = v3(0, 0, 1);
+        imps[i].material = lambert(0.5f);
+    }
+    BAD_NULL(ml_acceptor_set_importons, ml_acceptor_set_importons(acc, NULL, 4), "`importons` is NULL");
+    imps[2].normal = v3(0, 0, 0);
+    BAD_VALUE(ml_acceptor_set_importons, ml_acceptor_set_importons(acc, imps, 4),
+              ML_ERR_INVALID_ARGUMENT, "importons[2].normal has zero length");
+    imps[2].normal = v3(0, 0, 1);
+    imps[1].hit = 3;
+    BAD_VALUE(ml_acceptor_set_importons, ml_acceptor_set_importons(acc, imps, 4),
+              ML_ERR_INVALID_ARGUMENT, "importons[1].hit must be 0 or 1 (got 3)");
+    imps[1].hit = 1;
+    imps[3].material = plastic(2, 0.5f, 0.5f);
+    BAD_VALUE(ml_acceptor_set_importons, ml_acceptor_set_importons(acc, imps, 4),
+              ML_ERR_INVALID_ARGUMENT, "importons[3].material");
+    BAD_NULL(ml_acceptor_update, ml_acceptor_update(NULL, 1), "`acc` is NULL");
+    BAD_VALUE(ml_acceptor_update, ml_acceptor_update(acc, (double)NAN), ML_ERR_INVALID_ARGUMENT,
+              "frame_luminance is NaN or infinite");
+    BAD_VALUE(ml_acceptor_update, ml_acceptor_update(acc, -3), ML_ERR_INVALID_ARGUMENT,
+              "frame_luminance is negative (got -3)");
+    BAD_NULL(ml_acceptor_set_total_luminance, ml_acceptor_set_total_luminance(NULL, 1), "`acc` is NULL");
+    BAD_VALUE(ml_acceptor_set_total_luminance, ml_acceptor_set_total_luminance(acc, (double)INFINITY),
+              ML_ERR_INVALID_ARGUMENT, "total is NaN or infinite");
+    cand.position = v3(0, 0, 1);
+    cand.normal = v3(0, 0, -1);
+    cand.intensity = 1;
+    BAD_NULL(ml_acceptor_accept, ml_acceptor_accept(acc, NULL, 0.5f, NULL, &dec), "`candidate` is NULL");
+    BAD_VALUE(ml_acceptor_accept, ml_acceptor_accept(acc, &cand, 1.0f, NULL, &dec),
+              ML_ERR_INVALID_ARGUMENT, "xi must be in [0, 1) (got 1)");
+    vvis.visible = NULL;
+    vvis.user_data = NULL;
+    BAD_NULL(ml_acceptor_accept, ml_acceptor_accept(acc, &cand, 0.5f, &vvis, &dec),
+             "`visibility->visible` is NULL");
+    cand.intensity = -1;
+    BAD_VALUE(ml_acceptor_accept, ml_acceptor_accept(acc, &cand, 0.5f, NULL, &dec),
+              ML_ERR_INVALID_ARGUMENT, "candidate.intensity is negative (got -1)");
+    cand.intensity = 1;
+    cand.normal = v3(0, 0, 0);
+    BAD_NULL(ml_acceptor_probability, ml_acceptor_probability(acc, &cand, NULL, NULL), "`out` is NULL");
+    BAD_VALUE(ml_acceptor_probability, ml_acceptor_probability(acc, &cand, NULL, &f),
+              ML_ERR_INVALID_ARGUMENT, "candidate.normal has zero length");
+    BAD_NULL(ml_acceptor_stats, ml_acceptor_stats(acc, NULL), "`out` is NULL");
+    BAD_VALUE(ml_acceptor_stats, ml_acceptor_stats(acc, MISALIGN(ml_accept_stats, &ast)),
+              ML_ERR_INVALID_ARGUMENT, "misaligned");
+    BAD_NULL(ml_acceptor_reset_stats, ml_acceptor_reset_stats(NULL), "`acc` is NULL");
+    BAD_VALUE(ml_acceptor_reset_stats, ml_acceptor_reset_stats(MISALIGN(ml_acceptor, acc)),
+              ML_ERR_INVALID_ARGUMENT, "`acc` is misaligned");
+    OK(ml_acceptor_free(acc));
+
+    /* Handles given to the wrong functions' misaligned siblings. */
+    BAD_VALUE(ml_tree_free, ml_tree_free(MISALIGN(ml_tree, t)), ML_ERR_INVALID_ARGUMENT, "misaligned");
+    BAD_VALUE(ml_cut_free, ml_cut_free(MISALIGN(ml_cut, cut)), ML_ERR_INVALID_ARGUMENT, "misaligned");
+    BAD_VALUE(ml_estimator_free, ml_estimator_free(MISALIGN(ml_estimator, cut)),
+              ML_ERR_INVALID_ARGUMENT, "misaligned");
+    BAD_VALUE(ml_acceptor_free, ml_acceptor_free(MISALIGN(ml_acceptor, cut)), ML_ERR_INVALID_ARGUMENT,
+              "misaligned");
+    (void)q;
+    OK(ml_cut_free(cut));
+    OK(ml_cut_free(fresh));
+    OK(ml_tree_free(loaded));
+    OK(ml_tree_free(t));
+}
+
+#endif

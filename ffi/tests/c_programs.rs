@@ -1,0 +1,293 @@
+//! The C ABI from C and C++: compiles `tests/c/test_abi.c` (C99) and `tests/c/test_abi.cpp`
+//! (C++17) with `-Wall -Wextra -Werror -pedantic` against the static library and the
+//! committed header, runs them (under valgrind with `--error-exitcode=1 --leak-check=full
+//! --errors-for-leak-kinds=definite,indirect` when `ML_FFI_VALGRIND=1`), and then
+//!
+//! - replays their dump with the Rust core: the same lights built into a tree, the same
+//!   samples and pmfs, bit for bit;
+//! - checks that every function the header declares got a bad-input check with NULL and one
+//!   with an invalid value (the `cover` lines they print).
+//!
+//! The compilers are `$CC` / `$CXX` (default `cc` / `c++`).
+
+use glam::Vec3;
+use manylights::{BlImportance, Light, LightTree, Material, ShadingPoint, TlImportance};
+use std::collections::BTreeMap;
+use std::path::{Path, PathBuf};
+use std::process::Command;
+
+fn manifest_dir() -> PathBuf {
+    PathBuf::from(env!("CARGO_MANIFEST_DIR"))
+}
+
+/// The static library cargo built for this test run (the profile directory holds it).
+fn static_lib() -> PathBuf {
+    let exe = std::env::current_exe().expect("the test binary's path");
+    let deps = exe.parent().expect("deps directory");
+    let profile = deps.parent().expect("profile directory");
+    // deps first: the profile directory may hold a copy from an earlier `cargo build`.
+    for dir in [deps, profile] {
+        let p = dir.join("libmanylights_ffi.a");
+        if p.exists() {
+            return p;
+        }
+    }
+    panic!(
+        "libmanylights_ffi.a not found next to {} (build the package first)",
+        exe.display()
+    );
+}
+
+fn compile(source: &str, cpp: bool, out: &Path) {
+    let dir = manifest_dir();
+    let compiler = if cpp {
+        std::env::var("CXX").unwrap_or_else(|_| "c++".into())
+    } else {
+        std::env::var("CC").unwrap_or_else(|_| "cc".into())
+    };
+    let std_flag = if cpp { "-std=c++17" } else { "-std=c99" };
+    let status = Command::new(&compiler)
+        .args([
+            std_flag,
+            "-Wall",
+            "-Wextra",
+            "-Werror",
+            "-pedantic",
+            "-g",
+            "-O1",
+        ])
+        .arg("-I")
+        .arg(dir.join("include"))
+        .arg(dir.join("tests/c").join(source))
+        .arg(static_lib())
+        .args(["-lpthread", "-ldl", "-lm", "-lrt", "-lgcc_s", "-o"])
+        .arg(out)
+        .status()
+        .unwrap_or_else(|e| panic!("cannot run {compiler}: {e}"));
+    assert!(status.success(), "{compiler} failed on {source}");
+}
+
+/// Runs a test program (under valgrind if asked); returns its stdout.
+fn run(exe: &Path, dump: &Path) -> String {
+    let valgrind = std::env::var("ML_FFI_VALGRIND").is_ok_and(|v| v == "1");
+    let mut cmd = if valgrind {
+        let mut c = Command::new("valgrind");
+        c.args([
+            "--error-exitcode=1",
+            "--leak-check=full",
+            "--errors-for-leak-kinds=definite,indirect",
+            "--quiet",
+        ])
+        .arg(exe);
+        c
+    } else {
+        Command::new(exe)
+    };
+    let out = cmd.arg(dump).output().expect("the test program runs");
+    if valgrind {
+        eprintln!(
+            "{}: ran under valgrind, exit status {}",
+            exe.display(),
+            out.status
+        );
+    }
+    let stdout = String::from_utf8_lossy(&out.stdout).into_owned();
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    eprintln!("{stderr}");
+    assert!(
+        out.status.success(),
+        "{} failed ({}{}):\n{stdout}\n{stderr}",
+        exe.display(),
+        out.status,
+        if valgrind { ", under valgrind" } else { "" }
+    );
+    stdout
+}
+
+fn f(tok: &str) -> f32 {
+    f32::from_bits(u32::from_str_radix(tok, 16).expect("hex bits"))
+}
+
+fn v(t: &[&str]) -> Vec3 {
+    Vec3::new(f(t[0]), f(t[1]), f(t[2]))
+}
+
+/// The Rust light of a dumped `ml_light` (kind, two_sided, 13 numbers), written out here
+/// independently of the ABI's own conversion.
+fn light(t: &[&str]) -> Light {
+    let kind: u32 = t[0].parse().unwrap();
+    let two_sided = t[1] == "1";
+    let (p, d, v2) = (v(&t[2..5]), v(&t[5..8]), v(&t[8..11]));
+    let (power, radius, half, falloff) = (f(t[11]), f(t[12]), f(t[13]), f(t[14]));
+    match kind {
+        0 => Light::Point {
+            position: p,
+            intensity: power,
+        },
+        1 => Light::Spot {
+            position: p,
+            direction: d,
+            intensity: power,
+            half_angle: half,
+            falloff_start: falloff,
+        },
+        2 => Light::Sphere {
+            center: p,
+            radius,
+            radiance: power,
+        },
+        3 => Light::Disk {
+            center: p,
+            normal: d,
+            radius,
+            radiance: power,
+            two_sided,
+        },
+        4 => Light::Triangle {
+            vertices: [p, d, v2],
+            radiance: power,
+            two_sided,
+        },
+        _ => Light::Vpl {
+            position: p,
+            normal: d,
+            intensity: power,
+        },
+    }
+}
+
+fn shading_point(t: &[&str]) -> ShadingPoint {
+    let (albedo, specular, alpha) = (f(t[10]), f(t[11]), f(t[12]));
+    let material = match t[9] {
+        "0" => Material::Lambert { albedo },
+        "1" => Material::Ggx { alpha, specular },
+        _ => Material::Plastic {
+            albedo,
+            specular,
+            alpha,
+        },
+    };
+    ShadingPoint {
+        position: v(&t[0..3]),
+        normal: v(&t[3..6]),
+        wo: v(&t[6..9]),
+        material,
+    }
+}
+
+/// Replays a dump with the core; returns the number of values compared.
+fn replay(dump: &Path) -> usize {
+    let text = std::fs::read_to_string(dump).expect("the dump");
+    let mut lights = Vec::new();
+    let mut records = Vec::new();
+    for line in text.lines() {
+        let t: Vec<&str> = line.split_whitespace().collect();
+        match t[0] {
+            "L" => lights.push(light(&t[1..])),
+            _ => records.push(t),
+        }
+    }
+    assert_eq!(lights.len(), 10_000);
+    let tree = LightTree::build(&lights).expect("the dumped lights are valid");
+    let none = u32::MAX;
+    let mut compared = 0;
+    for t in &records {
+        let (light, pmf): (u32, u32) = (
+            t[t.len() - 2].parse().unwrap(),
+            u32::from_str_radix(t[t.len() - 1], 16).unwrap(),
+        );
+        match t[0] {
+            "S" | "Q" => {
+                let imp = TlImportance::new(v(&t[1..4]), v(&t[4..7]));
+                if t[0] == "S" {
+                    let s = tree.sample(&imp, f(t[7]));
+                    let (l, p) = s.map_or((none, 0), |s| (s.light, s.pmf.to_bits()));
+                    assert_eq!((l, p), (light, pmf), "TL sample: {t:?}");
+                } else {
+                    assert_eq!(tree.pmf(&imp, light).to_bits(), pmf, "TL pmf: {t:?}");
+                }
+            }
+            "B" | "P" => {
+                let imp = BlImportance::new(&shading_point(&t[1..14])).expect("a valid point");
+                if t[0] == "B" {
+                    let s = tree.sample(&imp, f(t[14]));
+                    let (l, p) = s.map_or((none, 0), |s| (s.light, s.pmf.to_bits()));
+                    assert_eq!((l, p), (light, pmf), "BL sample: {t:?}");
+                } else {
+                    assert_eq!(tree.pmf(&imp, light).to_bits(), pmf, "BL pmf: {t:?}");
+                }
+            }
+            other => panic!("unknown record {other}"),
+        }
+        compared += 1;
+    }
+    compared
+}
+
+/// The functions the header declares.
+fn header_functions() -> Vec<String> {
+    let header = std::fs::read_to_string(manifest_dir().join("include/manylights.h")).unwrap();
+    let mut names = Vec::new();
+    for line in header.lines() {
+        let line = line.trim_start();
+        let rest = line
+            .strip_prefix("ml_status ")
+            .or_else(|| line.strip_prefix("const char *"));
+        if let Some(name) = rest.and_then(|r| r.split('(').next()) {
+            if name.starts_with("ml_") {
+                names.push(name.to_string());
+            }
+        }
+    }
+    names
+}
+
+/// Every declared function has a NULL and an invalid-value check, except where none exists:
+/// `ml_last_error_message` (no argument).
+fn check_coverage(stdout: &str) -> (usize, usize) {
+    let mut cover: BTreeMap<String, (u32, u32)> = BTreeMap::new();
+    for line in stdout.lines() {
+        let t: Vec<&str> = line.split_whitespace().collect();
+        if t.first() == Some(&"cover") {
+            cover.insert(t[1].into(), (t[2].parse().unwrap(), t[3].parse().unwrap()));
+        }
+    }
+    let mut total = 0;
+    let functions = header_functions();
+    assert!(functions.len() > 40, "the header parse found {functions:?}");
+    for name in &functions {
+        if name == "ml_last_error_message" {
+            continue;
+        }
+        let (nulls, invalids) = cover.get(name).copied().unwrap_or((0, 0));
+        assert!(
+            nulls >= 1 && invalids >= 1,
+            "{name}: {nulls} NULL and {invalids} invalid-value checks"
+        );
+        total += (nulls + invalids) as usize;
+    }
+    (functions.len(), total)
+}
+
+fn program(source: &str, cpp: bool) {
+    let dir = PathBuf::from(env!("CARGO_TARGET_TMPDIR"));
+    let stem = source.replace('.', "_");
+    let exe = dir.join(&stem);
+    let dump = dir.join(format!("{stem}.dump"));
+    compile(source, cpp, &exe);
+    let stdout = run(&exe, &dump);
+    let compared = replay(&dump);
+    assert_eq!(compared, 2000);
+    let (functions, checks) = check_coverage(&stdout);
+    eprintln!("{source}: {compared} samples and pmfs equal to the core's; {checks} bad-input checks over {functions} functions");
+}
+
+#[test]
+fn c99_program() {
+    program("test_abi.c", false);
+}
+
+#[test]
+fn cpp17_program() {
+    program("test_abi.cpp", true);
+}

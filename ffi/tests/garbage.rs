@@ -1,0 +1,228 @@
+//! Arbitrary bit patterns through the C ABI, called from Rust: every call returns `ML_OK` or
+//! `ML_ERR_INVALID_ARGUMENT` (never `ML_ERR_INTERNAL`, a caught panic), an error leaves the
+//! outputs untouched and names the function, and a success never gives a NaN or a light of
+//! pmf 0. Seeded, so deterministic.
+
+use manylights_ffi::*;
+use std::ffi::CStr;
+use std::ptr;
+
+/// splitmix64.
+struct Bits(u64);
+
+impl Bits {
+    fn next(&mut self) -> u64 {
+        self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
+        let mut z = self.0;
+        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
+        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
+        z ^ (z >> 31)
+    }
+
+    /// A float that is often ordinary and sometimes anything at all (NaN, ±∞, subnormal,
+    /// huge, negative).
+    fn f32(&mut self) -> f32 {
+        let r = self.next();
+        match r % 8 {
+            0 => f32::from_bits((r >> 32) as u32),
+            1 => [
+                f32::NAN,
+                f32::INFINITY,
+                -f32::INFINITY,
+                0.0,
+                -0.0,
+                1e30,
+                -1e30,
+                1e-40,
+            ][(r >> 8) as usize % 8],
+            _ => ((r >> 40) as f32 / (1u64 << 24) as f32) * 8.0 - 4.0,
+        }
+    }
+
+    /// Uniform in [lo, hi), or one time in `wild` anything at all.
+    fn val(&mut self, lo: f32, hi: f32, wild: u64) -> f32 {
+        if wild > 0 && self.next() % wild == 0 {
+            return self.f32();
+        }
+        lo + (hi - lo) * ((self.next() >> 40) as f32 / (1u64 << 24) as f32)
+    }
+
+    fn vec3(&mut self) -> ml_vec3 {
+        ml_vec3 {
+            x: self.f32(),
+            y: self.f32(),
+            z: self.f32(),
+        }
+    }
+
+    fn small(&mut self, n: u64) -> u32 {
+        if self.next() % 10 == 0 {
+            self.next() as u32
+        } else {
+            (self.next() % n) as u32
+        }
+    }
+}
+
+fn message() -> String {
+    unsafe { CStr::from_ptr(ml_last_error_message()) }
+        .to_string_lossy()
+        .into_owned()
+}
+
+fn expect_ok_or_invalid(s: ml_status, function: &str) -> bool {
+    assert!(
+        s == ML_OK || s == ML_ERR_INVALID_ARGUMENT,
+        "{function} returned {s}: {}",
+        message()
+    );
+    if s != ML_OK {
+        assert!(
+            message().starts_with(&format!("{function}: ")),
+            "{}",
+            message()
+        );
+    }
+    s == ML_OK
+}
+
+fn sample_ok(s: &ml_light_sample, n: usize) {
+    if s.light == ML_NO_LIGHT {
+        assert_eq!(s.pmf, 0.0);
+    } else {
+        assert!((s.light as usize) < n);
+        assert!(s.pmf > 0.0 && s.pmf <= 1.0, "pmf {}", s.pmf);
+    }
+}
+
+#[test]
+fn arbitrary_lights_points_and_numbers() {
+    let mut b = Bits(0x5eed);
+    let mut built = 0;
+    for round in 0..1000 {
+        let n = 1 + (b.next() % 40) as usize;
+        // Half the rounds have one wild value in about 100, the others none.
+        let wild = if round % 2 == 0 { 100 } else { 0 };
+        let lights: Vec<ml_light> = (0..n)
+            .map(|_| {
+                let v3 = |b: &mut Bits| ml_vec3 {
+                    x: b.val(-4.0, 4.0, wild),
+                    y: b.val(-4.0, 4.0, wild),
+                    z: b.val(-4.0, 4.0, wild),
+                };
+                let half = b.val(0.1, 3.0, wild);
+                ml_light {
+                    kind: if wild > 0 {
+                        b.small(6)
+                    } else {
+                        (b.next() % 6) as u32
+                    },
+                    two_sided: (b.next() % 2) as u32,
+                    position: v3(&mut b),
+                    direction: v3(&mut b),
+                    vertex2: v3(&mut b),
+                    power: b.val(0.0, 2.0, wild),
+                    radius: b.val(0.01, 1.0, wild),
+                    half_angle: half,
+                    falloff_start: half * b.val(0.0, 1.0, wild),
+                }
+            })
+            .collect();
+        let mut tree: *mut ml_tree = ptr::null_mut();
+        let s = ml_tree_build(lights.as_ptr(), n, ptr::null(), &mut tree);
+        if !expect_ok_or_invalid(s, "ml_tree_build") {
+            assert!(tree.is_null(), "round {round}: an output on failure");
+            continue;
+        }
+        built += 1;
+        for _ in 0..50 {
+            // Points: ordinary ones, and now and then anything at all.
+            let w = 20;
+            let v3 = |b: &mut Bits| {
+                if b.next() % w == 0 {
+                    b.vec3()
+                } else {
+                    ml_vec3 {
+                        x: b.val(-5.0, 5.0, 0),
+                        y: b.val(-5.0, 5.0, 0),
+                        z: b.val(-5.0, 5.0, 0),
+                    }
+                }
+            };
+            let p = ml_tl_point {
+                position: v3(&mut b),
+                normal: v3(&mut b),
+            };
+            let sp = ml_shading_point {
+                position: v3(&mut b),
+                normal: v3(&mut b),
+                wo: v3(&mut b),
+                material: ml_material {
+                    kind: b.small(3),
+                    albedo: b.val(0.0, 1.0, w),
+                    specular: b.val(0.0, 1.0, w),
+                    alpha: b.val(0.0, 1.0, w),
+                },
+            };
+            let u = b.val(0.0, 1.0, w);
+            let light = b.small(n as u64 + 1);
+            let mut out = ml_light_sample {
+                light: 77,
+                pmf: -1.0,
+            };
+            let mut q = -1.0f32;
+            if expect_ok_or_invalid(
+                ml_tree_sample_tl(tree, &p, u, &mut out),
+                "ml_tree_sample_tl",
+            ) {
+                sample_ok(&out, n);
+            } else {
+                assert_eq!((out.light, out.pmf), (77, -1.0));
+            }
+            if expect_ok_or_invalid(ml_tree_pmf_tl(tree, &p, light, &mut q), "ml_tree_pmf_tl") {
+                assert!((0.0..=1.0).contains(&q));
+            }
+            if expect_ok_or_invalid(
+                ml_tree_sample_bl(tree, &sp, u, &mut out),
+                "ml_tree_sample_bl",
+            ) {
+                sample_ok(&out, n);
+            }
+            if expect_ok_or_invalid(ml_tree_pmf_bl(tree, &sp, light, &mut q), "ml_tree_pmf_bl") {
+                assert!((0.0..=1.0).contains(&q));
+            }
+            let mut lp = ml_light_point::default();
+            if expect_ok_or_invalid(
+                ml_light_sample_point(tree, light, p.position, u, b.val(0.0, 1.0, w), &mut lp),
+                "ml_light_sample_point",
+            ) && lp.pdf > 0.0
+            {
+                assert!(lp.pdf.is_finite() && lp.radiance.is_finite() && lp.distance > 0.0);
+            }
+            let mut d = ml_brdf_draw::default();
+            if expect_ok_or_invalid(
+                ml_brdf_sample(&sp, u, b.val(0.0, 1.0, w), &mut d),
+                "ml_brdf_sample",
+            ) {
+                assert!(d.pdf.is_finite() && d.pdf >= 0.0 && d.value.is_finite());
+            }
+            let mut cut: *mut ml_cut = ptr::null_mut();
+            assert_eq!(ml_cut_create(&mut cut), ML_OK);
+            if expect_ok_or_invalid(ml_cut_build(cut, tree, &sp, ptr::null()), "ml_cut_build") {
+                let mut ib = -1.0;
+                assert_eq!(ml_cut_ib(cut, &mut ib), ML_OK);
+                assert!(ib.is_finite() && ib >= 0.0);
+                if expect_ok_or_invalid(ml_cut_sample(cut, u, &mut out), "ml_cut_sample") {
+                    sample_ok(&out, n);
+                }
+            }
+            assert_eq!(ml_cut_free(cut), ML_OK);
+        }
+        assert_eq!(ml_tree_free(tree), ML_OK);
+    }
+    eprintln!("{built} of 1000 random light sets were valid");
+    assert!(
+        built > 300,
+        "only {built} of 1000 random light sets were valid"
+    );
+}

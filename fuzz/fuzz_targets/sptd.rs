@@ -1,0 +1,8 @@
+//! The `sptd` target: its input and checks are `manylights_fuzz_checks::sptd`'s (shared with
+//! the core's replay of `regressions/sptd/`, `tests/fuzz_regressions.rs`).
+#![no_main]
+
+use libfuzzer_sys::fuzz_target;
+use manylights_fuzz_checks::sptd::{check, Input};
+
+fuzz_target!(|input: Input| check(&input));
