@@ -361,10 +361,55 @@ struct Part {
     sums: Sums,
 }
 
+/// The bits of a cone, what [`quantize::encode_cone`] reads.
+fn cone_key(c: &Cone) -> [u32; 5] {
+    [
+        c.axis.x.to_bits(),
+        c.axis.y.to_bits(),
+        c.axis.z.to_bits(),
+        c.theta_o.to_bits(),
+        c.theta_e.to_bits(),
+    ]
+}
+
+/// [`quantize::encode_cone`] with its codes of [`Cone::SPHERE`] (the cone of every
+/// omnidirectional light and of most clusters above them) and of the last cone it coded
+/// kept: the same words, without the trigonometry for repeated cones.
+struct ConeCodes {
+    sphere: ([u32; 5], u32),
+    last: ([u32; 5], u32),
+}
+
+impl ConeCodes {
+    fn new() -> ConeCodes {
+        let sphere = (
+            cone_key(&Cone::SPHERE),
+            quantize::encode_cone(&Cone::SPHERE),
+        );
+        ConeCodes {
+            sphere,
+            last: sphere,
+        }
+    }
+
+    #[inline]
+    fn code(&mut self, c: &Cone) -> u32 {
+        let key = cone_key(c);
+        if key == self.sphere.0 {
+            return self.sphere.1;
+        }
+        if key != self.last.0 {
+            self.last = (key, quantize::encode_cone(c));
+        }
+        self.last.1
+    }
+}
+
 struct Collapser<'a> {
     bin: &'a [BinNode],
     plans: Vec<Plan>,
     free: FreeTable,
+    cones: ConeCodes,
     nodes: Vec<Node4>,
     variances: Vec<u16>,
     leaves: Vec<u32>,
@@ -473,7 +518,7 @@ impl Collapser<'_> {
         out.mask = mask;
         for (k, p) in parts.iter().enumerate() {
             out.sphere[k] = words[k];
-            out.cone[k] = quantize::encode_cone(&p.cone);
+            out.cone[k] = self.cones.code(&p.cone);
             out.set_energy_code(k, quantize::encode_energy(p.energy));
             count += p.sums.count;
             sum += p.sums.energy;
@@ -518,6 +563,7 @@ pub(crate) fn collapse(
         bin: &bin.nodes,
         plans: plan(&bin.nodes, &free, if compact { FREE_MAX } else { 1 }),
         free,
+        cones: ConeCodes::new(),
         nodes: Vec::with_capacity(bin.nodes.len() / 5 + 1),
         variances: Vec::with_capacity(bin.nodes.len() / 5 + 1),
         leaves: Vec::with_capacity(n_leaves),
