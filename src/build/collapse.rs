@@ -419,8 +419,9 @@ struct Collapser<'a> {
 
 impl Collapser<'_> {
     /// Lays out node `node` from `src` (an inner binary node, a free-form run, or the lone
-    /// light of a one-light tree), then, depth
-    /// first, its children, and quantises it. Returns the sums of its lights.
+    /// light of a one-light tree), then, depth first, its children, and quantises it. Returns
+    /// the sums of its lights. The paths widen to 64 bits (one copy) once a level passes
+    /// [`SHORT_PATH_DEPTH`].
     fn fill(&mut self, node: usize, src: Src, path: u64, level: u32) -> Result<Sums, BuildError> {
         if level >= MAX_DEPTH {
             return Err(BuildError::TooDeep { depth: level + 1 });
