@@ -7,6 +7,7 @@
 //! child's index is stored. Descent evaluates both children with [`TlImportance::eval`] and
 //! never allocates; the same fallback and vanishing-light rules as [`crate::sample`] apply.
 
+use crate::build::saoh::children;
 use crate::build::{binary, BuildOptions};
 use crate::error::BuildError;
 use crate::importance::TlImportance;
@@ -79,27 +80,38 @@ impl BinaryLightTree {
     ) -> Result<BinaryLightTree, BuildError> {
         let bin = binary(lights, opts)?;
         let mut paths = vec![0u64; lights.len()];
-        let nodes: Vec<BinaryNode> = bin
-            .nodes
-            .iter()
-            .map(|b| {
-                let c = &b.bounds.cone;
-                let (sin_o, cos_o) = math::sin_cos(c.theta_o);
-                BinaryNode {
-                    center: b.bounds.sphere.center.to_array(),
-                    radius: b.bounds.sphere.radius,
-                    axis: c.axis.to_array(),
-                    cos_o,
-                    sin_o: sin_o.max(0.0),
-                    cos_e: math::cos(c.theta_e),
-                    energy: b.bounds.energy,
-                    child: match b.light {
-                        Some(l) => LEAF_BIT | l,
-                        None => b.right,
-                    },
+        // The binary tree in depth-first order (a left child follows its parent; the right
+        // child follows the left child's subtree of 2·count − 1 nodes).
+        let mut nodes: Vec<BinaryNode> = Vec::with_capacity(bin.nodes.len());
+        let mut stack = Vec::new();
+        if !bin.nodes.is_empty() {
+            stack.push(0usize);
+        }
+        while let Some(i) = stack.pop() {
+            let b = &bin.nodes[i];
+            let c = &b.bounds.cone;
+            let (sin_o, cos_o) = math::sin_cos(c.theta_o);
+            let child = match b.light {
+                Some(l) => LEAF_BIT | l,
+                None => {
+                    let (l, r) = children(&bin.nodes, i);
+                    stack.push(r);
+                    stack.push(l);
+                    (nodes.len() + 2 * bin.nodes[l].count as usize) as u32
                 }
-            })
-            .collect();
+            };
+            nodes.push(BinaryNode {
+                center: b.bounds.sphere.center.to_array(),
+                radius: b.bounds.sphere.radius,
+                axis: c.axis.to_array(),
+                cos_o,
+                sin_o: sin_o.max(0.0),
+                cos_e: math::cos(c.theta_e),
+                energy: b.bounds.energy,
+                child,
+            });
+        }
+        drop(bin);
         // Paths: 1 bit per level (0 = left), below a marker bit.
         let mut stack = vec![(0usize, 1u64)];
         while let Some((i, path)) = stack.pop() {

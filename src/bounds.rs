@@ -55,6 +55,21 @@ impl Aabb {
         }
     }
 
+    /// [`Aabb::grow`] by a point in a 16-byte lane.
+    #[inline(always)]
+    pub(crate) fn grow_a(self, p: Vec3A) -> Aabb {
+        Aabb {
+            min: self.min.min(p),
+            max: self.max.max(p),
+        }
+    }
+
+    /// [`Aabb::center`] in a 16-byte lane.
+    #[inline(always)]
+    pub(crate) fn center_a(&self) -> Vec3A {
+        (self.min + self.max) * 0.5
+    }
+
     /// True when the box holds no point.
     pub fn is_empty(&self) -> bool {
         self.min.x > self.max.x || self.min.y > self.max.y || self.min.z > self.max.z

@@ -240,6 +240,12 @@ impl Light {
     /// Checks every field; `index` is the light's position in the caller's list, used in the
     /// error.
     pub fn validate(&self, index: usize) -> Result<(), BuildError> {
+        self.validated_energy(index).map(|_| ())
+    }
+
+    /// [`Light::validate`], returning the light's [`Light::energy`] when it is valid (the
+    /// check computes it).
+    pub(crate) fn validated_energy(&self, index: usize) -> Result<f32, BuildError> {
         match *self {
             Light::Point {
                 position,
@@ -340,7 +346,7 @@ impl Light {
             };
             return Err(invalid(index, field, Problem::EnergyTooLarge, e as f32));
         }
-        Ok(())
+        Ok(e as f32)
     }
 
     /// Emitting area (0 for point, spot and virtual point lights).
@@ -402,7 +408,11 @@ impl Light {
     /// The light's bounds: box, tight bounding sphere, orientation cone and energy.
     /// Valid only for a light that passed [`Light::validate`].
     pub fn bounds(&self) -> LightBounds {
-        let energy = self.energy();
+        self.bounds_with_energy(self.energy())
+    }
+
+    /// [`Light::bounds`] of a light whose [`Light::energy`] is `energy`.
+    pub(crate) fn bounds_with_energy(&self, energy: f32) -> LightBounds {
         let (aabb, sphere, cone) = match *self {
             Light::Point { position, .. } => (
                 Aabb::point(position),

@@ -5,22 +5,31 @@
 //! under the node)`: the number of nodes (the memory a tree takes) traded against the sum of
 //! all lights' depths. Slots are binary clusters, opened costlier child first on ties, as
 //! wide-BVH collapsing does; and, with [`crate::BuildOptions::compact`], a subtree of at most
-//! [`FREE_MAX`] lights may instead be packed free-form, its lights (in the binary tree's depth-first order, which keeps
-//! neighbours together) grouped into consecutive runs so that its nodes are full — the binary
-//! tree alone leaves many nodes of two or three lights at the bottom.
+//! [`FREE_MAX`] lights may instead be packed free-form, its lights (in the binary tree's
+//! left-to-right order, which keeps neighbours together) grouped into consecutive runs so that
+//! its nodes are full — the binary tree alone leaves many nodes of two or three lights at the
+//! bottom.
 //!
 //! **What the slots store.** The nodes are laid out top-down (the inner children of a node
-//! consecutive, its lights consecutive in the leaf array), then quantised bottom-up: a light
-//! slot bounds the light's exact bounds, an inner slot bounds the *decoded* bounds of its
-//! child's slots (their enclosing sphere, the union of their cones, the sum of their
-//! energies), and each is rounded outwards by `quantize`. So every decoded slot contains its
-//! children's decoded slots, and by induction every light below it.
+//! consecutive, its lights consecutive in the leaf array), and each is quantised as soon as
+//! its children are: a light slot bounds the light's exact bounds, an inner slot the exact
+//! bounds of the lights below it (the binary cluster's sphere and cone, or those enclosing a
+//! free-form run's lights) and the sum of their energies, each rounded outwards by
+//! `quantize`. Rounding never compounds: a slot need not contain its child's slots, only the
+//! lights below it.
+//!
+//! **Memory.** The binary tree's leaves are contiguous per subtree, so a free-form run is a
+//! range of them. Only inner binary nodes have a plan (16 bytes). The layout and the
+//! quantisation are one depth-first walk that returns each node's energy sums to its parent,
+//! so nothing per node is kept besides the finished arrays; the paths are written in their
+//! final width (32 bits while the tree is at most [`SHORT_PATH_DEPTH`] deep, widened once if
+//! it gets deeper).
 
-use super::saoh::{BinNode, BinTree};
-use crate::bounds::{Cone, LightBounds, Sphere};
+use super::saoh::{children, BinNode, BinTree};
+use crate::bounds::{Cone, Sphere};
 use crate::error::BuildError;
 use crate::quantize;
-use crate::tree::{LightTree, Node4, Paths, MAX_DEPTH};
+use crate::tree::{LightTree, Node4, Paths, MAX_DEPTH, SHORT_PATH_DEPTH};
 use alloc::vec;
 use alloc::vec::Vec;
 
@@ -31,7 +40,7 @@ const NODE_WEIGHT: u64 = 8;
 /// Largest subtree (in lights) the collapse may pack free-form.
 pub(crate) const FREE_MAX: usize = 16;
 
-/// `Plan::split` value of a free-form cover.
+/// `split` value of a free-form cover.
 const FREE: u8 = u8::MAX;
 
 /// The free-form packing of a run of `m ≤ FREE_MAX` consecutive lights into at most `k`
@@ -75,35 +84,105 @@ impl FreeTable {
     }
 }
 
-/// Per binary node, the result of the collapse's dynamic programme: `g[k]` is the objective
-/// below a set of at most `k` slots covering the node's subtree (`g[1]`: the node kept as one
-/// slot), and `split[k]` how that set is formed (0 = keep the node as one slot, `j` = open
-/// it, giving `j` slots to the left child and `k − j` to the right, [`FREE`] = free-form);
-/// `own_free`: the node's own 4 slots, when it is one node, are free-form.
+/// Per inner binary node, the result of the collapse's dynamic programme: `g(k)` is the
+/// objective below a set of at most `k` slots covering the node's subtree (`g(1)`: the node
+/// kept as one slot), and `split(k)` how that set is formed (0 = keep the node as one slot,
+/// `j` = open it, giving `j` slots to the left child and `k − j` to the right, [`FREE`] =
+/// free-form); `own_free`: the node's own 4 slots, when it is one node, are free-form. A leaf
+/// has no plan: its `g` and `split` are all 0.
+///
+/// Packed into 16 bytes: `g(2)`, `g(3)`, `g(4)` as 40-bit numbers in bits 0–119, the splits
+/// for k = 2, 3, 4 in 2, 2 and 3 bits (bits 120–126, [`FREE`] as all ones) and `own_free` in
+/// bit 127. `g(1)` is `g(4) + NODE_WEIGHT + count` (the node as a 4-wide node of its own takes
+/// its best 4-slot cover), so it is not stored. Every `g` is at most the root's `g(1)`, which
+/// is at most `Σ_inner (NODE_WEIGHT + count) ≤ (NODE_WEIGHT + MAX_DEPTH) · n < 2^37` for
+/// `n < 2^31` lights, so 40 bits always hold it.
 #[derive(Clone, Copy, Default)]
-struct Plan {
-    g: [u64; 5],
-    split: [u8; 5],
-    own_free: bool,
+struct Plan(u128);
+
+const G_BITS: u32 = 40;
+const G_MASK: u64 = (1 << G_BITS) - 1;
+
+/// (shift, mask) of `split(k)` for k = 2, 3, 4.
+const SPLIT_FIELDS: [(u32, u8); 3] = [(120, 3), (122, 3), (124, 7)];
+
+impl Plan {
+    /// `g` holds `g(2), g(3), g(4)`, `split` the splits for k = 2, 3, 4.
+    fn new(g: [u64; 3], split: [u8; 3], own_free: bool) -> Plan {
+        debug_assert!(g.iter().all(|&v| v <= G_MASK));
+        debug_assert!(split[0] <= 1 || split[0] == FREE);
+        debug_assert!(split[1] <= 2 || split[1] == FREE);
+        debug_assert!(split[2] <= 3 || split[2] == FREE);
+        let mut p = 0u128;
+        for (i, &v) in g.iter().enumerate() {
+            p |= u128::from(v & G_MASK) << (G_BITS * i as u32);
+        }
+        for (&s, &(shift, mask)) in split.iter().zip(&SPLIT_FIELDS) {
+            p |= u128::from(s & mask) << shift;
+        }
+        p |= u128::from(own_free) << 127;
+        Plan(p)
+    }
+
+    /// `g(k)` for `k` in 2..=4.
+    #[inline]
+    fn g(self, k: usize) -> u64 {
+        (self.0 >> (G_BITS * (k as u32 - 2))) as u64 & G_MASK
+    }
+
+    /// `split(k)` for `k` in 2..=4 ([`FREE`] for a free-form cover).
+    #[inline]
+    fn split(self, k: usize) -> u8 {
+        let (shift, mask) = SPLIT_FIELDS[k - 2];
+        let s = (self.0 >> shift) as u8 & mask;
+        if s == mask {
+            FREE
+        } else {
+            s
+        }
+    }
+
+    /// Whether the node's own 4 slots are free-form.
+    #[inline]
+    fn own_free(self) -> bool {
+        self.0 >> 127 != 0
+    }
 }
 
-/// Computes the plans bottom-up. Opening is preferred on ties, so the tree stays shallow;
-/// among equal counts, the split giving the costlier child more slots wins; a free-form
-/// cover is taken only when strictly cheaper than the binary one.
+/// `g(k)` of binary node `b` for `k` in 1..=4 (index 0 unused).
+#[inline]
+fn g_of(bin: &[BinNode], plans: &[Plan], b: usize) -> [u64; 5] {
+    if bin[b].light.is_some() {
+        return [0; 5];
+    }
+    let p = plans[b];
+    let g4 = p.g(4);
+    [
+        0,
+        g4 + NODE_WEIGHT + u64::from(bin[b].count),
+        p.g(2),
+        p.g(3),
+        g4,
+    ]
+}
+
+/// Computes the plans bottom-up (children follow their parent among the inner nodes, and
+/// leaves come last). Opening is preferred on ties, so the tree stays shallow; among equal
+/// counts, the split giving the costlier child more slots wins; a free-form cover is taken
+/// only when strictly cheaper than the binary one.
 fn plan(bin: &[BinNode], free: &FreeTable, free_max: usize) -> Vec<Plan> {
-    let mut plans = vec![Plan::default(); bin.len()];
-    for b in (0..bin.len()).rev() {
-        if bin[b].light.is_some() {
-            continue; // a leaf is one slot and needs no node: all zero
-        }
-        let (l, r) = (b + 1, bin[b].right as usize);
-        let (pl, pr) = (plans[l], plans[r]);
+    let inner = bin.len() / 2;
+    let mut plans = vec![Plan::default(); inner];
+    for b in (0..inner).rev() {
+        let (l, r) = children(bin, b);
+        let (pl, pr) = (g_of(bin, &plans, l), g_of(bin, &plans, r));
+        let left_costlier = bin[l].cost >= bin[r].cost;
         let best_open = |k: usize| -> (u64, u8) {
             let mut best = (u64::MAX, 0u8);
             for j in 1..k {
-                let c = pl.g[j].saturating_add(pr.g[k - j]);
-                let better = c < best.0
-                    || (c == best.0 && (bin[l].cost >= bin[r].cost) == (j > usize::from(best.1)));
+                let c = pl[j].saturating_add(pr[k - j]);
+                let better =
+                    c < best.0 || (c == best.0 && left_costlier == (j > usize::from(best.1)));
                 if better {
                     best = (c, j as u8);
                 }
@@ -118,35 +197,38 @@ fn plan(bin: &[BinNode], free: &FreeTable, free_max: usize) -> Vec<Plan> {
                 u64::MAX
             }
         };
-        let mut p = Plan::default();
-        let open4 = best_open(4).0;
-        p.own_free = free_cost(4) < open4;
+        let open4 = best_open(4);
+        let own_free = free_cost(4) < open4.0;
         let own = open4
+            .0
             .min(free_cost(4))
             .saturating_add(NODE_WEIGHT + u64::from(bin[b].count));
-        p.g[1] = own;
+        let mut g = [0u64; 3];
+        let mut split = [0u8; 3];
         for k in 2..=4 {
-            let (mut open, mut j) = best_open(k);
+            let (mut open, mut j) = if k == 4 { open4 } else { best_open(k) };
             if free_cost(k) < open {
                 (open, j) = (free_cost(k), FREE);
             }
             if open <= own {
-                p.g[k] = open;
-                p.split[k] = j;
+                g[k - 2] = open;
+                split[k - 2] = j;
             } else {
-                p.g[k] = own;
+                g[k - 2] = own;
             }
         }
-        plans[b] = p;
+        debug_assert_eq!(g[2] + NODE_WEIGHT + u64::from(bin[b].count), own);
+        plans[b] = Plan::new(g, split, own_free);
     }
     plans
 }
 
-/// A run of consecutive lights (binary leaf indices) packed free-form.
+/// A run of consecutive binary leaves (`len` of them from index `start` of the binary tree)
+/// packed free-form.
 #[derive(Clone, Copy)]
 struct Run {
-    leaves: [u32; FREE_MAX],
-    len: usize,
+    start: u32,
+    len: u32,
 }
 
 /// What becomes one slot.
@@ -158,39 +240,32 @@ enum Src {
     Run(Run),
 }
 
-/// The binary leaves of subtree `b` (at most [`FREE_MAX`] lights) in depth-first order.
+/// The binary leaves of subtree `b` (at most [`FREE_MAX`] lights), left to right.
 fn run_of(bin: &[BinNode], b: usize) -> Run {
-    let mut run = Run {
-        leaves: [0; FREE_MAX],
-        len: 0,
-    };
-    let end = (b + 2 * bin[b].count as usize - 1).min(bin.len());
-    for (i, n) in bin[b..end].iter().enumerate() {
-        if n.light.is_some() && run.len < FREE_MAX {
-            run.leaves[run.len] = (b + i) as u32;
-            run.len += 1;
-        }
+    let n = &bin[b];
+    debug_assert!(n.count as usize <= FREE_MAX);
+    Run {
+        start: (bin.len() / 2 + n.first()) as u32,
+        len: n.count,
     }
-    run
 }
 
 /// Appends the slots of the free-form cover of `run` with at most `k` slots.
-fn free_slots(free: &FreeTable, run: &Run, k: usize, out: &mut ([Src; 4], usize)) {
+fn free_slots(free: &FreeTable, run: Run, k: usize, out: &mut ([Src; 4], usize)) {
+    let len = run.len as usize;
     let mut start = 0;
     let mut k = k;
-    while start < run.len {
-        let m = run.len - start;
+    while start < len {
+        let m = len - start;
         let s = usize::from(free.first[m][k]).clamp(1, m);
-        if s == 1 {
-            out.0[out.1] = Src::Bin(run.leaves[start] as usize);
+        out.0[out.1] = if s == 1 {
+            Src::Bin(run.start as usize + start)
         } else {
-            let mut sub = Run {
-                leaves: [0; FREE_MAX],
-                len: s,
-            };
-            sub.leaves[..s].copy_from_slice(&run.leaves[start..start + s]);
-            out.0[out.1] = Src::Run(sub);
-        }
+            Src::Run(Run {
+                start: run.start + start as u32,
+                len: s as u32,
+            })
+        };
         out.1 += 1;
         start += s;
         k = k.saturating_sub(1).max(1);
@@ -207,7 +282,7 @@ fn frontier(
     out: &mut ([Src; 4], usize),
 ) {
     let j = if k >= 2 && bin[b].light.is_none() {
-        plans[b].split[k]
+        plans[b].split(k)
     } else {
         0
     };
@@ -216,11 +291,12 @@ fn frontier(
             out.0[out.1] = Src::Bin(b);
             out.1 += 1;
         }
-        FREE => free_slots(free, &run_of(bin, b), k, out),
+        FREE => free_slots(free, run_of(bin, b), k, out),
         j => {
             let j = usize::from(j);
-            frontier(bin, plans, free, b + 1, j, out);
-            frontier(bin, plans, free, bin[b].right as usize, k - j, out);
+            let (l, r) = children(bin, b);
+            frontier(bin, plans, free, l, j, out);
+            frontier(bin, plans, free, r, k - j, out);
         }
     }
 }
@@ -228,14 +304,15 @@ fn frontier(
 /// The up-to-four slots of the node that inner binary node `b` becomes.
 fn open(bin: &[BinNode], plans: &[Plan], free: &FreeTable, b: usize) -> ([Src; 4], usize) {
     let mut out = ([Src::Bin(0); 4], 0usize);
-    if plans[b].own_free {
-        free_slots(free, &run_of(bin, b), 4, &mut out);
+    if plans[b].own_free() {
+        free_slots(free, run_of(bin, b), 4, &mut out);
         return out;
     }
-    let (l, r) = (b + 1, bin[b].right as usize);
+    let (l, r) = children(bin, b);
+    let (gl, gr) = (g_of(bin, plans, l), g_of(bin, plans, r));
     let mut best = (u64::MAX, 1);
     for j in 1..4 {
-        let c = plans[l].g[j].saturating_add(plans[r].g[4 - j]);
+        let c = gl[j].saturating_add(gr[4 - j]);
         if c < best.0 {
             best = (c, j);
         }
@@ -245,186 +322,221 @@ fn open(bin: &[BinNode], plans: &[Plan], free: &FreeTable, b: usize) -> ([Src; 4
     out
 }
 
-/// The exact bounds of a free-form run's lights: the sphere enclosing theirs and the union of
-/// their cones.
-fn exact_of_run(bin: &[BinNode], run: &Run) -> (Sphere, Cone) {
-    let mut spheres = [Sphere::enclosing(&[]); FREE_MAX];
-    let mut cone: Option<Cone> = None;
-    for (i, &b) in run.leaves[..run.len].iter().enumerate() {
-        let bounds = &bin[b as usize].bounds;
-        spheres[i] = bounds.sphere;
-        cone = Some(cone.map_or(bounds.cone, |c| c.union(bounds.cone)));
+/// The exact bounds of what `src` covers: a binary node's sphere and cone, or for a free-form
+/// run the sphere enclosing its lights' and the union of their cones.
+fn exact_of(bin: &[BinNode], src: Src) -> (Sphere, Cone) {
+    match src {
+        Src::Bin(b) => (bin[b].bounds.sphere, bin[b].bounds.cone),
+        Src::Run(run) => {
+            let leaves = &bin[run.start as usize..(run.start + run.len) as usize];
+            let mut spheres = [Sphere::enclosing(&[]); FREE_MAX];
+            let mut cone: Option<Cone> = None;
+            for (s, leaf) in spheres.iter_mut().zip(leaves) {
+                *s = leaf.bounds.sphere;
+                cone = Some(cone.map_or(leaf.bounds.cone, |c| c.union(leaf.bounds.cone)));
+            }
+            (
+                Sphere::enclosing(&spheres[..leaves.len()]),
+                cone.unwrap_or(Cone::SPHERE),
+            )
+        }
     }
-    (
-        Sphere::enclosing(&spheres[..run.len]),
-        cone.unwrap_or(Cone::SPHERE),
-    )
 }
 
-/// A slot of the laid-out tree before quantisation.
+/// What a slot's parent needs of the lights below it: their number and the sums of their
+/// energies and squared energies (in f64, summed in slot order).
 #[derive(Clone, Copy)]
-enum Laid {
-    Empty,
-    /// A light: the binary leaf holding its bounds.
-    Light(u32),
-    /// An inner node.
-    Node(u32),
-}
-
-/// The decoded bounds of a whole node (what its parent's slot must contain) and the sums of
-/// its lights' energies and squared energies.
-#[derive(Clone, Copy)]
-struct Summary {
-    bounds: LightBounds,
+struct Sums {
     count: u32,
-    energy_sum: f64,
-    energy_sq_sum: f64,
+    energy: f64,
+    energy_sq: f64,
+}
+
+/// One slot's exact bounds and the sums of its lights.
+#[derive(Clone, Copy)]
+struct Part {
+    sphere: Sphere,
+    cone: Cone,
+    energy: f32,
+    sums: Sums,
+}
+
+/// The bits of a cone, what [`quantize::encode_cone`] reads.
+fn cone_key(c: &Cone) -> [u32; 5] {
+    [
+        c.axis.x.to_bits(),
+        c.axis.y.to_bits(),
+        c.axis.z.to_bits(),
+        c.theta_o.to_bits(),
+        c.theta_e.to_bits(),
+    ]
+}
+
+/// [`quantize::encode_cone`] with its codes of [`Cone::SPHERE`] (the cone of every
+/// omnidirectional light and of most clusters above them) and of the last cone it coded
+/// kept: the same words, without the trigonometry for repeated cones.
+struct ConeCodes {
+    sphere: ([u32; 5], u32),
+    last: ([u32; 5], u32),
+}
+
+impl ConeCodes {
+    fn new() -> ConeCodes {
+        let sphere = (
+            cone_key(&Cone::SPHERE),
+            quantize::encode_cone(&Cone::SPHERE),
+        );
+        ConeCodes {
+            sphere,
+            last: sphere,
+        }
+    }
+
+    #[inline]
+    fn code(&mut self, c: &Cone) -> u32 {
+        let key = cone_key(c);
+        if key == self.sphere.0 {
+            return self.sphere.1;
+        }
+        if key != self.last.0 {
+            self.last = (key, quantize::encode_cone(c));
+        }
+        self.last.1
+    }
 }
 
 struct Collapser<'a> {
     bin: &'a [BinNode],
     plans: Vec<Plan>,
     free: FreeTable,
+    cones: ConeCodes,
     nodes: Vec<Node4>,
     variances: Vec<u16>,
-    laid: Vec<[Laid; 4]>,
-    /// Per node, the exact bounds of its lights (the binary node's, or those of a free-form
-    /// run): what the parent's slot is widened from, so that quantisation errors do not
-    /// accumulate up the tree.
-    exact: Vec<(Sphere, Cone)>,
     leaves: Vec<u32>,
-    paths: Vec<u64>,
+    paths: Paths,
     depth: u32,
 }
 
 impl Collapser<'_> {
-    /// Lays out node `node` from `src` and, depth first, its children.
-    fn fill(&mut self, node: usize, src: Src, path: u64, level: u32) -> Result<(), BuildError> {
+    /// Lays out node `node` from `src` (an inner binary node, a free-form run, or the lone
+    /// light of a one-light tree), then, depth first, its children, and quantises it. Returns
+    /// the sums of its lights. The paths widen to 64 bits (one copy) once a level passes
+    /// [`SHORT_PATH_DEPTH`].
+    fn fill(&mut self, node: usize, src: Src, path: u64, level: u32) -> Result<Sums, BuildError> {
         if level >= MAX_DEPTH {
             return Err(BuildError::TooDeep { depth: level + 1 });
         }
         self.depth = self.depth.max(level + 1);
-        self.exact[node] = match src {
-            Src::Bin(b) => (self.bin[b].bounds.sphere, self.bin[b].bounds.cone),
-            Src::Run(run) => exact_of_run(self.bin, &run),
-        };
+        if self.depth > SHORT_PATH_DEPTH {
+            if let Paths::Short(short) = &self.paths {
+                self.paths = Paths::Long(short.iter().map(|&p| u64::from(p)).collect());
+            }
+        }
         let (set, len) = match src {
-            Src::Bin(b) if self.bin[b].light.is_some() => ([Src::Bin(b); 4], 1),
+            Src::Bin(b) if self.bin[b].light.is_some() => ([src; 4], 1), // a single light
             Src::Bin(b) => open(self.bin, &self.plans, &self.free, b),
             Src::Run(run) => {
                 let mut out = ([Src::Bin(0); 4], 0usize);
-                free_slots(&self.free, &run, 4, &mut out);
+                free_slots(&self.free, run, 4, &mut out);
                 out
             }
         };
         let first = self.nodes.len();
-        let mut inner = [(0usize, Src::Bin(0), 0u64); 4];
         let mut n_inner = 0;
         let mut mask = 0u8;
-        self.nodes[node].child_base = first as u32;
-        self.nodes[node].leaf_base = self.leaves.len() as u32;
+        let leaf_base = self.leaves.len() as u32;
         for (k, &c) in set[..len].iter().enumerate() {
-            let slot_path = (path << 2) | k as u64;
             match c {
                 Src::Bin(b) if self.bin[b].light.is_some() => {
                     let light = self.bin[b].light.unwrap_or(0);
                     mask |= 1 << (4 + k);
-                    self.laid[node][k] = Laid::Light(b as u32);
                     self.leaves.push(light);
-                    self.paths[light as usize] = slot_path;
+                    self.paths.set(light as usize, (path << 2) | k as u64);
                 }
                 _ => {
-                    let idx = first + n_inner;
                     mask |= 1 << k;
-                    self.laid[node][k] = Laid::Node(idx as u32);
-                    inner[n_inner] = (idx, c, slot_path);
                     n_inner += 1;
                 }
             }
         }
-        self.nodes[node].mask = mask;
         self.nodes.resize(first + n_inner, Node4::EMPTY);
-        self.laid.resize(first + n_inner, [Laid::Empty; 4]);
-        self.exact
-            .resize(first + n_inner, (Sphere::enclosing(&[]), Cone::SPHERE));
-        for &(idx, c, p) in &inner[..n_inner] {
-            self.fill(idx, c, p, level + 1)?;
-        }
-        Ok(())
-    }
+        self.variances.resize(first + n_inner, 0);
 
-    /// Quantises every node, children before parents (a child's index is above its
-    /// parent's).
-    fn quantise(&mut self) {
-        let mut summary: Vec<Option<Summary>> = vec![None; self.nodes.len()];
-        self.variances = vec![0; self.nodes.len()];
-        for i in (0..self.nodes.len()).rev() {
-            let mut parts: [Option<Summary>; 4] = [None; 4];
-            for (k, part) in parts.iter_mut().enumerate() {
-                *part = match self.laid[i][k] {
-                    Laid::Empty => None,
-                    Laid::Light(b) => {
-                        let n = &self.bin[b as usize];
-                        let e = f64::from(n.bounds.energy);
-                        Some(Summary {
-                            bounds: n.bounds,
+        // The children, depth first, then this node's slots from their exact bounds.
+        let mut parts = [Part {
+            sphere: Sphere::enclosing(&[]),
+            cone: Cone::SPHERE,
+            energy: 0.0,
+            sums: Sums {
+                count: 0,
+                energy: 0.0,
+                energy_sq: 0.0,
+            },
+        }; 4];
+        let mut idx = first;
+        for (k, &c) in set[..len].iter().enumerate() {
+            parts[k] = match c {
+                Src::Bin(b) if self.bin[b].light.is_some() => {
+                    let n = &self.bin[b];
+                    let e = f64::from(n.bounds.energy);
+                    Part {
+                        sphere: n.bounds.sphere,
+                        cone: n.bounds.cone,
+                        energy: n.bounds.energy,
+                        sums: Sums {
                             count: 1,
-                            energy_sum: e,
-                            energy_sq_sum: e * e,
-                        })
+                            energy: e,
+                            energy_sq: e * e,
+                        },
                     }
-                    Laid::Node(c) => summary[c as usize].take(),
-                };
-            }
-            let node = &mut self.nodes[i];
-            let mut spheres = [Sphere {
-                center: glam::Vec3::ZERO,
-                radius: 0.0,
-            }; 4];
-            let mut n = 0;
-            for p in parts.iter().flatten() {
-                spheres[n] = p.bounds.sphere;
-                n += 1;
-            }
-            let (origin, exponent, words) = quantize::encode_spheres(&spheres[..n]);
-            node.origin = origin;
-            node.exponent = exponent;
-            let mut j = 0;
-            let (mut count, mut sum, mut sq) = (0u32, 0.0f64, 0.0f64);
-            for (k, p) in parts.iter().enumerate() {
-                let Some(p) = p else { continue };
-                node.sphere[k] = words[j];
-                j += 1;
-                node.cone[k] = quantize::encode_cone(&p.bounds.cone);
-                node.set_energy_code(k, quantize::encode_energy(p.bounds.energy));
-                count += p.count;
-                sum += p.energy_sum;
-                sq += p.energy_sq_sum;
-            }
-            let mean = sum / f64::from(count.max(1));
-            let variance = if mean > 0.0 {
-                ((sq / f64::from(count.max(1)) - mean * mean).max(0.0) / (mean * mean)) as f32
-            } else {
-                0.0
+                }
+                _ => {
+                    let sums = self.fill(idx, c, (path << 2) | k as u64, level + 1)?;
+                    idx += 1;
+                    let (sphere, cone) = exact_of(self.bin, c);
+                    Part {
+                        sphere,
+                        cone,
+                        energy: round_up(sums.energy),
+                        sums,
+                    }
+                }
             };
-            self.variances[i] = quantize::encode_bf16(variance);
-            // What the parent's slot bounds: the exact bounds of the node's lights (each
-            // level is rounded from the exact bounds, so rounding never compounds: a slot
-            // need not contain its child's slots, only the lights below it).
-            let (sphere, cone) = self.exact[i];
-            let energy = sum;
-            summary[i] = Some(Summary {
-                bounds: LightBounds {
-                    aabb: crate::bounds::Aabb::EMPTY,
-                    sphere,
-                    cone,
-                    energy: round_up(energy),
-                },
-                count,
-                energy_sum: sum,
-                energy_sq_sum: sq,
-            });
         }
+        let parts = &parts[..len];
+
+        let mut spheres = [Sphere::enclosing(&[]); 4];
+        for (s, p) in spheres.iter_mut().zip(parts) {
+            *s = p.sphere;
+        }
+        let (origin, exponent, words) = quantize::encode_spheres(&spheres[..len]);
+        let (mut count, mut sum, mut sq) = (0u32, 0.0f64, 0.0f64);
+        let out = &mut self.nodes[node];
+        out.origin = origin;
+        out.exponent = exponent;
+        out.child_base = first as u32;
+        out.leaf_base = leaf_base;
+        out.mask = mask;
+        for (k, p) in parts.iter().enumerate() {
+            out.sphere[k] = words[k];
+            out.cone[k] = self.cones.code(&p.cone);
+            out.set_energy_code(k, quantize::encode_energy(p.energy));
+            count += p.sums.count;
+            sum += p.sums.energy;
+            sq += p.sums.energy_sq;
+        }
+        let mean = sum / f64::from(count.max(1));
+        let variance = if mean > 0.0 {
+            ((sq / f64::from(count.max(1)) - mean * mean).max(0.0) / (mean * mean)) as f32
+        } else {
+            0.0
+        };
+        self.variances[node] = quantize::encode_bf16(variance);
+        Ok(Sums {
+            count,
+            energy: sum,
+            energy_sq: sq,
+        })
     }
 }
 
@@ -447,37 +559,28 @@ pub(crate) fn collapse(
     compact: bool,
 ) -> Result<LightTree, BuildError> {
     let free = FreeTable::new();
+    let n_leaves = bin.nodes.len().div_ceil(2);
     let mut c = Collapser {
         bin: &bin.nodes,
         plans: plan(&bin.nodes, &free, if compact { FREE_MAX } else { 1 }),
         free,
+        cones: ConeCodes::new(),
         nodes: Vec::with_capacity(bin.nodes.len() / 5 + 1),
-        variances: Vec::new(),
-        laid: Vec::with_capacity(bin.nodes.len() / 5 + 1),
-        exact: Vec::with_capacity(bin.nodes.len() / 5 + 1),
-        leaves: Vec::with_capacity(bin.nodes.len() / 2 + 1),
-        paths: vec![0; n_lights],
+        variances: Vec::with_capacity(bin.nodes.len() / 5 + 1),
+        leaves: Vec::with_capacity(n_leaves),
+        paths: Paths::zeros(n_lights, 0),
         depth: 0,
     };
     if !bin.nodes.is_empty() {
         c.nodes.push(Node4::EMPTY);
-        c.laid.push([Laid::Empty; 4]);
-        c.exact.push((Sphere::enclosing(&[]), Cone::SPHERE));
+        c.variances.push(0);
         c.fill(0, Src::Bin(0), 1, 0)?;
-        c.plans = Vec::new();
-        c.quantise();
-    }
-    let mut paths = Paths::zeros(n_lights, c.depth);
-    for (l, &p) in c.paths.iter().enumerate() {
-        if p != 0 {
-            paths.set(l, p);
-        }
     }
     Ok(LightTree {
         nodes: c.nodes,
         variances: c.variances,
         leaves: c.leaves,
-        paths,
+        paths: c.paths,
         depth: c.depth,
     })
 }

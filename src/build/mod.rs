@@ -8,7 +8,7 @@ use crate::error::BuildError;
 use crate::light::{Light, MAX_TOTAL_ENERGY};
 use crate::tree::{LightTree, MAX_LIGHTS};
 use alloc::vec::Vec;
-use saoh::{BinTree, Prim};
+use saoh::{BinNode, BinTree};
 
 /// Options of the build.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -31,43 +31,49 @@ impl Default for BuildOptions {
     }
 }
 
-/// Validates every light and returns the ones with positive energy, bounded.
-pub(crate) fn prepare(lights: &[Light]) -> Result<Vec<Prim>, BuildError> {
+/// Validates every light and returns the binary SAOH tree of the ones with positive energy
+/// (empty when there are none).
+///
+/// Two passes over the lights: the first validates them and counts the ones with energy, so
+/// that the second can bound them straight into the leaves of the tree's one array.
+pub(crate) fn binary(lights: &[Light], opts: &BuildOptions) -> Result<BinTree, BuildError> {
     if lights.len() > MAX_LIGHTS as usize {
         return Err(BuildError::TooManyLights {
             count: lights.len(),
         });
     }
-    let mut prims = Vec::with_capacity(lights.len());
+    let mut n = 0usize;
     let mut total = 0.0f64;
     for (i, l) in lights.iter().enumerate() {
-        l.validate(i)?;
-        let bounds = l.bounds();
-        if bounds.energy > 0.0 {
-            total += f64::from(bounds.energy);
-            prims.push(Prim {
-                centroid: bounds.aabb.center(),
-                bounds,
-                light: i as u32,
-            });
+        let e = l.validated_energy(i)?;
+        if e > 0.0 {
+            n += 1;
+            total += f64::from(e);
         }
     }
     if total > f64::from(MAX_TOTAL_ENERGY) {
         return Err(BuildError::TotalEnergyTooLarge);
     }
-    Ok(prims)
-}
-
-/// The binary SAOH tree of `lights` (empty when no light has energy).
-pub(crate) fn binary(lights: &[Light], opts: &BuildOptions) -> Result<BinTree, BuildError> {
-    let mut prims = prepare(lights)?;
-    if prims.is_empty() {
+    if n == 0 {
         return Ok(BinTree { nodes: Vec::new() });
     }
-    Ok(saoh::build(
-        &mut prims,
+    let mut nodes = BinTree::with_inner(n);
+    let mut boxes = Vec::with_capacity(n);
+    for (i, l) in lights.iter().enumerate() {
+        let e = l.energy();
+        if e > 0.0 {
+            let bounds = l.bounds_with_energy(e);
+            nodes.push(BinNode::leaf(&bounds, i as u32));
+            boxes.push(bounds.aabb);
+        }
+    }
+    debug_assert_eq!(boxes.len(), n);
+    saoh::build(
+        &mut nodes,
+        &mut boxes,
         opts.buckets.clamp(12, saoh::MAX_BUCKETS),
-    ))
+    );
+    Ok(BinTree { nodes })
 }
 
 impl LightTree {

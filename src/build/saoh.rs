@@ -7,36 +7,90 @@
 //! same for every candidate of a node, so it is left out), and the cheapest is taken. When all
 //! centroids coincide the lights are split by count. A split that would push a subtree past
 //! the depth a path can encode is replaced by a split at the median, so every tree fits.
+//!
+//! Memory: the tree of n lights is one array of 2n − 1 [`BinNode`]s, the n − 1 inner nodes
+//! first (in depth-first order), then the n leaves. The leaves are made before the build and
+//! serve as its working set: they are partitioned in place, together with an array of the
+//! lights' boxes (the only per-light data a leaf does not keep), and end up in left-to-right
+//! order. Besides a bit per light for the partitions, nothing else is allocated per light,
+//! and nothing per node but for the rare split at the median (which selects on (key, index)
+//! pairs).
 
 use crate::bounds::{Aabb, Cone, LightBounds, Sphere};
 use crate::light::outward;
 use alloc::vec::Vec;
-use glam::Vec3;
+use glam::{Vec3, Vec3A};
+use wide::f32x4;
 
 /// Deepest binary level allowed; the collapsed tree is never deeper than the binary one.
 pub(crate) const MAX_BINARY_DEPTH: u32 = crate::tree::MAX_DEPTH;
 
-/// One light entering the build.
-#[derive(Clone, Copy, Debug)]
-pub(crate) struct Prim {
-    pub bounds: LightBounds,
-    pub centroid: Vec3,
-    pub light: u32,
+/// What a node of the binary tree keeps of its cluster's bounds: the box is needed only while
+/// building, so it is not kept.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(crate) struct NodeBounds {
+    /// A sphere holding the emitting geometry.
+    pub sphere: Sphere,
+    /// Orientation cone.
+    pub cone: Cone,
+    /// Energy.
+    pub energy: f32,
 }
 
-/// A node of the binary tree, in depth-first order (the left child follows its parent).
+/// A node of the binary tree (64 bytes, one cache line). In [`BinTree::nodes`] the inner
+/// nodes come first, in depth-first order, then the leaves in left-to-right order; [`children`]
+/// finds the left and right child of an inner node.
 #[derive(Clone, Copy, Debug)]
+#[repr(align(64))]
 pub(crate) struct BinNode {
-    pub bounds: LightBounds,
+    pub bounds: NodeBounds,
     /// `E · M_A · M_Ω`: how much the node costs; the collapse opens the costliest first.
     pub cost: f32,
     pub count: u32,
-    pub energy_sum: f64,
-    pub energy_sq_sum: f64,
     /// `Some(light)` for a leaf.
     pub light: Option<u32>,
-    /// Index of the right child (inner nodes).
-    pub right: u32,
+    /// Position of the subtree's first light among the leaves.
+    first: u32,
+}
+
+impl BinNode {
+    /// An inner node not yet built.
+    const PLACEHOLDER: BinNode = BinNode {
+        bounds: NodeBounds {
+            sphere: Sphere {
+                center: Vec3::ZERO,
+                radius: 0.0,
+            },
+            cone: Cone::SPHERE,
+            energy: 0.0,
+        },
+        cost: 0.0,
+        count: 0,
+        light: None,
+        first: 0,
+    };
+
+    /// The leaf of light `light` with bounds `b`.
+    pub fn leaf(b: &LightBounds, light: u32) -> BinNode {
+        BinNode {
+            bounds: NodeBounds {
+                sphere: b.sphere,
+                cone: b.cone,
+                energy: b.energy,
+            },
+            cost: b.energy * b.aabb.measure() * b.cone.measure_fast(),
+            count: 1,
+            light: Some(light),
+            first: 0,
+        }
+    }
+
+    /// Position of the subtree's first light among the leaves: the leaves of a subtree of
+    /// `count` lights are `first .. first + count`, left to right.
+    #[inline]
+    pub fn first(&self) -> usize {
+        self.first as usize
+    }
 }
 
 /// The binary tree; node 0 is the root.
@@ -44,134 +98,239 @@ pub(crate) struct BinTree {
     pub nodes: Vec<BinNode>,
 }
 
-/// A SAOH bucket. Its cone is an estimate (see [`Cone::union_fast`]); `omni` short-cuts the
-/// common case of a bucket holding an omnidirectional light, whose cone is the whole sphere.
+impl BinTree {
+    /// The array for `n ≥ 1` lights: room for 2n − 1 nodes, the n − 1 inner ones in place
+    /// (placeholders); the caller pushes the n leaves, then calls [`build`].
+    pub fn with_inner(n: usize) -> Vec<BinNode> {
+        let mut nodes = Vec::with_capacity(2 * n - 1);
+        nodes.resize(n - 1, BinNode::PLACEHOLDER);
+        nodes
+    }
+}
+
+/// The children (left, right) of inner node `b` of `bin` (a whole tree).
+///
+/// A subtree of `c` lights has `c − 1` inner nodes, stored contiguously from its root, and its
+/// leaves are contiguous from its `first`. So the left child is the next inner node when that
+/// starts at the same light, else a leaf; the right child's inner root follows the left
+/// child's `mid − 1` inner nodes.
+#[inline]
+pub(crate) fn children(bin: &[BinNode], b: usize) -> (usize, usize) {
+    let leaves = bin.len() / 2; // n − 1 inner nodes precede the leaves
+    let node = &bin[b];
+    let first = node.first as usize;
+    let next = b + 1;
+    let mid = if next < leaves && bin[next].first == node.first {
+        bin[next].count as usize
+    } else {
+        1
+    };
+    let left = if mid >= 2 { next } else { leaves + first };
+    let right = if node.count as usize - mid >= 2 {
+        b + mid
+    } else {
+        leaves + first + mid
+    };
+    (left, right)
+}
+
+/// Nodes of at most this many lights are split by sorting them on each axis and costing every
+/// boundary ([`sweep_split`]); larger ones are binned.
+const SWEEP_MAX: usize = 4;
+// `sweep_split` sorts with a network for four.
+const _: () = assert!(SWEEP_MAX == 4);
+
+/// Largest number of buckets per axis.
+pub(crate) const MAX_BUCKETS: usize = 64;
+
+/// What binning gathers in one bucket of one axis: the box (`lo`, `hi`), energy and count of
+/// its lights and whether one of them is omnidirectional; its cone is in [`Buckets::cone`],
+/// and `directed` counts the lights united into it so far ([`fill_bins`]).
 #[derive(Clone, Copy)]
-struct Bin {
-    aabb: Aabb,
+struct Bucket {
+    lo: Vec3A,
+    hi: Vec3A,
+    energy: f32,
+    count: u32,
+    directed: u32,
+    omni: bool,
+}
+
+impl Bucket {
+    const EMPTY: Bucket = Bucket {
+        lo: Vec3A::INFINITY,
+        hi: Vec3A::NEG_INFINITY,
+        energy: 0.0,
+        count: 0,
+        directed: 0,
+        omni: false,
+    };
+}
+
+/// The buckets of the three axes. Only the buckets in `used` hold lights; the others are
+/// empty, so a node resets only the ones the previous node used.
+struct Buckets {
+    acc: [[Bucket; MAX_BUCKETS]; 3],
+    cone: [[Cone; MAX_BUCKETS]; 3],
+    used: [u64; 3],
+}
+
+/// The indices of the set bits of `mask`, in increasing order.
+#[inline(always)]
+fn bits(mut mask: u64) -> impl Iterator<Item = usize> {
+    core::iter::from_fn(move || {
+        (mask != 0).then(|| {
+            let i = mask.trailing_zeros() as usize;
+            mask &= mask - 1;
+            i
+        })
+    })
+}
+
+/// Lights (or buckets of lights) added in turn, as the SAOH costs a bucket or one side of a
+/// boundary: the union of the boxes, the f32 sum of the energies in that order, the count,
+/// and a cone that is the first light's, then its [`Cone::union_fast`] with each next one,
+/// or the whole sphere (`omni`, the cone no longer read) from the first omnidirectional light
+/// or union on. Its cost is `E · M_A · M_Ω` with the fast `M_Ω`. Sums and unions round, so
+/// the order is part of the result.
+#[derive(Clone, Copy)]
+struct Acc {
+    lo: Vec3A,
+    hi: Vec3A,
     cone: Cone,
     omni: bool,
     energy: f32,
     count: u32,
 }
 
-impl Bin {
-    const EMPTY: Bin = Bin {
-        aabb: Aabb::EMPTY,
+impl Acc {
+    const EMPTY: Acc = Acc {
+        lo: Vec3A::INFINITY,
+        hi: Vec3A::NEG_INFINITY,
         cone: Cone::SPHERE,
         omni: false,
         energy: 0.0,
         count: 0,
     };
 
+    /// Adds the lights of bucket `b` (not empty), whose cone is `cone` unless it is
+    /// omnidirectional.
     #[inline(always)]
-    fn add_cone(&mut self, c: &Cone) {
-        if self.omni {
-            return;
-        }
-        if c.is_sphere() {
+    fn add(&mut self, b: &Bucket, cone: &Cone) {
+        if b.omni {
             self.omni = true;
-            self.cone = Cone::SPHERE;
-        } else if self.count == 0 {
-            self.cone = *c;
-        } else {
-            self.cone = self.cone.union_fast(*c);
+        } else if !self.omni {
+            if cone.is_sphere() {
+                self.omni = true;
+            } else if self.count == 0 {
+                self.cone = *cone;
+            } else {
+                self.cone = self.cone.union_fast(*cone);
+            }
         }
+        self.lo = self.lo.min(b.lo);
+        self.hi = self.hi.max(b.hi);
+        self.energy += b.energy;
+        self.count += b.count;
     }
 
+    /// [`Acc::add`] once the sum is omnidirectional.
     #[inline(always)]
-    fn add(&mut self, p: &Prim) {
-        self.aabb = self.aabb.union(p.bounds.aabb);
-        self.add_cone(&p.bounds.cone);
-        self.energy += p.bounds.energy;
+    fn add_omni(&mut self, b: &Bucket) {
+        debug_assert!(self.omni);
+        self.lo = self.lo.min(b.lo);
+        self.hi = self.hi.max(b.hi);
+        self.energy += b.energy;
+        self.count += b.count;
+    }
+
+    /// [`Acc::cost`] once the sum is omnidirectional.
+    #[inline(always)]
+    fn cost_omni(&self) -> f32 {
+        self.energy * measure_full(self.lo, self.hi) * (4.0 * core::f32::consts::PI)
+    }
+
+    /// Adds one light.
+    #[inline(always)]
+    fn add_light(&mut self, leaf: &BinNode, aabb: &Aabb) {
+        let c = &leaf.bounds.cone;
+        if !self.omni {
+            if c.is_sphere() {
+                self.omni = true;
+            } else if self.count == 0 {
+                self.cone = *c;
+            } else {
+                self.cone = self.cone.union_fast(*c);
+            }
+        }
+        self.lo = self.lo.min(aabb.min);
+        self.hi = self.hi.max(aabb.max);
+        self.energy += leaf.bounds.energy;
         self.count += 1;
     }
 
-    #[inline(always)]
-    fn merge(&self, o: &Bin) -> Bin {
-        if o.count == 0 {
-            return *self;
-        }
-        let mut m = *self;
-        if o.omni {
-            m.omni = true;
-            m.cone = Cone::SPHERE;
-        } else {
-            m.add_cone(&o.cone);
-        }
-        m.aabb = m.aabb.union(o.aabb);
-        m.energy += o.energy;
-        m.count += o.count;
-        m
-    }
-
+    /// The cost, `E · M_A · M_Ω` (at least one light added).
     #[inline(always)]
     fn cost(&self) -> f32 {
-        if self.count == 0 {
-            return 0.0;
-        }
         let m = if self.omni {
             4.0 * core::f32::consts::PI
         } else {
             self.cone.measure_fast()
         };
-        self.energy * self.aabb.measure() * m
+        self.energy * measure_full(self.lo, self.hi) * m
     }
 }
 
-/// Nodes of at most this many lights are split by sorting them on each axis and costing every
-/// boundary ([`sweep_split`]); larger ones are binned.
-const SWEEP_MAX: usize = 4;
-
-/// Largest number of buckets per axis.
-pub(crate) const MAX_BUCKETS: usize = 64;
-
-/// Scratch space reused by every node of one build.
-struct Ctx {
-    buckets: usize,
-    bins: [[Bin; MAX_BUCKETS]; 3],
+/// [`Aabb::measure`] of the box from `lo` to `hi`, which holds a point.
+#[inline(always)]
+fn measure_full(lo: Vec3A, hi: Vec3A) -> f32 {
+    let e = Vec3::from((hi - lo).max(Vec3A::ZERO));
+    let area = 2.0 * (e.x * e.y + e.y * e.z + e.z * e.x);
+    if area > 0.0 {
+        area
+    } else {
+        e.length()
+    }
 }
 
-/// Box of the geometry and box of the centroids of `prims`.
-fn bounds_of(prims: &[Prim]) -> (Aabb, Aabb) {
+/// The build's state: the inner nodes being written, and the buckets and the side of each
+/// light in a partition (a bit per light), reused by every node.
+struct Ctx<'a> {
+    inner: &'a mut [BinNode],
+    buckets: usize,
+    bins: Buckets,
+    sides: Vec<u64>,
+}
+
+/// Box of the geometry and box of the centroids of the lights with boxes `boxes`.
+fn bounds_of(boxes: &[Aabb]) -> (Aabb, Aabb) {
     let mut geo = Aabb::EMPTY;
     let mut cbox = Aabb::EMPTY;
-    for p in prims {
-        geo = geo.union(p.bounds.aabb);
-        cbox = cbox.grow(p.centroid);
+    for b in boxes {
+        geo = geo.union(*b);
+        cbox = cbox.grow_a(b.center_a());
     }
     (geo, cbox)
 }
 
-/// Builds the binary tree over `prims` (reordered in place). `prims` must not be empty.
-pub(crate) fn build(prims: &mut [Prim], buckets: usize) -> BinTree {
-    let mut nodes = Vec::with_capacity(2 * prims.len());
+/// Builds the binary tree in `nodes`: `n − 1` placeholders followed by the `n ≥ 1` leaves,
+/// `boxes[i]` the box of the light of leaf `n − 1 + i`. Leaves and boxes are reordered.
+pub(crate) fn build(nodes: &mut [BinNode], boxes: &mut [Aabb], buckets: usize) {
+    let n = boxes.len();
+    debug_assert!(n >= 1 && nodes.len() == 2 * n - 1);
+    let (inner, leaves) = nodes.split_at_mut(n - 1);
     let mut ctx = Ctx {
+        inner,
         buckets: buckets.clamp(2, MAX_BUCKETS),
-        bins: [[Bin::EMPTY; MAX_BUCKETS]; 3],
+        bins: Buckets {
+            acc: [[Bucket::EMPTY; MAX_BUCKETS]; 3],
+            cone: [[Cone::SPHERE; MAX_BUCKETS]; 3],
+            used: [0; 3],
+        },
+        sides: alloc::vec![0; n.div_ceil(64)],
     };
-    let (geo, cbox) = bounds_of(prims);
-    build_rec(prims, 0, geo, cbox, &mut ctx, &mut nodes);
-    BinTree { nodes }
-}
-
-fn leaf(p: &Prim) -> BinNode {
-    let e = f64::from(p.bounds.energy);
-    BinNode {
-        bounds: p.bounds,
-        cost: p.bounds.energy * p.bounds.aabb.measure() * p.bounds.cone.measure_fast(),
-        count: 1,
-        energy_sum: e,
-        energy_sq_sum: e * e,
-        light: Some(p.light),
-        right: 0,
-    }
-}
-
-#[inline]
-fn bin_of(c: f32, min: f32, scale: f32, buckets: usize) -> usize {
-    let b = ((c - min) * scale) as usize;
-    b.min(buckets - 1)
+    let (geo, cbox) = bounds_of(boxes);
+    ctx.build_rec(leaves, boxes, 0, 0, 0, geo, cbox);
 }
 
 /// A chosen split: where it is and the boxes of both sides.
@@ -181,269 +340,477 @@ struct Split {
     right: (Aabb, Aabb),
 }
 
-/// `geo`: box of the node's geometry; `cbox`: box of its centroids (both from the parent).
-fn build_rec(
-    prims: &mut [Prim],
-    depth: u32,
-    geo: Aabb,
-    cbox: Aabb,
-    ctx: &mut Ctx,
-    out: &mut Vec<BinNode>,
-) -> u32 {
-    let index = out.len();
-    if prims.len() == 1 {
-        out.push(leaf(&prims[0]));
-        return index as u32;
-    }
-    let center = geo.center();
-    let (split, radius) = if prims.len() <= SWEEP_MAX {
-        sweep_split(prims, depth, geo)
-    } else {
-        choose_split(prims, depth, geo, cbox, ctx)
-    };
-    // Placeholder, overwritten once both children exist.
-    out.push(BinNode {
-        bounds: prims[0].bounds,
-        cost: 0.0,
-        count: 0,
-        energy_sum: 0.0,
-        energy_sq_sum: 0.0,
-        light: None,
-        right: 0,
-    });
-    let (l, r) = prims.split_at_mut(split.mid);
-    let li = build_rec(l, depth + 1, split.left.0, split.left.1, ctx, out) as usize;
-    let ri = build_rec(r, depth + 1, split.right.0, split.right.1, ctx, out) as usize;
-    let (a, b) = (&out[li], &out[ri]);
-    let cone = a.bounds.cone.union(b.bounds.cone);
-    let energy_sum = a.energy_sum + b.energy_sum;
-    let energy_sq_sum = a.energy_sq_sum + b.energy_sq_sum;
-    let count = a.count + b.count;
-    let energy = energy_sum as f32;
-    out[index] = BinNode {
-        bounds: LightBounds {
-            aabb: geo,
-            sphere: Sphere {
-                center,
-                // f32 distances are within a few ulps; `outward` adds 1e-6 relative.
-                radius: outward(f64::from(radius) * (1.0 + 1e-6)),
-            },
-            cone,
-            energy,
-        },
-        cost: energy * geo.measure() * cone.measure_fast(),
-        count,
-        energy_sum,
-        energy_sq_sum,
-        light: None,
-        right: ri as u32,
-    };
-    index as u32
-}
-
-/// Chooses a split and partitions `prims` around it. Also returns the radius of the sphere
-/// around the box centre holding every light's own sphere, found in the same pass as the bins.
-fn choose_split(
-    prims: &mut [Prim],
-    depth: u32,
-    geo: Aabb,
-    cbox: Aabb,
-    ctx: &mut Ctx,
-) -> (Split, f32) {
-    let center = geo.center();
-    let mut radius = 0.0f32;
-    let n = prims.len();
-    let buckets = ctx.buckets;
-    let ext = cbox.extent();
-    let node_ext = geo.extent();
-    let max_ext = node_ext.max_element();
-    // Largest child that still fits in the remaining depth.
-    let remaining = MAX_BINARY_DEPTH.saturating_sub(depth + 1).min(62);
-    let limit = 1usize.checked_shl(remaining).unwrap_or(usize::MAX);
-
-    let scale = Vec3::new(
-        if ext.x > 0.0 {
-            buckets as f32 / ext.x
-        } else {
-            0.0
-        },
-        if ext.y > 0.0 {
-            buckets as f32 / ext.y
-        } else {
-            0.0
-        },
-        if ext.z > 0.0 {
-            buckets as f32 / ext.z
-        } else {
-            0.0
-        },
-    );
-    let axes: [bool; 3] = [ext.x > 0.0, ext.y > 0.0, ext.z > 0.0];
-    for bins in ctx.bins.iter_mut() {
-        bins[..buckets].fill(Bin::EMPTY);
-    }
-    // Axes of zero extent have scale 0: everything lands in bucket 0 and the axis is skipped.
-    let top = (buckets - 1) as f32;
-    for p in prims.iter() {
-        let s = &p.bounds.sphere;
-        radius = radius.max((s.center - center).length() + s.radius);
-        let f = ((p.centroid - Vec3::from(cbox.min)) * scale).min(Vec3::splat(top));
-        ctx.bins[0][f.x as usize].add(p);
-        ctx.bins[1][f.y as usize].add(p);
-        ctx.bins[2][f.z as usize].add(p);
-    }
-
-    let mut best: Option<(f32, usize, usize)> = None; // cost, axis, boundary
-    for axis in 0..3 {
-        if !axes[axis] {
-            continue;
+impl Ctx<'_> {
+    /// Builds the subtree over `leaves` (the leaves from position `lo`, with their boxes) as
+    /// inner node `b` (when it has two lights or more); `geo`: box of the node's geometry,
+    /// `cbox`: box of its centroids (both from the parent). Returns the sum of the lights'
+    /// energies (in f64).
+    #[allow(clippy::too_many_arguments)]
+    fn build_rec(
+        &mut self,
+        leaves: &mut [BinNode],
+        boxes: &mut [Aabb],
+        lo: usize,
+        b: usize,
+        depth: u32,
+        geo: Aabb,
+        cbox: Aabb,
+    ) -> f64 {
+        let n = leaves.len();
+        if n == 1 {
+            leaves[0].first = lo as u32;
+            return f64::from(leaves[0].bounds.energy);
         }
-        let bins = &ctx.bins[axis];
-        // Costs of the left parts, bins[0..=i], for every boundary i.
-        let mut left_cost = [0.0f32; MAX_BUCKETS];
-        let mut left_count = [0u32; MAX_BUCKETS];
-        // An empty bin changes neither side, so its boundary repeats the previous costs:
-        // only bins with lights cost a union and a measure.
-        let mut acc = Bin::EMPTY;
-        let mut cost = 0.0;
-        for i in 0..buckets - 1 {
-            if bins[i].count > 0 {
-                acc = acc.merge(&bins[i]);
-                cost = acc.cost();
-            }
-            left_cost[i] = cost;
-            left_count[i] = acc.count;
-        }
-        let kr = if node_ext[axis] > 0.0 {
-            max_ext / node_ext[axis]
+        let center = geo.center();
+        let (split, radius) = if n <= SWEEP_MAX {
+            sweep_split(leaves, boxes, depth, geo)
         } else {
-            1.0
+            self.choose_split(leaves, boxes, depth, geo, cbox)
         };
-        let mut acc = Bin::EMPTY;
-        let mut right_cost = 0.0;
-        for i in (0..buckets - 1).rev() {
-            if bins[i + 1].count > 0 {
-                acc = acc.merge(&bins[i + 1]);
-                right_cost = acc.cost();
+        let mid = split.mid;
+        let (ll, lr) = leaves.split_at_mut(mid);
+        let (bl, br) = boxes.split_at_mut(mid);
+        let ls = self.build_rec(ll, bl, lo, b + 1, depth + 1, split.left.0, split.left.1);
+        let rs = self.build_rec(
+            lr,
+            br,
+            lo + mid,
+            b + mid,
+            depth + 1,
+            split.right.0,
+            split.right.1,
+        );
+        let left_cone = if mid >= 2 {
+            self.inner[b + 1].bounds.cone
+        } else {
+            ll[0].bounds.cone
+        };
+        let right_cone = if n - mid >= 2 {
+            self.inner[b + mid].bounds.cone
+        } else {
+            lr[0].bounds.cone
+        };
+        let cone = left_cone.union(right_cone);
+        let energy_sum = ls + rs;
+        let count = n as u32;
+        let energy = energy_sum as f32;
+        self.inner[b] = BinNode {
+            bounds: NodeBounds {
+                sphere: Sphere {
+                    center,
+                    // f32 distances are within a few ulps; `outward` adds 1e-6 relative.
+                    radius: outward(f64::from(radius) * (1.0 + 1e-6)),
+                },
+                cone,
+                energy,
+            },
+            cost: energy * geo.measure() * cone.measure_fast(),
+            count,
+            light: None,
+            first: lo as u32,
+        };
+        energy_sum
+    }
+
+    /// Chooses a split and partitions the lights around it. Also returns the radius of the
+    /// sphere around the box centre holding every light's own sphere, found in the same pass
+    /// as the bins.
+    fn choose_split(
+        &mut self,
+        leaves: &mut [BinNode],
+        boxes: &mut [Aabb],
+        depth: u32,
+        geo: Aabb,
+        cbox: Aabb,
+    ) -> (Split, f32) {
+        let center = geo.center();
+        let n = leaves.len();
+        let buckets = self.buckets;
+        let ext = cbox.extent();
+        let node_ext = geo.extent();
+        // Largest child that still fits in the remaining depth.
+        let remaining = MAX_BINARY_DEPTH.saturating_sub(depth + 1).min(62);
+        let limit = 1usize.checked_shl(remaining).unwrap_or(usize::MAX);
+
+        let scale = Vec3::new(
+            if ext.x > 0.0 {
+                buckets as f32 / ext.x
+            } else {
+                0.0
+            },
+            if ext.y > 0.0 {
+                buckets as f32 / ext.y
+            } else {
+                0.0
+            },
+            if ext.z > 0.0 {
+                buckets as f32 / ext.z
+            } else {
+                0.0
+            },
+        );
+        let axes: [bool; 3] = [ext.x > 0.0, ext.y > 0.0, ext.z > 0.0];
+        // Axes of zero extent have scale 0: everything lands in bucket 0 and the axis is skipped.
+        let to_bucket = ToBucket {
+            min: cbox.min,
+            scale: Vec3A::from(scale),
+            top: Vec3A::splat((buckets - 1) as f32),
+        };
+        let radius = fill_bins(&mut self.bins, leaves, boxes, &to_bucket, center);
+        let best = self.best_boundary(axes, node_ext, limit);
+        match best {
+            Some((_, axis, boundary)) => {
+                let (mid, lc, rc) =
+                    partition(leaves, boxes, &mut self.sides, &to_bucket, axis, boundary);
+                debug_assert!(mid > 0 && mid < n);
+                let acc = &self.bins.acc[axis];
+                let side = |acc: &[Bucket]| {
+                    acc.iter().fold(Aabb::EMPTY, |g, b| {
+                        g.union(Aabb {
+                            min: b.lo,
+                            max: b.hi,
+                        })
+                    })
+                };
+                let split = Split {
+                    mid,
+                    left: (side(&acc[..=boundary]), lc),
+                    right: (side(&acc[boundary + 1..buckets]), rc),
+                };
+                (split, radius)
             }
-            let (nl, nr) = (left_count[i] as usize, acc.count as usize);
-            if nl == 0 || nr == 0 || nl.max(nr) > limit {
+            None => {
+                // No usable boundary: coincident centroids, or the depth budget forbids every
+                // candidate. Split at the median of the widest centroid axis.
+                let axis = if ext.x >= ext.y && ext.x >= ext.z {
+                    0
+                } else if ext.y >= ext.z {
+                    1
+                } else {
+                    2
+                };
+                let mid = n / 2;
+                select_median(leaves, boxes, axis, mid);
+                (split_at(boxes, mid), radius)
+            }
+        }
+    }
+
+    /// The cheapest boundary of the binned node: `(cost, axis, boundary)`, boundary `i`
+    /// splitting buckets `..=i` from `i + 1..`; the first of equal costs in the order axis 0
+    /// to 2, boundaries from the last down. `None` when no boundary has lights on both sides
+    /// within the depth budget (`limit` lights at most on either side).
+    fn best_boundary(
+        &self,
+        axes: [bool; 3],
+        node_ext: Vec3,
+        limit: usize,
+    ) -> Option<(f32, usize, usize)> {
+        let max_ext = node_ext.max_element();
+        let mut best: Option<(f32, usize, usize)> = None; // cost, axis, boundary
+        for axis in 0..3 {
+            if !axes[axis] {
                 continue;
             }
-            let cost = kr * (left_cost[i] + right_cost);
-            if best.is_none_or(|b| cost < b.0) {
-                best = Some((cost, axis, i));
+            let (acc, cones) = (&self.bins.acc[axis], &self.bins.cone[axis]);
+            // The buckets with lights. An empty bucket changes neither side, so the
+            // boundaries between two buckets with lights all cost the same, and the first of
+            // them in the scan (the last one) is the only one that can win.
+            let mut full = [0u8; MAX_BUCKETS];
+            let mut m = 0;
+            for i in bits(self.bins.used[axis]) {
+                full[m] = i as u8;
+                m += 1;
             }
-        }
-    }
-    match best {
-        Some((_, axis, boundary)) => {
-            let (min, sc) = (cbox.min[axis], scale[axis]);
-            let (mid, lc, rc) = partition(prims, |p| {
-                bin_of(p.centroid[axis], min, sc, buckets) <= boundary
-            });
-            debug_assert!(mid > 0 && mid < n);
-            let bins = &ctx.bins[axis];
-            let l = bins[..=boundary]
-                .iter()
-                .fold(Aabb::EMPTY, |a, b| a.union(b.aabb));
-            let r = bins[boundary + 1..buckets]
-                .iter()
-                .fold(Aabb::EMPTY, |a, b| a.union(b.aabb));
-            let split = Split {
-                mid,
-                left: (l, lc),
-                right: (r, rc),
-            };
-            (split, radius)
-        }
-        None => {
-            // No usable boundary: coincident centroids, or the depth budget forbids every
-            // candidate. Split at the median of the widest centroid axis.
-            let axis = if ext.x >= ext.y && ext.x >= ext.z {
-                0
-            } else if ext.y >= ext.z {
-                1
-            } else {
-                2
-            };
-            let mid = n / 2;
-            prims.select_nth_unstable_by(mid, |a, b| a.centroid[axis].total_cmp(&b.centroid[axis]));
-            (split_at(prims, mid), radius)
-        }
-    }
-}
-
-/// The split of a node with no more lights than buckets: every boundary between the lights
-/// sorted on each axis is costed exactly (binning would mostly cost empty buckets).
-fn sweep_split(prims: &mut [Prim], depth: u32, geo: Aabb) -> (Split, f32) {
-    let n = prims.len();
-    let center = geo.center();
-    let mut radius = 0.0f32;
-    for p in prims.iter() {
-        let s = &p.bounds.sphere;
-        radius = radius.max((s.center - center).length() + s.radius);
-    }
-    let node_ext = geo.extent();
-    let max_ext = node_ext.max_element();
-    let remaining = MAX_BINARY_DEPTH.saturating_sub(depth + 1).min(62);
-    let limit = 1usize.checked_shl(remaining).unwrap_or(usize::MAX);
-
-    let mut best: Option<(f32, usize, usize)> = None; // cost, axis, left size
-    let mut best_order = [0u8; MAX_BUCKETS];
-    if n > 2 {
-        for axis in 0..3 {
-            let mut order = [0u8; MAX_BUCKETS];
-            for (i, o) in order[..n].iter_mut().enumerate() {
-                *o = i as u8;
+            if m < 2 {
+                continue;
             }
-            order[..n].sort_by(|&a, &b| {
-                prims[usize::from(a)].centroid[axis]
-                    .total_cmp(&prims[usize::from(b)].centroid[axis])
-            });
+            // Costs and counts of the left parts: the buckets up to full[t], for t < m − 1.
+            // Each scan unites cones until its sum is omnidirectional, then only adds boxes
+            // and energies (two loops, so that no branch depends on each bucket's kind).
+            let mut left_cost = [0.0f32; MAX_BUCKETS];
+            let mut left_count = [0u32; MAX_BUCKETS];
+            let mut sum = Acc::EMPTY;
+            let mut t = 0;
+            while t < m - 1 && !sum.omni {
+                let i = usize::from(full[t]);
+                sum.add(&acc[i], &cones[i]);
+                left_cost[t] = sum.cost();
+                left_count[t] = sum.count;
+                t += 1;
+            }
+            while t < m - 1 {
+                sum.add_omni(&acc[usize::from(full[t])]);
+                left_cost[t] = sum.cost_omni();
+                left_count[t] = sum.count;
+                t += 1;
+            }
             let kr = if node_ext[axis] > 0.0 {
                 max_ext / node_ext[axis]
             } else {
                 1.0
             };
-            let mut left_cost = [0.0f32; MAX_BUCKETS];
-            let mut acc = Bin::EMPTY;
-            for i in 0..n - 1 {
-                acc.add(&prims[usize::from(order[i])]);
-                left_cost[i] = acc.cost();
+            let mut consider = |t: usize, right_cost: f32, right_count: u32| {
+                let (nl, nr) = (left_count[t - 1] as usize, right_count as usize);
+                if nl.max(nr) <= limit {
+                    let cost = kr * (left_cost[t - 1] + right_cost);
+                    if best.is_none_or(|b| cost < b.0) {
+                        best = Some((cost, axis, usize::from(full[t]) - 1));
+                    }
+                }
+            };
+            let mut sum = Acc::EMPTY;
+            let mut t = m - 1;
+            while t >= 1 && !sum.omni {
+                let i = usize::from(full[t]);
+                sum.add(&acc[i], &cones[i]);
+                consider(t, sum.cost(), sum.count);
+                t -= 1;
             }
-            let mut acc = Bin::EMPTY;
-            for i in (0..n - 1).rev() {
-                acc.add(&prims[usize::from(order[i + 1])]);
-                let nl = i + 1;
-                if nl.max(n - nl) > limit {
+            while t >= 1 {
+                sum.add_omni(&acc[usize::from(full[t])]);
+                consider(t, sum.cost_omni(), sum.count);
+                t -= 1;
+            }
+        }
+        best
+    }
+}
+
+/// Where a centroid falls: `min((c − min) · scale, top)`, truncated, on each axis.
+struct ToBucket {
+    min: Vec3A,
+    scale: Vec3A,
+    top: Vec3A,
+}
+
+impl ToBucket {
+    /// The buckets of centroid `c` on the three axes.
+    #[inline(always)]
+    fn of(&self, c: Vec3A) -> [usize; 3] {
+        // In [0, top], so the truncation is that of `as usize`, and the mask (a no-op)
+        // bounds the index.
+        let f = ((c - self.min) * self.scale).min(self.top);
+        let k = f32x4::new(f.extend(0.0).to_array())
+            .fast_trunc_int()
+            .to_array();
+        [
+            k[0] as usize & (MAX_BUCKETS - 1),
+            k[1] as usize & (MAX_BUCKETS - 1),
+            k[2] as usize & (MAX_BUCKETS - 1),
+        ]
+    }
+}
+
+/// Bins the lights of a node (buckets on all three axes in one pass); returns the radius of
+/// the sphere around `center` holding every light's sphere. A bucket is its lights added in
+/// turn ([`Acc`]); but one that receives an omnidirectional light has the whole sphere for
+/// cone whatever came before, so the cone unions are made in a second pass, only for the
+/// buckets without one (and of those only the ones [`Ctx::best_boundary`] reads).
+fn fill_bins(
+    bins: &mut Buckets,
+    leaves: &[BinNode],
+    boxes: &[Aabb],
+    to_bucket: &ToBucket,
+    center: Vec3,
+) -> f32 {
+    for (acc, used) in bins.acc.iter_mut().zip(bins.used.iter_mut()) {
+        for i in bits(*used) {
+            acc[i] = Bucket::EMPTY;
+        }
+        *used = 0;
+    }
+    let mut radius = 0.0f32;
+    for (leaf, aabb) in leaves.iter().zip(boxes) {
+        let s = &leaf.bounds.sphere;
+        let r = (s.center - center).length() + s.radius;
+        radius = if r > radius { r } else { radius };
+        let k = to_bucket.of(aabb.center_a());
+        let omni = leaf.bounds.cone.is_sphere();
+        let e = leaf.bounds.energy;
+        for ((acc, used), &k) in bins.acc.iter_mut().zip(bins.used.iter_mut()).zip(&k) {
+            let b = &mut acc[k];
+            b.lo = b.lo.min(aabb.min);
+            b.hi = b.hi.max(aabb.max);
+            b.energy += e;
+            b.count += 1;
+            b.omni |= omni;
+            *used |= 1 << k;
+        }
+    }
+    // The cones of buckets without an omnidirectional light (all of whose lights have a
+    // cone of their own); `directed` counts the lights already united. Only the buckets
+    // before the first omnidirectional one and after the last one need theirs: the scans of
+    // `best_boundary` stop reading cones at an omnidirectional bucket.
+    let mut needed = [0u64; 3];
+    for ((acc, &used), needed) in bins.acc.iter().zip(&bins.used).zip(needed.iter_mut()) {
+        let mut omni = 0u64;
+        for i in bits(used) {
+            omni |= u64::from(acc[i].omni) << i;
+        }
+        *needed = if omni == 0 {
+            used
+        } else {
+            let (first, last) = (omni.trailing_zeros(), 63 - omni.leading_zeros());
+            let below = (1u64 << first) - 1;
+            let above = !((2u64 << last).wrapping_sub(1));
+            used & (below | above)
+        };
+    }
+    if needed.iter().any(|&m| m != 0) {
+        for (leaf, aabb) in leaves.iter().zip(boxes) {
+            let c = &leaf.bounds.cone;
+            if c.is_sphere() {
+                continue;
+            }
+            let k = to_bucket.of(aabb.center_a());
+            for axis in 0..3 {
+                if needed[axis] & (1 << k[axis]) == 0 {
                     continue;
                 }
-                let cost = kr * (left_cost[i] + acc.cost());
-                if best.is_none_or(|b| cost < b.0) {
-                    best = Some((cost, axis, nl));
-                    best_order = order;
-                }
+                let b = &mut bins.acc[axis][k[axis] & (MAX_BUCKETS - 1)];
+                let cone = &mut bins.cone[axis][k[axis] & (MAX_BUCKETS - 1)];
+                *cone = if b.directed == 0 {
+                    *c
+                } else {
+                    cone.union_fast(*c)
+                };
+                b.directed += 1;
+            }
+        }
+    }
+    radius
+}
+
+/// Reorders the lights so that the one of rank `mid` by centroid on `axis` is at `mid`, the
+/// ones before it no greater and the ones after it no smaller: the order
+/// `select_nth_unstable_by` gives, applied to the leaves and boxes together.
+fn select_median(leaves: &mut [BinNode], boxes: &mut [Aabb], axis: usize, mid: usize) {
+    // The selection permutes (key, index) pairs (it depends only on the comparisons), then
+    // the permutation is applied in place, cycle by cycle.
+    let mut keys: Vec<(f32, u32)> = boxes
+        .iter()
+        .enumerate()
+        .map(|(i, b)| (b.center()[axis], i as u32))
+        .collect();
+    keys.select_nth_unstable_by(mid, |a, b| a.0.total_cmp(&b.0));
+    const DONE: u32 = u32::MAX;
+    for start in 0..keys.len() {
+        if keys[start].1 == DONE {
+            continue;
+        }
+        let (leaf, aabb) = (leaves[start], boxes[start]);
+        let mut cur = start;
+        loop {
+            let src = keys[cur].1 as usize;
+            keys[cur].1 = DONE;
+            if src == start {
+                leaves[cur] = leaf;
+                boxes[cur] = aabb;
+                break;
+            }
+            leaves[cur] = leaves[src];
+            boxes[cur] = boxes[src];
+            cur = src;
+        }
+    }
+}
+
+/// The split of a node of at most [`SWEEP_MAX`] lights: every boundary between the lights
+/// sorted on each axis is costed exactly (binning would mostly cost empty buckets), each side
+/// its lights added in turn ([`Acc`]); a single light costs what its leaf does (the same
+/// product).
+fn sweep_split(leaves: &mut [BinNode], boxes: &mut [Aabb], depth: u32, geo: Aabb) -> (Split, f32) {
+    let n = leaves.len();
+    let center = geo.center();
+    let mut radius = 0.0f32;
+    for leaf in leaves.iter() {
+        let s = &leaf.bounds.sphere;
+        radius = radius.max((s.center - center).length() + s.radius);
+    }
+    if n <= 2 {
+        return (split_at(boxes, n / 2), radius);
+    }
+    let node_ext = geo.extent();
+    let max_ext = node_ext.max_element();
+    let remaining = MAX_BINARY_DEPTH.saturating_sub(depth + 1).min(62);
+    let limit = 1usize.checked_shl(remaining).unwrap_or(usize::MAX);
+
+    let mut centroids = [Vec3A::ZERO; SWEEP_MAX];
+    for (c, b) in centroids.iter_mut().zip(boxes.iter()) {
+        *c = b.center_a();
+    }
+    let mut best: Option<(f32, usize)> = None; // cost, left size
+    let mut best_order = [0u8; SWEEP_MAX];
+    for axis in 0..3 {
+        // The lights sorted by centroid, ties in their order (what a stable sort by
+        // `total_cmp` gives): sorting network on (key, index), the key ordered as `total_cmp`
+        // orders the floats; a missing fourth light sorts last.
+        let mut keys = [i64::MAX; SWEEP_MAX];
+        for (i, (k, c)) in keys.iter_mut().zip(&centroids[..n]).enumerate() {
+            let bits = c[axis].to_bits() as i32;
+            let ordered = bits ^ (((bits >> 31) as u32) >> 1) as i32;
+            *k = (i64::from(ordered) << 2) | i as i64;
+        }
+        for (x, y) in [(0, 1), (2, 3), (0, 2), (1, 3), (1, 2)] {
+            let (a, b) = (keys[x], keys[y]);
+            keys[x] = a.min(b);
+            keys[y] = a.max(b);
+        }
+        let order = keys.map(|k| (k & 3) as u8);
+        let kr = if node_ext[axis] > 0.0 {
+            max_ext / node_ext[axis]
+        } else {
+            1.0
+        };
+        let mut left_cost = [0.0f32; SWEEP_MAX];
+        let mut acc = Acc::EMPTY;
+        for i in 0..n - 1 {
+            let k = usize::from(order[i]);
+            acc.add_light(&leaves[k], &boxes[k]);
+            left_cost[i] = if i == 0 { leaves[k].cost } else { acc.cost() };
+        }
+        let mut acc = Acc::EMPTY;
+        for i in (0..n - 1).rev() {
+            let k = usize::from(order[i + 1]);
+            acc.add_light(&leaves[k], &boxes[k]);
+            let nl = i + 1;
+            if nl.max(n - nl) > limit {
+                continue;
+            }
+            let right = if i == n - 2 {
+                leaves[k].cost
+            } else {
+                acc.cost()
+            };
+            let cost = kr * (left_cost[i] + right);
+            if best.is_none_or(|b| cost < b.0) {
+                best = Some((cost, nl));
+                best_order = order;
             }
         }
     }
     let mid = match best {
-        Some((_, _, nl)) => {
-            let mut sorted = [prims[0]; MAX_BUCKETS];
-            for (dst, &src) in sorted[..n].iter_mut().zip(&best_order[..n]) {
-                *dst = prims[usize::from(src)];
+        Some((_, nl)) => {
+            let mut sorted_leaves = [BinNode::PLACEHOLDER; SWEEP_MAX];
+            let mut sorted_boxes = [Aabb::EMPTY; SWEEP_MAX];
+            for (k, &src) in best_order[..n].iter().enumerate() {
+                sorted_leaves[k] = leaves[usize::from(src)];
+                sorted_boxes[k] = boxes[usize::from(src)];
             }
-            prims.copy_from_slice(&sorted[..n]);
+            leaves.copy_from_slice(&sorted_leaves[..n]);
+            boxes.copy_from_slice(&sorted_boxes[..n]);
             nl
         }
         None => n / 2,
     };
-    (split_at(prims, mid), radius)
+    (split_at(boxes, mid), radius)
 }
 
-/// The split of `prims` (already ordered) after the first `mid`, with both sides' boxes.
-fn split_at(prims: &[Prim], mid: usize) -> Split {
-    let (l, r) = prims.split_at(mid);
+/// The split of the lights with boxes `boxes` (already ordered) after the first `mid`, with
+/// both sides' boxes.
+fn split_at(boxes: &[Aabb], mid: usize) -> Split {
+    let (l, r) = boxes.split_at(mid);
     Split {
         mid,
         left: bounds_of(l),
@@ -451,28 +818,117 @@ fn split_at(prims: &[Prim], mid: usize) -> Split {
     }
 }
 
-/// Moves the elements for which `left` holds to the front; returns how many there are and
-/// the boxes of the centroids of both parts.
-fn partition(prims: &mut [Prim], left: impl Fn(&Prim) -> bool) -> (usize, Aabb, Aabb) {
-    let mut i = 0;
-    let mut j = prims.len();
-    let (mut lc, mut rc) = (Aabb::EMPTY, Aabb::EMPTY);
+/// Moves the lights whose bucket on `axis` is at most `boundary` to the front (leaves and
+/// boxes together); returns how many there are and the boxes of the centroids of both parts.
+///
+/// The order is the one of the two-sided scan (Hoare): the k-th light from the front that
+/// belongs to the back swaps with the k-th light from the back that belongs to the front,
+/// while the first is before the second. Here the sides are found first, a bit per light in
+/// `sides` (no branch on them), then the pairs are found a word of bits at a time and
+/// swapped, as in block partitioning (Edelkamp & Weiß 2016, "BlockQuicksort", section 3).
+fn partition(
+    leaves: &mut [BinNode],
+    boxes: &mut [Aabb],
+    sides: &mut [u64],
+    to_bucket: &ToBucket,
+    axis: usize,
+    boundary: usize,
+) -> (usize, Aabb, Aabb) {
+    // A bucket index is `(c − min) · scale` truncated (and capped at the last bucket, which
+    // is above `boundary`): at most `boundary` exactly when the product is below
+    // `boundary + 1`.
+    let (min, scale) = (to_bucket.min[axis], to_bucket.scale[axis]);
+    let below = (boundary + 1) as f32;
+    let words = &mut sides[..boxes.len().div_ceil(64)];
+    let (lc, rc) = match axis {
+        0 => find_sides::<0>(boxes, words, min, scale, below),
+        1 => find_sides::<1>(boxes, words, min, scale, below),
+        _ => find_sides::<2>(boxes, words, min, scale, below),
+    };
+    (swap_sides(leaves, boxes, words), lc, rc)
+}
+
+/// Sets bit `i` of `sides` when light `i` goes to the front (and the bits past the last
+/// light, so that the search for back lights stops there); returns the boxes of the centroids
+/// of both parts (their minima and maxima do not depend on the order but for the sign of a
+/// zero, which no use of a centroid box sees).
+fn find_sides<const AXIS: usize>(
+    boxes: &[Aabb],
+    sides: &mut [u64],
+    min: f32,
+    scale: f32,
+    below: f32,
+) -> (Aabb, Aabb) {
+    // The centroid boxes of the back (0) and front (1) parts.
+    let mut part = [Aabb::EMPTY; 2];
+    for (chunk, word) in boxes.chunks(64).zip(sides.iter_mut()) {
+        let mut w = if chunk.len() == 64 {
+            0
+        } else {
+            !0u64 << chunk.len()
+        };
+        for (k, b) in chunk.iter().enumerate() {
+            let c = b.center_a();
+            let front = (c[AXIS] - min) * scale < below;
+            w |= u64::from(front) << k;
+            let p = &mut part[usize::from(front)];
+            *p = p.grow_a(c);
+        }
+        *word = w;
+    }
+    (part[1], part[0])
+}
+
+/// Swaps the lights into their sides (`sides` as [`find_sides`] sets it); returns how many
+/// lights go to the front.
+fn swap_sides(leaves: &mut [BinNode], boxes: &mut [Aabb], sides: &[u64]) -> usize {
+    let n = boxes.len();
+    // The first back light at or after `i` (`n` when none).
+    let next_back = |i: usize| -> usize {
+        let mut w = i / 64;
+        if w == sides.len() {
+            return n;
+        }
+        let mut m = !sides[w] & (!0u64 << (i % 64));
+        while m == 0 {
+            w += 1;
+            if w == sides.len() {
+                return n;
+            }
+            m = !sides[w];
+        }
+        w * 64 + m.trailing_zeros() as usize
+    };
+    // The last front light before `j` (`None` when none).
+    let prev_front = |j: usize| -> Option<usize> {
+        if j == 0 {
+            return None;
+        }
+        let mut w = (j - 1) / 64;
+        let mut m = sides[w] & (!0u64 >> (63 - (j - 1) % 64));
+        while m == 0 {
+            if w == 0 {
+                return None;
+            }
+            w -= 1;
+            m = sides[w];
+        }
+        Some(w * 64 + 63 - m.leading_zeros() as usize)
+    };
+    let (mut i, mut j) = (0, n);
     loop {
-        while i < j && left(&prims[i]) {
-            lc = lc.grow(prims[i].centroid);
-            i += 1;
+        let a = next_back(i);
+        if a >= j {
+            return j;
         }
-        while i < j && !left(&prims[j - 1]) {
-            rc = rc.grow(prims[j - 1].centroid);
-            j -= 1;
+        match prev_front(j) {
+            Some(b) if b > a => {
+                leaves.swap(a, b);
+                boxes.swap(a, b);
+                i = a + 1;
+                j = b;
+            }
+            _ => return a,
         }
-        if i >= j {
-            return (i, lc, rc);
-        }
-        prims.swap(i, j - 1);
-        lc = lc.grow(prims[i].centroid);
-        rc = rc.grow(prims[j - 1].centroid);
-        i += 1;
-        j -= 1;
     }
 }

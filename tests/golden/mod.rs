@@ -1,0 +1,197 @@
+//! Seeded scenes of every light kind and layout, made with integer and correctly rounded
+//! arithmetic only (no library trigonometry), so that they are the same on every platform;
+//! and hashes of what a build makes of them.
+
+#![allow(dead_code)]
+
+use glam::Vec3;
+use manylights::baseline::BinaryLightTree;
+use manylights::{BuildOptions, Light, LightTree};
+
+/// SplitMix64 (Steele, Lea, Flood 2014).
+struct Rng(u64);
+
+impl Rng {
+    fn next(&mut self) -> u64 {
+        self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
+        let mut z = self.0;
+        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
+        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
+        z ^ (z >> 31)
+    }
+
+    /// Uniform in [0, 1), 24 bits.
+    fn f32(&mut self) -> f32 {
+        (self.next() >> 40) as f32 * (1.0 / (1u64 << 24) as f32)
+    }
+
+    fn range(&mut self, lo: f32, hi: f32) -> f32 {
+        lo + (hi - lo) * self.f32()
+    }
+
+    fn below(&mut self, n: u64) -> u64 {
+        self.next() % n
+    }
+
+    fn in_cube(&mut self, half: f32) -> Vec3 {
+        Vec3::new(
+            self.range(-half, half),
+            self.range(-half, half),
+            self.range(-half, half),
+        )
+    }
+
+    /// A direction, not unit length (the build normalises), sometimes along an axis.
+    fn direction(&mut self) -> Vec3 {
+        if self.below(8) == 0 {
+            return [Vec3::X, -Vec3::Y, Vec3::Z][self.below(3) as usize] * 3.0;
+        }
+        loop {
+            let d = self.in_cube(1.0);
+            if d.length_squared() > 1e-4 {
+                return d;
+            }
+        }
+    }
+}
+
+/// `n` lights from `seed` laid out by `style`: 0 in a cube, 1 in clusters, 2 on a line, 3 on
+/// a plane, 4 at a few points shared by many lights. Every kind appears (one- and two-sided
+/// area lights, spots wider than a hemisphere, degenerate triangles), with energies over eight
+/// decades and a few lights of zero energy.
+pub fn scene(seed: u64, n: usize, style: u32) -> Vec<Light> {
+    let mut rng = Rng(seed ^ 0x6f6c_6465_6e5f_7465);
+    let centres: Vec<Vec3> = (0..16).map(|_| rng.in_cube(1000.0)).collect();
+    (0..n)
+        .map(|i| {
+            let c = match style {
+                0 => rng.in_cube(100.0),
+                1 => centres[rng.below(16) as usize] + rng.in_cube(2.0),
+                2 => Vec3::new(rng.range(-50.0, 50.0), 1.0, -2.0),
+                3 => Vec3::new(rng.range(-50.0, 50.0), rng.range(-50.0, 50.0), 3.0),
+                _ => Vec3::splat((i % 5) as f32),
+            };
+            let power = if rng.below(40) == 0 {
+                0.0
+            } else {
+                rng.range(0.1, 10.0) * [1e-4, 1e-2, 1.0, 1e2, 1e4][rng.below(5) as usize]
+            };
+            match rng.below(9) {
+                0 => Light::Point {
+                    position: c,
+                    intensity: power,
+                },
+                1 => {
+                    let half_angle = rng.range(0.01, 3.1);
+                    Light::Spot {
+                        position: c,
+                        direction: rng.direction(),
+                        intensity: power,
+                        half_angle,
+                        falloff_start: half_angle * 0.5,
+                    }
+                }
+                2 => Light::Sphere {
+                    center: c,
+                    radius: rng.range(0.01, 3.0),
+                    radiance: power,
+                },
+                3 | 4 => Light::Disk {
+                    center: c,
+                    normal: rng.direction(),
+                    radius: rng.range(0.01, 3.0),
+                    radiance: power,
+                    two_sided: rng.below(2) == 0,
+                },
+                5 | 6 => {
+                    let s = rng.range(0.01, 4.0);
+                    let vertices = if rng.below(30) == 0 {
+                        [c, c + Vec3::X, c + Vec3::X * 2.0]
+                    } else {
+                        [c, c + rng.direction() * s, c + rng.direction() * s]
+                    };
+                    Light::Triangle {
+                        vertices,
+                        radiance: power,
+                        two_sided: rng.below(3) == 0,
+                    }
+                }
+                _ => Light::Vpl {
+                    position: c,
+                    normal: rng.direction(),
+                    intensity: power,
+                },
+            }
+        })
+        .collect()
+}
+
+/// FNV-1a (64 bits) of 32-bit words, byte order independent.
+fn fnv(words: impl IntoIterator<Item = u32>) -> u64 {
+    let mut h = 0xcbf2_9ce4_8422_2325u64;
+    for w in words {
+        for b in w.to_le_bytes() {
+            h = (h ^ u64::from(b)).wrapping_mul(0x0000_0100_0000_01b3);
+        }
+    }
+    h
+}
+
+/// FNV-1a (64 bits) of bytes.
+fn fnv_bytes(bytes: &[u8]) -> u64 {
+    let mut h = 0xcbf2_9ce4_8422_2325u64;
+    for &b in bytes {
+        h = (h ^ u64::from(b)).wrapping_mul(0x0000_0100_0000_01b3);
+    }
+    h
+}
+
+/// Hashes of the binary tree (every node of [`BinaryLightTree`]: bounds, energy, child) and of
+/// the 4-wide tree's byte form ([`LightTree::as_bytes`]: nodes, variances, leaf array, paths),
+/// built with the default options and with [`BuildOptions::compact`], of `lights`.
+pub fn hashes(lights: &[Light]) -> (u64, u64, u64) {
+    let binary = BinaryLightTree::build(lights).expect("valid scene");
+    let words: &[u32] = bytemuck::cast_slice(binary.nodes());
+    let tree = LightTree::build(lights).expect("valid scene");
+    let compact = LightTree::build_with(
+        lights,
+        &BuildOptions {
+            compact: true,
+            ..BuildOptions::default()
+        },
+    )
+    .expect("valid scene");
+    (
+        fnv(words.iter().copied()),
+        fnv_bytes(&tree.as_bytes()),
+        fnv_bytes(&compact.as_bytes()),
+    )
+}
+
+/// The scenes hashed: (seed, lights, style).
+pub const CASES: [(u64, usize, u32); 24] = [
+    (1, 1, 0),
+    (2, 2, 0),
+    (3, 3, 1),
+    (4, 4, 0),
+    (5, 5, 4),
+    (6, 6, 2),
+    (7, 9, 3),
+    (8, 17, 0),
+    (9, 33, 1),
+    (10, 100, 0),
+    (11, 100, 4),
+    (12, 300, 2),
+    (13, 300, 3),
+    (14, 1000, 0),
+    (15, 1000, 1),
+    (16, 1000, 4),
+    (17, 3000, 2),
+    (18, 3000, 3),
+    (19, 5000, 0),
+    (20, 5000, 1),
+    (21, 20000, 0),
+    (22, 20000, 1),
+    (23, 20000, 4),
+    (24, 20000, 3),
+];
