@@ -8,7 +8,7 @@
 //! Scene: the random scene of `mlrender bench` (fixed seed, 10⁵ lights).
 
 use criterion::{criterion_group, criterion_main, Criterion, Throughput};
-use manylights::{Light, LightSample, LightTree, TlImportance};
+use manylights::{LightSample, LightTree, TlImportance};
 use manylights_ffi as ffi;
 use manylights_testkit as random_scene;
 use std::hint::black_box;
@@ -18,86 +18,10 @@ const POINTS: usize = 4096;
 const BATCH: usize = 256;
 const LIGHTS: usize = 100_000;
 
-/// The C ABI's descriptor of a light.
-fn ffi_light(l: &Light) -> ffi::ml_light {
-    let mut d = ffi::ml_light::default();
-    match *l {
-        Light::Point {
-            position,
-            intensity,
-        } => {
-            d.kind = ffi::ml_light_kind::Point as u32;
-            d.position = position.into();
-            d.power = intensity;
-        }
-        Light::Spot {
-            position,
-            direction,
-            intensity,
-            half_angle,
-            falloff_start,
-        } => {
-            d.kind = ffi::ml_light_kind::Spot as u32;
-            d.position = position.into();
-            d.direction = direction.into();
-            d.power = intensity;
-            d.half_angle = half_angle;
-            d.falloff_start = falloff_start;
-        }
-        Light::Sphere {
-            center,
-            radius,
-            radiance,
-        } => {
-            d.kind = ffi::ml_light_kind::Sphere as u32;
-            d.position = center.into();
-            d.radius = radius;
-            d.power = radiance;
-        }
-        Light::Disk {
-            center,
-            normal,
-            radius,
-            radiance,
-            two_sided,
-        } => {
-            d.kind = ffi::ml_light_kind::Disk as u32;
-            d.position = center.into();
-            d.direction = normal.into();
-            d.radius = radius;
-            d.power = radiance;
-            d.two_sided = u32::from(two_sided);
-        }
-        Light::Triangle {
-            vertices,
-            radiance,
-            two_sided,
-        } => {
-            d.kind = ffi::ml_light_kind::Triangle as u32;
-            d.position = vertices[0].into();
-            d.direction = vertices[1].into();
-            d.vertex2 = vertices[2].into();
-            d.power = radiance;
-            d.two_sided = u32::from(two_sided);
-        }
-        Light::Vpl {
-            position,
-            normal,
-            intensity,
-        } => {
-            d.kind = ffi::ml_light_kind::Vpl as u32;
-            d.position = position.into();
-            d.direction = normal.into();
-            d.power = intensity;
-        }
-    }
-    d
-}
-
 fn abi(c: &mut Criterion) {
     let lights = random_scene::lights(LIGHTS, 7);
     let tree = LightTree::build(&lights).unwrap();
-    let descs: Vec<ffi::ml_light> = lights.iter().map(ffi_light).collect();
+    let descs: Vec<ffi::ml_light> = lights.iter().map(ffi::ml_light::from).collect();
     let mut handle: *mut ffi::ml_tree = std::ptr::null_mut();
     let status = ffi::ml_tree_build(descs.as_ptr(), descs.len(), std::ptr::null(), &mut handle);
     assert_eq!(status, ffi::ML_OK, "the bench scene is valid");

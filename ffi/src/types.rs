@@ -88,6 +88,85 @@ pub struct ml_light {
     pub falloff_start: f32,
 }
 
+/// The descriptor of a core light, field for field (what a Rust host that also calls the
+/// ABI, such as a bench, passes to `ml_tree_build`).
+impl From<&Light> for ml_light {
+    fn from(l: &Light) -> ml_light {
+        let mut d = ml_light::default();
+        match *l {
+            Light::Point {
+                position,
+                intensity,
+            } => {
+                d.kind = ml_light_kind::Point as u32;
+                d.position = position.into();
+                d.power = intensity;
+            }
+            Light::Spot {
+                position,
+                direction,
+                intensity,
+                half_angle,
+                falloff_start,
+            } => {
+                d.kind = ml_light_kind::Spot as u32;
+                d.position = position.into();
+                d.direction = direction.into();
+                d.power = intensity;
+                d.half_angle = half_angle;
+                d.falloff_start = falloff_start;
+            }
+            Light::Sphere {
+                center,
+                radius,
+                radiance,
+            } => {
+                d.kind = ml_light_kind::Sphere as u32;
+                d.position = center.into();
+                d.radius = radius;
+                d.power = radiance;
+            }
+            Light::Disk {
+                center,
+                normal,
+                radius,
+                radiance,
+                two_sided,
+            } => {
+                d.kind = ml_light_kind::Disk as u32;
+                d.position = center.into();
+                d.direction = normal.into();
+                d.radius = radius;
+                d.power = radiance;
+                d.two_sided = u32::from(two_sided);
+            }
+            Light::Triangle {
+                vertices,
+                radiance,
+                two_sided,
+            } => {
+                d.kind = ml_light_kind::Triangle as u32;
+                d.position = vertices[0].into();
+                d.direction = vertices[1].into();
+                d.vertex2 = vertices[2].into();
+                d.power = radiance;
+                d.two_sided = u32::from(two_sided);
+            }
+            Light::Vpl {
+                position,
+                normal,
+                intensity,
+            } => {
+                d.kind = ml_light_kind::Vpl as u32;
+                d.position = position.into();
+                d.direction = normal.into();
+                d.power = intensity;
+            }
+        }
+        d
+    }
+}
+
 /// The kind of an `ml_material` (the value of its `kind` field).
 #[repr(u32)]
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]

@@ -120,87 +120,6 @@ fn time_pass(
     (points.len() as f64 / s / 1e6, acc)
 }
 
-/// The C ABI's descriptor of a light.
-fn ffi_light(l: &Light) -> ffi::ml_light {
-    let v = |v: glam::Vec3| ffi::ml_vec3 {
-        x: v.x,
-        y: v.y,
-        z: v.z,
-    };
-    let mut d = ffi::ml_light::default();
-    match *l {
-        Light::Point {
-            position,
-            intensity,
-        } => {
-            d.kind = ffi::ml_light_kind::Point as u32;
-            d.position = v(position);
-            d.power = intensity;
-        }
-        Light::Spot {
-            position,
-            direction,
-            intensity,
-            half_angle,
-            falloff_start,
-        } => {
-            d.kind = ffi::ml_light_kind::Spot as u32;
-            d.position = v(position);
-            d.direction = v(direction);
-            d.power = intensity;
-            d.half_angle = half_angle;
-            d.falloff_start = falloff_start;
-        }
-        Light::Sphere {
-            center,
-            radius,
-            radiance,
-        } => {
-            d.kind = ffi::ml_light_kind::Sphere as u32;
-            d.position = v(center);
-            d.radius = radius;
-            d.power = radiance;
-        }
-        Light::Disk {
-            center,
-            normal,
-            radius,
-            radiance,
-            two_sided,
-        } => {
-            d.kind = ffi::ml_light_kind::Disk as u32;
-            d.position = v(center);
-            d.direction = v(normal);
-            d.radius = radius;
-            d.power = radiance;
-            d.two_sided = u32::from(two_sided);
-        }
-        Light::Triangle {
-            vertices,
-            radiance,
-            two_sided,
-        } => {
-            d.kind = ffi::ml_light_kind::Triangle as u32;
-            d.position = v(vertices[0]);
-            d.direction = v(vertices[1]);
-            d.vertex2 = v(vertices[2]);
-            d.power = radiance;
-            d.two_sided = u32::from(two_sided);
-        }
-        Light::Vpl {
-            position,
-            normal,
-            intensity,
-        } => {
-            d.kind = ffi::ml_light_kind::Vpl as u32;
-            d.position = v(position);
-            d.direction = v(normal);
-            d.power = intensity;
-        }
-    }
-    d
-}
-
 /// Throughput of the C ABI's batch TL sampling (`ml_tree_sample_tl_batch`, called through its
 /// `extern "C"` symbol) over the points, in million samples per second.
 fn time_ffi_batch(
@@ -265,7 +184,7 @@ pub fn run(cfg: &BenchConfig) -> serde_json::Value {
     let us = random_scene::uniforms(cfg.points, cfg.seed);
 
     // The same lights and points through the C ABI.
-    let descs: Vec<ffi::ml_light> = lights.iter().map(ffi_light).collect();
+    let descs: Vec<ffi::ml_light> = lights.iter().map(ffi::ml_light::from).collect();
     let mut ffi_tree: *mut ffi::ml_tree = std::ptr::null_mut();
     let status = ffi::ml_tree_build(descs.as_ptr(), descs.len(), std::ptr::null(), &mut ffi_tree);
     assert_eq!(status, ffi::ML_OK, "the bench scene is valid");
