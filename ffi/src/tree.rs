@@ -383,6 +383,37 @@ fn batch_len(count: usize) -> Result<usize> {
     Ok(count)
 }
 
+/// The loop every batch call runs once its inputs are checked: chunks of up to [`CHUNK`]
+/// elements, element `j`'s importance from `imp(j)`, the core's batch call `call(imps, range,
+/// results)` on the chunk, and `out[j]` from its result.
+fn in_chunks<I, R: Copy, O: Copy>(
+    n: usize,
+    empty: R,
+    mut imp: impl FnMut(usize) -> Result<I>,
+    mut call: impl FnMut(
+        &[I],
+        core::ops::Range<usize>,
+        &mut [R],
+    ) -> core::result::Result<(), manylights::LengthMismatch>,
+    out: &mut arg::OutSlice<'_, O>,
+    put: impl Fn(R) -> O,
+) -> Result<()> {
+    let mut imps = Vec::with_capacity(n.min(CHUNK));
+    let mut res = vec![empty; n.min(CHUNK)];
+    for start in (0..n).step_by(CHUNK) {
+        let m = CHUNK.min(n - start);
+        imps.clear();
+        for j in start..start + m {
+            imps.push(imp(j)?);
+        }
+        batch_call(call(&imps, start..start + m, &mut res[..m]))?;
+        for (i, &r) in res[..m].iter().enumerate() {
+            out.set(start + i, put(r));
+        }
+    }
+    Ok(())
+}
+
 /// `count` TL samples at once, bit for bit what `count` calls of `ml_tree_sample_tl` give:
 /// `out[j]` for `points[j]` and `us[j]` (the throughput path). Every input is checked before
 /// anything is written.
@@ -410,22 +441,19 @@ pub extern "C" fn ml_tree_sample_tl_batch(
             }
         }
         let t = data.tree();
-        let mut imps = Vec::with_capacity(n.min(CHUNK));
-        let mut res = vec![None; n.min(CHUNK)];
-        for start in (0..n).step_by(CHUNK) {
-            let m = CHUNK.min(n - start);
-            imps.clear();
-            imps.extend(
-                points[start..start + m]
-                    .iter()
-                    .map(|p| TlImportance::new(p.position.into(), p.normal.into())),
-            );
-            batch_call(t.sample_batch(&imps, &us[start..start + m], &mut res[..m]))?;
-            for (i, r) in res[..m].iter().enumerate() {
-                out.set(start + i, (*r).into());
-            }
-        }
-        Ok(())
+        in_chunks(
+            n,
+            None,
+            |j| {
+                Ok(TlImportance::new(
+                    points[j].position.into(),
+                    points[j].normal.into(),
+                ))
+            },
+            |imps, r, res| t.sample_batch(imps, &us[r], res),
+            &mut out,
+            ml_light_sample::from,
+        )
     })
 }
 
@@ -455,22 +483,19 @@ pub extern "C" fn ml_tree_pmf_tl_batch(
                 check_light(l, nl, &format!("lights[{j}]"))?;
             }
         }
-        let mut imps = Vec::with_capacity(n.min(CHUNK));
-        let mut res = vec![0f32; n.min(CHUNK)];
-        for start in (0..n).step_by(CHUNK) {
-            let m = CHUNK.min(n - start);
-            imps.clear();
-            imps.extend(
-                points[start..start + m]
-                    .iter()
-                    .map(|p| TlImportance::new(p.position.into(), p.normal.into())),
-            );
-            batch_call(t.pmf_batch(&imps, &lights[start..start + m], &mut res[..m]))?;
-            for (i, &r) in res[..m].iter().enumerate() {
-                out.set(start + i, r);
-            }
-        }
-        Ok(())
+        in_chunks(
+            n,
+            0.0,
+            |j| {
+                Ok(TlImportance::new(
+                    points[j].position.into(),
+                    points[j].normal.into(),
+                ))
+            },
+            |imps, r, res| t.pmf_batch(imps, &lights[r], res),
+            &mut out,
+            |p| p,
+        )
     })
 }
 
@@ -497,20 +522,14 @@ pub extern "C" fn ml_tree_sample_bl_batch(
             unit(u, &|| format!("us[{j}]"))?;
         }
         let t = data.tree();
-        let mut imps = Vec::with_capacity(n.min(CHUNK));
-        let mut res = vec![None; n.min(CHUNK)];
-        for start in (0..n).step_by(CHUNK) {
-            let m = CHUNK.min(n - start);
-            imps.clear();
-            for (j, p) in points[start..start + m].iter().enumerate() {
-                imps.push(bl_importance(p, &|| format!("points[{}]", start + j))?);
-            }
-            batch_call(t.sample_batch(&imps, &us[start..start + m], &mut res[..m]))?;
-            for (i, r) in res[..m].iter().enumerate() {
-                out.set(start + i, (*r).into());
-            }
-        }
-        Ok(())
+        in_chunks(
+            n,
+            None,
+            |j| bl_importance(&points[j], &|| format!("points[{j}]")),
+            |imps, r, res| t.sample_batch(imps, &us[r], res),
+            &mut out,
+            ml_light_sample::from,
+        )
     })
 }
 
@@ -538,20 +557,14 @@ pub extern "C" fn ml_tree_pmf_bl_batch(
             bl_importance(p, &|| format!("points[{j}]"))?;
             check_light(l, nl, &format!("lights[{j}]"))?;
         }
-        let mut imps = Vec::with_capacity(n.min(CHUNK));
-        let mut res = vec![0f32; n.min(CHUNK)];
-        for start in (0..n).step_by(CHUNK) {
-            let m = CHUNK.min(n - start);
-            imps.clear();
-            for (j, p) in points[start..start + m].iter().enumerate() {
-                imps.push(bl_importance(p, &|| format!("points[{}]", start + j))?);
-            }
-            batch_call(t.pmf_batch(&imps, &lights[start..start + m], &mut res[..m]))?;
-            for (i, &r) in res[..m].iter().enumerate() {
-                out.set(start + i, r);
-            }
-        }
-        Ok(())
+        in_chunks(
+            n,
+            0.0,
+            |j| bl_importance(&points[j], &|| format!("points[{j}]")),
+            |imps, r, res| t.pmf_batch(imps, &lights[r], res),
+            &mut out,
+            |p| p,
+        )
     })
 }
 
