@@ -58,14 +58,22 @@ fn sign(v: f32) -> f32 {
 /// Decodes [`encode_axis`] (the low 16 bits of `q`); the result is unit length.
 #[inline]
 pub fn decode_axis(q: u32) -> Vec3 {
+    let a = decode_axis_raw(q);
+    let inv = 1.0 / math::sqrt(a.x * a.x + a.y * a.y + a.z * a.z);
+    Vec3::new(a.x * inv, a.y * inv, a.z * inv)
+}
+
+/// [`decode_axis`] before its normalisation: the point of the octahedron |x| + |y| + |z| = 1
+/// (length in [1/√3, 1]) that the 4-wide TL importance works with.
+#[inline]
+pub fn decode_axis_raw(q: u32) -> Vec3 {
     let x = (q & 0xFF) as f32 * (2.0 / Q8) - 1.0;
     let y = ((q >> 8) & 0xFF) as f32 * (2.0 / Q8) - 1.0;
     let z = 1.0 - x.abs() - y.abs();
     let t = (-z).max(0.0);
     let x = if x >= 0.0 { x - t } else { x + t };
     let y = if y >= 0.0 { y - t } else { y + t };
-    let inv = 1.0 / math::sqrt(x * x + y * y + z * z);
-    Vec3::new(x * inv, y * inv, z * inv)
+    Vec3::new(x, y, z)
 }
 
 /// Encodes an angle in [0, π] as `ceil(255 · sin(θ/2))`, never below the true value.

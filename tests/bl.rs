@@ -264,8 +264,9 @@ const SC_OVER_ALBEDO: f64 = 1.05;
 
 /// Lane k of `imp.eval4_with_integrals(node)` against `imp.eval(&node.bounds(k))`, both
 /// values: the importance through the check every importance shares
-/// ([`common::lanes_match_scalar`]: `eval4` against `eval_slot` within [`LANE_REL`] and
-/// [`LANE_ABS_IMPORTANCE`], never negative or NaN, 0 for slots of zero energy), then what is
+/// ([`common::lanes_match_scalar`]: `eval4` against `eval_lane`, for BL `eval_slot`, within
+/// [`LANE_REL`] and [`LANE_ABS_IMPORTANCE`], never negative or NaN, 0 for slots of zero
+/// energy), then what is
 /// BL's own: importances finite, SC within [`LANE_REL`], never negative, at most
 /// [`SC_OVER_ALBEDO`] × the albedo, `eval4` = the first half of `eval4_with_integrals`, and
 /// `eval_slot` = the importance of `eval`.

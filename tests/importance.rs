@@ -1,5 +1,5 @@
-//! The TL importance: the 4-wide `eval4` against the scalar `eval_slot` lane by lane, the scalar
-//! `eval` against the formula of docs/formulas.md, section 4 computed in f64, and conservativeness
+//! The TL importance: the 4-wide `eval4` against its scalar twin `eval_lane` lane by lane, every
+//! form against the formula of docs/formulas.md, section 4 computed in f64, and conservativeness
 //! (every light that can contribute at a point has a positive pmf).
 
 mod common;
@@ -19,7 +19,7 @@ use proptest::test_runner::TestCaseError;
 // SIMD vs scalar
 // ---------------------------------------------------------------------------------------------
 
-/// Relative tolerance of TL's lane comparison: `eval4` and `eval_slot` are written operation
+/// Relative tolerance of TL's lane comparison: `eval4` and `eval_lane` are written operation
 /// for operation alike, so any difference is a bug; 1e-5 only allows for a compiler reordering
 /// nothing here depends on. Tighter than BL's (`tests/bl.rs`), whose cap integrals go through
 /// an ill-conditioned lens area that TL does not have.
@@ -28,7 +28,7 @@ const LANE_REL: f64 = 1e-5;
 /// Absolute floor of TL's lane comparison, for results too small to carry relative precision.
 const LANE_ABS: f64 = 1e-30;
 
-/// `eval4(node)` lane k equals `eval_slot(&node.bounds(k))` within [`LANE_REL`] and
+/// `eval4(node)` lane k equals `eval_lane(node, k)` within [`LANE_REL`] and
 /// [`LANE_ABS`], and both are in the documented range ([`common::lanes_match_scalar`], the
 /// check every importance shares).
 fn check_lanes(imp: &TlImportance, node: &Node4) -> Result<(), String> {
@@ -210,7 +210,9 @@ fn tl_reference(imp: &TlImportance, b: &SlotBounds) -> (f64, f64) {
     (f64::from(b.energy) * theta_p.cos() * cos_i / d2, margin)
 }
 
-/// `TlImportance::eval` follows the formula of docs/formulas.md, section 4 (computed independently in
+/// `TlImportance::eval` (the scalar reference, the binary baseline's), `eval_slot` (its scaled
+/// form), `eval_lane` and `eval4` (the scaled form on the axis before its normalisation) all
+/// follow the formula of docs/formulas.md, section 4 (computed independently in
 /// f64 with acos/asin, on the decoded bounds): zero exactly when the formula is zero and
 /// within 2e-3 relative otherwise, wherever the decision is at least 1e-3 rad from a zero
 /// boundary and the point is not within 1e-4·r of the sphere's surface (where f32 rounding may
@@ -269,16 +271,27 @@ fn eval_matches_math_md_formula() {
         if margin < 1e-3 || (d - r).abs() <= 1e-4 * r.max(d) {
             continue;
         }
-        let got = f64::from(imp.eval(&b));
+        let forms = [
+            ("eval", imp.eval(&b)),
+            ("eval_slot", imp.eval_slot(&b)),
+            ("eval_lane", imp.eval_lane(&node, 0)),
+            ("eval4", imp.eval4(&node).to_array()[0]),
+        ];
         if reference == 0.0 {
             zeros += 1;
-            assert_eq!(got, 0.0, "formula gives 0, eval {got}: {b:?} at {imp:?}");
         } else {
             compared += 1;
-            assert!(
-                close(got, reference, 2e-3, 0.0),
-                "eval {got} vs formula {reference}: {b:?} at {imp:?}"
-            );
+        }
+        for (form, got) in forms {
+            let got = f64::from(got);
+            if reference == 0.0 {
+                assert_eq!(got, 0.0, "formula gives 0, {form} {got}: {b:?} at {imp:?}");
+            } else {
+                assert!(
+                    close(got, reference, 2e-3, 0.0),
+                    "{form} {got} vs formula {reference}: {b:?} at {imp:?}"
+                );
+            }
         }
     }
     // Not vacuous: most draws are decided away from a boundary, both ways.

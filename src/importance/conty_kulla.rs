@@ -21,6 +21,7 @@
 
 use super::Importance;
 use crate::math;
+use crate::quantize;
 use crate::tree::{Node4, SlotBounds};
 use glam::Vec3;
 use wide::{f32x4, i32x4};
@@ -120,6 +121,87 @@ impl TlImportance {
         b.energy * v.cos_tp.max(COS_FLOOR) * cos_ip.max(COS_FLOOR) / v.d2c
     }
 
+    /// One lane of `eval4`, operation for operation on the slot's decoded (unit) axis: the
+    /// function of [`eval`] (`TlImportance::eval`, the scalar reference the binary baseline
+    /// uses) in the scaled form `eval4` documents.
+    ///
+    /// [`eval`]: TlImportance::eval
+    #[inline]
+    pub fn eval_scaled(&self, b: &SlotBounds) -> f32 {
+        self.scaled(b, b.axis)
+    }
+
+    /// The scaled form with the cone axis `a` (unit, or as the octahedral decode gives it).
+    #[inline]
+    fn scaled(&self, b: &SlotBounds, a: Vec3) -> f32 {
+        if !self.valid {
+            return 0.0;
+        }
+        let p = self.position;
+        let (vx, vy, vz) = (b.center.x - p.x, b.center.y - p.y, b.center.z - p.z);
+        let d2 = vx * vx + vy * vy + vz * vz;
+        let r2 = b.radius * b.radius;
+        let d2c = d2.max(CLAMP2 * r2).max(MIN_DISTANCE2);
+        let inv_d2c = 1.0 / d2c;
+        let inside = d2 <= r2;
+        let (vx, vy, vz, l2, k) = if d2 >= f32::MIN_POSITIVE {
+            (vx, vy, vz, d2, 1.0)
+        } else {
+            let (x, y, z) = (vx * TINY_SCALE, vy * TINY_SCALE, vz * TINY_SCALE);
+            (x, y, z, x * x + y * y + z * z, TINY_SCALE)
+        };
+        let l2 = l2.max(f32::MIN_POSITIVE);
+        let inv_l2 = 1.0 / l2;
+        let d = math::sqrt(l2);
+        let rk = b.radius * k;
+        let su = rk.min(d);
+        let cu = math::sqrt((l2 - rk * rk).max(0.0));
+        let la = math::sqrt(a.x * a.x + a.y * a.y + a.z * a.z);
+        let inv_la = 1.0 / la;
+        let at = -(a.x * vx + a.y * vy + a.z * vz);
+        let (cx, cy, cz) = (
+            a.y * vz - a.z * vy,
+            a.z * vx - a.x * vz,
+            a.x * vy - a.y * vx,
+        );
+        let st = math::sqrt(cx * cx + cy * cy + cz * cz);
+        let c1 = at * b.cos_o + st * b.sin_o;
+        let s1 = (st * b.cos_o - at * b.sin_o).max(0.0);
+        let mut cos_tp = if c1 >= cu * la {
+            1.0
+        } else {
+            (c1 * cu + s1 * su) * (inv_l2 * inv_la)
+        };
+        if at >= b.cos_o * d * la || inside {
+            cos_tp = 1.0;
+        }
+        let emits = cos_tp > b.cos_e - COS_SLACK;
+        let cos_ip = if self.receiver == Receiver::Omnidirectional {
+            1.0
+        } else {
+            let n = self.normal;
+            let mut ci = n.x * vx + n.y * vy + n.z * vz;
+            if self.receiver == Receiver::Transmissive {
+                ci = ci.abs();
+            }
+            let si = math::sqrt((l2 - ci * ci).max(0.0));
+            let cos_ip = if ci >= cu {
+                1.0
+            } else {
+                (ci * cu + si * su) * inv_l2
+            };
+            if inside {
+                1.0
+            } else {
+                cos_ip
+            }
+        };
+        if !emits || cos_ip <= -COS_SLACK {
+            return 0.0;
+        }
+        b.energy * inv_d2c * cos_tp.max(COS_FLOOR) * cos_ip.max(COS_FLOOR)
+    }
+
     /// cos θi' = cos(max(0, θi − θu)) for this receiver (1 inside the cluster).
     #[inline]
     fn receiver_cos(&self, v: &ClusterView) -> f32 {
@@ -139,25 +221,6 @@ impl TlImportance {
         } else {
             cos_ip
         }
-    }
-
-    #[inline(always)]
-    fn receiver_cos4(&self, v: &ClusterView4) -> f32x4 {
-        let one = f32x4::ONE;
-        if self.receiver == Receiver::Omnidirectional {
-            return one;
-        }
-        let n = self.normal;
-        let mut cos_i =
-            f32x4::splat(n.x) * v.wx + f32x4::splat(n.y) * v.wy + f32x4::splat(n.z) * v.wz;
-        if self.receiver == Receiver::Transmissive {
-            cos_i = cos_i.abs();
-        }
-        let sin_i = (one - cos_i * cos_i).fast_max(f32x4::ZERO).sqrt();
-        let cos_ip = cos_i
-            .simd_ge(v.cos_u)
-            .select(one, cos_i * v.cos_u + sin_i * v.sin_u);
-        v.inside.select(one, cos_ip)
     }
 }
 
@@ -319,19 +382,107 @@ impl ClusterView4 {
 }
 
 impl Importance for TlImportance {
-    /// The 4-wide twin of [`TlImportance::eval`], operation for operation.
+    /// [`TlImportance::eval`] for the four slots of `node` at once, in a scaled form that
+    /// keeps square roots and divisions off the chain from the node's load to its weights.
+    /// With `v` the vector x → centre, `d = |v|`, the cone axis `a` as the octahedral decode
+    /// gives it before normalising (`la = |a|`) and the unit normal `n`:
+    ///
+    /// ```text
+    /// cos θ · d·la = −a·v        sin θ · d·la = |a × v|
+    /// cos θu · d   = √(d² − r²)  sin θu · d   = min(r, d)
+    /// cos θi · d   = n·v         sin θi · d   = √(d² − (n·v)²)
+    /// ```
+    ///
+    /// so no direction is normalised: the square roots depend on `v` and the node alone and
+    /// run side by side, and the divisions (1/d², 1/la, 1/max(d², d_min²)) start as soon as
+    /// their inputs are loaded. The cross product keeps sin θ accurate where θ is small, so
+    /// lanes equal [`TlImportance::eval_scaled`] (its unit axis, `la` ≈ 1) within rounding,
+    /// and the function is the scalar reference's within the rounding of the two forms.
     #[inline(always)]
     fn eval4(&self, node: &Node4) -> f32x4 {
         let zero = f32x4::ZERO;
         if !self.valid {
             return zero;
         }
-        let v = ClusterView4::new(self.position, node);
-        let cos_ip = self.receiver_cos4(&v);
+        let one = f32x4::ONE;
+        let p = self.position;
+        let s = node.spheres4();
+        let vx = s.x - f32x4::splat(p.x);
+        let vy = s.y - f32x4::splat(p.y);
+        let vz = s.z - f32x4::splat(p.z);
+        let d2 = vx * vx + vy * vy + vz * vz;
+        let r2 = s.r * s.r;
+        let d2c = d2
+            .fast_max(f32x4::splat(CLAMP2) * r2)
+            .fast_max(f32x4::splat(MIN_DISTANCE2));
+        let inv_d2c = one / d2c;
+        let inside = d2.simd_le(r2);
+        // As the scalar form: directions from the true distance, tiny ones scaled first.
+        let min_normal = f32x4::splat(f32::MIN_POSITIVE);
+        let tiny = d2.simd_lt(min_normal);
+        let (vx, vy, vz, l2, k) = if tiny.any() {
+            let k = tiny.select(f32x4::splat(TINY_SCALE), one);
+            let (x, y, z) = (vx * k, vy * k, vz * k);
+            (x, y, z, x * x + y * y + z * z, k)
+        } else {
+            (vx, vy, vz, d2, one)
+        };
+        let l2 = l2.fast_max(min_normal);
+        let inv_l2 = one / l2;
+        let d = l2.sqrt();
+        let rk = s.r * k;
+        // sin θu · d and cos θu · d.
+        let su = rk.fast_min(d);
+        let cu = (l2 - rk * rk).fast_max(zero).sqrt();
+
+        // Cone axis (octahedral decode, as `quantize::decode_axis`)
+        // and angles (as `quantize::decode_angle` and `decode_emission`).
+        let q = i32x4::new(bytemuck::cast(node.cone));
+        let scale = f32x4::splat(2.0 / 255.0);
+        let x = byte(q, 0) * scale - one;
+        let y = byte(q, 8) * scale - one;
+        let az = one - x.abs() - y.abs();
+        let t = (-az).fast_max(zero);
+        let ax = x.simd_ge(zero).select(x - t, x + t);
+        let ay = y.simd_ge(zero).select(y - t, y + t);
+        // Not normalised: its length `la` divides the one product that needs it.
+        let la = (ax * ax + ay * ay + az * az).sqrt();
+        let inv_la = one / la;
+        let so = byte(q, 16) * f32x4::splat(1.0 / 255.0);
+        let cos_o = one - f32x4::splat(2.0) * so * so;
+        let sin_o = f32x4::splat(2.0) * so * (one - so * so).fast_max(zero).sqrt();
+        let qe = byte(q, 24);
+        let cos_e = (f32x4::splat(65025.0) - qe * qe) * f32x4::splat(1.0 / 65025.0);
+
+        // cos θ' = cos(max(0, θ − θo − θu)), scaled by d · la before the last product.
+        let at = -(ax * vx + ay * vy + az * vz);
+        let (cx, cy, cz) = (ay * vz - az * vy, az * vx - ax * vz, ax * vy - ay * vx);
+        let st = (cx * cx + cy * cy + cz * cz).sqrt();
+        let c1 = at * cos_o + st * sin_o;
+        let s1 = (st * cos_o - at * sin_o).fast_max(zero);
+        let cos_tp = c1
+            .simd_ge(cu * la)
+            .select(one, (c1 * cu + s1 * su) * (inv_l2 * inv_la));
+        let cos_tp = (at.simd_ge(cos_o * d * la) | inside).select(one, cos_tp);
+        let emits = cos_tp.simd_gt(cos_e - f32x4::splat(COS_SLACK));
+
+        // cos θi' = cos(max(0, θi − θu)), scaled by d.
+        let cos_ip = if self.receiver == Receiver::Omnidirectional {
+            one
+        } else {
+            let n = self.normal;
+            let mut ci = f32x4::splat(n.x) * vx + f32x4::splat(n.y) * vy + f32x4::splat(n.z) * vz;
+            if self.receiver == Receiver::Transmissive {
+                ci = ci.abs();
+            }
+            let si = (l2 - ci * ci).fast_max(zero).sqrt();
+            let cos_ip = ci.simd_ge(cu).select(one, (ci * cu + si * su) * inv_l2);
+            inside.select(one, cos_ip)
+        };
+
         let floor = f32x4::splat(COS_FLOOR);
-        let live = v.emits & cos_ip.simd_gt(f32x4::splat(-COS_SLACK));
-        let energy = node.energy4();
-        let value = energy * v.cos_tp.fast_max(floor) * cos_ip.fast_max(floor) / v.d2c;
+        let live = emits & cos_ip.simd_gt(f32x4::splat(-COS_SLACK));
+        let value = node.energy4() * inv_d2c * cos_tp.fast_max(floor) * cos_ip.fast_max(floor);
         live.select(value, zero)
     }
 
@@ -339,6 +490,14 @@ impl Importance for TlImportance {
     /// absolute: the two perform the same operations, so any larger difference is a bug.
     #[inline]
     fn eval_slot(&self, b: &SlotBounds) -> f32 {
-        self.eval(b)
+        self.eval_scaled(b)
+    }
+
+    /// [`TlImportance::eval_scaled`] on slot `k`'s axis as `eval4` decodes it (before its
+    /// normalisation): lane `k` of `eval4`, operation for operation.
+    #[inline]
+    fn eval_lane(&self, node: &Node4, k: usize) -> f32 {
+        let k = k & 3;
+        self.scaled(&node.bounds(k), quantize::decode_axis_raw(node.cone[k]))
     }
 }

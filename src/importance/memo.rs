@@ -127,6 +127,12 @@ impl<I: Importance> Importance for Memo<'_, I> {
     fn eval_slot(&self, b: &SlotBounds) -> f32 {
         self.imp.eval_slot(b)
     }
+
+    /// The inner importance's, not memoised.
+    #[inline]
+    fn eval_lane(&self, node: &Node4, k: usize) -> f32 {
+        self.imp.eval_lane(node, k)
+    }
 }
 
 #[cfg(test)]

@@ -2,8 +2,9 @@
 //!
 //! An importance is set up once per shading point, then evaluated for the four slots of a
 //! [`Node4`] at once ([`Importance::eval4`]). Every importance also has a readable scalar form
-//! ([`Importance::eval_slot`]), and one generic test holds the two equal lane by lane for every
-//! importance. Importances are conservative: a cluster holding a light that can contribute at
+//! ([`Importance::eval_slot`]) and a scalar twin of one lane ([`Importance::eval_lane`],
+//! usually the same), and one generic test holds `eval4` equal to the twin lane by lane for
+//! every importance. Importances are conservative: a cluster holding a light that can contribute at
 //! the shading point gets a positive value.
 
 pub mod brdf_oriented;
@@ -25,11 +26,21 @@ pub trait Importance {
     fn eval4(&self, node: &Node4) -> f32x4;
 
     /// The importance of one slot from its decoded bounds: the scalar twin of
-    /// [`Importance::eval4`], written to be read. For every node and slot `k`, lane `k` of
-    /// `eval4(node)` equals `eval_slot(&node.bounds(k))` within `1e-4 · max(|a|, |b|) + 1e-30`
-    /// (each implementation states its own, possibly tighter, tolerance); the same range: never
-    /// negative or NaN for a shading point with finite coordinates, 0 for a slot of zero energy.
+    /// [`Importance::eval4`], written to be read: the same function of the slot's bounds as
+    /// lane `k` of `eval4(node)` for `b = node.bounds(k)`, equal to it within rounding where
+    /// the function is well conditioned (each implementation says how its forms differ); the
+    /// same range: never negative or NaN for a shading point with finite coordinates, 0 for a
+    /// slot of zero energy.
     fn eval_slot(&self, b: &SlotBounds) -> f32;
+
+    /// Lane `k` of [`Importance::eval4`] computed alone, operation for operation: the one
+    /// generic test holds `eval4` equal to it lane by lane within `1e-5` relative (`1e-30`
+    /// absolute). By default [`Importance::eval_slot`] of the decoded slot; an importance
+    /// whose `eval4` works on a form of the bounds other than [`SlotBounds`] (TL: the cone
+    /// axis before its normalisation) overrides it.
+    fn eval_lane(&self, node: &Node4, k: usize) -> f32 {
+        self.eval_slot(&node.bounds(k))
+    }
 }
 
 impl<I: Importance + ?Sized> Importance for &I {
@@ -41,5 +52,10 @@ impl<I: Importance + ?Sized> Importance for &I {
     #[inline(always)]
     fn eval_slot(&self, b: &SlotBounds) -> f32 {
         (**self).eval_slot(b)
+    }
+
+    #[inline(always)]
+    fn eval_lane(&self, node: &Node4, k: usize) -> f32 {
+        (**self).eval_lane(node, k)
     }
 }

@@ -421,11 +421,11 @@ pub fn u_values(rng: &mut Rng, extra: usize) -> Vec<f32> {
 // SIMD vs scalar, for every importance
 // ---------------------------------------------------------------------------------------------
 
-/// Lane k of `imp.eval4(node)` against the scalar twin `imp.eval_slot(&node.bounds(k))`, for
-/// any importance: equal within `rel` relative plus `abs` absolute (see [`close`]; each
-/// importance passes the tolerance its `eval_slot` documents), and the documented range of
-/// both: never negative or NaN, 0 for a slot of zero energy. Returns the four `(eval4 lane,
-/// eval_slot)` pairs for further checks.
+/// Lane k of `imp.eval4(node)` against its scalar twin `imp.eval_lane(node, k)` (for most
+/// importances `eval_slot(&node.bounds(k))`), for any importance: equal within `rel` relative
+/// plus `abs` absolute (see [`close`]; the two perform the same operations), and the
+/// documented range of both: never negative or NaN, 0 for a slot of zero energy. Returns the
+/// four `(eval4 lane, eval_lane)` pairs for further checks.
 pub fn lanes_match_scalar<I: Importance + std::fmt::Debug>(
     imp: &I,
     node: &Node4,
@@ -436,15 +436,15 @@ pub fn lanes_match_scalar<I: Importance + std::fmt::Debug>(
     let mut pairs = [(0.0, 0.0); 4];
     for (k, &w) in wide.iter().enumerate() {
         let b = node.bounds(k);
-        let s = imp.eval_slot(&b);
+        let s = imp.eval_lane(node, k);
         if !(w >= 0.0 && s >= 0.0) {
             return Err(format!(
-                "lane {k}: eval4 {w}, eval_slot {s} for {b:?} at {imp:?}"
+                "lane {k}: eval4 {w}, eval_lane {s} for {b:?} at {imp:?}"
             ));
         }
         if !close(f64::from(w), f64::from(s), rel, abs) {
             return Err(format!(
-                "lane {k}: eval4 {w:e} vs eval_slot {s:e} (tolerance {rel:e} relative, {abs:e} \
+                "lane {k}: eval4 {w:e} vs eval_lane {s:e} (tolerance {rel:e} relative, {abs:e} \
                  absolute) for {b:?} of {node:?} at {imp:?}"
             ));
         }
