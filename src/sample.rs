@@ -468,7 +468,9 @@ impl LightTree {
         I: Importance + ?Sized + 'a,
     {
         const IDLE: usize = usize::MAX;
+        const NO_LEAF: u32 = u32::MAX;
         let mut item = [IDLE; K];
+        let mut leaf = [NO_LEAF; K];
         let mut walk = [WalkStart {
             node: 0,
             root: false,
@@ -519,11 +521,10 @@ impl LightTree {
                                     wk.node = c;
                                     None
                                 }
-                                Child::Leaf(i)
-                                    if wk.from_level == levels[j]
-                                        && self.leaves.get(i as usize) == Some(&wk.light) =>
-                                {
-                                    Some(pmf[j])
+                                // The leaf entry is read with the next round's loads.
+                                Child::Leaf(i) if wk.from_level == levels[j] => {
+                                    leaf[j] = i;
+                                    None
                                 }
                                 _ => Some(0.0),
                             }
@@ -538,14 +539,29 @@ impl LightTree {
             if !busy {
                 break;
             }
-            // The next node of every walk going on, loaded back to back (see `descend_many`).
+            // The next node of every walk going on and the leaf entry of every walk that
+            // reached its leaf, loaded back to back (see `descend_many`).
             let mut first = [0u32; K];
+            let mut light = [None; K];
             for j in 0..K {
-                if item[j] != IDLE {
+                if item[j] == IDLE {
+                    continue;
+                }
+                if leaf[j] == NO_LEAF {
                     first[j] = self
                         .nodes
                         .get(walk[j].node as usize)
                         .map_or(0, |n| n.sphere[0]);
+                } else {
+                    light[j] = self.leaves.get(leaf[j] as usize).copied();
+                }
+            }
+            for j in 0..K {
+                if item[j] != IDLE && leaf[j] != NO_LEAF {
+                    let found = light[j] == Some(walk[j].light);
+                    emit(item[j], if found { pmf[j] } else { 0.0 });
+                    item[j] = IDLE;
+                    leaf[j] = NO_LEAF;
                 }
             }
             core::hint::black_box(first);
