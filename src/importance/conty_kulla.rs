@@ -121,9 +121,10 @@ impl TlImportance {
         b.energy * v.cos_tp.max(COS_FLOOR) * cos_ip.max(COS_FLOOR) / v.d2c
     }
 
-    /// One lane of `eval4`, operation for operation on the slot's decoded (unit) axis: the
-    /// function of [`eval`] (`TlImportance::eval`, the scalar reference the binary baseline
-    /// uses) in the scaled form `eval4` documents.
+    /// The function of [`eval`] (`TlImportance::eval`, the scalar reference the binary
+    /// baseline uses) in the scaled form `eval4` documents, on the slot's decoded unit axis
+    /// (`la` = 1 within rounding). [`Importance::eval_lane`] applies the same operations to the
+    /// axis before its normalisation, which is lane `k` of `eval4` operation for operation.
     ///
     /// [`eval`]: TlImportance::eval
     #[inline]
