@@ -312,12 +312,50 @@ fn byte(v: i32x4, shift: u32) -> f32x4 {
     (v.unbounded_shr_scalar(shift) & i32x4::splat(0xFF)).round_float()
 }
 
+/// The cone words of a node's four slots, decoded: the axis as `quantize::decode_axis_raw`
+/// gives it (not normalised), cos θo and sin θo as `quantize::decode_angle`, cos θe as
+/// `quantize::decode_emission` ((255² − q²) / 255²).
+struct Cones4 {
+    x: f32x4,
+    y: f32x4,
+    z: f32x4,
+    cos_o: f32x4,
+    sin_o: f32x4,
+    cos_e: f32x4,
+}
+
+impl Cones4 {
+    #[inline(always)]
+    fn new(node: &Node4) -> Cones4 {
+        let zero = f32x4::ZERO;
+        let one = f32x4::ONE;
+        let two = f32x4::splat(2.0);
+        let q = i32x4::new(bytemuck::cast(node.cone));
+        let scale = f32x4::splat(2.0 / 255.0);
+        let x = byte(q, 0) * scale - one;
+        let y = byte(q, 8) * scale - one;
+        let z = one - x.abs() - y.abs();
+        let t = (-z).fast_max(zero);
+        let x = x.simd_ge(zero).select(x - t, x + t);
+        let y = y.simd_ge(zero).select(y - t, y + t);
+        let so = byte(q, 16) * f32x4::splat(1.0 / 255.0);
+        let qe = byte(q, 24);
+        Cones4 {
+            x,
+            y,
+            z,
+            cos_o: one - two * so * so,
+            sin_o: two * so * (one - so * so).fast_max(zero).sqrt(),
+            cos_e: (f32x4::splat(65025.0) - qe * qe) * f32x4::splat(1.0 / 65025.0),
+        }
+    }
+}
+
 impl ClusterView4 {
     #[inline(always)]
     pub(crate) fn new(p: Vec3, node: &Node4) -> ClusterView4 {
         let zero = f32x4::ZERO;
         let one = f32x4::ONE;
-        let two = f32x4::splat(2.0);
         let s = node.spheres4();
         let vx = s.x - f32x4::splat(p.x);
         let vy = s.y - f32x4::splat(p.y);
@@ -343,24 +381,16 @@ impl ClusterView4 {
         let sin_u = (radius * k * inv_d).fast_min(one);
         let cos_u = (one - sin_u * sin_u).fast_max(zero).sqrt();
 
-        // Cone axis (octahedral decode) and angles, as `quantize::decode_*`.
-        let q = i32x4::new(bytemuck::cast(node.cone));
-        let scale = f32x4::splat(2.0 / 255.0);
-        let x = byte(q, 0) * scale - one;
-        let y = byte(q, 8) * scale - one;
-        let z = one - x.abs() - y.abs();
-        let t = (-z).fast_max(zero);
-        let x = x.simd_ge(zero).select(x - t, x + t);
-        let y = y.simd_ge(zero).select(y - t, y + t);
+        let Cones4 {
+            x,
+            y,
+            z,
+            cos_o,
+            sin_o,
+            cos_e,
+        } = Cones4::new(node);
         let inv = one / (x * x + y * y + z * z).sqrt();
         let (ax, ay, az) = (x * inv, y * inv, z * inv);
-        let qscale = f32x4::splat(1.0 / 255.0);
-        let so = byte(q, 16) * qscale;
-        let cos_o = one - two * so * so;
-        let sin_o = two * so * (one - so * so).fast_max(zero).sqrt();
-        // θe as `quantize::decode_emission`: (255² − q²) / 255².
-        let qe = byte(q, 24);
-        let cos_e = (f32x4::splat(65025.0) - qe * qe) * f32x4::splat(1.0 / 65025.0);
 
         let cos_t = -(ax * wx + ay * wy + az * wz);
         let sin_t = (one - cos_t * cos_t).fast_max(zero).sqrt();
@@ -436,24 +466,17 @@ impl Importance for TlImportance {
         let su = rk.fast_min(d);
         let cu = (l2 - rk * rk).fast_max(zero).sqrt();
 
-        // Cone axis (octahedral decode, as `quantize::decode_axis`)
-        // and angles (as `quantize::decode_angle` and `decode_emission`).
-        let q = i32x4::new(bytemuck::cast(node.cone));
-        let scale = f32x4::splat(2.0 / 255.0);
-        let x = byte(q, 0) * scale - one;
-        let y = byte(q, 8) * scale - one;
-        let az = one - x.abs() - y.abs();
-        let t = (-az).fast_max(zero);
-        let ax = x.simd_ge(zero).select(x - t, x + t);
-        let ay = y.simd_ge(zero).select(y - t, y + t);
-        // Not normalised: its length `la` divides the one product that needs it.
+        let Cones4 {
+            x: ax,
+            y: ay,
+            z: az,
+            cos_o,
+            sin_o,
+            cos_e,
+        } = Cones4::new(node);
+        // The axis is not normalised: its length `la` divides the one product that needs it.
         let la = (ax * ax + ay * ay + az * az).sqrt();
         let inv_la = one / la;
-        let so = byte(q, 16) * f32x4::splat(1.0 / 255.0);
-        let cos_o = one - f32x4::splat(2.0) * so * so;
-        let sin_o = f32x4::splat(2.0) * so * (one - so * so).fast_max(zero).sqrt();
-        let qe = byte(q, 24);
-        let cos_e = (f32x4::splat(65025.0) - qe * qe) * f32x4::splat(1.0 / 65025.0);
 
         // cos θ' = cos(max(0, θ − θo − θu)), scaled by d · la before the last product.
         let at = -(ax * vx + ay * vy + az * vz);
