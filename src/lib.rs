@@ -54,6 +54,7 @@ pub mod light_set;
 pub mod material;
 mod math;
 pub mod mis;
+mod packed;
 pub mod quantize;
 pub mod sample;
 pub mod trace;

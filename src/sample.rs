@@ -246,7 +246,7 @@ impl LightTree {
             match node.child(k) {
                 Child::Leaf(i) => {
                     core::hint::black_box(touched);
-                    let light = *self.leaves.get(i as usize)?;
+                    let light = self.leaf_light(i)?;
                     return Some(LightSample { light, pmf });
                 }
                 Child::Node(c) => {
@@ -433,11 +433,7 @@ impl LightTree {
                 if leaf[j] == NO_LEAF {
                     first[j] = self.nodes[node[j] as usize].sphere[0];
                 } else {
-                    light[j] = self
-                        .leaves
-                        .get(leaf[j] as usize)
-                        .copied()
-                        .unwrap_or(NO_LEAF);
+                    light[j] = self.leaf_light(leaf[j]).unwrap_or(NO_LEAF);
                 }
             }
             for j in 0..K {
@@ -553,7 +549,7 @@ impl LightTree {
                         .get(walk[j].node as usize)
                         .map_or(0, |n| n.sphere[0]);
                 } else {
-                    light[j] = self.leaves.get(leaf[j] as usize).copied();
+                    light[j] = self.leaf_light(leaf[j]);
                 }
             }
             for j in 0..K {
@@ -604,9 +600,7 @@ impl LightTree {
             pmf *= w[k] / sum;
             match node.child(k) {
                 Child::Node(c) => index = c as usize,
-                Child::Leaf(i)
-                    if level + 1 == levels && self.leaves.get(i as usize) == Some(&light) =>
-                {
+                Child::Leaf(i) if level + 1 == levels && self.leaf_light(i) == Some(light) => {
                     return pmf
                 }
                 _ => return 0.0,

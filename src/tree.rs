@@ -1,10 +1,11 @@
 //! The light tree as flat, `bytemuck::Pod` arrays: [`Node4`] (four child clusters quantised
 //! into one 64-byte cache line), the lights of the leaf slots in tree order, and per-light
-//! paths; its self-check ([`LightTree::validate`]) and its byte serialisation.
+//! paths, both bit-packed; its self-check ([`LightTree::validate`]) and its byte serialisation.
 
 use crate::bounds::{Cone, Sphere};
 use crate::error::{FormatError, ValidationError};
 use crate::light::Light;
+use crate::packed::{index_bits, path_bits, Packed};
 use crate::quantize;
 use alloc::vec;
 use alloc::vec::Vec;
@@ -14,9 +15,6 @@ use wide::{f32x4, i32x4};
 
 /// Deepest tree a 64-bit path can encode (2 bits per level plus a marker bit).
 pub const MAX_DEPTH: u32 = 31;
-
-/// Deepest tree whose paths are stored in 32 bits (4 bytes per light instead of 8).
-pub const SHORT_PATH_DEPTH: u32 = 15;
 
 /// Largest number of lights (and of nodes) a tree holds.
 pub const MAX_LIGHTS: u32 = (1 << 31) - 2;
@@ -31,7 +29,7 @@ pub const MAX_LIGHTS: u32 = (1 << 31) - 2;
 /// | 32 | `origin: [f32; 3]` | the frame of the sphere codes |
 /// | 44 | `child_base: u32` | index of the first inner child in [`LightTree::nodes`] |
 /// | 48 | `energy: [u16; 4]` | per slot: the upper 16 bits of the cluster energy's 20-bit code (0: empty) |
-/// | 56 | `leaf_base: u32` | index of the first light slot in [`LightTree::leaf_lights`] |
+/// | 56 | `leaf_base: u32` | index of the first light slot in the leaf array ([`LightTree::leaf_light`]) |
 /// | 60 | `energy_low: u16` | bits 4k..4k+4: the low 4 bits of slot k's energy code |
 /// | 62 | `exponent: u8` | the frame's scale `2^(exponent − 127)` |
 /// | 63 | `mask: u8` | bit k: slot k is an inner node; bit 4 + k: slot k is a light |
@@ -73,7 +71,7 @@ pub struct Node4 {
 pub enum Child {
     /// Nothing.
     Empty,
-    /// A single light, by its index in [`LightTree::leaf_lights`].
+    /// A single light, by its index in the leaf array ([`LightTree::leaf_light`]).
     Leaf(u32),
     /// An inner node, by index in [`LightTree::nodes`].
     Node(u32),
@@ -275,57 +273,6 @@ pub struct TreeStats {
     pub mean_fill: f32,
 }
 
-/// Per-light paths, in 32 bits each when the tree is at most [`SHORT_PATH_DEPTH`] deep.
-#[derive(Clone, Debug, PartialEq, Eq)]
-pub(crate) enum Paths {
-    Short(Vec<u32>),
-    Long(Vec<u64>),
-}
-
-impl Paths {
-    /// Paths of `n` lights, all 0, wide enough for a tree of `depth` levels.
-    pub(crate) fn zeros(n: usize, depth: u32) -> Paths {
-        if depth <= SHORT_PATH_DEPTH {
-            Paths::Short(vec![0; n])
-        } else {
-            Paths::Long(vec![0; n])
-        }
-    }
-
-    #[inline(always)]
-    pub(crate) fn get(&self, light: usize) -> Option<u64> {
-        match self {
-            Paths::Short(p) => p.get(light).map(|&x| u64::from(x)),
-            Paths::Long(p) => p.get(light).copied(),
-        }
-    }
-
-    pub(crate) fn set(&mut self, light: usize, path: u64) {
-        match self {
-            Paths::Short(p) => p[light] = path as u32,
-            Paths::Long(p) => p[light] = path,
-        }
-    }
-
-    pub(crate) fn len(&self) -> usize {
-        match self {
-            Paths::Short(p) => p.len(),
-            Paths::Long(p) => p.len(),
-        }
-    }
-
-    fn bytes(&self) -> &[u8] {
-        match self {
-            Paths::Short(p) => bytemuck::cast_slice(p),
-            Paths::Long(p) => bytemuck::cast_slice(p),
-        }
-    }
-
-    fn byte_len(&self) -> usize {
-        self.bytes().len()
-    }
-}
-
 /// A light tree: immutable after build, `Send + Sync`, shared by all threads.
 ///
 /// Built by [`LightTree::build`]; sampled with [`LightTree::sample`] and queried with
@@ -335,8 +282,10 @@ pub struct LightTree {
     pub(crate) nodes: Vec<Node4>,
     /// Per node, the relative variance of its lights' energies (bfloat16), for split sampling.
     pub(crate) variances: Vec<u16>,
-    pub(crate) leaves: Vec<u32>,
-    pub(crate) paths: Paths,
+    /// Per light slot in tree order, its light's index, in [`index_bits`] of the light count.
+    pub(crate) leaves: Packed,
+    /// Per light, its path (see [`LightTree::path`]), in [`path_bits`] of the depth.
+    pub(crate) paths: Packed,
     pub(crate) depth: u32,
 }
 
@@ -350,8 +299,9 @@ pub(crate) fn path_len(path: u64) -> u32 {
     }
 }
 
-/// Format version 2: 64-byte quantised nodes, a leaf array, 32- or 64-bit paths.
-const VERSION: u8 = 2;
+/// Format version 3: 64-byte quantised nodes, a leaf array and paths bit-packed into 64-bit
+/// words (version 2 stored 32-bit leaf entries and 32- or 64-bit paths).
+const VERSION: u8 = 3;
 const MAGIC: [u8; 7] = *b"MLTREE\x00";
 const HEADER: usize = 40;
 
@@ -367,6 +317,46 @@ struct Walk<'a> {
 }
 
 impl LightTree {
+    /// A tree of finished nodes, node variances and leaf array over `n_lights` lights, `depth`
+    /// levels deep, with the paths written by one walk from the root (so that they are packed
+    /// in the width the depth needs, and nothing is kept for them while the nodes are made).
+    pub(crate) fn with_paths(
+        nodes: Vec<Node4>,
+        variances: Vec<u16>,
+        leaves: Packed,
+        n_lights: usize,
+        depth: u32,
+    ) -> LightTree {
+        let mut paths = Packed::zeros(n_lights, path_bits(depth));
+        let mut stack: Vec<(u32, u64)> = Vec::with_capacity(3 * depth as usize + 1);
+        if !nodes.is_empty() {
+            stack.push((0, 1));
+        }
+        while let Some((index, path)) = stack.pop() {
+            let Some(node) = nodes.get(index as usize) else {
+                continue;
+            };
+            for k in 0..4 {
+                let slot_path = (path << 2) | k as u64;
+                match node.child(k) {
+                    Child::Node(c) => stack.push((c, slot_path)),
+                    Child::Leaf(i) => match leaves.get(i as usize) {
+                        Some(l) if (l as usize) < n_lights => paths.set(l as usize, slot_path),
+                        _ => {}
+                    },
+                    Child::Empty => {}
+                }
+            }
+        }
+        LightTree {
+            nodes,
+            variances,
+            leaves,
+            paths,
+            depth,
+        }
+    }
+
     /// The nodes; node 0 is the root (absent for a tree that samples nothing).
     pub fn nodes(&self) -> &[Node4] {
         &self.nodes
@@ -381,10 +371,16 @@ impl LightTree {
             .map_or(0.0, |&v| quantize::decode_bf16(v))
     }
 
-    /// The light of every light slot, in tree order: a slot [`Child::Leaf`]`(i)` holds light
-    /// `leaf_lights()[i]`.
-    pub fn leaf_lights(&self) -> &[u32] {
-        &self.leaves
+    /// The light of light slot `i` in tree order (a slot [`Child::Leaf`]`(i)` holds it); `None`
+    /// past the last light slot.
+    #[inline(always)]
+    pub fn leaf_light(&self, i: u32) -> Option<u32> {
+        self.leaves.get(i as usize).map(|l| l as u32)
+    }
+
+    /// Number of light slots (the lights of positive energy).
+    pub fn leaf_count(&self) -> u32 {
+        self.leaves.len() as u32
     }
 
     /// The path of `light`: its 2-bit slot choices from the root, the root's choice in the
@@ -423,8 +419,8 @@ impl LightTree {
         match node.child(k) {
             Child::Empty => Slot::Empty,
             Child::Node(c) => Slot::Node(c),
-            Child::Leaf(i) => match self.leaves.get(i as usize) {
-                Some(&l) => Slot::Light(l),
+            Child::Leaf(i) => match self.leaf_light(i) {
+                Some(l) => Slot::Light(l),
                 None => Slot::Empty,
             },
         }
@@ -434,7 +430,7 @@ impl LightTree {
     pub fn stats(&self) -> TreeStats {
         let bytes = core::mem::size_of_val(self.nodes.as_slice())
             + core::mem::size_of_val(self.variances.as_slice())
-            + core::mem::size_of_val(self.leaves.as_slice())
+            + self.leaves.byte_len()
             + self.paths.byte_len();
         let lights = self.paths.len() as u32;
         let filled: u32 = self
@@ -465,7 +461,8 @@ impl LightTree {
     /// and each light at most once; codes in range and decoded numbers finite; every slot above
     /// a light containing the light's slot (up to that slot's own rounding) and each inner
     /// slot's energy the sum of its child's slots' (within their rounding, 0.2 %); each light's path leading
-    /// to its leaf; the depth within [`MAX_DEPTH`] and the paths' width matching it. Runs
+    /// to its leaf; the depth within [`MAX_DEPTH`] and the widths of the leaf entries and paths
+    /// the ones the light count and depth need. Runs
     /// after every build in debug builds and in tests; [`LightTree::validate_lights`] also
     /// checks the leaves against the lights' own bounds.
     pub fn validate(&self) -> Result<(), ValidationError> {
@@ -481,7 +478,8 @@ impl LightTree {
         if self.depth > MAX_DEPTH {
             return Err(ValidationError::TooDeep);
         }
-        if matches!(self.paths, Paths::Short(_)) != (self.depth <= SHORT_PATH_DEPTH) {
+        if self.leaves.bits() != index_bits(n_lights) || self.paths.bits() != path_bits(self.depth)
+        {
             return Err(ValidationError::BadStats);
         }
         if n_nodes == 0 {
@@ -557,15 +555,21 @@ impl LightTree {
         Ok(())
     }
 
-    /// The tree as bytes (a little-endian header, then the nodes, the node variances, the leaf
-    /// array and the paths), for a host to cache or send to another process; read back with
-    /// [`LightTree::from_bytes`]. Format version 2.
+    /// The tree as bytes, for a host to cache or send to another process; read back with
+    /// [`LightTree::from_bytes`]. Format version 3: a 40-byte header (magic `MLTREE\0`, the
+    /// version byte, then as little-endian integers the node, light and leaf counts (u64 each)
+    /// and the depth (u32), then a byte-order mark), followed in the host's byte order by the
+    /// nodes, the node variances (u16 each), the leaf array and the paths. The leaf array holds
+    /// each light slot's light index in as many bits as the largest index needs (at
+    /// least 1), the paths each light's path in `2·depth + 1` bits, each packed back to back into 64-bit words (value `i` in
+    /// bits `i·w` to `(i + 1)·w − 1` of the words as one little-endian bit stream), with one
+    /// word of padding after the last.
     pub fn as_bytes(&self) -> Vec<u8> {
         let mut out = Vec::with_capacity(
             HEADER
                 + core::mem::size_of_val(self.nodes.as_slice())
                 + core::mem::size_of_val(self.variances.as_slice())
-                + core::mem::size_of_val(self.leaves.as_slice())
+                + self.leaves.byte_len()
                 + self.paths.byte_len(),
         );
         out.extend_from_slice(&MAGIC);
@@ -577,8 +581,8 @@ impl LightTree {
         out.extend_from_slice(&0x0102_0304u32.to_ne_bytes());
         out.extend_from_slice(bytemuck::cast_slice(&self.nodes));
         out.extend_from_slice(bytemuck::cast_slice(&self.variances));
-        out.extend_from_slice(bytemuck::cast_slice(&self.leaves));
-        out.extend_from_slice(self.paths.bytes());
+        out.extend_from_slice(bytemuck::cast_slice(self.leaves.words()));
+        out.extend_from_slice(bytemuck::cast_slice(self.paths.words()));
         out
     }
 
@@ -618,11 +622,11 @@ impl LightTree {
         }
         let (n_nodes, n_lights, n_leaves) =
             (n_nodes as usize, n_lights as usize, n_leaves as usize);
-        let path_width = if depth <= SHORT_PATH_DEPTH { 4 } else { 8 };
+        let (leaf_bits, path_bits) = (index_bits(n_lights), path_bits(depth));
         let node_bytes = n_nodes * core::mem::size_of::<Node4>();
         let variance_bytes = n_nodes * 2;
-        let leaf_bytes = n_leaves * 4;
-        let path_bytes = n_lights * path_width;
+        let leaf_bytes = Packed::word_count(n_leaves, leaf_bits) * 8;
+        let path_bytes = Packed::word_count(n_lights, path_bits) * 8;
         let need = HEADER + node_bytes + variance_bytes + leaf_bytes + path_bytes;
         if bytes.len() < need {
             return Err(FormatError::Truncated);
@@ -635,13 +639,12 @@ impl LightTree {
         o += node_bytes;
         let variances: Vec<u16> = bytemuck::pod_collect_to_vec(&bytes[o..o + variance_bytes]);
         o += variance_bytes;
-        let leaves: Vec<u32> = bytemuck::pod_collect_to_vec(&bytes[o..o + leaf_bytes]);
+        let words = |raw: &[u8]| bytemuck::pod_collect_to_vec::<u8, u64>(raw);
+        let leaves = Packed::from_words(n_leaves, leaf_bits, words(&bytes[o..o + leaf_bytes]));
         o += leaf_bytes;
-        let raw = &bytes[o..o + path_bytes];
-        let paths = if path_width == 4 {
-            Paths::Short(bytemuck::pod_collect_to_vec(raw))
-        } else {
-            Paths::Long(bytemuck::pod_collect_to_vec(raw))
+        let paths = Packed::from_words(n_lights, path_bits, words(&bytes[o..o + path_bytes]));
+        let (Some(leaves), Some(paths)) = (leaves, paths) else {
+            return Err(FormatError::Truncated);
         };
         let tree = LightTree {
             nodes,
@@ -761,7 +764,7 @@ impl Walk<'_> {
                         return Err(bad_leaf);
                     }
                     self.leaf_seen[i] = true;
-                    let l = tree.leaves[i] as usize;
+                    let l = tree.leaves.get(i).map_or(usize::MAX, |l| l as usize);
                     if l >= self.light_seen.len() || self.light_seen[l] {
                         return Err(bad_leaf);
                     }

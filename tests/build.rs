@@ -830,16 +830,19 @@ fn truncated_extended_and_bad_header_bytes_are_rejected() {
                 "byte {i}"
             );
         }
-        // The format version (byte 7): another version is named as such.
-        let mut other = bytes.clone();
-        other[7] = 1;
-        assert_eq!(
-            LightTree::from_bytes(&other),
-            Err(FormatError::UnsupportedVersion {
-                found: 1,
-                supported: 2
-            })
-        );
+        // The format version (byte 7): another version (1: 128-byte nodes; 2: 32-bit leaf
+        // entries and 32- or 64-bit paths) is named as such.
+        for found in [1, 2, 4] {
+            let mut other = bytes.clone();
+            other[7] = found;
+            assert_eq!(
+                LightTree::from_bytes(&other),
+                Err(FormatError::UnsupportedVersion {
+                    found,
+                    supported: 3
+                })
+            );
+        }
         // Counts that announce absurd sizes.
         for (offset, value) in [
             (8usize, u64::MAX),

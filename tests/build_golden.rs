@@ -1,49 +1,53 @@
 //! The build's choices, pinned: for seeded scenes of every light kind and layout, the hash of
-//! the binary SAOH tree (each node's bounds, energy and child, as the baseline stores them)
-//! and of the finished 4-wide tree's bytes ([`manylights::LightTree::as_bytes`]), built with
-//! the default options and with `compact`. The binary hashes are the ones recorded with the
-//! build of commit 7760e2d, before the build's memory layout and speed work; the 4-wide ones
-//! were recorded with commit 033bbe1 (`main`: 64-byte quantised nodes, format version 2, the
-//! collapse with free-form packing), whose build this one reproduces bit for bit. A change to
-//! a split, a bound, a slot or a code shows here; one that is meant must record new hashes
-//! (run with `GOLDEN_PRINT=1` and `--nocapture`).
+//! the binary SAOH tree (each node's bounds, energy and child, as the baseline stores them),
+//! of the finished 4-wide tree's contents (nodes, node variances, each light slot's light and
+//! each light's path, read through the public accessors, so independent of how they are
+//! stored) built with the default options and with `compact`, and of the default tree's byte
+//! form ([`manylights::LightTree::as_bytes`]). The binary hashes are the ones recorded with the
+//! build of commit 7760e2d, before the build's memory layout and speed work; the content
+//! hashes were recorded with commit deaeef8 (whose 4-wide trees are those of 033bbe1 bit for
+//! bit: 64-byte quantised nodes, the collapse with free-form packing), before the leaf array
+//! and paths were bit-packed; the byte hashes are of format version 3. A change to a split, a
+//! bound, a slot or a code shows here; one that is meant must record new hashes (run with
+//! `GOLDEN_PRINT=1` and `--nocapture`).
 
 mod golden;
 
-/// (seed, lights, style, binary tree, 4-wide tree, 4-wide tree with `compact`).
+/// (seed, lights, style, binary tree, 4-wide tree's contents, the same with `compact`, 4-wide
+/// tree's bytes).
 #[rustfmt::skip]
-const RECORDED: [(u64, usize, u32, u64, u64, u64); 24] = [
-    (1, 1, 0, 0xb122d32dfb68399c, 0x2e427b609cc97014, 0x2e427b609cc97014),
-    (2, 2, 0, 0xde098cc63362214b, 0x1efffe996bfd7dfa, 0x1efffe996bfd7dfa),
-    (3, 3, 1, 0x8f1e07c63048e43a, 0xa13c51272b2ed42f, 0xa13c51272b2ed42f),
-    (4, 4, 0, 0xcd3c0b928ae3a0c6, 0x26863986529d8767, 0x26863986529d8767),
-    (5, 5, 4, 0xec238fdacbe6fa3a, 0x13eb9db296e952f6, 0x13eb9db296e952f6),
-    (6, 6, 2, 0x88226e288a4f1d23, 0x5706ebe6a416f29a, 0xb8a1f70bc9956f94),
-    (7, 9, 3, 0x561fc35e1399c573, 0xe055b7249518ecec, 0xe055b7249518ecec),
-    (8, 17, 0, 0xad5980bae3f7c678, 0xd73d29de1c0e223a, 0x6be046a64e6ed5ed),
-    (9, 33, 1, 0x312b44605d5d8a8f, 0xadfb257e06a4b224, 0x6922e5995521903a),
-    (10, 100, 0, 0xce28469c8b9a305a, 0x40b1e4a68c0f6979, 0x5cb2fa2f7b77a81b),
-    (11, 100, 4, 0xf8cf481fdd286fdf, 0xe17eaa794c42b455, 0xb38781f64360403b),
-    (12, 300, 2, 0x04212d44d0daf686, 0x85a9896976f4d043, 0x02d185896043f652),
-    (13, 300, 3, 0x6b2a002ff88af45f, 0x678197094196e74b, 0xae8e14d22a1aa2a9),
-    (14, 1000, 0, 0x068ca093a51d25fa, 0xbbe4027cafb8af5d, 0xc412642f17e3e9be),
-    (15, 1000, 1, 0x96b3d01cabc076cc, 0x515aa1e14467279e, 0x8ab484d91a9c324b),
-    (16, 1000, 4, 0x26871a88b0aa92e4, 0x163df6fb75d21fee, 0xcbd06d084388b6c2),
-    (17, 3000, 2, 0x774b024c08732345, 0xb9ffb3410421ea94, 0x88cc42d50ef19c95),
-    (18, 3000, 3, 0x739dd3daabbbcbfd, 0xee05cbefef5cab5e, 0x64fa71b1506376a5),
-    (19, 5000, 0, 0x9e53dc548d12a3a0, 0x39ef2cc6acafdad9, 0x94b71308e4f3466b),
-    (20, 5000, 1, 0xf6571d0ccb22a177, 0x074690974027f906, 0x756be389657aac63),
-    (21, 20000, 0, 0x1a25cf3abbd34d93, 0xe8ba6d27b2b3b379, 0xcaa37594b13360e1),
-    (22, 20000, 1, 0x1c73193f5edb91eb, 0xf0888cc8a01a9345, 0x83bf67f86a4c23e9),
-    (23, 20000, 4, 0xa6f9a1ee2bd1cff1, 0xabbc4824467c1df3, 0xcbe4efc6ce506531),
-    (24, 20000, 3, 0xc549aa0bbada8b66, 0x48295e0fb8932831, 0xc108089479d57a93),
+const RECORDED: [(u64, usize, u32, u64, u64, u64, u64); 24] = [
+    (1, 1, 0, 0xb122d32dfb68399c, 0x748c1ad283d94b2f, 0x748c1ad283d94b2f, 0xf04c4ce11dab5e47),
+    (2, 2, 0, 0xde098cc63362214b, 0xba8f2445da67f6dd, 0xba8f2445da67f6dd, 0x4cc5a8a35d9feac3),
+    (3, 3, 1, 0x8f1e07c63048e43a, 0xd4c83797774b9548, 0xd4c83797774b9548, 0x2e5dd8c6fce7d8bf),
+    (4, 4, 0, 0xcd3c0b928ae3a0c6, 0xb6c5246b442a05e4, 0xb6c5246b442a05e4, 0x9bfa4991570fb31d),
+    (5, 5, 4, 0xec238fdacbe6fa3a, 0x5e31b0c83ed4b9c5, 0x5e31b0c83ed4b9c5, 0x599c985bfaa78fb9),
+    (6, 6, 2, 0x88226e288a4f1d23, 0x043bdeef76136719, 0x01b5995b590a04bf, 0x7ebcfe57ff60c90f),
+    (7, 9, 3, 0x561fc35e1399c573, 0x83b01a03d3dcf63e, 0x83b01a03d3dcf63e, 0x9d495bfd9a68e7e2),
+    (8, 17, 0, 0xad5980bae3f7c678, 0x3cc0762db53de479, 0x78fc043992603aac, 0xe7a247f15d88cfbf),
+    (9, 33, 1, 0x312b44605d5d8a8f, 0x93775324ff7591ea, 0x2d39d37c1cfd21cb, 0xcf38264f75f8be95),
+    (10, 100, 0, 0xce28469c8b9a305a, 0x79d024d160a4dcb8, 0x5e928327d20ae2bd, 0x78c9cb629478fdff),
+    (11, 100, 4, 0xf8cf481fdd286fdf, 0xd2d7af307e129824, 0x8cccc33af855cfc6, 0xe460a0cbf61b66fc),
+    (12, 300, 2, 0x04212d44d0daf686, 0x72c158079635f0b1, 0x2d3d5b4ee9adddb3, 0xfe07349f57dc4c49),
+    (13, 300, 3, 0x6b2a002ff88af45f, 0x85617703c04a7eef, 0xfa179e0d079989f5, 0x94313e306488ad10),
+    (14, 1000, 0, 0x068ca093a51d25fa, 0xf4e187b4884da206, 0x450a619eedacefbe, 0x1e85157154deb35d),
+    (15, 1000, 1, 0x96b3d01cabc076cc, 0xf70c06f7be200291, 0x2371055ea3821803, 0x30de141618e178d3),
+    (16, 1000, 4, 0x26871a88b0aa92e4, 0x6d048975e777a963, 0x9a603bfb49ea8078, 0xab557a13f9f4a501),
+    (17, 3000, 2, 0x774b024c08732345, 0x639d90672a2e77d7, 0x67c9277010dd7a0f, 0x5ab5587ab4517a33),
+    (18, 3000, 3, 0x739dd3daabbbcbfd, 0x6357258e63bd0051, 0x00e84b796df847f9, 0x72d81569b86941bc),
+    (19, 5000, 0, 0x9e53dc548d12a3a0, 0xd2e98ba995256ca0, 0x2499c40fb49ffcb8, 0xb14b25b989b960c7),
+    (20, 5000, 1, 0xf6571d0ccb22a177, 0x8a391e3b883424da, 0xe3643d88ea3656b9, 0x9b02f4d541ea4cc2),
+    (21, 20000, 0, 0x1a25cf3abbd34d93, 0x0cd2fa1645fd9fc1, 0xafc44f517878c377, 0xc71301a0207ae437),
+    (22, 20000, 1, 0x1c73193f5edb91eb, 0x38f86a545dc41830, 0xbfdc56cb5fcafd37, 0x7734dafee21b3f6a),
+    (23, 20000, 4, 0xa6f9a1ee2bd1cff1, 0x3aa28bb460607e86, 0x6c1d27444c548b9b, 0xb6bc3df00ec37232),
+    (24, 20000, 3, 0xc549aa0bbada8b66, 0x66bedc81c4b4c40b, 0x23ee7252292e41a4, 0xf837d594ea82f86a),
 ];
 
 #[test]
 fn binary_and_4_wide_trees_are_the_recorded_ones() {
     let print = std::env::var_os("GOLDEN_PRINT").is_some();
     let mut wrong = Vec::new();
-    for (&(seed, n, style), &(rs, rn, rst, bin, tree, compact)) in
+    for (&(seed, n, style), &(rs, rn, rst, bin, tree, compact, bytes)) in
         golden::CASES.iter().zip(&RECORDED)
     {
         assert_eq!(
@@ -52,17 +56,20 @@ fn binary_and_4_wide_trees_are_the_recorded_ones() {
             "cases and records out of step"
         );
         let lights = golden::scene(seed, n, style);
-        let (b, t, c) = golden::hashes(&lights);
+        let got = golden::hashes(&lights);
         if print {
-            println!("    ({seed}, {n}, {style}, 0x{b:016x}, 0x{t:016x}, 0x{c:016x}),");
+            let [b, t, c, y] = got;
+            println!("    ({seed}, {n}, {style}, 0x{b:016x}, 0x{t:016x}, 0x{c:016x}, 0x{y:016x}),");
         }
-        if (b, t, c) != (bin, tree, compact) {
-            let same = |x: u64, y: u64| if x == y { "same" } else { "differs" };
+        let want = [bin, tree, compact, bytes];
+        if got != want {
+            let same = |i: usize| if got[i] == want[i] { "same" } else { "differs" };
             wrong.push(format!(
-                "seed {seed}, {n} lights, style {style}: binary {}, 4-wide {}, compact {}",
-                same(b, bin),
-                same(t, tree),
-                same(c, compact)
+                "seed {seed}, {n} lights, style {style}: binary {}, 4-wide {}, compact {}, bytes {}",
+                same(0),
+                same(1),
+                same(2),
+                same(3)
             ));
         }
     }

@@ -21,15 +21,17 @@
 //! **Memory.** The binary tree's leaves are contiguous per subtree, so a free-form run is a
 //! range of them. Only inner binary nodes have a plan (16 bytes). The layout and the
 //! quantisation are one depth-first walk that returns each node's energy sums to its parent,
-//! so nothing per node is kept besides the finished arrays; the paths are written in their
-//! final width (32 bits while the tree is at most [`SHORT_PATH_DEPTH`] deep, widened once if
-//! it gets deeper).
+//! so nothing per node is kept besides the finished arrays. The leaf entries are written
+//! straight into their packed width (known from the light count); the paths, whose width
+//! depends on the depth, are written by one walk of the finished tree
+//! ([`LightTree::with_paths`]).
 
 use super::saoh::{children, BinNode, BinTree};
 use crate::bounds::{Cone, Sphere};
 use crate::error::BuildError;
+use crate::packed::{index_bits, Packed};
 use crate::quantize;
-use crate::tree::{LightTree, Node4, Paths, MAX_DEPTH, SHORT_PATH_DEPTH};
+use crate::tree::{LightTree, Node4, MAX_DEPTH};
 use alloc::vec;
 use alloc::vec::Vec;
 
@@ -412,26 +414,21 @@ struct Collapser<'a> {
     cones: ConeCodes,
     nodes: Vec<Node4>,
     variances: Vec<u16>,
-    leaves: Vec<u32>,
-    paths: Paths,
+    leaves: Packed,
+    /// Light slots written so far.
+    n_leaves: usize,
     depth: u32,
 }
 
 impl Collapser<'_> {
     /// Lays out node `node` from `src` (an inner binary node, a free-form run, or the lone
     /// light of a one-light tree), then, depth first, its children, and quantises it. Returns
-    /// the sums of its lights. The paths widen to 64 bits (one copy) once a level passes
-    /// [`SHORT_PATH_DEPTH`].
-    fn fill(&mut self, node: usize, src: Src, path: u64, level: u32) -> Result<Sums, BuildError> {
+    /// the sums of its lights.
+    fn fill(&mut self, node: usize, src: Src, level: u32) -> Result<Sums, BuildError> {
         if level >= MAX_DEPTH {
             return Err(BuildError::TooDeep { depth: level + 1 });
         }
         self.depth = self.depth.max(level + 1);
-        if self.depth > SHORT_PATH_DEPTH {
-            if let Paths::Short(short) = &self.paths {
-                self.paths = Paths::Long(short.iter().map(|&p| u64::from(p)).collect());
-            }
-        }
         let (set, len) = match src {
             Src::Bin(b) if self.bin[b].light.is_some() => ([src; 4], 1), // a single light
             Src::Bin(b) => open(self.bin, &self.plans, &self.free, b),
@@ -444,14 +441,14 @@ impl Collapser<'_> {
         let first = self.nodes.len();
         let mut n_inner = 0;
         let mut mask = 0u8;
-        let leaf_base = self.leaves.len() as u32;
+        let leaf_base = self.n_leaves as u32;
         for (k, &c) in set[..len].iter().enumerate() {
             match c {
                 Src::Bin(b) if self.bin[b].light.is_some() => {
                     let light = self.bin[b].light.unwrap_or(0);
                     mask |= 1 << (4 + k);
-                    self.leaves.push(light);
-                    self.paths.set(light as usize, (path << 2) | k as u64);
+                    self.leaves.set(self.n_leaves, u64::from(light));
+                    self.n_leaves += 1;
                 }
                 _ => {
                     mask |= 1 << k;
@@ -491,7 +488,7 @@ impl Collapser<'_> {
                     }
                 }
                 _ => {
-                    let sums = self.fill(idx, c, (path << 2) | k as u64, level + 1)?;
+                    let sums = self.fill(idx, c, level + 1)?;
                     idx += 1;
                     let (sphere, cone) = exact_of(self.bin, c);
                     Part {
@@ -567,20 +564,21 @@ pub(crate) fn collapse(
         cones: ConeCodes::new(),
         nodes: Vec::with_capacity(bin.nodes.len() / 5 + 1),
         variances: Vec::with_capacity(bin.nodes.len() / 5 + 1),
-        leaves: Vec::with_capacity(n_leaves),
-        paths: Paths::zeros(n_lights, 0),
+        leaves: Packed::zeros(n_leaves, index_bits(n_lights)),
+        n_leaves: 0,
         depth: 0,
     };
     if !bin.nodes.is_empty() {
         c.nodes.push(Node4::EMPTY);
         c.variances.push(0);
-        c.fill(0, Src::Bin(0), 1, 0)?;
+        c.fill(0, Src::Bin(0), 0)?;
     }
-    Ok(LightTree {
-        nodes: c.nodes,
-        variances: c.variances,
-        leaves: c.leaves,
-        paths: c.paths,
-        depth: c.depth,
-    })
+    debug_assert_eq!(c.n_leaves, n_leaves);
+    Ok(LightTree::with_paths(
+        c.nodes,
+        c.variances,
+        c.leaves,
+        n_lights,
+        c.depth,
+    ))
 }

@@ -6,7 +6,7 @@
 
 use glam::Vec3;
 use manylights::baseline::BinaryLightTree;
-use manylights::{BuildOptions, Light, LightTree};
+use manylights::{BuildOptions, Light, LightTree, Slot};
 
 /// SplitMix64 (Steele, Lea, Flood 2014).
 struct Rng(u64);
@@ -146,10 +146,12 @@ fn fnv_bytes(bytes: &[u8]) -> u64 {
     h
 }
 
-/// Hashes of the binary tree (every node of [`BinaryLightTree`]: bounds, energy, child) and of
-/// the 4-wide tree's byte form ([`LightTree::as_bytes`]: nodes, variances, leaf array, paths),
-/// built with the default options and with [`BuildOptions::compact`], of `lights`.
-pub fn hashes(lights: &[Light]) -> (u64, u64, u64) {
+/// Hashes of the binary tree (every node of [`BinaryLightTree`]: bounds, energy, child); of
+/// the 4-wide tree's contents, whatever their storage (its nodes, each node's variance, the
+/// light of every light slot in tree order and every light's path), built with the default
+/// options and with [`BuildOptions::compact`]; and of the default tree's byte form
+/// ([`LightTree::as_bytes`]), of `lights`.
+pub fn hashes(lights: &[Light]) -> [u64; 4] {
     let binary = BinaryLightTree::build(lights).expect("valid scene");
     let words: &[u32] = bytemuck::cast_slice(binary.nodes());
     let tree = LightTree::build(lights).expect("valid scene");
@@ -161,11 +163,35 @@ pub fn hashes(lights: &[Light]) -> (u64, u64, u64) {
         },
     )
     .expect("valid scene");
-    (
+    [
         fnv(words.iter().copied()),
+        content_hash(&tree),
+        content_hash(&compact),
         fnv_bytes(&tree.as_bytes()),
-        fnv_bytes(&compact.as_bytes()),
-    )
+    ]
+}
+
+/// FNV-1a of a 4-wide tree's contents through its public accessors: the nodes' words, each
+/// node's variance, each slot's light (tree order) and each light's path.
+fn content_hash(tree: &LightTree) -> u64 {
+    let nodes: &[u32] = bytemuck::cast_slice(tree.nodes());
+    let variances = (0..tree.nodes().len() as u32).map(|n| tree.energy_rel_variance(n).to_bits());
+    let slot_lights = tree.nodes().iter().flat_map(|node| {
+        (0..4).filter_map(move |k| match tree.slot(node, k) {
+            Slot::Light(l) => Some(l),
+            _ => None,
+        })
+    });
+    let paths = (0..tree.light_count()).flat_map(|l| {
+        let p = tree.path(l);
+        [p as u32, (p >> 32) as u32]
+    });
+    fnv(nodes
+        .iter()
+        .copied()
+        .chain(variances)
+        .chain(slot_lights)
+        .chain(paths))
 }
 
 /// The scenes hashed: (seed, lights, style).
