@@ -28,6 +28,7 @@
 use crate::error::LengthMismatch;
 use crate::importance::Importance;
 use crate::tree::{path_len, Child, LightTree, Node4};
+use wide::f32x4;
 
 /// A sampled light and the probability of having chosen it.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -68,20 +69,48 @@ pub(crate) fn weights<I: Importance + ?Sized>(
     reach: f32,
     floor: f32,
 ) -> Option<([f32; 4], f32)> {
-    let w = imp.eval4(node).to_array();
-    let sum = w[0] + w[1] + w[2] + w[3];
-    if sum > 0.0 && sum < f32::INFINITY {
-        return Some(admit(w, sum, reach, floor));
+    let w = imp.eval4(node);
+    let a = w.to_array();
+    let sum = a[0] + a[1] + a[2] + a[3];
+    if positive_finite(sum) {
+        return Some(admit4(w, sum, reach, floor));
     }
     if root {
         return None;
     }
     let e = node.energies();
     let sum = e[0] + e[1] + e[2] + e[3];
-    if sum > 0.0 && sum < f32::INFINITY {
+    if positive_finite(sum) {
         return Some(admit(e, sum, reach, floor));
     }
     None
+}
+
+/// `x > 0 && x < ∞` in one integer comparison: the bits of the positive finite f32 are
+/// 1..=0x7F7F_FFFF, and those of every other (±0, negative, ∞, NaN) fall outside.
+#[inline(always)]
+fn positive_finite(x: f32) -> bool {
+    x.to_bits().wrapping_sub(1) < 0x7F7F_FFFF
+}
+
+/// [`admit`] on a node's four lanes: the same result, its test that every slot passes taken
+/// on the lanes at once (no lane below 0 or NaN; the smallest positive lane from a mask).
+#[inline(always)]
+pub(crate) fn admit4(w: f32x4, sum: f32, reach: f32, floor: f32) -> ([f32; 4], f32) {
+    let zero = f32x4::ZERO;
+    let signed = w.simd_ge(zero).to_bitmask() == 0b1111;
+    let p = w
+        .simd_gt(zero)
+        .select(w, f32x4::splat(f32::INFINITY))
+        .to_array();
+    // No NaN is left: the plain comparison is the minimum.
+    let lesser = |x: f32, y: f32| if x < y { x } else { y };
+    let min = lesser(lesser(p[0], p[1]), lesser(p[2], p[3]));
+    let w = w.to_array();
+    if signed && reach * (min / sum) >= floor {
+        return (w, sum);
+    }
+    admit_slow(w, reach, floor)
 }
 
 /// The weights a descent picks from, given the raw weights `w` with finite positive sum `sum`
@@ -667,6 +696,59 @@ mod tests {
         // No slot passes: the largest alone, with probability 1.
         let w = [1.0, 3.0, 3.0, 2.0];
         assert_eq!(admit(w, 9.0, 2.0 * m, m), ([0.0, 3.0, 0.0, 0.0], 3.0));
+    }
+
+    #[test]
+    fn admit4_agrees_with_admit() {
+        let m = MIN_PMF;
+        let values = [
+            0.0,
+            -0.0,
+            1.0,
+            3.0,
+            1e-40,
+            1e-30,
+            1e-10,
+            f32::MIN_POSITIVE,
+            -2.0,
+            f32::NAN,
+            f32::INFINITY,
+            1e30,
+        ];
+        for &a in &values {
+            for &b in &values {
+                for &c in &values {
+                    for &d in &values {
+                        let w = [a, b, c, d];
+                        let sum = a + b + c + d;
+                        if !(sum > 0.0 && sum < f32::INFINITY) {
+                            continue;
+                        }
+                        for reach in [1.0, 1e-20, 1e-30, 2.0 * m] {
+                            let (x, s) = admit(w, sum, reach, m);
+                            let (y, t) = admit4(f32x4::from(w), sum, reach, m);
+                            assert_eq!(x.map(f32::to_bits), y.map(f32::to_bits), "{w:?}");
+                            assert_eq!(s.to_bits(), t.to_bits(), "{w:?}");
+                        }
+                    }
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn positive_finite_is_the_comparisons() {
+        for bits in (0..=u32::MAX)
+            .step_by(997)
+            .chain([0, 1, 0x7F7F_FFFF, 0x7F80_0000])
+        {
+            let x = f32::from_bits(bits);
+            assert_eq!(
+                positive_finite(x),
+                x > 0.0 && x < f32::INFINITY,
+                "{bits:#x}"
+            );
+        }
     }
 
     #[test]
