@@ -94,20 +94,16 @@ fn positive_finite(x: f32) -> bool {
 }
 
 /// [`admit`] on a node's four lanes: the same result, its test that every slot passes taken
-/// on the lanes at once (no lane below 0 or NaN; the smallest positive lane from a mask).
+/// on all lanes at once. A lane passes when it is 0 or when `reach · (w_k / sum) ≥ floor`,
+/// which a negative or NaN lane never is (`floor` > 0); division and product by positive
+/// numbers are monotonic under rounding, so the positive lanes all pass exactly when the
+/// smallest does, which is [`admit`]'s test.
 #[inline(always)]
 pub(crate) fn admit4(w: f32x4, sum: f32, reach: f32, floor: f32) -> ([f32; 4], f32) {
-    let zero = f32x4::ZERO;
-    let signed = w.simd_ge(zero).to_bitmask() == 0b1111;
-    let p = w
-        .simd_gt(zero)
-        .select(w, f32x4::splat(f32::INFINITY))
-        .to_array();
-    // No NaN is left: the plain comparison is the minimum.
-    let lesser = |x: f32, y: f32| if x < y { x } else { y };
-    let min = lesser(lesser(p[0], p[1]), lesser(p[2], p[3]));
+    let share = f32x4::splat(reach) * (w / f32x4::splat(sum));
+    let pass = w.simd_eq(f32x4::ZERO) | share.simd_ge(f32x4::splat(floor));
     let w = w.to_array();
-    if signed && reach * (min / sum) >= floor {
+    if pass.to_bitmask() == 0b1111 {
         return (w, sum);
     }
     admit_slow(w, reach, floor)
@@ -735,6 +731,38 @@ mod tests {
                         }
                     }
                 }
+            }
+        }
+    }
+
+    #[test]
+    fn admit4_agrees_with_admit_at_the_boundary() {
+        // Random weights, at reaches around where the smallest share meets MIN_PMF.
+        let mut state = 0x2545_f491_4f6c_dd1du64;
+        let mut next = || {
+            state ^= state << 13;
+            state ^= state >> 7;
+            state ^= state << 17;
+            f32::from_bits(0x0080_0000 + (state >> 40) as u32 * 127)
+        };
+        for _ in 0..100_000 {
+            let w = [next(), next(), next(), next()];
+            let sum = w[0] + w[1] + w[2] + w[3];
+            if !positive_finite(sum) {
+                continue;
+            }
+            let min = w[0].min(w[1]).min(w[2]).min(w[3]);
+            let edge = MIN_PMF / (min / sum);
+            for reach in [
+                edge,
+                edge * (1.0 + f32::EPSILON),
+                edge * (1.0 - f32::EPSILON),
+            ] {
+                let reach = reach.min(1.0);
+                let (x, s) = admit(w, sum, reach, MIN_PMF);
+                let (y, t) = admit4(f32x4::from(w), sum, reach, MIN_PMF);
+                assert_eq!(x.map(f32::to_bits), y.map(f32::to_bits), "{w:?} {reach}");
+                assert_eq!(s.to_bits(), t.to_bits(), "{w:?} {reach}");
             }
         }
     }
