@@ -28,6 +28,7 @@
 use crate::error::LengthMismatch;
 use crate::importance::Importance;
 use crate::tree::{path_len, Child, LightTree, Node4};
+use wide::f32x4;
 
 /// A sampled light and the probability of having chosen it.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -68,20 +69,44 @@ pub(crate) fn weights<I: Importance + ?Sized>(
     reach: f32,
     floor: f32,
 ) -> Option<([f32; 4], f32)> {
-    let w = imp.eval4(node).to_array();
-    let sum = w[0] + w[1] + w[2] + w[3];
-    if sum > 0.0 && sum < f32::INFINITY {
-        return Some(admit(w, sum, reach, floor));
+    let w = imp.eval4(node);
+    let a = w.to_array();
+    let sum = a[0] + a[1] + a[2] + a[3];
+    if positive_finite(sum) {
+        return Some(admit4(w, sum, reach, floor));
     }
     if root {
         return None;
     }
     let e = node.energies();
     let sum = e[0] + e[1] + e[2] + e[3];
-    if sum > 0.0 && sum < f32::INFINITY {
+    if positive_finite(sum) {
         return Some(admit(e, sum, reach, floor));
     }
     None
+}
+
+/// `x > 0 && x < ∞` in one integer comparison: the bits of the positive finite f32 are
+/// 1..=0x7F7F_FFFF, and those of every other (±0, negative, ∞, NaN) fall outside.
+#[inline(always)]
+fn positive_finite(x: f32) -> bool {
+    x.to_bits().wrapping_sub(1) < 0x7F7F_FFFF
+}
+
+/// [`admit`] on a node's four lanes: the same result, its test that every slot passes taken
+/// on all lanes at once. A lane passes when it is 0 or when `reach · (w_k / sum) ≥ floor`,
+/// which a negative or NaN lane never is (`floor` > 0); division and product by positive
+/// numbers are monotonic under rounding, so the positive lanes all pass exactly when the
+/// smallest does, which is [`admit`]'s test.
+#[inline(always)]
+pub(crate) fn admit4(w: f32x4, sum: f32, reach: f32, floor: f32) -> ([f32; 4], f32) {
+    let share = f32x4::splat(reach) * (w / f32x4::splat(sum));
+    let pass = w.simd_eq(f32x4::ZERO) | share.simd_ge(f32x4::splat(floor));
+    let w = w.to_array();
+    if pass.to_bitmask() == 0b1111 {
+        return (w, sum);
+    }
+    admit_slow(w, reach, floor)
 }
 
 /// The weights a descent picks from, given the raw weights `w` with finite positive sum `sum`
@@ -168,8 +193,11 @@ fn touch(tree: &LightTree, node: &Node4) -> u32 {
     let n = node.inner_count() as usize;
     let mut t = 0u32;
     if let Some(children) = tree.nodes.get(base..base + n) {
-        for c in children {
-            t ^= c.sphere[0];
+        if let Some(last) = n.checked_sub(1) {
+            // Four loads and no loop: a node with fewer inner children loads its last again.
+            for i in 0..4 {
+                t ^= children[i.min(last)].sphere[0];
+            }
         }
     }
     t
@@ -661,6 +689,91 @@ mod tests {
         // No slot passes: the largest alone, with probability 1.
         let w = [1.0, 3.0, 3.0, 2.0];
         assert_eq!(admit(w, 9.0, 2.0 * m, m), ([0.0, 3.0, 0.0, 0.0], 3.0));
+    }
+
+    #[test]
+    fn admit4_agrees_with_admit() {
+        let m = MIN_PMF;
+        let values = [
+            0.0,
+            -0.0,
+            1.0,
+            3.0,
+            1e-40,
+            1e-30,
+            1e-10,
+            f32::MIN_POSITIVE,
+            -2.0,
+            f32::NAN,
+            f32::INFINITY,
+            1e30,
+        ];
+        for &a in &values {
+            for &b in &values {
+                for &c in &values {
+                    for &d in &values {
+                        let w = [a, b, c, d];
+                        let sum = a + b + c + d;
+                        if !(sum > 0.0 && sum < f32::INFINITY) {
+                            continue;
+                        }
+                        for reach in [1.0, 1e-20, 1e-30, 2.0 * m] {
+                            let (x, s) = admit(w, sum, reach, m);
+                            let (y, t) = admit4(f32x4::from(w), sum, reach, m);
+                            assert_eq!(x.map(f32::to_bits), y.map(f32::to_bits), "{w:?}");
+                            assert_eq!(s.to_bits(), t.to_bits(), "{w:?}");
+                        }
+                    }
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn admit4_agrees_with_admit_at_the_boundary() {
+        // Random weights, at reaches around where the smallest share meets MIN_PMF.
+        let mut state = 0x2545_f491_4f6c_dd1du64;
+        let mut next = || {
+            state ^= state << 13;
+            state ^= state >> 7;
+            state ^= state << 17;
+            f32::from_bits(0x0080_0000 + (state >> 40) as u32 * 127)
+        };
+        for _ in 0..100_000 {
+            let w = [next(), next(), next(), next()];
+            let sum = w[0] + w[1] + w[2] + w[3];
+            if !positive_finite(sum) {
+                continue;
+            }
+            let min = w[0].min(w[1]).min(w[2]).min(w[3]);
+            let edge = MIN_PMF / (min / sum);
+            for reach in [
+                edge,
+                edge * (1.0 + f32::EPSILON),
+                edge * (1.0 - f32::EPSILON),
+            ] {
+                let reach = reach.min(1.0);
+                let (x, s) = admit(w, sum, reach, MIN_PMF);
+                let (y, t) = admit4(f32x4::from(w), sum, reach, MIN_PMF);
+                assert_eq!(x.map(f32::to_bits), y.map(f32::to_bits), "{w:?} {reach}");
+                assert_eq!(s.to_bits(), t.to_bits(), "{w:?} {reach}");
+            }
+        }
+    }
+
+    #[test]
+    fn positive_finite_is_the_comparisons() {
+        for bits in (0..=u32::MAX)
+            .step_by(997)
+            .chain([0, 1, 0x7F7F_FFFF, 0x7F80_0000])
+        {
+            let x = f32::from_bits(bits);
+            assert_eq!(
+                positive_finite(x),
+                x > 0.0 && x < f32::INFINITY,
+                "{bits:#x}"
+            );
+        }
     }
 
     #[test]

@@ -11,7 +11,7 @@ use alloc::vec;
 use alloc::vec::Vec;
 use bytemuck::{Pod, Zeroable};
 use glam::Vec3;
-use wide::{f32x4, i32x4};
+use wide::{f32x4, i32x4, u16x8};
 
 /// Deepest tree a 64-bit path can encode (2 bits per level plus a marker bit).
 pub const MAX_DEPTH: u32 = 31;
@@ -200,16 +200,17 @@ impl Node4 {
         self.energy_low = (self.energy_low & !(0xF << shift)) | (((code & 0xF) as u16) << shift);
     }
 
-    /// The four slots' energies.
+    /// The four slots' energies: [`Node4::energy_of`] of each slot, decoded in 16-bit lanes.
+    /// The f32 of slot k is its code shifted up by 12 bits: `energy[k]` as the upper half,
+    /// and bits 4k..4k+4 of `energy_low` at bits 12..16 of the lower half, moved there by a
+    /// product with 2^(12 − 4k) (the bits it pushes beyond 16 fall off).
     #[inline(always)]
     pub fn energy4(&self) -> f32x4 {
-        let bits = i32x4::new([
-            self.energy_code(0) as i32,
-            self.energy_code(1) as i32,
-            self.energy_code(2) as i32,
-            self.energy_code(3) as i32,
-        ]);
-        bytemuck::cast(bits.unbounded_shl_scalar(12))
+        let e = self.energy;
+        let upper = u16x8::new([0, e[0], 0, e[1], 0, e[2], 0, e[3]]);
+        let lower = (u16x8::splat(self.energy_low) * u16x8::new([4096, 0, 256, 0, 16, 0, 1, 0]))
+            & u16x8::splat(0xF000);
+        bytemuck::cast(upper | lower)
     }
 
     /// The four slots' energies, as numbers.
@@ -824,3 +825,27 @@ impl Walk<'_> {
 
 const _: () = assert!(core::mem::size_of::<Node4>() == 64);
 const _: () = assert!(core::mem::align_of::<Node4>() == 64);
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn energy4_decodes_each_slot_as_energy_of() {
+        let mut node = Node4::EMPTY;
+        // Every 20-bit code in each slot, the other slots holding other codes.
+        for code in 0..1u32 << 20 {
+            for k in 0..4 {
+                node.set_energy_code(k, (code ^ (0x5A5A5 * k as u32)) & 0xF_FFFF);
+            }
+            let lanes = node.energy4().to_array();
+            for (k, lane) in lanes.iter().enumerate() {
+                assert_eq!(
+                    lane.to_bits(),
+                    node.energy_of(k).to_bits(),
+                    "code {code:#x}"
+                );
+            }
+        }
+    }
+}

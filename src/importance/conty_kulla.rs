@@ -336,8 +336,12 @@ impl Cones4 {
         let y = byte(q, 8) * scale - one;
         let z = one - x.abs() - y.abs();
         let t = (-z).fast_max(zero);
-        let x = x.simd_ge(zero).select(x - t, x + t);
-        let y = y.simd_ge(zero).select(y - t, y + t);
+        // `x ≥ 0 ? x − t : x + t` as `x − (t with the sign of x)` (t ≥ 0): x is never ±0 (no
+        // code decodes to exactly 0) and x − (−t) is x + t, so the lanes are the same numbers
+        // (the tests compare every code with `decode_axis_raw`).
+        let sign = f32x4::splat(-0.0);
+        let x = x - (t | (x & sign));
+        let y = y - (t | (y & sign));
         let so = byte(q, 16) * f32x4::splat(1.0 / 255.0);
         let qe = byte(q, 24);
         Cones4 {
@@ -523,5 +527,41 @@ impl Importance for TlImportance {
     fn eval_lane(&self, node: &Node4, k: usize) -> f32 {
         let k = k & 3;
         self.scaled(&node.bounds(k), quantize::decode_axis_raw(node.cone[k]))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn cones4_decodes_as_the_scalar_decoders() {
+        // Every axis code in some lane; the angle bytes run through all 256 values with it.
+        let mut node = Node4::EMPTY;
+        for code in 0..1u32 << 16 {
+            for k in 0..4 {
+                let q = (code + 0x3F1D * k as u32) & 0xFFFF;
+                let angles = ((code + 101 * k as u32) & 0xFF) << 16 | (code >> 8 ^ k as u32) << 24;
+                node.cone[k] = q | angles;
+            }
+            let c = Cones4::new(&node);
+            let (x, y, z) = (c.x.to_array(), c.y.to_array(), c.z.to_array());
+            let (co, so, ce) = (c.cos_o.to_array(), c.sin_o.to_array(), c.cos_e.to_array());
+            for k in 0..4 {
+                let w = node.cone[k];
+                let a = quantize::decode_axis_raw(w);
+                let (cos_o, sin_o) = quantize::decode_angle(w >> 16);
+                let lane = [x[k], y[k], z[k], co[k], so[k], ce[k]].map(f32::to_bits);
+                let scalar = [
+                    a.x,
+                    a.y,
+                    a.z,
+                    cos_o,
+                    sin_o,
+                    quantize::decode_emission(w >> 24),
+                ];
+                assert_eq!(lane, scalar.map(f32::to_bits), "cone word {w:#x}");
+            }
+        }
     }
 }
