@@ -355,22 +355,35 @@ impl Cones4 {
     }
 }
 
-impl ClusterView4 {
+/// A point's offsets to the four sphere centres of a node, as both 4-wide importances start
+/// from them (and as their scalar forms do): `v` = centre − point, rescaled by `k`
+/// (`TINY_SCALE` in the lanes where |v|² is below the smallest normal f32, else 1) so that
+/// its direction survives; `l2` = |k·v|², at least the smallest normal; `rk` = the radius
+/// times `k`; `d2c` = |v|² clamped below at `CLAMP2 · r²` and `MIN_DISTANCE2`; `inside` where
+/// |v| ≤ r.
+struct Offsets4 {
+    vx: f32x4,
+    vy: f32x4,
+    vz: f32x4,
+    l2: f32x4,
+    rk: f32x4,
+    d2c: f32x4,
+    inside: f32x4,
+}
+
+impl Offsets4 {
     #[inline(always)]
-    pub(crate) fn new(p: Vec3, node: &Node4) -> ClusterView4 {
-        let zero = f32x4::ZERO;
+    fn new(p: Vec3, node: &Node4) -> Offsets4 {
         let one = f32x4::ONE;
         let s = node.spheres4();
         let vx = s.x - f32x4::splat(p.x);
         let vy = s.y - f32x4::splat(p.y);
         let vz = s.z - f32x4::splat(p.z);
         let d2 = vx * vx + vy * vy + vz * vz;
-        let radius = s.r;
-        let r2 = radius * radius;
-        let min_d2 = f32x4::splat(MIN_DISTANCE2);
-        let d2c = d2.fast_max(f32x4::splat(CLAMP2) * r2).fast_max(min_d2);
-        let inside = d2.simd_le(r2);
-        // As the scalar form: the direction from the true distance, tiny ones scaled first.
+        let r2 = s.r * s.r;
+        let d2c = d2
+            .fast_max(f32x4::splat(CLAMP2) * r2)
+            .fast_max(f32x4::splat(MIN_DISTANCE2));
         let min_normal = f32x4::splat(f32::MIN_POSITIVE);
         let tiny = d2.simd_lt(min_normal);
         let (vx, vy, vz, l2, k) = if tiny.any() {
@@ -380,9 +393,35 @@ impl ClusterView4 {
         } else {
             (vx, vy, vz, d2, one)
         };
-        let inv_d = one / l2.fast_max(min_normal).sqrt();
+        Offsets4 {
+            vx,
+            vy,
+            vz,
+            l2: l2.fast_max(min_normal),
+            rk: s.r * k,
+            d2c,
+            inside: d2.simd_le(r2),
+        }
+    }
+}
+
+impl ClusterView4 {
+    #[inline(always)]
+    pub(crate) fn new(p: Vec3, node: &Node4) -> ClusterView4 {
+        let zero = f32x4::ZERO;
+        let one = f32x4::ONE;
+        let Offsets4 {
+            vx,
+            vy,
+            vz,
+            l2,
+            rk,
+            d2c,
+            inside,
+        } = Offsets4::new(p, node);
+        let inv_d = one / l2.sqrt();
         let (wx, wy, wz) = (vx * inv_d, vy * inv_d, vz * inv_d);
-        let sin_u = (radius * k * inv_d).fast_min(one);
+        let sin_u = (rk * inv_d).fast_min(one);
         let cos_u = (one - sin_u * sin_u).fast_max(zero).sqrt();
 
         let Cones4 {
@@ -440,32 +479,18 @@ impl Importance for TlImportance {
             return zero;
         }
         let one = f32x4::ONE;
-        let p = self.position;
-        let s = node.spheres4();
-        let vx = s.x - f32x4::splat(p.x);
-        let vy = s.y - f32x4::splat(p.y);
-        let vz = s.z - f32x4::splat(p.z);
-        let d2 = vx * vx + vy * vy + vz * vz;
-        let r2 = s.r * s.r;
-        let d2c = d2
-            .fast_max(f32x4::splat(CLAMP2) * r2)
-            .fast_max(f32x4::splat(MIN_DISTANCE2));
+        let Offsets4 {
+            vx,
+            vy,
+            vz,
+            l2,
+            rk,
+            d2c,
+            inside,
+        } = Offsets4::new(self.position, node);
         let inv_d2c = one / d2c;
-        let inside = d2.simd_le(r2);
-        // As the scalar form: directions from the true distance, tiny ones scaled first.
-        let min_normal = f32x4::splat(f32::MIN_POSITIVE);
-        let tiny = d2.simd_lt(min_normal);
-        let (vx, vy, vz, l2, k) = if tiny.any() {
-            let k = tiny.select(f32x4::splat(TINY_SCALE), one);
-            let (x, y, z) = (vx * k, vy * k, vz * k);
-            (x, y, z, x * x + y * y + z * z, k)
-        } else {
-            (vx, vy, vz, d2, one)
-        };
-        let l2 = l2.fast_max(min_normal);
         let inv_l2 = one / l2;
         let d = l2.sqrt();
-        let rk = s.r * k;
         // sin θu · d and cos θu · d.
         let su = rk.fast_min(d);
         let cu = (l2 - rk * rk).fast_max(zero).sqrt();
