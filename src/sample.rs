@@ -81,7 +81,7 @@ pub(crate) fn weights<I: Importance + ?Sized>(
     let e = node.energies();
     let sum = e[0] + e[1] + e[2] + e[3];
     if positive_finite(sum) {
-        return Some(admit(e, sum, reach, floor));
+        return Some(admit4(f32x4::from(e), sum, reach, floor));
     }
     None
 }
