@@ -427,12 +427,17 @@ impl LightTree {
         }
     }
 
-    /// Size and shape.
-    pub fn stats(&self) -> TreeStats {
-        let bytes = core::mem::size_of_val(self.nodes.as_slice())
+    /// Bytes of the nodes, the node variances, the leaf array and the paths.
+    fn array_bytes(&self) -> usize {
+        core::mem::size_of_val(self.nodes.as_slice())
             + core::mem::size_of_val(self.variances.as_slice())
             + self.leaves.byte_len()
-            + self.paths.byte_len();
+            + self.paths.byte_len()
+    }
+
+    /// Size and shape.
+    pub fn stats(&self) -> TreeStats {
+        let bytes = self.array_bytes();
         let lights = self.paths.len() as u32;
         let filled: u32 = self
             .nodes
@@ -561,18 +566,12 @@ impl LightTree {
     /// version byte, then as little-endian integers the node, light and leaf counts (u64 each)
     /// and the depth (u32), then a byte-order mark), followed in the host's byte order by the
     /// nodes, the node variances (u16 each), the leaf array and the paths. The leaf array holds
-    /// each light slot's light index in as many bits as the largest index needs (at
-    /// least 1), the paths each light's path in `2·depth + 1` bits, each packed back to back into 64-bit words (value `i` in
-    /// bits `i·w` to `(i + 1)·w − 1` of the words as one little-endian bit stream), with one
-    /// word of padding after the last.
+    /// each light slot's light index in as many bits as the largest index needs (at least 1),
+    /// the paths each light's path in `2·depth + 1` bits, each array packed back to back into
+    /// 64-bit words (value `i` in bits `i·w` to `(i + 1)·w − 1` of the words read as one
+    /// little-endian bit stream), with one word of padding after the last.
     pub fn as_bytes(&self) -> Vec<u8> {
-        let mut out = Vec::with_capacity(
-            HEADER
-                + core::mem::size_of_val(self.nodes.as_slice())
-                + core::mem::size_of_val(self.variances.as_slice())
-                + self.leaves.byte_len()
-                + self.paths.byte_len(),
-        );
+        let mut out = Vec::with_capacity(HEADER + self.array_bytes());
         out.extend_from_slice(&MAGIC);
         out.push(VERSION);
         out.extend_from_slice(&(self.nodes.len() as u64).to_le_bytes());
