@@ -67,17 +67,7 @@ fn sampling(c: &mut Criterion) {
         group.bench_with_input(BenchmarkId::new("4-wide batch", n), &n, |b, _| {
             let mut imps = Vec::with_capacity(BATCH);
             let mut out: Vec<Option<LightSample>> = vec![None; BATCH];
-            b.iter(|| {
-                let mut acc = 0.0f32;
-                for (pc, uc) in points.chunks(BATCH).zip(us.chunks(BATCH)) {
-                    imps.clear();
-                    imps.extend(pc.iter().map(|p| TlImportance::new(p.position, p.normal)));
-                    tree.sample_batch(black_box(&imps), black_box(uc), &mut out[..pc.len()])
-                        .unwrap();
-                    acc += out[..pc.len()].iter().flatten().map(|s| s.pmf).sum::<f32>();
-                }
-                acc
-            })
+            b.iter(|| random_scene::sample_batches(&tree, &points, &us, &mut imps, &mut out))
         });
         // BL through the BRDF-oriented cut: the importance and the cut built at every point
         // (what `bl` does per shading point), then one sample of the cut.
@@ -128,14 +118,7 @@ fn pmf(c: &mut Criterion) {
         let lights = random_scene::lights(n, 7);
         let tree = LightTree::build(&lights).unwrap();
         let binary = BinaryLightTree::build(&lights).unwrap();
-        let lights_of: Vec<u32> = points
-            .iter()
-            .zip(&us)
-            .map(|(p, &u)| {
-                let imp = TlImportance::new(p.position, p.normal);
-                tree.sample(&imp, u).map_or(0, |s| s.light)
-            })
-            .collect();
+        let lights_of = random_scene::sampled_lights(&tree, &points, &us);
         group.bench_with_input(BenchmarkId::new("4-wide", n), &n, |b, _| {
             b.iter(|| {
                 let mut acc = 0.0f32;
@@ -159,17 +142,7 @@ fn pmf(c: &mut Criterion) {
         group.bench_with_input(BenchmarkId::new("4-wide batch", n), &n, |b, _| {
             let mut imps = Vec::with_capacity(BATCH);
             let mut out = vec![0.0f32; BATCH];
-            b.iter(|| {
-                let mut acc = 0.0f32;
-                for (pc, lc) in points.chunks(BATCH).zip(lights_of.chunks(BATCH)) {
-                    imps.clear();
-                    imps.extend(pc.iter().map(|p| TlImportance::new(p.position, p.normal)));
-                    tree.pmf_batch(black_box(&imps), black_box(lc), &mut out[..pc.len()])
-                        .unwrap();
-                    acc += out[..pc.len()].iter().sum::<f32>();
-                }
-                acc
-            })
+            b.iter(|| random_scene::pmf_batches(&tree, &points, &lights_of, &mut imps, &mut out))
         });
     }
     group.finish();

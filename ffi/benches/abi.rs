@@ -8,7 +8,7 @@
 //! Scene: the random scene of `mlrender bench` (fixed seed, 10⁵ lights).
 
 use criterion::{criterion_group, criterion_main, Criterion, Throughput};
-use manylights::{LightSample, LightTree, TlImportance};
+use manylights::{LightSample, LightTree};
 use manylights_ffi as ffi;
 use manylights_testkit as random_scene;
 use std::hint::black_box;
@@ -35,31 +35,14 @@ fn abi(c: &mut Criterion) {
             normal: p.normal.into(),
         })
         .collect();
-    let lights_of: Vec<u32> = points
-        .iter()
-        .zip(&us)
-        .map(|(p, &u)| {
-            tree.sample(&TlImportance::new(p.position, p.normal), u)
-                .map_or(0, |s| s.light)
-        })
-        .collect();
+    let lights_of = random_scene::sampled_lights(&tree, &points, &us);
 
     let mut group = c.benchmark_group("abi");
     group.throughput(Throughput::Elements(POINTS as u64));
     group.bench_function("Rust sample_batch, N=100000", |b| {
         let mut imps = Vec::with_capacity(BATCH);
         let mut out: Vec<Option<LightSample>> = vec![None; BATCH];
-        b.iter(|| {
-            let mut acc = 0.0f32;
-            for (pc, uc) in points.chunks(BATCH).zip(us.chunks(BATCH)) {
-                imps.clear();
-                imps.extend(pc.iter().map(|p| TlImportance::new(p.position, p.normal)));
-                tree.sample_batch(black_box(&imps), black_box(uc), &mut out[..pc.len()])
-                    .unwrap();
-                acc += out[..pc.len()].iter().flatten().map(|s| s.pmf).sum::<f32>();
-            }
-            acc
-        })
+        b.iter(|| random_scene::sample_batches(&tree, &points, &us, &mut imps, &mut out))
     });
     group.bench_function("C ml_tree_sample_tl_batch, N=100000", |b| {
         let mut out = vec![ffi::ml_light_sample::NONE; BATCH];
@@ -82,17 +65,7 @@ fn abi(c: &mut Criterion) {
     group.bench_function("Rust pmf_batch, N=100000", |b| {
         let mut imps = Vec::with_capacity(BATCH);
         let mut out = vec![0.0f32; BATCH];
-        b.iter(|| {
-            let mut acc = 0.0f32;
-            for (pc, lc) in points.chunks(BATCH).zip(lights_of.chunks(BATCH)) {
-                imps.clear();
-                imps.extend(pc.iter().map(|p| TlImportance::new(p.position, p.normal)));
-                tree.pmf_batch(black_box(&imps), black_box(lc), &mut out[..pc.len()])
-                    .unwrap();
-                acc += out[..pc.len()].iter().sum::<f32>();
-            }
-            acc
-        })
+        b.iter(|| random_scene::pmf_batches(&tree, &points, &lights_of, &mut imps, &mut out))
     });
     group.bench_function("C ml_tree_pmf_tl_batch, N=100000", |b| {
         let mut out = vec![0.0f32; BATCH];

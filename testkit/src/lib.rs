@@ -10,10 +10,11 @@
 //! gives them a material and a view direction in the normal's hemisphere.
 
 use glam::Vec3;
-use manylights::{Light, Material};
+use manylights::{Light, LightSample, LightTree, Material, TlImportance};
 use rand::{Rng, SeedableRng};
 use rand_pcg::Pcg64Mcg;
 use std::f32::consts::PI;
+use std::hint::black_box;
 
 /// Half the side of the scene cube.
 pub const HALF_EXTENT: f32 = 100.0;
@@ -152,6 +153,65 @@ pub fn surface_points(m: usize, seed: u64, material: Material) -> Vec<manylights
                 wo,
                 material,
             }
+        })
+        .collect()
+}
+
+/// The timed loop of the batch TL sampling benches (`mlrender bench`, the criterion `sampling`
+/// and `abi` groups): `points` with their uniform numbers through
+/// [`LightTree::sample_batch`], `out.len()` points per call, each call's importances built in
+/// the loop as a host builds them per shading point (`imps` is the caller's scratch). Returns
+/// the sum of the pmfs, for the caller to keep the work from being optimised away.
+pub fn sample_batches(
+    tree: &LightTree,
+    points: &[ShadingPoint],
+    us: &[f32],
+    imps: &mut Vec<TlImportance>,
+    out: &mut [Option<LightSample>],
+) -> f32 {
+    let chunk = out.len().max(1);
+    let mut acc = 0.0f32;
+    for (pc, uc) in points.chunks(chunk).zip(us.chunks(chunk)) {
+        imps.clear();
+        imps.extend(pc.iter().map(|p| TlImportance::new(p.position, p.normal)));
+        tree.sample_batch(black_box(&imps[..]), black_box(uc), &mut out[..pc.len()])
+            .expect("one uniform number per point");
+        acc += out[..pc.len()].iter().flatten().map(|s| s.pmf).sum::<f32>();
+    }
+    acc
+}
+
+/// The timed loop of the batch pmf benches, as [`sample_batches`]: the pmf of `lights[j]` at
+/// `points[j]` through [`LightTree::pmf_batch`], `out.len()` queries per call. Returns the sum
+/// of the pmfs.
+pub fn pmf_batches(
+    tree: &LightTree,
+    points: &[ShadingPoint],
+    lights: &[u32],
+    imps: &mut Vec<TlImportance>,
+    out: &mut [f32],
+) -> f32 {
+    let chunk = out.len().max(1);
+    let mut acc = 0.0f32;
+    for (pc, lc) in points.chunks(chunk).zip(lights.chunks(chunk)) {
+        imps.clear();
+        imps.extend(pc.iter().map(|p| TlImportance::new(p.position, p.normal)));
+        tree.pmf_batch(black_box(&imps[..]), black_box(lc), &mut out[..pc.len()])
+            .expect("one light per point");
+        acc += out[..pc.len()].iter().sum::<f32>();
+    }
+    acc
+}
+
+/// The light [`LightTree::sample`] returns at each point with its uniform number (0 where it
+/// returns none): the lights the pmf benches query.
+pub fn sampled_lights(tree: &LightTree, points: &[ShadingPoint], us: &[f32]) -> Vec<u32> {
+    points
+        .iter()
+        .zip(us)
+        .map(|(p, &u)| {
+            tree.sample(&TlImportance::new(p.position, p.normal), u)
+                .map_or(0, |s| s.light)
         })
         .collect()
 }

@@ -212,20 +212,9 @@ pub fn run(cfg: &BenchConfig) -> serde_json::Value {
         checksum += c;
         // The batch call, BATCH shading points at a time, the importances built in the loop.
         let t = Instant::now();
-        let mut acc = 0.0f64;
-        for (pc, uc) in points.chunks(BATCH).zip(us.chunks(BATCH)) {
-            imps.clear();
-            imps.extend(pc.iter().map(|p| TlImportance::new(p.position, p.normal)));
-            tree.sample_batch(black_box(&imps), black_box(uc), &mut batch_out[..pc.len()])
-                .expect("one u per point");
-            acc += batch_out[..pc.len()]
-                .iter()
-                .flatten()
-                .map(|s| f64::from(s.pmf))
-                .sum::<f64>();
-        }
+        let acc = random_scene::sample_batches(&tree, &points, &us, &mut imps, &mut batch_out);
         tl_batch = tl_batch.max(points.len() as f64 / t.elapsed().as_secs_f64() / 1e6);
-        checksum += acc;
+        checksum += f64::from(acc);
         let (r, c) = time_pass(&points, &us, |imp, u| {
             tree.sample(imp, u).map_or(0.0, |s| s.pmf)
         });
