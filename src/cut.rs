@@ -470,9 +470,9 @@ impl LightCut {
         out: &mut [Option<LightSample>],
     ) {
         let n = self.len.min(u.len()).min(out.len());
-        tree.descend_many::<I, CUT_LANES>(
+        tree.descend_many::<&I, CUT_LANES>(
             n,
-            |_| imp,
+            |_| &imp,
             |i| match tree.slot_of(&self.clusters[i]) {
                 Slot::Light(light) => Err(Some(LightSample { light, pmf: 1.0 })),
                 Slot::Node(child) => Ok(Start {
@@ -522,9 +522,9 @@ impl LightCut {
             let m = (n - done).min(CUT_CAPACITY);
             let ls = &lights[done..done + m];
             let os = &mut out[done..done + m];
-            tree.pmf_many::<I, CUT_LANES>(
+            tree.pmf_many::<&I, CUT_LANES>(
                 m,
-                |_| imp,
+                |_| &imp,
                 |i| {
                     let light = ls[i];
                     cluster[i].set(usize::MAX);

@@ -48,6 +48,7 @@ pub mod cut;
 pub mod direct;
 pub mod error;
 pub mod importance;
+mod lanes;
 pub mod light;
 pub mod light_sample;
 pub mod light_set;

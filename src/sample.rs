@@ -69,7 +69,18 @@ pub(crate) fn weights<I: Importance + ?Sized>(
     reach: f32,
     floor: f32,
 ) -> Option<([f32; 4], f32)> {
-    let w = imp.eval4(node);
+    weights_of(imp.eval4(node), node, root, reach, floor)
+}
+
+/// [`weights`] from `w`, the importances of `node`'s slots (`imp.eval4(node)`).
+#[inline(always)]
+pub(crate) fn weights_of(
+    w: f32x4,
+    node: &Node4,
+    root: bool,
+    reach: f32,
+    floor: f32,
+) -> Option<([f32; 4], f32)> {
     let a = w.to_array();
     let sum = a[0] + a[1] + a[2] + a[3];
     if positive_finite(sum) {
@@ -201,6 +212,29 @@ fn touch(tree: &LightTree, node: &Node4) -> u32 {
         }
     }
     t
+}
+
+/// The importances `imp.eval4(node)` of the lanes `lane(j)` gives (`None` for a lane with
+/// nothing to evaluate, whose entry stays 0), taken two lanes at a time with
+/// [`Importance::eval4_pair`] so that the two computations interleave.
+#[inline(always)]
+fn eval_lanes<'a, I, const K: usize>(
+    lane: impl Fn(usize) -> Option<(&'a I, &'a Node4)>,
+) -> [f32x4; K]
+where
+    I: Importance + 'a,
+{
+    let mut w = [f32x4::ZERO; K];
+    for j in (0..K).step_by(2) {
+        let second = if j + 1 < K { lane(j + 1) } else { None };
+        match (lane(j), second) {
+            (Some((ia, a)), Some((ib, b))) => (w[j], w[j + 1]) = ia.eval4_pair(a, ib, b),
+            (Some((ia, a)), None) => w[j] = ia.eval4(a),
+            (None, Some((ib, b))) => w[j + 1] = ib.eval4(b),
+            (None, None) => {}
+        }
+    }
+    w
 }
 
 /// Where one descent of [`LightTree::descend_many`] starts.
@@ -388,7 +422,7 @@ impl LightTree {
         mut start_of: impl FnMut(usize) -> Result<Start, Option<LightSample>>,
         mut emit: impl FnMut(usize, Option<LightSample>),
     ) where
-        I: Importance + ?Sized + 'a,
+        I: Importance + 'a,
     {
         const IDLE: usize = usize::MAX;
         const NO_LEAF: u32 = u32::MAX;
@@ -420,7 +454,11 @@ impl LightTree {
                     }
                 }
             }
-            // One level of every busy lane.
+            // One level of every busy lane, the importances two lanes at a time.
+            let evals: [f32x4; K] = eval_lanes(|j| {
+                let busy = item[j] != IDLE;
+                busy.then(|| Some((imp_of(item[j]), self.nodes.get(node[j] as usize)?)))?
+            });
             let mut busy = false;
             for j in 0..K {
                 if item[j] == IDLE {
@@ -428,7 +466,7 @@ impl LightTree {
                 }
                 busy = true;
                 let nd = &self.nodes[node[j] as usize];
-                let Some((w, sum)) = weights(imp_of(item[j]), nd, root[j], pmf[j], floor[j]) else {
+                let Some((w, sum)) = weights_of(evals[j], nd, root[j], pmf[j], floor[j]) else {
                     emit(item[j], None);
                     item[j] = IDLE;
                     continue;
@@ -489,7 +527,7 @@ impl LightTree {
         mut start_of: impl FnMut(usize) -> Result<WalkStart, f32>,
         mut emit: impl FnMut(usize, f32),
     ) where
-        I: Importance + ?Sized + 'a,
+        I: Importance + 'a,
     {
         const IDLE: usize = usize::MAX;
         const NO_LEAF: u32 = u32::MAX;
@@ -523,6 +561,10 @@ impl LightTree {
                     }
                 }
             }
+            let evals: [f32x4; K] = eval_lanes(|j| {
+                let busy = item[j] != IDLE;
+                busy.then(|| Some((imp_of(item[j]), self.nodes.get(walk[j].node as usize)?)))?
+            });
             let mut busy = false;
             for j in 0..K {
                 if item[j] == IDLE {
@@ -534,7 +576,7 @@ impl LightTree {
                 let k = ((wk.path >> (2 * (levels[j] - 1 - level))) & 3) as usize;
                 let answer = match self.nodes.get(wk.node as usize) {
                     None => Some(0.0),
-                    Some(nd) => match weights(imp_of(item[j]), nd, wk.root, pmf[j], wk.floor) {
+                    Some(nd) => match weights_of(evals[j], nd, wk.root, pmf[j], wk.floor) {
                         None => Some(0.0),
                         Some((w, sum)) => {
                             pmf[j] *= w[k] / sum;

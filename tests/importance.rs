@@ -160,6 +160,37 @@ fn eval4_matches_scalar_on_random_nodes() {
     }
 }
 
+/// `eval4_pair` (two shading points in the lanes of one f32x8) is bit for bit the two `eval4`
+/// calls: random nodes two by two, every pair of receivers (different ones take the two
+/// calls), one point of each pair at the other's slot centre (the tiny-offset rescaling in one
+/// half only), and invalid points.
+#[test]
+fn eval4_pair_is_two_eval4_calls() {
+    let mut rng = Rng::new(0x9A1E);
+    let nodes = random_nodes(10_000);
+    let bits = |w: wide::f32x4| w.to_array().map(f32::to_bits);
+    for pair in nodes.chunks_exact(2) {
+        let ((xa, na), (xb, nb)) = (&pair[0], &pair[1]);
+        let at_centre = nb.bounds(rng.below(4)).center;
+        for (pa, pb) in [
+            (*xa, *xb),
+            (*xa, at_centre),
+            (Vec3::NAN, *xb),
+            (*xa, Vec3::INFINITY),
+        ] {
+            for ra in RECEIVERS {
+                for rb in RECEIVERS {
+                    let a = TlImportance::with_receiver(pa, random_normal(&mut rng), ra);
+                    let b = TlImportance::with_receiver(pb, random_normal(&mut rng), rb);
+                    let (wa, wb) = a.eval4_pair(na, &b, nb);
+                    assert_eq!(bits(wa), bits(a.eval4(na)), "{pa} {ra:?} / {pb} {rb:?}");
+                    assert_eq!(bits(wb), bits(b.eval4(nb)), "{pa} {ra:?} / {pb} {rb:?}");
+                }
+            }
+        }
+    }
+}
+
 // ---------------------------------------------------------------------------------------------
 // The scalar importance against docs/formulas.md, section 4, in f64
 // ---------------------------------------------------------------------------------------------

@@ -20,11 +20,12 @@
 //!   omnidirectional (no cosine; a medium or a point with no normal).
 
 use super::Importance;
+use crate::lanes::{self, Lanes};
 use crate::math;
 use crate::quantize;
 use crate::tree::{Node4, SlotBounds};
 use glam::Vec3;
-use wide::{f32x4, i32x4};
+use wide::{f32x4, f32x8, i32x4};
 
 /// `d_min = DISTANCE_CLAMP_FRACTION · r`.
 pub const DISTANCE_CLAMP_FRACTION: f32 = 0.5;
@@ -315,14 +316,18 @@ fn byte(v: i32x4, shift: u32) -> f32x4 {
 /// The cone words of a node's four slots, decoded: the axis as `quantize::decode_axis_raw`
 /// gives it (not normalised), cos θo and sin θo as `quantize::decode_angle`, cos θe as
 /// `quantize::decode_emission` ((255² − q²) / 255²).
-struct Cones4 {
-    x: f32x4,
-    y: f32x4,
-    z: f32x4,
-    cos_o: f32x4,
-    sin_o: f32x4,
-    cos_e: f32x4,
+#[derive(Clone, Copy)]
+struct Cones<L> {
+    x: L,
+    y: L,
+    z: L,
+    cos_o: L,
+    sin_o: L,
+    cos_e: L,
 }
+
+/// One node's [`Cones`].
+type Cones4 = Cones<f32x4>;
 
 impl Cones4 {
     #[inline(always)]
@@ -353,6 +358,19 @@ impl Cones4 {
             cos_e: (f32x4::splat(65025.0) - qe * qe) * f32x4::splat(1.0 / 65025.0),
         }
     }
+
+    /// Two nodes' cones side by side.
+    #[inline(always)]
+    fn pair(self, b: Cones4) -> Cones<f32x8> {
+        Cones {
+            x: lanes::pair(self.x, b.x),
+            y: lanes::pair(self.y, b.y),
+            z: lanes::pair(self.z, b.z),
+            cos_o: lanes::pair(self.cos_o, b.cos_o),
+            sin_o: lanes::pair(self.sin_o, b.sin_o),
+            cos_e: lanes::pair(self.cos_e, b.cos_e),
+        }
+    }
 }
 
 /// A point's offsets to the four sphere centres of a node, as both 4-wide importances start
@@ -361,47 +379,67 @@ impl Cones4 {
 /// its direction survives; `l2` = |k·v|², at least the smallest normal; `rk` = the radius
 /// times `k`; `d2c` = |v|² clamped below at `CLAMP2 · r²` and `MIN_DISTANCE2`; `inside` where
 /// |v| ≤ r.
-struct Offsets4 {
-    vx: f32x4,
-    vy: f32x4,
-    vz: f32x4,
-    l2: f32x4,
-    rk: f32x4,
-    d2c: f32x4,
-    inside: f32x4,
+struct Offsets<L> {
+    vx: L,
+    vy: L,
+    vz: L,
+    l2: L,
+    rk: L,
+    d2c: L,
+    inside: L,
 }
 
-impl Offsets4 {
+/// One node's [`Offsets`].
+type Offsets4 = Offsets<f32x4>;
+
+impl<L: Lanes> Offsets<L> {
+    /// From the centre − point differences `(vx, vy, vz)` and the radii `r`.
     #[inline(always)]
-    fn new(p: Vec3, node: &Node4) -> Offsets4 {
-        let one = f32x4::ONE;
-        let s = node.spheres4();
-        let vx = s.x - f32x4::splat(p.x);
-        let vy = s.y - f32x4::splat(p.y);
-        let vz = s.z - f32x4::splat(p.z);
+    fn from_differences(vx: L, vy: L, vz: L, r: L) -> Offsets<L> {
+        let one = L::ONE;
         let d2 = vx * vx + vy * vy + vz * vz;
-        let r2 = s.r * s.r;
+        let r2 = r * r;
         let d2c = d2
-            .fast_max(f32x4::splat(CLAMP2) * r2)
-            .fast_max(f32x4::splat(MIN_DISTANCE2));
-        let min_normal = f32x4::splat(f32::MIN_POSITIVE);
+            .fast_max(L::splat(CLAMP2) * r2)
+            .fast_max(L::splat(MIN_DISTANCE2));
+        let min_normal = L::splat(f32::MIN_POSITIVE);
         let tiny = d2.simd_lt(min_normal);
         let (vx, vy, vz, l2, k) = if tiny.any() {
-            let k = tiny.select(f32x4::splat(TINY_SCALE), one);
+            let k = tiny.select(L::splat(TINY_SCALE), one);
             let (x, y, z) = (vx * k, vy * k, vz * k);
             (x, y, z, x * x + y * y + z * z, k)
         } else {
             (vx, vy, vz, d2, one)
         };
-        Offsets4 {
+        Offsets {
             vx,
             vy,
             vz,
             l2: l2.fast_max(min_normal),
-            rk: s.r * k,
+            rk: r * k,
             d2c,
             inside: d2.simd_le(r2),
         }
+    }
+}
+
+/// The centre − point differences of a node's four slots and their radii.
+#[inline(always)]
+fn differences(p: Vec3, node: &Node4) -> [f32x4; 4] {
+    let s = node.spheres4();
+    [
+        s.x - f32x4::splat(p.x),
+        s.y - f32x4::splat(p.y),
+        s.z - f32x4::splat(p.z),
+        s.r,
+    ]
+}
+
+impl Offsets4 {
+    #[inline(always)]
+    fn new(p: Vec3, node: &Node4) -> Offsets4 {
+        let [vx, vy, vz, r] = differences(p, node);
+        Offsets::from_differences(vx, vy, vz, r)
     }
 }
 
@@ -474,69 +512,45 @@ impl Importance for TlImportance {
     /// and the function is the scalar reference's within the rounding of the two forms.
     #[inline(always)]
     fn eval4(&self, node: &Node4) -> f32x4 {
-        let zero = f32x4::ZERO;
         if !self.valid {
-            return zero;
+            return f32x4::ZERO;
         }
-        let one = f32x4::ONE;
-        let Offsets4 {
-            vx,
-            vy,
-            vz,
-            l2,
-            rk,
-            d2c,
-            inside,
-        } = Offsets4::new(self.position, node);
-        let inv_d2c = one / d2c;
-        let inv_l2 = one / l2;
-        let d = l2.sqrt();
-        // sin θu · d and cos θu · d.
-        let su = rk.fast_min(d);
-        let cu = (l2 - rk * rk).fast_max(zero).sqrt();
+        let n = self.normal;
+        let normal = [n.x, n.y, n.z].map(f32x4::splat);
+        scaled4(
+            self.receiver,
+            normal,
+            Offsets4::new(self.position, node),
+            Cones4::new(node),
+            node.energy4(),
+        )
+    }
 
-        let Cones4 {
-            x: ax,
-            y: ay,
-            z: az,
-            cos_o,
-            sin_o,
-            cos_e,
-        } = Cones4::new(node);
-        // The axis is not normalised: its length `la` divides the one product that needs it.
-        let la = (ax * ax + ay * ay + az * az).sqrt();
-        let inv_la = one / la;
-
-        // cos θ' = cos(max(0, θ − θo − θu)), scaled by d · la before the last product.
-        let at = -(ax * vx + ay * vy + az * vz);
-        let (cx, cy, cz) = (ay * vz - az * vy, az * vx - ax * vz, ax * vy - ay * vx);
-        let st = (cx * cx + cy * cy + cz * cz).sqrt();
-        let c1 = at * cos_o + st * sin_o;
-        let s1 = (st * cos_o - at * sin_o).fast_max(zero);
-        let cos_tp = c1
-            .simd_ge(cu * la)
-            .select(one, (c1 * cu + s1 * su) * (inv_l2 * inv_la));
-        let cos_tp = (at.simd_ge(cos_o * d * la) | inside).select(one, cos_tp);
-        let emits = cos_tp.simd_gt(cos_e - f32x4::splat(COS_SLACK));
-
-        // cos θi' = cos(max(0, θi − θu)), scaled by d.
-        let cos_ip = if self.receiver == Receiver::Omnidirectional {
-            one
-        } else {
-            let n = self.normal;
-            let mut ci = f32x4::splat(n.x) * vx + f32x4::splat(n.y) * vy + f32x4::splat(n.z) * vz;
-            if self.receiver == Receiver::Transmissive {
-                ci = ci.abs();
-            }
-            let si = (l2 - ci * ci).fast_max(zero).sqrt();
-            let cos_ip = ci.simd_ge(cu).select(one, (ci * cu + si * su) * inv_l2);
-            inside.select(one, cos_ip)
-        };
-
-        let floor = f32x4::splat(COS_FLOOR);
-        let live = emits & cos_ip.simd_gt(f32x4::splat(-COS_SLACK));
-        let value = node.energy4() * inv_d2c * cos_tp.fast_max(floor) * cos_ip.fast_max(floor);
-        live.select(value, zero)
+    /// Both points' `eval4` in the lanes of one `f32x8` (see `lanes`), bit for bit the two
+    /// calls' results. Two points of different receivers, or an invalid one, take the two
+    /// calls.
+    #[inline(always)]
+    fn eval4_pair(&self, a: &Node4, other: &Self, b: &Node4) -> (f32x4, f32x4)
+    where
+        Self: Sized,
+    {
+        if !(self.valid && other.valid) || self.receiver != other.receiver {
+            return (self.eval4(a), other.eval4(b));
+        }
+        let [ax, ay, az, ar] = differences(self.position, a);
+        let [bx, by, bz, br] = differences(other.position, b);
+        let offsets = Offsets::from_differences(
+            lanes::pair(ax, bx),
+            lanes::pair(ay, by),
+            lanes::pair(az, bz),
+            lanes::pair(ar, br),
+        );
+        let (n, m) = (self.normal, other.normal);
+        let normal = [(n.x, m.x), (n.y, m.y), (n.z, m.z)]
+            .map(|(p, q)| lanes::pair(f32x4::splat(p), f32x4::splat(q)));
+        let energy = lanes::pair(a.energy4(), b.energy4());
+        let cones = Cones4::new(a).pair(Cones4::new(b));
+        lanes::halves(scaled4(self.receiver, normal, offsets, cones, energy))
     }
 
     /// [`TlImportance::eval`]. Lane `k` of `eval4` equals it within `1e-5` relative plus `1e-30`
@@ -553,6 +567,78 @@ impl Importance for TlImportance {
         let k = k & 3;
         self.scaled(&node.bounds(k), quantize::decode_axis_raw(node.cone[k]))
     }
+}
+
+/// The body of [`TlImportance::eval4`] (documented there), on one node's lanes or two nodes'
+/// (see `lanes`), for a valid point of the given receiver and unit `normal` (splatted).
+#[inline(always)]
+fn scaled4<L: Lanes>(
+    receiver: Receiver,
+    normal: [L; 3],
+    offsets: Offsets<L>,
+    cones: Cones<L>,
+    energy: L,
+) -> L {
+    let zero = L::ZERO;
+    let one = L::ONE;
+    let Offsets {
+        vx,
+        vy,
+        vz,
+        l2,
+        rk,
+        d2c,
+        inside,
+    } = offsets;
+    let inv_d2c = one / d2c;
+    let inv_l2 = one / l2;
+    let d = l2.sqrt();
+    // sin θu · d and cos θu · d.
+    let su = rk.fast_min(d);
+    let cu = (l2 - rk * rk).fast_max(zero).sqrt();
+
+    let Cones {
+        x: ax,
+        y: ay,
+        z: az,
+        cos_o,
+        sin_o,
+        cos_e,
+    } = cones;
+    // The axis is not normalised: its length `la` divides the one product that needs it.
+    let la = (ax * ax + ay * ay + az * az).sqrt();
+    let inv_la = one / la;
+
+    // cos θ' = cos(max(0, θ − θo − θu)), scaled by d · la before the last product.
+    let at = -(ax * vx + ay * vy + az * vz);
+    let (cx, cy, cz) = (ay * vz - az * vy, az * vx - ax * vz, ax * vy - ay * vx);
+    let st = (cx * cx + cy * cy + cz * cz).sqrt();
+    let c1 = at * cos_o + st * sin_o;
+    let s1 = (st * cos_o - at * sin_o).fast_max(zero);
+    let cos_tp = c1
+        .simd_ge(cu * la)
+        .select(one, (c1 * cu + s1 * su) * (inv_l2 * inv_la));
+    let cos_tp = (at.simd_ge(cos_o * d * la) | inside).select(one, cos_tp);
+    let emits = cos_tp.simd_gt(cos_e - L::splat(COS_SLACK));
+
+    // cos θi' = cos(max(0, θi − θu)), scaled by d.
+    let cos_ip = if receiver == Receiver::Omnidirectional {
+        one
+    } else {
+        let [nx, ny, nz] = normal;
+        let mut ci = nx * vx + ny * vy + nz * vz;
+        if receiver == Receiver::Transmissive {
+            ci = ci.abs();
+        }
+        let si = (l2 - ci * ci).fast_max(zero).sqrt();
+        let cos_ip = ci.simd_ge(cu).select(one, (ci * cu + si * su) * inv_l2);
+        inside.select(one, cos_ip)
+    };
+
+    let floor = L::splat(COS_FLOOR);
+    let live = emits & cos_ip.simd_gt(L::splat(-COS_SLACK));
+    let value = energy * inv_d2c * cos_tp.fast_max(floor) * cos_ip.fast_max(floor);
+    live.select(value, zero)
 }
 
 #[cfg(test)]
