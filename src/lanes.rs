@@ -41,6 +41,7 @@ pub(crate) trait Lanes:
     fn any(self) -> bool;
 }
 
+/// Each operation forwards to the type's own method of the same name.
 macro_rules! lanes {
     ($t:ty) => {
         impl Lanes for $t {
@@ -51,38 +52,6 @@ macro_rules! lanes {
                 <$t>::splat(x)
             }
             #[inline(always)]
-            fn sqrt(self) -> Self {
-                <$t>::sqrt(self)
-            }
-            #[inline(always)]
-            fn abs(self) -> Self {
-                <$t>::abs(self)
-            }
-            #[inline(always)]
-            fn fast_max(self, other: Self) -> Self {
-                <$t>::fast_max(self, other)
-            }
-            #[inline(always)]
-            fn fast_min(self, other: Self) -> Self {
-                <$t>::fast_min(self, other)
-            }
-            #[inline(always)]
-            fn simd_ge(self, other: Self) -> Self {
-                <$t>::simd_ge(self, other)
-            }
-            #[inline(always)]
-            fn simd_gt(self, other: Self) -> Self {
-                <$t>::simd_gt(self, other)
-            }
-            #[inline(always)]
-            fn simd_le(self, other: Self) -> Self {
-                <$t>::simd_le(self, other)
-            }
-            #[inline(always)]
-            fn simd_lt(self, other: Self) -> Self {
-                <$t>::simd_lt(self, other)
-            }
-            #[inline(always)]
             fn select(self, t: Self, f: Self) -> Self {
                 <$t>::select(self, t, f)
             }
@@ -90,7 +59,25 @@ macro_rules! lanes {
             fn any(self) -> bool {
                 <$t>::any(self)
             }
+            lanes!(@unary $t: sqrt, abs);
+            lanes!(@binary $t: fast_max, fast_min, simd_ge, simd_gt, simd_le, simd_lt);
         }
+    };
+    (@unary $t:ty: $($f:ident),*) => {
+        $(
+            #[inline(always)]
+            fn $f(self) -> Self {
+                <$t>::$f(self)
+            }
+        )*
+    };
+    (@binary $t:ty: $($f:ident),*) => {
+        $(
+            #[inline(always)]
+            fn $f(self, other: Self) -> Self {
+                <$t>::$f(self, other)
+            }
+        )*
     };
 }
 

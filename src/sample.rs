@@ -456,8 +456,10 @@ impl LightTree {
             }
             // One level of every busy lane, the importances two lanes at a time.
             let evals: [f32x4; K] = eval_lanes(|j| {
-                let busy = item[j] != IDLE;
-                busy.then(|| Some((imp_of(item[j]), self.nodes.get(node[j] as usize)?)))?
+                if item[j] == IDLE {
+                    return None;
+                }
+                Some((imp_of(item[j]), self.nodes.get(node[j] as usize)?))
             });
             let mut busy = false;
             for j in 0..K {
@@ -562,8 +564,10 @@ impl LightTree {
                 }
             }
             let evals: [f32x4; K] = eval_lanes(|j| {
-                let busy = item[j] != IDLE;
-                busy.then(|| Some((imp_of(item[j]), self.nodes.get(walk[j].node as usize)?)))?
+                if item[j] == IDLE {
+                    return None;
+                }
+                Some((imp_of(item[j]), self.nodes.get(walk[j].node as usize)?))
             });
             let mut busy = false;
             for j in 0..K {

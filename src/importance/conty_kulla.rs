@@ -316,7 +316,6 @@ fn byte(v: i32x4, shift: u32) -> f32x4 {
 /// The cone words of a node's four slots, decoded: the axis as `quantize::decode_axis_raw`
 /// gives it (not normalised), cos θo and sin θo as `quantize::decode_angle`, cos θe as
 /// `quantize::decode_emission` ((255² − q²) / 255²).
-#[derive(Clone, Copy)]
 struct Cones<L> {
     x: L,
     y: L,
