@@ -520,7 +520,7 @@ impl Importance for TlImportance {
             self.receiver,
             normal,
             Offsets4::new(self.position, node),
-            Cones4::new(node),
+            (!all_omni(node)).then(|| Cones4::new(node)),
             node.energy4(),
         )
     }
@@ -548,7 +548,7 @@ impl Importance for TlImportance {
         let normal = [(n.x, m.x), (n.y, m.y), (n.z, m.z)]
             .map(|(p, q)| lanes::pair(f32x4::splat(p), f32x4::splat(q)));
         let energy = lanes::pair(a.energy4(), b.energy4());
-        let cones = Cones4::new(a).pair(Cones4::new(b));
+        let cones = (!(all_omni(a) && all_omni(b))).then(|| Cones4::new(a).pair(Cones4::new(b)));
         lanes::halves(scaled4(self.receiver, normal, offsets, cones, energy))
     }
 
@@ -568,14 +568,35 @@ impl Importance for TlImportance {
     }
 }
 
+/// The angle byte of a cone word in which θo = π: [`Cones4::new`] (as
+/// `quantize::decode_angle`) decodes it to cos θo = −1 and sin θo = 0 exactly.
+const OMNI_ANGLE: u32 = 0xFF << 16;
+
+/// Every slot of `node` has θo = π (all directions), as point lights and most clusters near
+/// the root do: [`scaled4`] then skips the emitter's orientation, whose factor cos θ' is 1 in
+/// every lane (see there).
+#[inline(always)]
+fn all_omni(node: &Node4) -> bool {
+    let c = node.cone;
+    c[0] & c[1] & c[2] & c[3] & OMNI_ANGLE == OMNI_ANGLE
+}
+
 /// The body of [`TlImportance::eval4`] (documented there), on one node's lanes or two nodes'
 /// (see `lanes`), for a valid point of the given receiver and unit `normal` (splatted).
+///
+/// `cones` is `None` when every lane has θo = π ([`all_omni`]); the result is then bit for
+/// bit what the decoded cones give, since with cos θo = −1 and sin θo = 0 exactly:
+/// - where |v|² is finite, every product below is finite, and cos θ' is 1: either
+///   `at ≥ −(d·la)`, or `c1 = −at > d·la ≥ cu·la` (cu ≤ d, both roundings monotonic); and 1
+///   always emits, as `cos θe − COS_SLACK < 1`;
+/// - where |v|² is ∞, `1 / d2c` is +0, and both forms give +0: every other factor of the
+///   product is then positive and finite (`fast_max` with the floor takes the floor for NaN).
 #[inline(always)]
 fn scaled4<L: Lanes>(
     receiver: Receiver,
     normal: [L; 3],
     offsets: Offsets<L>,
-    cones: Cones<L>,
+    cones: Option<Cones<L>>,
     energy: L,
 ) -> L {
     let zero = L::ZERO;
@@ -596,29 +617,34 @@ fn scaled4<L: Lanes>(
     let su = rk.fast_min(d);
     let cu = (l2 - rk * rk).fast_max(zero).sqrt();
 
-    let Cones {
-        x: ax,
-        y: ay,
-        z: az,
-        cos_o,
-        sin_o,
-        cos_e,
-    } = cones;
-    // The axis is not normalised: its length `la` divides the one product that needs it.
-    let la = (ax * ax + ay * ay + az * az).sqrt();
-    let inv_la = one / la;
-
-    // cos θ' = cos(max(0, θ − θo − θu)), scaled by d · la before the last product.
-    let at = -(ax * vx + ay * vy + az * vz);
-    let (cx, cy, cz) = (ay * vz - az * vy, az * vx - ax * vz, ax * vy - ay * vx);
-    let st = (cx * cx + cy * cy + cz * cz).sqrt();
-    let c1 = at * cos_o + st * sin_o;
-    let s1 = (st * cos_o - at * sin_o).fast_max(zero);
-    let cos_tp = c1
-        .simd_ge(cu * la)
-        .select(one, (c1 * cu + s1 * su) * (inv_l2 * inv_la));
-    let cos_tp = (at.simd_ge(cos_o * d * la) | inside).select(one, cos_tp);
-    let emits = cos_tp.simd_gt(cos_e - L::splat(COS_SLACK));
+    // cos θ' = cos(max(0, θ − θo − θu)) and where it emits (None: everywhere).
+    let (cos_tp, emits) = match cones {
+        None => (one, None),
+        Some(Cones {
+            x: ax,
+            y: ay,
+            z: az,
+            cos_o,
+            sin_o,
+            cos_e,
+        }) => {
+            // The axis is not normalised: its length `la` divides the one product that
+            // needs it.
+            let la = (ax * ax + ay * ay + az * az).sqrt();
+            let inv_la = one / la;
+            // Scaled by d · la before the last product.
+            let at = -(ax * vx + ay * vy + az * vz);
+            let (cx, cy, cz) = (ay * vz - az * vy, az * vx - ax * vz, ax * vy - ay * vx);
+            let st = (cx * cx + cy * cy + cz * cz).sqrt();
+            let c1 = at * cos_o + st * sin_o;
+            let s1 = (st * cos_o - at * sin_o).fast_max(zero);
+            let cos_tp = c1
+                .simd_ge(cu * la)
+                .select(one, (c1 * cu + s1 * su) * (inv_l2 * inv_la));
+            let cos_tp = (at.simd_ge(cos_o * d * la) | inside).select(one, cos_tp);
+            (cos_tp, Some(cos_tp.simd_gt(cos_e - L::splat(COS_SLACK))))
+        }
+    };
 
     // cos θi' = cos(max(0, θi − θu)), scaled by d.
     let cos_ip = if receiver == Receiver::Omnidirectional {
@@ -635,7 +661,8 @@ fn scaled4<L: Lanes>(
     };
 
     let floor = L::splat(COS_FLOOR);
-    let live = emits & cos_ip.simd_gt(L::splat(-COS_SLACK));
+    let received = cos_ip.simd_gt(L::splat(-COS_SLACK));
+    let live = emits.map_or(received, |e| e & received);
     let value = energy * inv_d2c * cos_tp.fast_max(floor) * cos_ip.fast_max(floor);
     live.select(value, zero)
 }
@@ -643,6 +670,87 @@ fn scaled4<L: Lanes>(
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// A xorshift generator for the tests' random nodes and points.
+    struct Bits(u64);
+
+    impl Bits {
+        fn next(&mut self) -> u32 {
+            self.0 ^= self.0 << 13;
+            self.0 ^= self.0 >> 7;
+            self.0 ^= self.0 << 17;
+            (self.0 >> 32) as u32
+        }
+
+        /// Uniform in [−h, h].
+        fn signed(&mut self, h: f32) -> f32 {
+            (self.next() as f32 / u32::MAX as f32 * 2.0 - 1.0) * h
+        }
+    }
+
+    #[test]
+    fn omni_angle_decodes_to_all_directions() {
+        assert_eq!(quantize::decode_angle(OMNI_ANGLE >> 16), (-1.0, 0.0));
+        let c = Cones4::new(&Node4 {
+            cone: [OMNI_ANGLE; 4],
+            ..Node4::EMPTY
+        });
+        assert_eq!(c.cos_o.to_array(), [-1.0; 4]);
+        assert_eq!(c.sin_o.to_array(), [0.0; 4]);
+    }
+
+    #[test]
+    fn omni_nodes_skip_the_cones_bit_for_bit() {
+        // Nodes whose four cones have θo = π (random axes and emission angles), at points
+        // near, inside, on the centres of, and far from their spheres (|v|² = ∞ included),
+        // for every receiver: the importances without the cones are those with them.
+        let mut bits = Bits(0x0DDC_0FFE);
+        let receivers = [
+            Receiver::Reflective,
+            Receiver::Transmissive,
+            Receiver::Omnidirectional,
+        ];
+        for i in 0..20_000 {
+            let mut node = Node4::EMPTY;
+            node.exponent = 110 + (bits.next() % 30) as u8;
+            node.origin = [0; 3].map(|_| bits.signed(50.0));
+            for k in 0..4 {
+                node.sphere[k] = bits.next();
+                node.cone[k] = bits.next() | OMNI_ANGLE;
+                node.set_energy_code(k, bits.next() % 0x7F7FF);
+            }
+            assert!(all_omni(&node));
+            let s = node.spheres4();
+            let k = i % 4;
+            let centre = Vec3::new(s.x.to_array()[k], s.y.to_array()[k], s.z.to_array()[k]);
+            let far = [1e3, 1e19, 3e38][i % 3];
+            let p = match i % 5 {
+                0 => centre,
+                1 => centre + Vec3::new(1e-25, -3e-24, 0.0),
+                2 => Vec3::new(bits.signed(far), bits.signed(far), bits.signed(far)),
+                _ => Vec3::new(bits.signed(60.0), bits.signed(60.0), bits.signed(60.0)),
+            };
+            let normal = Vec3::new(bits.signed(1.0), bits.signed(1.0), bits.signed(1.0));
+            let imp = TlImportance::with_receiver(p, normal, receivers[i % 3]);
+            let n = imp.normal;
+            let eval = |cones| {
+                scaled4(
+                    imp.receiver,
+                    [n.x, n.y, n.z].map(f32x4::splat),
+                    Offsets4::new(p, &node),
+                    cones,
+                    node.energy4(),
+                )
+                .to_array()
+                .map(f32::to_bits)
+            };
+            assert_eq!(
+                eval(None),
+                eval(Some(Cones4::new(&node))),
+                "node {node:?} at {p}"
+            );
+        }
+    }
 
     #[test]
     fn cones4_decodes_as_the_scalar_decoders() {
