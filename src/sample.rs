@@ -68,11 +68,13 @@ pub(crate) fn weights<I: Importance + ?Sized>(
     root: bool,
     reach: f32,
     floor: f32,
-) -> Option<([f32; 4], f32)> {
+) -> Option<(f32x4, f32)> {
     weights_of(imp.eval4(node), node, root, reach, floor)
 }
 
-/// [`weights`] from `w`, the importances of `node`'s slots (`imp.eval4(node)`).
+/// [`weights`] from `w`, the importances of `node`'s slots (`imp.eval4(node)`). The weights
+/// stay in their vector from the importances to [`pick`]: as `[f32; 4]` they went through the
+/// stack on the descent's chain of dependences once per function they passed.
 #[inline(always)]
 pub(crate) fn weights_of(
     w: f32x4,
@@ -80,7 +82,7 @@ pub(crate) fn weights_of(
     root: bool,
     reach: f32,
     floor: f32,
-) -> Option<([f32; 4], f32)> {
+) -> Option<(f32x4, f32)> {
     let a = w.to_array();
     let sum = a[0] + a[1] + a[2] + a[3];
     if positive_finite(sum) {
@@ -110,14 +112,14 @@ fn positive_finite(x: f32) -> bool {
 /// numbers are monotonic under rounding, so the positive lanes all pass exactly when the
 /// smallest does, which is [`admit`]'s test.
 #[inline(always)]
-pub(crate) fn admit4(w: f32x4, sum: f32, reach: f32, floor: f32) -> ([f32; 4], f32) {
+pub(crate) fn admit4(w: f32x4, sum: f32, reach: f32, floor: f32) -> (f32x4, f32) {
     let share = f32x4::splat(reach) * (w / f32x4::splat(sum));
     let pass = w.simd_eq(f32x4::ZERO) | share.simd_ge(f32x4::splat(floor));
-    let w = w.to_array();
     if pass.to_bitmask() == 0b1111 {
         return (w, sum);
     }
-    admit_slow(w, reach, floor)
+    let (w, sum) = admit_slow(w.to_array(), reach, floor);
+    (f32x4::from(w), sum)
 }
 
 /// The weights a descent picks from, given the raw weights `w` with finite positive sum `sum`
@@ -168,12 +170,13 @@ fn admit_slow(w: [f32; 4], reach: f32, floor: f32) -> ([f32; 4], f32) {
     (only, positive[best])
 }
 
-/// Picks slot k with probability `w[k] / sum` from `u` in [0, 1) and returns it with `u`
-/// rescaled into [0, 1). A slot of weight 0 is never picked. Branch-free: k counts the
+/// Picks slot k with probability `w[k] / sum` from `u` in [0, 1) and returns it with `w[k]`
+/// and `u` rescaled into [0, 1). A slot of weight 0 is never picked. Branch-free: k counts the
 /// prefix sums at or below `u · sum` (a zero-weight slot repeats its predecessor's prefix sum,
 /// so it is skipped), clamped to the last positive slot against rounding.
 #[inline(always)]
-pub(crate) fn pick(w: [f32; 4], sum: f32, u: f32) -> (usize, f32) {
+pub(crate) fn pick(w: f32x4, sum: f32, u: f32) -> (usize, f32, f32) {
+    let w = w.to_array();
     let t = u * sum;
     let c0 = w[0];
     let c1 = c0 + w[1];
@@ -190,7 +193,7 @@ pub(crate) fn pick(w: [f32; 4], sum: f32, u: f32) -> (usize, f32) {
     };
     let k = k.min(last);
     let before = [0.0, c0, c1, c2][k];
-    (k, ((t - before) / w[k]).clamp(0.0, ONE_MINUS_EPSILON))
+    (k, w[k], ((t - before) / w[k]).clamp(0.0, ONE_MINUS_EPSILON))
 }
 
 /// Loads the first word of each inner child of `node` (consecutive nodes, so consecutive
@@ -302,8 +305,8 @@ impl LightTree {
         let mut pmf = 1.0f32;
         let (mut w, mut sum) = weights(imp, node, is_root, pmf, floor)?;
         loop {
-            let (k, next_u) = pick(w, sum, u);
-            pmf *= w[k] / sum;
+            let (k, wk, next_u) = pick(w, sum, u);
+            pmf *= wk / sum;
             u = next_u;
             match node.child(k) {
                 Child::Leaf(i) => {
@@ -473,8 +476,8 @@ impl LightTree {
                     item[j] = IDLE;
                     continue;
                 };
-                let (k, next_u) = pick(w, sum, u[j]);
-                pmf[j] *= w[k] / sum;
+                let (k, wk, next_u) = pick(w, sum, u[j]);
+                pmf[j] *= wk / sum;
                 u[j] = next_u;
                 root[j] = false;
                 match nd.child(k) {
@@ -583,7 +586,7 @@ impl LightTree {
                     Some(nd) => match weights_of(evals[j], nd, wk.root, pmf[j], wk.floor) {
                         None => Some(0.0),
                         Some((w, sum)) => {
-                            pmf[j] *= w[k] / sum;
+                            pmf[j] *= w.to_array()[k] / sum;
                             wk.root = false;
                             wk.from_level += 1;
                             match nd.child(k) {
@@ -671,7 +674,7 @@ impl LightTree {
             else {
                 return 0.0;
             };
-            pmf *= w[k] / sum;
+            pmf *= w.to_array()[k] / sum;
             match node.child(k) {
                 Child::Node(c) => index = c as usize,
                 Child::Leaf(i) if level + 1 == levels && self.leaf_light(i) == Some(light) => {
@@ -699,7 +702,8 @@ mod tests {
         for w in cases {
             let sum = w[0] + w[1] + w[2] + w[3];
             for u in [0.0, 1e-9, 0.25, 0.5, 0.999, ONE_MINUS_EPSILON] {
-                let (k, u2) = pick(w, sum, u);
+                let (k, wk, u2) = pick(f32x4::from(w), sum, u);
+                assert_eq!(wk, w[k]);
                 assert!(w[k] > 0.0, "w={w:?} u={u} picked {k}");
                 assert!((0.0..1.0).contains(&u2), "w={w:?} u={u}: u'={u2}");
             }
@@ -709,10 +713,11 @@ mod tests {
     #[test]
     fn pick_warps_uniformly() {
         let w = [1.0, 2.0, 0.0, 1.0];
-        let (k, u2) = pick(w, 4.0, 0.5);
+        let w = f32x4::from(w);
+        let (k, _, u2) = pick(w, 4.0, 0.5);
         assert_eq!(k, 1);
         assert!((u2 - 0.5).abs() < 1e-6);
-        let (k, u2) = pick(w, 4.0, 0.875);
+        let (k, _, u2) = pick(w, 4.0, 0.875);
         assert_eq!(k, 3);
         assert!((u2 - 0.5).abs() < 1e-6);
     }
@@ -766,6 +771,7 @@ mod tests {
                         for reach in [1.0, 1e-20, 1e-30, 2.0 * m] {
                             let (x, s) = admit(w, sum, reach, m);
                             let (y, t) = admit4(f32x4::from(w), sum, reach, m);
+                            let y = y.to_array();
                             assert_eq!(x.map(f32::to_bits), y.map(f32::to_bits), "{w:?}");
                             assert_eq!(s.to_bits(), t.to_bits(), "{w:?}");
                         }
@@ -801,6 +807,7 @@ mod tests {
                 let reach = reach.min(1.0);
                 let (x, s) = admit(w, sum, reach, MIN_PMF);
                 let (y, t) = admit4(f32x4::from(w), sum, reach, MIN_PMF);
+                let y = y.to_array();
                 assert_eq!(x.map(f32::to_bits), y.map(f32::to_bits), "{w:?} {reach}");
                 assert_eq!(s.to_bits(), t.to_bits(), "{w:?} {reach}");
             }
