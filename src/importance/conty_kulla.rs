@@ -476,8 +476,8 @@ impl ClusterView4 {
         let sin_t = (one - cos_t * cos_t).fast_max(zero).sqrt();
         let c1 = cos_t * cos_o + sin_t * sin_o;
         let s1 = (sin_t * cos_o - cos_t * sin_o).fast_max(zero);
-        let cos_tp = c1.simd_ge(cos_u).select(one, c1 * cos_u + s1 * sin_u);
-        let cos_tp = (cos_t.simd_ge(cos_o) | inside).select(one, cos_tp);
+        let whole = c1.simd_ge(cos_u) | cos_t.simd_ge(cos_o) | inside;
+        let cos_tp = whole.select(one, c1 * cos_u + s1 * sin_u);
         ClusterView4 {
             d2c,
             inside,
@@ -638,10 +638,10 @@ fn scaled4<L: Lanes>(
             let st = (cx * cx + cy * cy + cz * cz).sqrt();
             let c1 = at * cos_o + st * sin_o;
             let s1 = (st * cos_o - at * sin_o).fast_max(zero);
-            let cos_tp = c1
-                .simd_ge(cu * la)
-                .select(one, (c1 * cu + s1 * su) * (inv_l2 * inv_la));
-            let cos_tp = (at.simd_ge(cos_o * d * la) | inside).select(one, cos_tp);
+            // One select of 1 where any of the three conditions holds (the two selects in
+            // turn of the scalar form): the masks come off the chain, in parallel.
+            let whole = c1.simd_ge(cu * la) | at.simd_ge(cos_o * d * la) | inside;
+            let cos_tp = whole.select(one, (c1 * cu + s1 * su) * (inv_l2 * inv_la));
             (cos_tp, Some(cos_tp.simd_gt(cos_e - L::splat(COS_SLACK))))
         }
     };
@@ -656,8 +656,7 @@ fn scaled4<L: Lanes>(
             ci = ci.abs();
         }
         let si = (l2 - ci * ci).fast_max(zero).sqrt();
-        let cos_ip = ci.simd_ge(cu).select(one, (ci * cu + si * su) * inv_l2);
-        inside.select(one, cos_ip)
+        (ci.simd_ge(cu) | inside).select(one, (ci * cu + si * su) * inv_l2)
     };
 
     let floor = L::splat(COS_FLOOR);
