@@ -283,8 +283,8 @@ pub const BATCH_LANES: usize = 16;
 /// from level to level of one walk; more walks in flight then mostly add their bookkeeping.
 /// Measured (best of alternating runs, 256 queries per call): at 10⁵ lights 4 in flight gave
 /// 3.25–3.65 M queries/s against 2.17–2.83 with 16; at 10⁶ 1.45–1.87 against 1.39–2.03 (no
-/// consistent difference). Reading
-/// each chunk's paths ahead of its walks, back to back, gained nothing measurable.
+/// consistent difference). Reading each chunk's paths ahead of its walks, back to back, gained
+/// nothing measurable.
 const PMF_BATCH_LANES: usize = 4;
 
 impl LightTree {

@@ -589,8 +589,9 @@ fn all_omni(node: &Node4) -> bool {
 /// - where |v|² is finite, every product below is finite, and cos θ' is 1: either
 ///   `at ≥ −(d·la)`, or `c1 = −at > d·la ≥ cu·la` (cu ≤ d, both roundings monotonic); and 1
 ///   always emits, as `cos θe − COS_SLACK < 1`;
-/// - where |v|² is ∞, `1 / d2c` is +0, and both forms give +0: every other factor of the
-///   product is then positive and finite (`fast_max` with the floor takes the floor for NaN).
+/// - where |v|² is ∞, `1 / d2c` is +0, and both forms give +0: a lane whose cos θ' (decoded
+///   form) or cos θi' is NaN is not live, and in the others the product is +0 times finite
+///   non-negative factors (each cosine is then 1, +0 or NaN).
 #[inline(always)]
 fn scaled4<L: Lanes>(
     receiver: Receiver,
