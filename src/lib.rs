@@ -58,6 +58,8 @@ pub mod mis;
 mod packed;
 pub mod quantize;
 pub mod sample;
+#[cfg(test)]
+mod test_rng;
 pub mod trace;
 pub mod tree;
 pub mod vpl;

@@ -165,13 +165,13 @@ impl Node4 {
     /// Number of inner-node slots.
     #[inline]
     pub fn inner_count(&self) -> u32 {
-        (self.mask & 0xF).count_ones()
+        count4(u32::from(self.mask))
     }
 
     /// Number of light slots.
     #[inline]
     pub fn leaf_count(&self) -> u32 {
-        (self.mask >> 4).count_ones()
+        count4(u32::from(self.mask) >> 4)
     }
 
     /// The scale of the sphere codes.

@@ -670,23 +670,7 @@ fn scaled4<L: Lanes>(
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    /// A xorshift generator for the tests' random nodes and points.
-    struct Bits(u64);
-
-    impl Bits {
-        fn next(&mut self) -> u32 {
-            self.0 ^= self.0 << 13;
-            self.0 ^= self.0 >> 7;
-            self.0 ^= self.0 << 17;
-            (self.0 >> 32) as u32
-        }
-
-        /// Uniform in [−h, h].
-        fn signed(&mut self, h: f32) -> f32 {
-            (self.next() as f32 / u32::MAX as f32 * 2.0 - 1.0) * h
-        }
-    }
+    use crate::test_rng::Rng;
 
     #[test]
     fn omni_angle_decodes_to_all_directions() {
@@ -704,7 +688,7 @@ mod tests {
         // Nodes whose four cones have θo = π (random axes and emission angles), at points
         // near, inside, on the centres of, and far from their spheres (|v|² = ∞ included),
         // for every receiver: the importances without the cones are those with them.
-        let mut bits = Bits(0x0DDC_0FFE);
+        let mut rng = Rng(0x0DDC_0FFE);
         let receivers = [
             Receiver::Reflective,
             Receiver::Transmissive,
@@ -712,26 +696,27 @@ mod tests {
         ];
         for i in 0..20_000 {
             let mut node = Node4::EMPTY;
-            node.exponent = 110 + (bits.next() % 30) as u8;
-            node.origin = [0; 3].map(|_| bits.signed(50.0));
+            node.exponent = 110 + (rng.next_u32() % 30) as u8;
+            node.origin = [0; 3].map(|_| rng.signed(50.0));
             for k in 0..4 {
-                node.sphere[k] = bits.next();
-                node.cone[k] = bits.next() | OMNI_ANGLE;
-                node.set_energy_code(k, bits.next() % 0x7F7FF);
+                node.sphere[k] = rng.next_u32();
+                node.cone[k] = rng.next_u32() | OMNI_ANGLE;
+                node.set_energy_code(k, rng.next_u32() % 0x7F7FF);
             }
             assert!(all_omni(&node));
             let s = node.spheres4();
             let k = i % 4;
             let centre = Vec3::new(s.x.to_array()[k], s.y.to_array()[k], s.z.to_array()[k]);
+            // Every receiver meets every distance (i % 3 and i / 3 % 3 run independently).
             let far = [1e3, 1e19, 3e38][i % 3];
             let p = match i % 5 {
                 0 => centre,
                 1 => centre + Vec3::new(1e-25, -3e-24, 0.0),
-                2 => Vec3::new(bits.signed(far), bits.signed(far), bits.signed(far)),
-                _ => Vec3::new(bits.signed(60.0), bits.signed(60.0), bits.signed(60.0)),
+                2 => Vec3::new(rng.signed(far), rng.signed(far), rng.signed(far)),
+                _ => Vec3::new(rng.signed(60.0), rng.signed(60.0), rng.signed(60.0)),
             };
-            let normal = Vec3::new(bits.signed(1.0), bits.signed(1.0), bits.signed(1.0));
-            let imp = TlImportance::with_receiver(p, normal, receivers[i % 3]);
+            let normal = Vec3::new(rng.signed(1.0), rng.signed(1.0), rng.signed(1.0));
+            let imp = TlImportance::with_receiver(p, normal, receivers[i / 3 % 3]);
             let n = imp.normal;
             let eval = |cones| {
                 scaled4(

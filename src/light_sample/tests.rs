@@ -8,17 +8,7 @@ use super::*;
 use std::println;
 use std::time::Instant;
 
-struct Rng(u64);
-
-impl Rng {
-    fn f32(&mut self) -> f32 {
-        self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
-        let mut z = self.0;
-        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-        ((z ^ (z >> 31)) >> 40) as f32 * (1.0 / (1u64 << 24) as f32)
-    }
-}
+use crate::test_rng::Rng;
 
 /// Mean, relative variance per sample and ns per sample of the irradiance estimate at the
 /// origin (normal +z) of a unit-radiance triangle, with the given strategy.
