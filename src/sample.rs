@@ -291,8 +291,8 @@ const PMF_BATCH_LANES: usize = 4;
 /// The pmf walks [`LightTree::pmf_batch`] keeps in flight in a tree of at least
 /// [`PMF_WIDE_NODES`] nodes, whose levels come from DRAM: there a walk waits on a miss per
 /// level, and more of them in flight overlap more misses. Measured at 10⁶ lights (385,000
-/// nodes, 24 MB), best of three alternating runs: 16 in flight 2.04–2.14 M queries/s, 8
-/// 1.85–2.14, 4 1.31–1.79.
+/// nodes, 24 MB) in five alternating rounds, each the best of three runs: 16 in flight
+/// 1.43–2.14 M queries/s (median 2.04), 8 1.38–2.14 (1.85), 4 1.31–1.79 (1.61).
 const PMF_BATCH_LANES_WIDE: usize = 16;
 
 /// The node count from which [`LightTree::pmf_batch`] keeps [`PMF_BATCH_LANES_WIDE`] walks in
