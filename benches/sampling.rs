@@ -10,8 +10,8 @@
 use criterion::{criterion_group, criterion_main, BenchmarkId, Criterion, Throughput};
 use manylights::baseline::BinaryLightTree;
 use manylights::{
-    BlImportance, CutOptions, LightCut, LightSample, LightTree, Material, Memo, MemoTable,
-    SplitOptions, TlImportance, CUT_CAPACITY,
+    BlCutOptions, BlImportance, LightCut, LightSample, LightTree, Material, Memo, MemoTable,
+    SplitCutOptions, TlImportance, CUT_CAPACITY,
 };
 use manylights_testkit as random_scene;
 use std::hint::black_box;
@@ -33,8 +33,8 @@ fn sampling(c: &mut Criterion) {
     let points = random_scene::shading_points(POINTS, 7);
     let sps = random_scene::surface_points(POINTS, 7, PLASTIC);
     let us = random_scene::uniforms(POINTS, 7);
-    let cut_opts = CutOptions::default();
-    let split_opts = SplitOptions::default();
+    let cut_opts = BlCutOptions::default();
+    let split_opts = SplitCutOptions::default();
     for n in [1_000usize, 100_000, 1_000_000] {
         let lights = random_scene::lights(n, 7);
         let tree = LightTree::build(&lights).unwrap();
@@ -76,7 +76,7 @@ fn sampling(c: &mut Criterion) {
                 let mut acc = 0.0f32;
                 for (sp, &u) in sps.iter().zip(&us) {
                     let imp = BlImportance::new(black_box(sp)).unwrap();
-                    let cut = LightCut::build(&tree, &imp, &cut_opts);
+                    let cut = LightCut::build_bl(&tree, &imp, &cut_opts);
                     acc += cut.sample(&tree, &imp, black_box(u)).map_or(0.0, |s| s.pmf);
                 }
                 acc
@@ -214,7 +214,7 @@ fn cuts(c: &mut Criterion) {
     let points = random_scene::shading_points(POINTS, 7);
     let lights = random_scene::lights(100_000, 7);
     let tree = LightTree::build(&lights).unwrap();
-    let opts = SplitOptions::default();
+    let opts = SplitCutOptions::default();
     let us = random_scene::uniforms(POINTS, 7);
     group.bench_function("TL descent, N=100000", |b| {
         b.iter(|| {
@@ -238,7 +238,7 @@ fn cuts(c: &mut Criterion) {
             size
         })
     });
-    let cut_opts = CutOptions::default();
+    let cut_opts = BlCutOptions::default();
     for (name, material) in [
         ("Lambert", Material::Lambert { albedo: 0.5 }),
         (
@@ -256,7 +256,7 @@ fn cuts(c: &mut Criterion) {
                 let mut size = 0;
                 for sp in &sps {
                     let imp = BlImportance::new(black_box(sp)).unwrap();
-                    size += LightCut::build(&tree, &imp, &cut_opts).len();
+                    size += LightCut::build_bl(&tree, &imp, &cut_opts).len();
                 }
                 size
             })

@@ -79,16 +79,16 @@ pub struct Cluster {
 
 /// Options of the split-sampling cut.
 #[derive(Clone, Copy, Debug, PartialEq)]
-pub struct SplitOptions {
+pub struct SplitCutOptions {
     /// Split while `ρ · (I_C / I_total)² > threshold`.
     pub threshold: f32,
     /// Most clusters (clamped to [`MIN_CUT_SIZE`]..=[`CUT_CAPACITY`]).
     pub max_size: usize,
 }
 
-impl Default for SplitOptions {
+impl Default for SplitCutOptions {
     fn default() -> Self {
-        SplitOptions {
+        SplitCutOptions {
             threshold: 1e-3,
             max_size: 32,
         }
@@ -97,16 +97,16 @@ impl Default for SplitOptions {
 
 /// Options of the BRDF-oriented light cut (Liu et al. 2019, section 4.1).
 #[derive(Clone, Copy, Debug, PartialEq)]
-pub struct CutOptions {
+pub struct BlCutOptions {
     /// Split a cluster whose BRDF cap integral SC exceeds δ.
     pub delta: f32,
     /// Most clusters (clamped to [`MIN_CUT_SIZE`]..=[`CUT_CAPACITY`]).
     pub max_size: usize,
 }
 
-impl Default for CutOptions {
+impl Default for BlCutOptions {
     fn default() -> Self {
-        CutOptions {
+        BlCutOptions {
             delta: 0.5,
             max_size: 32,
         }
@@ -186,7 +186,9 @@ impl LightCut {
         self.total
     }
 
-    /// Largest score over the cut (for BRDF-oriented cuts: IB(x), Liu et al. section 4.2).
+    /// Largest score over the cut: for BRDF-oriented cuts IB(x) (Liu et al. 2019, section
+    /// 4.2), for split cuts the largest normalised variance `ρ · (I_C / I_total)²` (+∞ where
+    /// the shading point is inside a cluster that could not be split).
     pub fn max_score(&self) -> f32 {
         self.max_score
     }
@@ -342,7 +344,7 @@ impl LightCut {
     /// is split when x is inside its bounding sphere or when its BRDF cap integral SC exceeds
     /// `opts.delta`. Weights are BL importances, scores the SC values, so
     /// [`LightCut::max_score`] is IB(x).
-    pub fn build(tree: &LightTree, imp: &BlImportance, opts: &CutOptions) -> LightCut {
+    pub fn build_bl(tree: &LightTree, imp: &BlImportance, opts: &BlCutOptions) -> LightCut {
         let x = imp.position();
         let delta = opts.delta;
         LightCut::build_with(
@@ -371,7 +373,7 @@ impl LightCut {
 
     /// The split-sampling cut of Conty & Kulla at the shading point of `imp` (see the module
     /// documentation); each cluster's weight is its TL importance.
-    pub fn build_split(tree: &LightTree, imp: &TlImportance, opts: &SplitOptions) -> LightCut {
+    pub fn build_split(tree: &LightTree, imp: &TlImportance, opts: &SplitCutOptions) -> LightCut {
         let x = imp.position();
         let threshold = opts.threshold;
         LightCut::build_with(
@@ -438,7 +440,7 @@ impl LightCut {
     ///
     /// ```
     /// use manylights::{
-    ///     Light, LightCut, LightTree, Memo, MemoTable, SplitOptions, TlImportance, CUT_CAPACITY,
+    ///     Light, LightCut, LightTree, Memo, MemoTable, SplitCutOptions, TlImportance, CUT_CAPACITY,
     /// };
     /// use glam::Vec3;
     ///
@@ -450,7 +452,7 @@ impl LightCut {
     ///     .collect();
     /// let tree = LightTree::build(&lights)?;
     /// let at = TlImportance::new(Vec3::new(3.0, 4.0, 0.0), Vec3::Z);
-    /// let cut = LightCut::build_split(&tree, &at, &SplitOptions::default());
+    /// let cut = LightCut::build_split(&tree, &at, &SplitCutOptions::default());
     /// // Many samples at this point: let the importance remember the nodes it evaluated (in a
     /// // table kept per thread and reused at every point).
     /// let table = MemoTable::new();
@@ -721,12 +723,14 @@ impl LightTree {
             Slot::Light(l) if l == light => 1.0,
             Slot::Node(c) => self.pmf_from(
                 imp,
-                c as usize,
-                false,
-                path,
-                path_len(cluster.path),
-                light,
-                floor,
+                &WalkStart {
+                    node: c,
+                    root: false,
+                    path,
+                    from_level: path_len(cluster.path),
+                    light,
+                    floor,
+                },
             ),
             _ => 0.0,
         }

@@ -382,3 +382,123 @@ impl fmt::Display for LengthMismatch {
 }
 
 impl core::error::Error for LengthMismatch {}
+
+/// Why an estimator refused its input.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum DirectError {
+    /// The shading point is invalid.
+    Shading(ShadingError),
+    /// A uniform number from the host is NaN or outside [0, 1).
+    Uniform {
+        /// The number.
+        value: f64,
+    },
+    /// The host's BSDF pdf is NaN, negative or infinite.
+    BsdfPdf {
+        /// The pdf.
+        value: f32,
+    },
+    /// The host's BSDF direction is not finite or has zero length.
+    Direction {
+        /// Its squared length.
+        length_squared: f32,
+    },
+    /// The host's hit distance is NaN or negative.
+    HitDistance {
+        /// The distance.
+        value: f32,
+    },
+}
+
+impl From<ShadingError> for DirectError {
+    fn from(e: ShadingError) -> Self {
+        DirectError::Shading(e)
+    }
+}
+
+impl fmt::Display for DirectError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match *self {
+            DirectError::Shading(e) => e.fmt(f),
+            DirectError::Uniform { value } => {
+                write!(f, "uniform number: must be in [0, 1) (got {value})")
+            }
+            DirectError::BsdfPdf { value } => {
+                write!(f, "bsdf_pdf: must be finite and non-negative (got {value})")
+            }
+            DirectError::Direction { length_squared } => write!(
+                f,
+                "direction: must be finite and non-zero (squared length {length_squared})"
+            ),
+            DirectError::HitDistance { value } => {
+                write!(
+                    f,
+                    "hit_distance: must be non-negative or +inf (got {value})"
+                )
+            }
+        }
+    }
+}
+
+impl core::error::Error for DirectError {}
+
+/// A field of a [`ShadingPoint`].
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum ShadingField {
+    /// `position`.
+    Position,
+    /// `normal`.
+    Normal,
+    /// `wo`.
+    Wo,
+    /// The material's `albedo`.
+    Albedo,
+    /// The material's `specular` weight.
+    Specular,
+    /// The material's `alpha`.
+    Alpha,
+}
+
+impl ShadingField {
+    /// The field's name as written in the API.
+    pub fn name(self) -> &'static str {
+        match self {
+            ShadingField::Position => "position",
+            ShadingField::Normal => "normal",
+            ShadingField::Wo => "wo",
+            ShadingField::Albedo => "albedo",
+            ShadingField::Specular => "specular",
+            ShadingField::Alpha => "alpha",
+        }
+    }
+}
+
+/// Why a shading point was rejected.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ShadingError {
+    /// The field that is wrong.
+    pub field: ShadingField,
+    /// What is wrong with it.
+    pub problem: Problem,
+    /// The offending value.
+    pub value: f32,
+}
+
+impl fmt::Display for ShadingError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        let what = match self.problem {
+            Problem::NotFinite => "is NaN or infinite",
+            Problem::Negative => "is negative",
+            Problem::ZeroLength => "has zero length",
+            _ => "is out of range",
+        };
+        write!(
+            f,
+            "shading point: field `{}` {what} (got {})",
+            self.field.name(),
+            self.value
+        )
+    }
+}
+
+impl core::error::Error for ShadingError {}

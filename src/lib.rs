@@ -40,6 +40,9 @@
 
 extern crate alloc;
 
+/// The binary light tree the 4-wide tree is measured against (the benches' and instruments'
+/// yardstick), with the cargo feature `baseline`; not part of the default API.
+#[cfg(feature = "baseline")]
 pub mod baseline;
 pub mod bounds;
 pub mod brdf;
@@ -58,27 +61,29 @@ pub mod mis;
 mod packed;
 pub mod quantize;
 pub mod sample;
-#[cfg(test)]
-mod test_rng;
 pub mod trace;
 pub mod tree;
 pub mod vpl;
 
 pub use brdf::{Brdf, Frame, Ggx, Lambert};
 pub use build::BuildOptions;
-pub use cut::{Cluster, CutOptions, LightCut, SplitOptions, CUT_CAPACITY};
+pub use cut::{BlCutOptions, Cluster, LightCut, SplitCutOptions, CUT_CAPACITY};
 pub use direct::{Estimator, LightSampler, Occluder, Params, Technique, Uniforms};
 pub use error::{
-    BuildError, FormatError, LengthMismatch, LightField, Problem, ValidationError, VplError,
-    VplField,
+    BuildError, DirectError, FormatError, LengthMismatch, LightField, Problem, ShadingError,
+    ShadingField, ValidationError, VplError, VplField,
 };
 pub use importance::conty_kulla::Receiver;
 pub use importance::{BlImportance, Importance, Memo, MemoTable, TlImportance};
 pub use light::{Light, MAX_COORDINATE, MAX_LIGHT_ENERGY, MAX_TOTAL_ENERGY};
 pub use light_sample::LightPoint;
 pub use light_set::{AliasTable, LightSet};
-pub use material::{Material, ShadingError, ShadingPoint};
+pub use material::{Material, ShadingPoint};
+pub use mis::Heuristic;
 pub use sample::{LightSample, BATCH_LANES};
 pub use tree::{Child, LightTree, Node4, Slot, SlotBounds, Spheres4, TreeStats};
 pub use vpl::{Importons, Vpl, VplAcceptor};
+/// The lane type of the 4-wide importances: [`Importance::eval4`] returns one (a node's four
+/// slots), so a host that implements [`Importance`] or reads its lanes needs it. It is `wide`'s
+/// `f32x4` (version 1), re-exported so that hosts need not depend on `wide` themselves.
 pub use wide::f32x4;

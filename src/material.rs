@@ -7,10 +7,11 @@
 //! position, normal and ωo finite, normal and ωo non-zero (they are normalised).
 
 use crate::error::Problem;
-use core::fmt;
 use glam::Vec3;
 
-/// Smallest roughness used: below it GGX is a mirror that no finite table resolves.
+/// The GGX roughness floor: every α is clamped below at this value where it is used (the GGX
+/// lobe of [`crate::Ggx`], the BRDF-oriented importance and the SPTD table, which is fitted
+/// down to it): below it the lobe is a mirror that f32 pdfs and no finite table resolve.
 pub const MIN_ALPHA: f32 = 5e-3;
 
 /// A surface's reflectance.
@@ -60,66 +61,7 @@ impl Material {
     }
 }
 
-/// A field of a [`ShadingPoint`].
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum ShadingField {
-    /// `position`.
-    Position,
-    /// `normal`.
-    Normal,
-    /// `wo`.
-    Wo,
-    /// The material's `albedo`.
-    Albedo,
-    /// The material's `specular` weight.
-    Specular,
-    /// The material's `alpha`.
-    Alpha,
-}
-
-impl ShadingField {
-    /// The field's name as written in the API.
-    pub fn name(self) -> &'static str {
-        match self {
-            ShadingField::Position => "position",
-            ShadingField::Normal => "normal",
-            ShadingField::Wo => "wo",
-            ShadingField::Albedo => "albedo",
-            ShadingField::Specular => "specular",
-            ShadingField::Alpha => "alpha",
-        }
-    }
-}
-
-/// Why a shading point was rejected.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct ShadingError {
-    /// The field that is wrong.
-    pub field: ShadingField,
-    /// What is wrong with it.
-    pub problem: Problem,
-    /// The offending value.
-    pub value: f32,
-}
-
-impl fmt::Display for ShadingError {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        let what = match self.problem {
-            Problem::NotFinite => "is NaN or infinite",
-            Problem::Negative => "is negative",
-            Problem::ZeroLength => "has zero length",
-            _ => "is out of range",
-        };
-        write!(
-            f,
-            "shading point: field `{}` {what} (got {})",
-            self.field.name(),
-            self.value
-        )
-    }
-}
-
-impl core::error::Error for ShadingError {}
+pub use crate::error::{ShadingError, ShadingField};
 
 /// A point being shaded: where, which way the surface faces, where the viewer is, and what it
 /// is made of.

@@ -140,6 +140,37 @@ pub fn power(n_a: f32, pdf_a: f32, others: &[(f32, f32)]) -> f32 {
     heuristic(n_a, pdf_a, others, true)
 }
 
+/// The MIS heuristic of the combined estimators (Veach 1997, section 9.2): how the weight of a
+/// technique grows with its density against the others'.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
+pub enum Heuristic {
+    /// `n_a·pdf_a / Σ n·pdf` ([`balance`]).
+    Balance,
+    /// `(n_a·pdf_a)² / Σ (n·pdf)²`, β = 2 ([`power`]); the default.
+    #[default]
+    Power,
+}
+
+impl Heuristic {
+    /// Both heuristics.
+    pub const ALL: [Heuristic; 2] = [Heuristic::Balance, Heuristic::Power];
+
+    /// The heuristic's name (`balance`, `power`).
+    pub fn name(self) -> &'static str {
+        match self {
+            Heuristic::Balance => "balance",
+            Heuristic::Power => "power",
+        }
+    }
+
+    /// The weight of technique `a` among `others` by this heuristic ([`balance`] or
+    /// [`power`]).
+    #[inline]
+    pub fn weight(self, n_a: f32, pdf_a: f32, others: &[(f32, f32)]) -> f32 {
+        heuristic(n_a, pdf_a, others, self == Heuristic::Power)
+    }
+}
+
 /// A density, count or probability as the weights count it: negative and NaN are 0.
 #[inline(always)]
 fn non_negative(x: f32) -> f32 {
@@ -306,8 +337,8 @@ pub struct CombinedWeights {
     pub n_mixture: f32,
     /// The fixed BL probability used in the weights.
     pub p_ref: f32,
-    /// Use the power heuristic instead of the balance heuristic.
-    pub power: bool,
+    /// The heuristic between TL and the BRDF-aware mixture.
+    pub heuristic: Heuristic,
 }
 
 impl CombinedWeights {
@@ -323,7 +354,7 @@ impl CombinedWeights {
     pub fn weights(&self, pdf_tl: f32, pdf_bl: f32, pdf_tb: f32) -> (f32, f32) {
         let q = self.q_ref(pdf_bl, pdf_tb);
         let others = [(self.n_mixture, q)];
-        let w_tl = heuristic(self.n_tl, pdf_tl, &others, self.power);
+        let w_tl = self.heuristic.weight(self.n_tl, pdf_tl, &others);
         let any = non_negative(pdf_tl) > 0.0 || q > 0.0;
         if any {
             (w_tl, 1.0 - w_tl)
@@ -374,15 +405,15 @@ pub const MAX_BUDGET: u32 = 64;
 pub struct SequentialWeights {
     n: u32,
     n_tl: f32,
-    power: bool,
+    heuristic: Heuristic,
     len: u32,
     p: [f32; MAX_BUDGET as usize],
 }
 
 impl SequentialWeights {
     /// Weights for `n` BRDF-aware samples (at most [`MAX_BUDGET`]) after TL with `n_tl`
-    /// samples per cluster (1 for split sampling); power heuristic (β = 2) if `power`.
-    pub fn new(n: u32, n_tl: f32, power: bool) -> SequentialWeights {
+    /// samples per cluster (1 for split sampling), by `heuristic`.
+    pub fn new(n: u32, n_tl: f32, heuristic: Heuristic) -> SequentialWeights {
         SequentialWeights {
             n: n.min(MAX_BUDGET),
             n_tl: if n_tl > 0.0 && n_tl.is_finite() {
@@ -390,7 +421,7 @@ impl SequentialWeights {
             } else {
                 1.0
             },
-            power,
+            heuristic,
             len: 0,
             p: [0.0; MAX_BUDGET as usize],
         }
@@ -417,7 +448,8 @@ impl SequentialWeights {
             let b = term(self.n as f32, q);
             return if b > 0.0 { 0.0 } else { 1.0 };
         }
-        heuristic(self.n_tl, pdf_tl, &[(self.n as f32, q)], self.power)
+        self.heuristic
+            .weight(self.n_tl, pdf_tl, &[(self.n as f32, q)])
     }
 
     /// What a BRDF-aware sample drawn with BL probability `p_bl` contributes: `g·W_j/q_j` for
@@ -455,7 +487,7 @@ impl SequentialWeights {
         }
         let a = self.n_tl * pdf_tl.max(0.0);
         let b = self.n as f32 * q;
-        Some(if self.power {
+        Some(if self.heuristic == Heuristic::Power {
             Factors {
                 num: b,
                 den: a * a + b * b,
@@ -522,10 +554,10 @@ mod tests {
             (5.0, 1e-7, 0.0),
         ];
         let ps = [1.0 / 11.0, 0.5, 0.9, 0.0, 1.0, 2.0 / 12.0, 0.3];
-        for power in [false, true] {
+        for heuristic in Heuristic::ALL {
             for &(tl, bl, tb) in &cases {
                 let n = ps.len() as u32;
-                let mut sw = SequentialWeights::new(n, 1.0, power);
+                let mut sw = SequentialWeights::new(n, 1.0, heuristic);
                 let mut mix = 0.0f32;
                 for &p in &ps {
                     sw.record(p);
@@ -542,13 +574,13 @@ mod tests {
                 }
                 // A constant p: the fixed weights at p_ref = p.
                 for &p in &ps[..3] {
-                    let mut sw = SequentialWeights::new(4, 1.0, power);
+                    let mut sw = SequentialWeights::new(4, 1.0, heuristic);
                     (0..4).for_each(|_| sw.record(p));
                     let fixed = CombinedWeights {
                         n_tl: 1.0,
                         n_mixture: 4.0,
                         p_ref: p,
-                        power,
+                        heuristic,
                     };
                     let (w, _) = fixed.weights(tl, bl, tb);
                     if tl > 0.0 {
@@ -558,7 +590,7 @@ mod tests {
                     if q > 0.0 {
                         // g·w_M/(N q) in f64 (f32's 1 − w_TL cancels where TL dominates).
                         let (a, b) = (f64::from(tl), 4.0 * f64::from(q));
-                        let w_m = if power {
+                        let w_m = if heuristic == Heuristic::Power {
                             b * b / (a * a + b * b)
                         } else {
                             b / (a + b)
@@ -578,11 +610,11 @@ mod tests {
     #[test]
     fn sequential_weights_edges() {
         // No samples: TL takes everything.
-        let sw = SequentialWeights::new(0, 1.0, false);
+        let sw = SequentialWeights::new(0, 1.0, Heuristic::Balance);
         assert_eq!(sw.tl_weight(0.5, 1.0, 1.0), 1.0);
         assert_eq!(sw.mixture_term(1.0, 0.5, 0.5, 1.0, 1.0), 0.0);
         // Planned but not taken: those samples weigh nothing, TL keeps their share.
-        let mut sw = SequentialWeights::new(4, 1.0, false);
+        let mut sw = SequentialWeights::new(4, 1.0, Heuristic::Balance);
         sw.record(0.5);
         let w = sw.tl_weight(1.0, 1.0, 1.0);
         assert!((w - (3.0 + 1.0 / 5.0) / 4.0).abs() < 1e-6, "{w}");
@@ -592,7 +624,7 @@ mod tests {
         (0..3).for_each(|_| full.record(0.5));
         assert_eq!(full.tl_weight(0.0, 1.0, 1.0), 0.0);
         // Bad inputs give finite numbers, never NaN.
-        let mut sw = SequentialWeights::new(1000, f32::NAN, true);
+        let mut sw = SequentialWeights::new(1000, f32::NAN, Heuristic::Power);
         assert_eq!(sw.budget(), MAX_BUDGET);
         sw.record(f32::NAN);
         for v in [
@@ -640,7 +672,7 @@ mod tests {
             n_tl: 1.0,
             n_mixture: 7.0,
             p_ref: 0.5,
-            power: false,
+            heuristic: Heuristic::Balance,
         };
         for &(a, b, c) in &[
             (1.0, 2.0, 3.0),
@@ -650,7 +682,11 @@ mod tests {
         ] {
             let (x, y) = w.weights(a, b, c);
             assert!((x + y - 1.0).abs() < 1e-6, "{a} {b} {c}: {x} {y}");
-            let (x, y) = CombinedWeights { power: true, ..w }.weights(a, b, c);
+            let (x, y) = CombinedWeights {
+                heuristic: Heuristic::Power,
+                ..w
+            }
+            .weights(a, b, c);
             assert!((x + y - 1.0).abs() < 1e-6);
         }
         assert_eq!(w.weights(0.0, 0.0, 0.0), (0.0, 0.0));

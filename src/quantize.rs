@@ -24,9 +24,18 @@ use crate::bounds::{Cone, Sphere};
 use crate::math;
 use core::f32::consts::{FRAC_PI_2, PI, SQRT_2};
 use glam::Vec3;
+use wide::{f32x4, i32x4};
 
 /// Steps of an 8-bit code.
 const Q8: f32 = 255.0;
+
+/// Byte `shift / 8` of each lane of `v` (words of four packed bytes), as a number in 0..=255:
+/// the one decode of the node's 8-bit fields (sphere coordinates and radii, cone axes and
+/// angles) in the 4-wide hot path.
+#[inline(always)]
+pub(crate) fn byte_lanes(v: i32x4, shift: u32) -> f32x4 {
+    (v.unbounded_shr_scalar(shift) & i32x4::splat(0xFF)).round_float()
+}
 
 /// Encodes a unit vector octahedrally (8 bits per coordinate, rounded to nearest), as the low
 /// 16 bits of a slot's cone word.

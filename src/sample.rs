@@ -130,6 +130,7 @@ pub(crate) fn admit4(w: f32x4, sum: f32, reach: f32, floor: f32) -> (f32x4, f32)
 /// descent's pmf never drops below `floor`. When every positive slot passes, `(w, sum)` is
 /// returned unchanged.
 #[inline(always)]
+#[cfg_attr(not(any(test, feature = "baseline")), allow(dead_code))] // the scalar reference
 pub(crate) fn admit(w: [f32; 4], sum: f32, reach: f32, floor: f32) -> ([f32; 4], f32) {
     // The smallest positive weight passing means every one does.
     let mut min = f32::INFINITY;
@@ -683,25 +684,33 @@ impl LightTree {
     /// `imp`: exactly the pmf it reports. 0 for lights not in the tree or out of range.
     pub fn pmf<I: Importance + ?Sized>(&self, imp: &I, light: u32) -> f32 {
         let path = self.path(light);
-        self.pmf_from(imp, 0, true, path, 0, light, MIN_PMF)
+        self.pmf_from(
+            imp,
+            &WalkStart {
+                node: 0,
+                root: true,
+                path,
+                from_level: 0,
+                light,
+                floor: MIN_PMF,
+            },
+        )
     }
 
-    /// The pmf of `light` (whose path is `path`) relative to node `start`, which its path
-    /// reaches after `from_level` levels: [`LightTree::descend_from`]'s pmf for it (with the
-    /// same `is_root` and `floor`).
-    #[allow(clippy::too_many_arguments)] // the walk's state, as `descend_from` takes it
-    pub(crate) fn pmf_from<I: Importance + ?Sized>(
-        &self,
-        imp: &I,
-        start: usize,
-        is_root: bool,
-        path: u64,
-        from_level: u32,
-        light: u32,
-        floor: f32,
-    ) -> f32 {
+    /// The pmf of `walk.light` (whose path is `walk.path`) relative to node `walk.node`, which
+    /// its path reaches after `walk.from_level` levels: [`LightTree::descend_from`]'s pmf for
+    /// it (with the same root flag and floor).
+    pub(crate) fn pmf_from<I: Importance + ?Sized>(&self, imp: &I, walk: &WalkStart) -> f32 {
+        let WalkStart {
+            node: start,
+            root: is_root,
+            path,
+            from_level,
+            light,
+            floor,
+        } = *walk;
         let levels = path_len(path);
-        let mut index = start;
+        let mut index = start as usize;
         let mut pmf = 1.0f32;
         for level in from_level..levels {
             let k = ((path >> (2 * (levels - 1 - level))) & 3) as usize;
@@ -883,10 +892,10 @@ mod tests {
     fn pmf_batch_widths_match_pmf() {
         use crate::importance::TlImportance;
         use crate::light::Light;
-        use crate::test_rng::Rng;
         use alloc::vec;
         use alloc::vec::Vec;
         use glam::Vec3;
+        use manylights_testkit::SplitMix64 as Rng;
         let mut rng = Rng(0x70f_b47c);
         let mut lights = Vec::new();
         for i in 0..3000 {

@@ -120,11 +120,6 @@ pub struct Spheres4 {
     pub r: f32x4,
 }
 
-#[inline(always)]
-fn byte_lane(v: i32x4, shift: u32) -> f32x4 {
-    (v.unbounded_shr_scalar(shift) & i32x4::splat(0xFF)).round_float()
-}
-
 /// The number of set bits among the low four of `x`, read from the sixteen counts packed in one
 /// constant: three operations on a descent's chain of dependences, where `count_ones` of a
 /// `u32` is two multiplications on baseline x86-64 (no popcount instruction).
@@ -186,10 +181,10 @@ impl Node4 {
         let q = i32x4::new(bytemuck::cast(self.sphere));
         let s = f32x4::splat(self.scale());
         Spheres4 {
-            x: byte_lane(q, 0) * s + f32x4::splat(self.origin[0]),
-            y: byte_lane(q, 8) * s + f32x4::splat(self.origin[1]),
-            z: byte_lane(q, 16) * s + f32x4::splat(self.origin[2]),
-            r: byte_lane(q, 24) * s,
+            x: quantize::byte_lanes(q, 0) * s + f32x4::splat(self.origin[0]),
+            y: quantize::byte_lanes(q, 8) * s + f32x4::splat(self.origin[1]),
+            z: quantize::byte_lanes(q, 16) * s + f32x4::splat(self.origin[2]),
+            r: quantize::byte_lanes(q, 24) * s,
         }
     }
 

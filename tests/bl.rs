@@ -1,5 +1,5 @@
 //! The BRDF-oriented importance BL (`BlImportance`, docs/formulas.md, sections 7 and 8) and the light
-//! cut it builds (`LightCut::build`, docs/formulas.md, section 6), sampled as a whole (`sample` /
+//! cut it builds (`LightCut::build_bl`, docs/formulas.md, section 6), sampled as a whole (`sample` /
 //! `pmf`) or per cluster (`sample_in` / `pmf_in`), and by plain tree descent (docs/formulas.md
 //! section 12):
 //!
@@ -46,7 +46,7 @@ use manylights::importance::brdf_oriented::DEFENSIVE;
 use manylights::importance::sptd::SptdGgx;
 use manylights::material::ShadingField;
 use manylights::{
-    f32x4, BlImportance, Child, CutOptions, Importance, Light, LightCut, LightTree, Material,
+    f32x4, BlCutOptions, BlImportance, Child, Importance, Light, LightCut, LightTree, Material,
     Node4, Receiver, ShadingPoint, Slot, SlotBounds, CUT_CAPACITY,
 };
 use std::f64::consts::PI;
@@ -483,10 +483,13 @@ fn check_conservative_at(
     tree: &LightTree,
     lights: &[Light],
     imp: &BlImportance,
-    opts: &[CutOptions],
+    opts: &[BlCutOptions],
     report: &mut ConservativeReport,
 ) -> Result<(), String> {
-    let cuts: Vec<LightCut> = opts.iter().map(|o| LightCut::build(tree, imp, o)).collect();
+    let cuts: Vec<LightCut> = opts
+        .iter()
+        .map(|o| LightCut::build_bl(tree, imp, o))
+        .collect();
     for (l, light) in lights.iter().enumerate() {
         if !reaches(light, imp) {
             continue;
@@ -517,8 +520,8 @@ fn check_conservative_at(
 }
 
 /// Random cut options: δ from [`DELTAS`], `max_size` 4..=64 (and sometimes below 4).
-fn random_cut_options(rng: &mut Rng) -> CutOptions {
-    CutOptions {
+fn random_cut_options(rng: &mut Rng) -> BlCutOptions {
+    BlCutOptions {
         delta: DELTAS[rng.below(DELTAS.len())],
         max_size: match rng.below(5) {
             0 => rng.below(MIN_CUT_SIZE + 1),
@@ -543,8 +546,8 @@ fn contributing_lights_have_positive_bl_pmf() {
             let (imp, _) = bl_point(&mut rng, &tree, &lights, half);
             let opts = [
                 random_cut_options(&mut rng),
-                CutOptions::default(),
-                CutOptions {
+                BlCutOptions::default(),
+                BlCutOptions {
                     delta: 0.0,
                     max_size: CUT_CAPACITY,
                 },
@@ -646,9 +649,9 @@ fn glossy_tiny_caps_far_from_the_mirror_keep_a_positive_pmf() {
                 },
             };
             let imp = BlImportance::new(&sp).unwrap();
-            let opts: Vec<CutOptions> = DELTAS
+            let opts: Vec<BlCutOptions> = DELTAS
                 .iter()
-                .map(|&delta| CutOptions {
+                .map(|&delta| BlCutOptions {
                     delta,
                     max_size: [4, 16, 64][rng.below(3)],
                 })
@@ -811,7 +814,7 @@ fn bl_cut_chi_square_against_pmf() {
                     specular: 1.0,
                 },
             ),
-            CutOptions {
+            BlCutOptions {
                 delta: 0.1,
                 max_size: 8,
             },
@@ -827,7 +830,7 @@ fn bl_cut_chi_square_against_pmf() {
                     alpha: 0.05,
                 },
             ),
-            CutOptions {
+            BlCutOptions {
                 delta: 0.01,
                 max_size: 32,
             },
@@ -839,7 +842,7 @@ fn bl_cut_chi_square_against_pmf() {
                 Vec3::Y,
                 Material::Lambert { albedo: 0.8 },
             ),
-            CutOptions {
+            BlCutOptions {
                 delta: 0.0,
                 max_size: 64,
             },
@@ -847,7 +850,7 @@ fn bl_cut_chi_square_against_pmf() {
     ];
     let samples = 1_000_000usize;
     for (case, (imp, opts)) in cases.iter().enumerate() {
-        let cut = LightCut::build(&tree, imp, opts);
+        let cut = LightCut::build_bl(&tree, imp, opts);
         assert!(cut.len() >= 4, "case {case}: only {} clusters", cut.len());
         let pmfs = cut_pmfs(&cut, &tree, imp, lights.len());
         let total: f64 = pmfs.iter().sum();
@@ -934,10 +937,10 @@ fn check_bl_cut(
     lights: &[Light],
     imp: &BlImportance,
     material: Option<Material>,
-    opts: &CutOptions,
+    opts: &BlCutOptions,
     us: &[f32],
 ) -> Result<(LightCut, CutReport), String> {
-    let cut = LightCut::build(tree, imp, opts);
+    let cut = LightCut::build_bl(tree, imp, opts);
     let ctx = format!("at {imp:?} with {opts:?}");
     let x = imp.position();
     let n = lights.len();
@@ -1189,14 +1192,14 @@ fn bl_cut_invariants_on_random_scenes() {
         for _ in 0..points {
             let (imp, material) = bl_point(&mut rng, &tree, &lights, half);
             let us = u_values(&mut rng, 4);
-            let mut all: Vec<CutOptions> = DELTAS
+            let mut all: Vec<BlCutOptions> = DELTAS
                 .iter()
-                .map(|&delta| CutOptions {
+                .map(|&delta| BlCutOptions {
                     delta,
                     max_size: MIN_CUT_SIZE + rng.below(CUT_CAPACITY - MIN_CUT_SIZE + 1),
                 })
                 .collect();
-            all.push(CutOptions::default());
+            all.push(BlCutOptions::default());
             all.push(random_cut_options(&mut rng));
             for opts in &all {
                 let (cut, r) = check_bl_cut(&tree, &lights, &imp, Some(material), opts, &us)
@@ -1244,7 +1247,7 @@ fn bl_cut_delta_zero_and_infinite() {
                 bl_point(&mut rng, &tree, &lights, half).0
             };
             let us = u_values(&mut rng, 2);
-            let zero = CutOptions {
+            let zero = BlCutOptions {
                 delta: 0.0,
                 max_size: 64,
             };
@@ -1262,7 +1265,7 @@ fn bl_cut_delta_zero_and_infinite() {
                 }
             }
             for delta in [f32::INFINITY, f32::NAN] {
-                let opts = CutOptions {
+                let opts = BlCutOptions {
                     delta,
                     max_size: rng.below(CUT_CAPACITY + 1),
                 };
@@ -1305,7 +1308,8 @@ fn bl_cut_max_size_is_clamped() {
         for _ in 0..6 {
             let (imp, _) = bl_point(&mut rng, &tree, &lights, half);
             let delta = DELTAS[rng.below(DELTAS.len())];
-            let build = |max_size| LightCut::build(&tree, &imp, &CutOptions { delta, max_size });
+            let build =
+                |max_size| LightCut::build_bl(&tree, &imp, &BlCutOptions { delta, max_size });
             for small in 0..MIN_CUT_SIZE {
                 assert_eq!(build(small).clusters(), build(MIN_CUT_SIZE).clusters());
             }
@@ -1334,7 +1338,7 @@ fn bl_cut_edges() {
         let tree = LightTree::build(&lights).unwrap();
         for delta in DELTAS {
             for max_size in [0, 1, 4, 64, 1000] {
-                let cut = LightCut::build(&tree, &imp, &CutOptions { delta, max_size });
+                let cut = LightCut::build_bl(&tree, &imp, &BlCutOptions { delta, max_size });
                 assert!(cut.is_empty());
                 assert_eq!(cut.max_score(), 0.0);
                 assert_eq!(cut.sample(&tree, &imp, 0.5), None);
@@ -1352,7 +1356,7 @@ fn bl_cut_edges() {
             let (imp, _) = bl_point(&mut rng, &tree, &lights, half);
             for max_size in 0..=70 {
                 let delta = DELTAS[rng.below(DELTAS.len())];
-                let cut = LightCut::build(&tree, &imp, &CutOptions { delta, max_size });
+                let cut = LightCut::build_bl(&tree, &imp, &BlCutOptions { delta, max_size });
                 assert!(
                     cut.len() <= max_size.clamp(MIN_CUT_SIZE, CUT_CAPACITY),
                     "scene {scene}: {} clusters for max_size {max_size}",
@@ -2170,7 +2174,7 @@ fn bad_shading_points_are_rejected_with_the_field() {
                 assert!(sc.is_finite() && sc >= 0.0, "{sp:?}: SC {sc}");
             }
         }
-        let cut = LightCut::build(&tree, &imp, &CutOptions::default());
+        let cut = LightCut::build_bl(&tree, &imp, &BlCutOptions::default());
         if imp.albedo() == 0.0 {
             // Nothing is reflected: no light matters.
             assert!(
@@ -2304,7 +2308,7 @@ fn bl_importance_stays_finite_where_tl_is() {
         let tl = manylights::TlImportance::new(Vec3::ZERO, Vec3::Z).eval(&b);
         let bl = imp.eval(&b);
         let sample = tree.sample(&imp, 0.5);
-        let cut = LightCut::build(&tree, &imp, &CutOptions::default());
+        let cut = LightCut::build_bl(&tree, &imp, &BlCutOptions::default());
         if !(bl.importance.is_finite() && sample.is_some() && cut.pmf(&tree, &imp, 0) > 0.0) {
             failures.push(format!(
                 "θo = {theta_o}: energy {:e}, TL {tl:e}, BL {bl:?}, tree.sample {sample:?}, \
@@ -2385,7 +2389,7 @@ fn glossy_part_of_the_cap_integrals() {
         }
     }
     for imp in [&lambert, &ggx, &plastic] {
-        let cut = LightCut::build(&tree, imp, &CutOptions::default());
+        let cut = LightCut::build_bl(&tree, imp, &BlCutOptions::default());
         let max = cut
             .clusters()
             .iter()
@@ -2399,7 +2403,7 @@ fn glossy_part_of_the_cap_integrals() {
         );
     }
     assert_eq!(
-        LightCut::build(&tree, &lambert, &CutOptions::default()).max_glossy_score(),
+        LightCut::build_bl(&tree, &lambert, &BlCutOptions::default()).max_glossy_score(),
         0.0
     );
 }

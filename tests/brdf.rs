@@ -12,6 +12,7 @@ mod common;
 use common::{Rng, Stats};
 use glam::{DVec3, Vec3};
 use manylights::brdf::schlick;
+use manylights::material::MIN_ALPHA;
 use manylights::{Brdf, Frame, Ggx, Lambert, Material};
 use std::f64::consts::PI;
 
@@ -63,7 +64,7 @@ fn stratified(m: usize, rng: &mut Rng, mut g: impl FnMut(Vec3) -> f64) -> Stats 
 
 fn materials() -> Vec<(String, Box<dyn Brdf>)> {
     let mut v: Vec<(String, Box<dyn Brdf>)> = Vec::new();
-    for a in [Ggx::MIN_ALPHA, 0.05, 0.2, 0.6, 1.0] {
+    for a in [MIN_ALPHA, 0.05, 0.2, 0.6, 1.0] {
         v.push((format!("ggx α={a}"), Box::new(Ggx::new(a))));
     }
     v.push(("lambert".into(), Box::new(Lambert::new(0.8))));
@@ -133,7 +134,7 @@ fn sampled_pdf_equals_pdf() {
 fn pdf_integrates_to_probability_of_a_sample() {
     let mut rng = Rng::new(2);
     for (name, brdf) in materials() {
-        if name.contains(&format!("{}", Ggx::MIN_ALPHA)) {
+        if name.contains(&format!("{}", MIN_ALPHA)) {
             continue; // a 1e-4 sr lobe: uniform samples cannot resolve it (see white_furnace)
         }
         for deg in VIEWS {
@@ -164,7 +165,7 @@ fn pdf_integrates_to_probability_of_a_sample() {
 fn albedo_uniform_matches_importance_sampled() {
     let mut rng = Rng::new(3);
     for (name, brdf) in materials() {
-        if name.contains(&format!("{}", Ggx::MIN_ALPHA)) {
+        if name.contains(&format!("{}", MIN_ALPHA)) {
             continue;
         }
         for deg in VIEWS {
@@ -198,7 +199,7 @@ fn sampled_directions_follow_pdf() {
     let (nz, nphi, sub) = (16usize, 16usize, 32usize);
     let n = 200_000u64;
     for (name, brdf) in materials() {
-        if name.contains("0.05") || name.contains(&format!("{}", Ggx::MIN_ALPHA)) {
+        if name.contains("0.05") || name.contains(&format!("{}", MIN_ALPHA)) {
             continue; // lobes narrower than a cell
         }
         for deg in [0.0, 45.0, 80.0] {
@@ -337,7 +338,7 @@ fn white_furnace() {
             }
         }
     }
-    let smooth = Ggx::new(Ggx::MIN_ALPHA);
+    let smooth = Ggx::new(MIN_ALPHA);
     let mut st = Stats::default();
     for _ in 0..10_000 {
         let (wi, pdf) = smooth.sample(Vec3::Z, rng.u2()).unwrap();
@@ -366,7 +367,7 @@ fn degenerate_inputs_give_none_or_zero() {
     for a in [0.0, -1.0, f32::NAN, f32::INFINITY, 1e-9, 2.0] {
         let g = Ggx::new(a);
         assert!(
-            (Ggx::MIN_ALPHA..=1.0).contains(&g.alpha()),
+            (MIN_ALPHA..=1.0).contains(&g.alpha()),
             "{a} → {}",
             g.alpha()
         );

@@ -36,7 +36,7 @@ use glam::Vec3;
 use manylights::cut::MIN_CUT_SIZE;
 use manylights::sample::MIN_PMF;
 use manylights::{
-    Child, Importance, Light, LightCut, LightTree, Node4, Receiver, Slot, SplitOptions,
+    Child, Importance, Light, LightCut, LightTree, Node4, Receiver, Slot, SplitCutOptions,
     TlImportance, CUT_CAPACITY,
 };
 use proptest::prelude::{any, prop_oneof, Strategy};
@@ -137,14 +137,14 @@ fn cut_point(rng: &mut Rng, tree: &LightTree, lights: &[Light], half: f32) -> Tl
 
 /// Random split options: every threshold of [`THRESHOLDS`], `max_size` in 1..=64 (small ones
 /// often).
-fn random_options(rng: &mut Rng) -> SplitOptions {
+fn random_options(rng: &mut Rng) -> SplitCutOptions {
     let threshold = THRESHOLDS[rng.below(THRESHOLDS.len())];
     let max_size = match rng.below(4) {
         0 => 1 + rng.below(4),
         1 => CUT_CAPACITY,
         _ => 1 + rng.below(CUT_CAPACITY),
     };
-    SplitOptions {
+    SplitCutOptions {
         threshold,
         max_size,
     }
@@ -201,7 +201,7 @@ fn check_cut(
     tree: &LightTree,
     lights: &[Light],
     imp: &TlImportance,
-    opts: &SplitOptions,
+    opts: &SplitCutOptions,
     us: &[f32],
 ) -> Result<(LightCut, PointReport), String> {
     let cut = LightCut::build_split(tree, imp, opts);
@@ -529,11 +529,11 @@ fn check_scene(
         let imp = cut_point(rng, &tree, lights, half);
         let us = u_values(rng, EXTRA_U);
         let mut all = vec![
-            SplitOptions {
+            SplitCutOptions {
                 threshold: 0.0,
                 max_size: CUT_CAPACITY,
             },
-            SplitOptions {
+            SplitCutOptions {
                 threshold: f32::INFINITY,
                 max_size: CUT_CAPACITY,
             },
@@ -611,7 +611,7 @@ fn split_sampling_is_unbiased_by_exact_enumeration() {
             for opts in [
                 random_options(&mut rng),
                 random_options(&mut rng),
-                SplitOptions::default(),
+                SplitCutOptions::default(),
             ] {
                 let cut = LightCut::build_split(&tree, &imp, &opts);
                 let (_, exact) = check_unbiased(&tree, &lights, &imp, &cut)
@@ -699,7 +699,7 @@ fn cut_sample_is_some_and_pmfs_sum_to_one_with_zero_importance_cluster() {
     let mut failures = Vec::new();
     for threshold in [f32::INFINITY, 1.0, 1e-3, 0.0] {
         for max_size in [1, 4, 8, 16, 64] {
-            let opts = SplitOptions {
+            let opts = SplitCutOptions {
                 threshold,
                 max_size,
             };
@@ -782,21 +782,21 @@ fn cut_chi_square_against_pmf() {
     let cases = [
         (
             TlImportance::new(Vec3::new(0.5, -1.0, 0.2), Vec3::new(0.2, 0.3, 1.0)),
-            SplitOptions {
+            SplitCutOptions {
                 threshold: 1e-3,
                 max_size: 8,
             },
         ),
         (
             TlImportance::with_receiver(Vec3::new(3.0, 2.0, -4.0), Vec3::X, Receiver::Transmissive),
-            SplitOptions {
+            SplitCutOptions {
                 threshold: 1e-4,
                 max_size: 32,
             },
         ),
         (
             TlImportance::with_receiver(Vec3::ZERO, Vec3::ZERO, Receiver::Omnidirectional),
-            SplitOptions {
+            SplitCutOptions {
                 threshold: 0.0,
                 max_size: 64,
             },
@@ -872,7 +872,7 @@ fn contributing_lights_have_positive_cut_pmf_near_boundaries() {
             for receiver in RECEIVERS {
                 let imp = TlImportance::with_receiver(x, n, receiver);
                 for threshold in [0.0, 1e-3, f32::INFINITY] {
-                    let opts = SplitOptions {
+                    let opts = SplitCutOptions {
                         threshold,
                         max_size: 1 + rng.below(CUT_CAPACITY),
                     };
@@ -912,7 +912,7 @@ fn empty_tree_gives_empty_cut() {
         assert!(tree.is_empty());
         for threshold in THRESHOLDS {
             for max_size in [0, 1, 4, 64, 1000] {
-                let opts = SplitOptions {
+                let opts = SplitCutOptions {
                     threshold,
                     max_size,
                 };
@@ -936,7 +936,7 @@ fn empty_tree_gives_empty_cut() {
     let tree = LightTree::build(&lights).unwrap();
     for x in [Vec3::NAN, Vec3::splat(f32::INFINITY)] {
         let imp = TlImportance::new(x, Vec3::Z);
-        let cut = LightCut::build_split(&tree, &imp, &SplitOptions::default());
+        let cut = LightCut::build_split(&tree, &imp, &SplitCutOptions::default());
         assert!(cut.is_empty());
         assert_eq!(cut.sample(&tree, &imp, 0.3), None);
     }
@@ -957,7 +957,7 @@ fn max_size_is_clamped() {
                 LightCut::build_split(
                     &tree,
                     &imp,
-                    &SplitOptions {
+                    &SplitCutOptions {
                         threshold,
                         max_size,
                     },
@@ -988,7 +988,7 @@ fn split_cut_len_at_most_max_size() {
             let imp = cut_point(&mut rng, &tree, &lights, half);
             for max_size in 1..=CUT_CAPACITY {
                 let threshold = THRESHOLDS[rng.below(THRESHOLDS.len())];
-                let opts = SplitOptions {
+                let opts = SplitCutOptions {
                     threshold,
                     max_size,
                 };
@@ -1030,7 +1030,7 @@ fn max_size_one_four_point_lights() {
     let mut rng = Rng::new(1);
     let us = u_values(&mut rng, 4);
     for threshold in [0.0, f32::INFINITY] {
-        let opts = SplitOptions {
+        let opts = SplitCutOptions {
             threshold,
             max_size: 1,
         };
@@ -1060,7 +1060,7 @@ fn max_size_one_cut_shape() {
             let imp = cut_point(&mut rng, &tree, &lights, half);
             let us = u_values(&mut rng, 2);
             for threshold in THRESHOLDS {
-                let opts = SplitOptions {
+                let opts = SplitCutOptions {
                     threshold,
                     max_size: 1,
                 };
@@ -1089,7 +1089,7 @@ fn threshold_zero_splits_everything_that_fits() {
         for _ in 0..10 {
             let imp = cut_point(&mut rng, &tree, &lights, half);
             let us = u_values(&mut rng, 2);
-            let opts = SplitOptions {
+            let opts = SplitCutOptions {
                 threshold: 0.0,
                 max_size: 64,
             };
@@ -1138,7 +1138,7 @@ fn threshold_infinite_splits_only_inside() {
             };
             let us = u_values(&mut rng, 2);
             for threshold in [f32::INFINITY, 1e30, f32::NAN] {
-                let opts = SplitOptions {
+                let opts = SplitCutOptions {
                     threshold,
                     max_size: 1 + rng.below(CUT_CAPACITY),
                 };
@@ -1253,7 +1253,7 @@ fn cut_sample_never_returns_vanishing_pmf() {
         points.extend((0..20).map(|_| random_importance(&mut rng, &lights, 4.0)));
         for imp in points {
             for (threshold, max_size) in [(0.0, CUT_CAPACITY), (1e-3, 32), (f32::INFINITY, 4)] {
-                let opts = SplitOptions {
+                let opts = SplitCutOptions {
                     threshold,
                     max_size,
                 };

@@ -20,7 +20,7 @@ use manylights::direct::{
     DirectError, Estimator, LambertMode, LightSampler, Occluder, Params, PowerSampler, Step,
     Technique, TreeSampler, UniformSampler, Uniforms, Unoccluded,
 };
-use manylights::mis::{AdaptiveAllocator, CombinedWeights, SequentialWeights};
+use manylights::mis::{AdaptiveAllocator, CombinedWeights, Heuristic, SequentialWeights};
 use manylights::trace::trace_all;
 use manylights::{AliasTable, Brdf, Frame, Light, LightSet, Material, ShadingPoint};
 
@@ -167,7 +167,7 @@ fn check_unbiased(set: &LightSet, sp: &ShadingPoint, exact: f64, k: usize, seed:
         cases.push((
             t,
             Params {
-                power: false,
+                heuristic: Heuristic::Balance,
                 ..base
             },
         ));
@@ -474,10 +474,10 @@ fn combined_estimator_is_exactly_unbiased_by_enumeration() {
                     n_tl: 1.0,
                     n_mixture: nf,
                     p_ref: if bl { 0.5 } else { 0.0 },
-                    power: false,
+                    heuristic: Heuristic::Balance,
                 };
-                for power in [false, true] {
-                    let w = CombinedWeights { power, ..w };
+                for heuristic in Heuristic::ALL {
+                    let w = CombinedWeights { heuristic, ..w };
                     let e = prob.tl_expectation(w)
                         + prob.adaptive_expectation(w, AdaptiveAllocator::new(bl), 0, n, &|p| {
                             Denominator {
@@ -488,7 +488,7 @@ fn combined_estimator_is_exactly_unbiased_by_enumeration() {
                     let rel = (e - prob.total()).abs() / prob.total();
                     assert!(
                         rel < 2e-5,
-                        "full n={n} bl={bl} power={power}: {e} vs {}",
+                        "full n={n} bl={bl} {heuristic:?}: {e} vs {}",
                         prob.total()
                     );
                 }
@@ -529,13 +529,13 @@ fn sequential_weights_are_exactly_unbiased_by_enumeration() {
                 if !prob.covered(bl) || (n == 0 && !tl_covers) {
                     continue;
                 }
-                for power in [false, true] {
-                    let sw = SequentialWeights::new(n, 1.0, power);
+                for heuristic in Heuristic::ALL {
+                    let sw = SequentialWeights::new(n, 1.0, heuristic);
                     let e = prob.sequential_expectation(sw, AdaptiveAllocator::new(bl), 0, &|p| p);
                     let rel = (e - prob.total()).abs() / prob.total();
                     assert!(
                         rel < 2e-5,
-                        "n={n} bl={bl} power={power}: {e} vs {}",
+                        "n={n} bl={bl} {heuristic:?}: {e} vs {}",
                         prob.total()
                     );
                     if bl && n > 0 {

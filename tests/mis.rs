@@ -2,7 +2,7 @@
 //! inputs: negative, NaN and infinite densities and counts give weights in [0, 1], never NaN,
 //! that still sum to 1; ordinary inputs give the plain formulas.
 
-use manylights::mis::{balance, power, CombinedWeights, SequentialWeights};
+use manylights::mis::{balance, power, CombinedWeights, Heuristic, SequentialWeights};
 use std::f32::consts::PI;
 
 /// Values every check combines: ordinary, zero, tiny, huge, and bad.
@@ -93,18 +93,18 @@ fn combined_weights_stay_in_unit_range() {
         n_tl: 1.0,
         n_mixture: 10.0,
         p_ref: 0.1,
-        power: false,
+        heuristic: Heuristic::Balance,
     };
     let (a, b) = w.weights(-1e30, 1e30, 0.0);
     assert_eq!((a, b), (0.0, 1.0));
-    for power in [false, true] {
+    for heuristic in Heuristic::ALL {
         for p_ref in [0.0, 0.1, 1.0, -0.5, 2.0, f32::NAN] {
             for n_tl in [1.0, 0.0, -1.0, f32::NAN, f32::INFINITY] {
                 let w = CombinedWeights {
                     n_tl,
                     n_mixture: 10.0,
                     p_ref,
-                    power,
+                    heuristic,
                 };
                 for &t in &VALUES {
                     for &bl in &VALUES {
@@ -127,15 +127,15 @@ fn combined_weights_stay_in_unit_range() {
 /// non-negative, for every combination of bad densities and recorded probabilities.
 #[test]
 fn sequential_weights_stay_in_unit_range() {
-    for power in [false, true] {
-        let mut w = SequentialWeights::new(4, 1.0, power);
+    for heuristic in Heuristic::ALL {
+        let mut w = SequentialWeights::new(4, 1.0, heuristic);
         for p in [0.1, f32::NAN, -1.0, 2.0] {
             w.record(p);
         }
         for &t in &VALUES {
             for &bl in &VALUES {
                 for &tb in &VALUES {
-                    let ctx = format!("power {power} at ({t}, {bl}, {tb})");
+                    let ctx = format!("{heuristic:?} at ({t}, {bl}, {tb})");
                     let r = w.tl_weight(t, bl, tb);
                     assert!(in_unit(r), "{ctx}: tl_weight {r}");
                     let v = w.tl_term(1.0, t, bl, tb);

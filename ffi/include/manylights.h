@@ -50,6 +50,11 @@
 #define ML_TECHNIQUE_DEFAULT 8
 
 /**
+ * The most lights a tree may hold (`ml_tree_build`'s `count`).
+ */
+#define ML_MAX_LIGHTS 2147483646
+
+/**
  * `light` of an `ml_light_sample` when no light was sampled (no light can contribute).
  */
 #define ML_NO_LIGHT UINT32_MAX
@@ -217,6 +222,31 @@ typedef uint32_t ml_lambert_mode;
 #endif // __cplusplus
 
 /**
+ * The MIS heuristic of the combined techniques (Veach 1997, section 9.2).
+ */
+enum ml_heuristic
+#if defined(__cplusplus) || __STDC_VERSION__ >= 202311L
+  : uint32_t
+#endif // defined(__cplusplus) || __STDC_VERSION__ >= 202311L
+ {
+    /**
+     * The power heuristic, β = 2 (the default).
+     */
+    ML_HEURISTIC_POWER = 0,
+    /**
+     * The balance heuristic.
+     */
+    ML_HEURISTIC_BALANCE = 1,
+};
+#ifndef __cplusplus
+#if __STDC_VERSION__ >= 202311L
+typedef enum ml_heuristic ml_heuristic;
+#else
+typedef uint32_t ml_heuristic;
+#endif // __STDC_VERSION__ >= 202311L
+#endif // __cplusplus
+
+/**
  * The kind of an `ml_step`.
  */
 enum ml_step_kind
@@ -365,9 +395,9 @@ typedef struct ml_brdf_draw {
 } ml_brdf_draw;
 
 /**
- * Options of the BRDF-oriented cut (`ml_cut_options_default` fills the defaults).
+ * Options of the BRDF-oriented cut (`ml_bl_cut_options_default` fills the defaults).
  */
-typedef struct ml_cut_options {
+typedef struct ml_bl_cut_options {
     /**
      * Split a cluster whose BRDF integral over its cap exceeds δ (finite, ≥ 0; default 0.5).
      */
@@ -376,12 +406,12 @@ typedef struct ml_cut_options {
      * Most clusters, in [4, 64] (default 32).
      */
     size_t max_size;
-} ml_cut_options;
+} ml_bl_cut_options;
 
 /**
- * Options of the split-sampling cut (`ml_split_options_default` fills the defaults).
+ * Options of the split-sampling cut (`ml_split_cut_options_default` fills the defaults).
  */
-typedef struct ml_split_options {
+typedef struct ml_split_cut_options {
     /**
      * Split while the cluster's share of the variance exceeds this (finite, ≥ 0; default
      * 1e-3).
@@ -391,7 +421,7 @@ typedef struct ml_split_options {
      * Most clusters, in [4, 64] (default 32).
      */
     size_t max_size;
-} ml_split_options;
+} ml_split_cut_options;
 
 /**
  * A point for TL (Conty–Kulla) importance: position and normal (finite; the zero normal
@@ -435,11 +465,11 @@ typedef struct ml_direct_params {
     /**
      * The split-sampling cut (`tl-split`, `mis-equal`, `full`).
      */
-    struct ml_split_options split;
+    struct ml_split_cut_options split_cut;
     /**
      * The BRDF-oriented cut (`bl`, `bl-mis`, `mis-equal`, `full`).
      */
-    struct ml_cut_options cut;
+    struct ml_bl_cut_options bl_cut;
     /**
      * Nmax of the BRDF-aware budget N = ceil(Nmax · IB(x)), in [1, 64] (default 50).
      */
@@ -449,9 +479,10 @@ typedef struct ml_direct_params {
      */
     uint32_t lambert;
     /**
-     * 1 for the balance heuristic instead of the power heuristic (default 0).
+     * An `ml_heuristic`: the MIS heuristic between the techniques (default
+     * `ML_HEURISTIC_POWER`).
      */
-    uint32_t balance_heuristic;
+    uint32_t heuristic;
 } ml_direct_params;
 
 /**
@@ -930,14 +961,14 @@ ml_status ml_brdf_eval(const struct ml_shading_point *sp, struct ml_vec3 wi, flo
  *
  * Errors: `ML_ERR_NULL` if `out` is NULL.
  */
-ml_status ml_cut_options_default(struct ml_cut_options *out);
+ml_status ml_bl_cut_options_default(struct ml_bl_cut_options *out);
 
 /**
  * Fills `*out` with the default split-sampling options (threshold 1e-3, 32 clusters).
  *
  * Errors: `ML_ERR_NULL` if `out` is NULL.
  */
-ml_status ml_split_options_default(struct ml_split_options *out);
+ml_status ml_split_cut_options_default(struct ml_split_cut_options *out);
 
 /**
  * Creates an empty cut. Free it with `ml_cut_free`.
@@ -959,10 +990,10 @@ ml_status ml_cut_free(struct ml_cut *cut);
  * Errors: `ML_ERR_NULL` (`cut`, `tree`, `sp`); `ML_ERR_INVALID_ARGUMENT` (a bad shading point
  * or option).
  */
-ml_status ml_cut_build(struct ml_cut *cut,
-                       const struct ml_tree *tree,
-                       const struct ml_shading_point *sp,
-                       const struct ml_cut_options *options);
+ml_status ml_cut_build_bl(struct ml_cut *cut,
+                          const struct ml_tree *tree,
+                          const struct ml_shading_point *sp,
+                          const struct ml_bl_cut_options *options);
 
 /**
  * Builds the split-sampling cut of `tree` at `point` (Conty & Kulla: a cluster is split while
@@ -975,7 +1006,7 @@ ml_status ml_cut_build(struct ml_cut *cut,
 ml_status ml_cut_build_split(struct ml_cut *cut,
                              const struct ml_tree *tree,
                              const struct ml_tl_point *point,
-                             const struct ml_split_options *options);
+                             const struct ml_split_cut_options *options);
 
 /**
  * The number of clusters of the cut (0 when no light can contribute).
@@ -985,13 +1016,22 @@ ml_status ml_cut_build_split(struct ml_cut *cut,
 ml_status ml_cut_size(const struct ml_cut *cut, size_t *out);
 
 /**
- * IB(x): the largest BRDF integral over the clusters of a BRDF-oriented cut (Liu et al.
- * 2019, section 4.2), what the BRDF-aware sample budget is computed from; for a split cut,
- * its largest normalised variance.
+ * IB(x) of a BRDF-oriented cut: the largest BRDF integral over its clusters (Liu et al.
+ * 2019, section 4.2), what the BRDF-aware sample budget is computed from.
  *
- * Errors: `ML_ERR_NULL` (`cut`, `out`); `ML_ERR_STATE` (never built).
+ * Errors: `ML_ERR_NULL` (`cut`, `out`); `ML_ERR_STATE` (never built, or built by
+ * `ml_cut_build_split`: see `ml_cut_max_variance`).
  */
 ml_status ml_cut_ib(const struct ml_cut *cut, float *out);
+
+/**
+ * The largest normalised variance over the clusters of a split cut (Conty & Kulla's
+ * splitting criterion, `ρ · (I_C / I_total)²`, of the clusters that were not split).
+ *
+ * Errors: `ML_ERR_NULL` (`cut`, `out`); `ML_ERR_STATE` (never built, or built by
+ * `ml_cut_build_bl`: see `ml_cut_ib`).
+ */
+ml_status ml_cut_max_variance(const struct ml_cut *cut, float *out);
 
 /**
  * Samples one light of the whole cut with `u` in [0, 1): a cluster in proportion to its

@@ -6,7 +6,9 @@ use crate::error::{ml_status, Error, Result};
 use crate::ffi_fn;
 use crate::tree::{bl_importance, check_light, ml_tree, tree_arg, TreeData};
 use crate::types::{ml_light_sample, ml_shading_point, ml_tl_point, tl_point, unit};
-use manylights::{BlImportance, CutOptions, LightCut, SplitOptions, TlImportance, CUT_CAPACITY};
+use manylights::{
+    BlCutOptions, BlImportance, LightCut, SplitCutOptions, TlImportance, CUT_CAPACITY,
+};
 use std::sync::Arc;
 
 /// The largest cut: clusters a cut may hold.
@@ -16,20 +18,20 @@ const _: () = assert!(ML_CUT_CAPACITY == CUT_CAPACITY);
 /// `*cluster` of `ml_cut_pmf_in` for a light in no cluster of the cut.
 pub const ML_NO_CLUSTER: u32 = u32::MAX;
 
-/// Options of the BRDF-oriented cut (`ml_cut_options_default` fills the defaults).
+/// Options of the BRDF-oriented cut (`ml_bl_cut_options_default` fills the defaults).
 #[repr(C)]
 #[derive(Clone, Copy, Debug, PartialEq)]
-pub struct ml_cut_options {
+pub struct ml_bl_cut_options {
     /// Split a cluster whose BRDF integral over its cap exceeds δ (finite, ≥ 0; default 0.5).
     pub delta: f32,
     /// Most clusters, in [4, 64] (default 32).
     pub max_size: usize,
 }
 
-/// Options of the split-sampling cut (`ml_split_options_default` fills the defaults).
+/// Options of the split-sampling cut (`ml_split_cut_options_default` fills the defaults).
 #[repr(C)]
 #[derive(Clone, Copy, Debug, PartialEq)]
-pub struct ml_split_options {
+pub struct ml_split_cut_options {
     /// Split while the cluster's share of the variance exceeds this (finite, ≥ 0; default
     /// 1e-3).
     pub threshold: f32,
@@ -58,7 +60,7 @@ impl ml_cut {
         match (&self.tree, self.imp) {
             (Some(t), imp) if !matches!(imp, CutImportance::None) => Ok((t, &self.cut, imp)),
             _ => Err(Error::state(
-                "cut: not built yet (call ml_cut_build or ml_cut_build_split first)",
+                "cut: not built yet (call ml_cut_build_bl or ml_cut_build_split first)",
             )),
         }
     }
@@ -88,10 +90,10 @@ fn non_negative(v: f32, name: &str) -> Result<f32> {
 ///
 /// Errors: `ML_ERR_NULL` if `out` is NULL.
 #[no_mangle]
-pub extern "C" fn ml_cut_options_default(out: *mut ml_cut_options) -> ml_status {
-    ffi_fn!("ml_cut_options_default", {
-        let d = CutOptions::default();
-        arg::out(out, "out")?.write(ml_cut_options {
+pub extern "C" fn ml_bl_cut_options_default(out: *mut ml_bl_cut_options) -> ml_status {
+    ffi_fn!("ml_bl_cut_options_default", {
+        let d = BlCutOptions::default();
+        arg::out(out, "out")?.write(ml_bl_cut_options {
             delta: d.delta,
             max_size: d.max_size,
         });
@@ -103,10 +105,10 @@ pub extern "C" fn ml_cut_options_default(out: *mut ml_cut_options) -> ml_status 
 ///
 /// Errors: `ML_ERR_NULL` if `out` is NULL.
 #[no_mangle]
-pub extern "C" fn ml_split_options_default(out: *mut ml_split_options) -> ml_status {
-    ffi_fn!("ml_split_options_default", {
-        let d = SplitOptions::default();
-        arg::out(out, "out")?.write(ml_split_options {
+pub extern "C" fn ml_split_cut_options_default(out: *mut ml_split_cut_options) -> ml_status {
+    ffi_fn!("ml_split_cut_options_default", {
+        let d = SplitCutOptions::default();
+        arg::out(out, "out")?.write(ml_split_cut_options {
             threshold: d.threshold,
             max_size: d.max_size,
         });
@@ -115,10 +117,10 @@ pub extern "C" fn ml_split_options_default(out: *mut ml_split_options) -> ml_sta
 }
 
 /// The core's cut options of checked C options (NULL: defaults).
-pub(crate) fn cut_options(o: Option<&ml_cut_options>, name: &str) -> Result<CutOptions> {
+pub(crate) fn cut_options(o: Option<&ml_bl_cut_options>, name: &str) -> Result<BlCutOptions> {
     Ok(match o {
-        None => CutOptions::default(),
-        Some(o) => CutOptions {
+        None => BlCutOptions::default(),
+        Some(o) => BlCutOptions {
             delta: non_negative(o.delta, &format!("{name}.delta"))?,
             max_size: max_size(o.max_size, &format!("{name}.max_size"))?,
         },
@@ -126,10 +128,13 @@ pub(crate) fn cut_options(o: Option<&ml_cut_options>, name: &str) -> Result<CutO
 }
 
 /// The core's split options of checked C options (NULL: defaults).
-pub(crate) fn split_options(o: Option<&ml_split_options>, name: &str) -> Result<SplitOptions> {
+pub(crate) fn split_options(
+    o: Option<&ml_split_cut_options>,
+    name: &str,
+) -> Result<SplitCutOptions> {
     Ok(match o {
-        None => SplitOptions::default(),
-        Some(o) => SplitOptions {
+        None => SplitCutOptions::default(),
+        Some(o) => SplitCutOptions {
             threshold: non_negative(o.threshold, &format!("{name}.threshold"))?,
             max_size: max_size(o.max_size, &format!("{name}.max_size"))?,
         },
@@ -165,19 +170,19 @@ pub extern "C" fn ml_cut_free(cut: *mut ml_cut) -> ml_status {
 /// Errors: `ML_ERR_NULL` (`cut`, `tree`, `sp`); `ML_ERR_INVALID_ARGUMENT` (a bad shading point
 /// or option).
 #[no_mangle]
-pub extern "C" fn ml_cut_build(
+pub extern "C" fn ml_cut_build_bl(
     cut: *mut ml_cut,
     tree: *const ml_tree,
     sp: *const ml_shading_point,
-    options: *const ml_cut_options,
+    options: *const ml_bl_cut_options,
 ) -> ml_status {
-    ffi_fn!("ml_cut_build", {
+    ffi_fn!("ml_cut_build_bl", {
         let cut = arg::get_mut(cut, "cut")?;
         let data = tree_arg(tree)?;
         let sp = arg::get(sp, "sp")?;
         let opts = cut_options(arg::opt(options, "options")?, "options")?;
         let imp = bl_importance(sp, &|| "sp".into())?;
-        cut.cut = LightCut::build(data.tree(), &imp, &opts);
+        cut.cut = LightCut::build_bl(data.tree(), &imp, &opts);
         cut.imp = CutImportance::Bl(imp);
         if !cut.tree.as_ref().is_some_and(|t| Arc::ptr_eq(t, data)) {
             cut.tree = Some(Arc::clone(data));
@@ -197,7 +202,7 @@ pub extern "C" fn ml_cut_build_split(
     cut: *mut ml_cut,
     tree: *const ml_tree,
     point: *const ml_tl_point,
-    options: *const ml_split_options,
+    options: *const ml_split_cut_options,
 ) -> ml_status {
     ffi_fn!("ml_cut_build_split", {
         let cut = arg::get_mut(cut, "cut")?;
@@ -229,17 +234,43 @@ pub extern "C" fn ml_cut_size(cut: *const ml_cut, out: *mut usize) -> ml_status 
     })
 }
 
-/// IB(x): the largest BRDF integral over the clusters of a BRDF-oriented cut (Liu et al.
-/// 2019, section 4.2), what the BRDF-aware sample budget is computed from; for a split cut,
-/// its largest normalised variance.
+/// IB(x) of a BRDF-oriented cut: the largest BRDF integral over its clusters (Liu et al.
+/// 2019, section 4.2), what the BRDF-aware sample budget is computed from.
 ///
-/// Errors: `ML_ERR_NULL` (`cut`, `out`); `ML_ERR_STATE` (never built).
+/// Errors: `ML_ERR_NULL` (`cut`, `out`); `ML_ERR_STATE` (never built, or built by
+/// `ml_cut_build_split`: see `ml_cut_max_variance`).
 #[no_mangle]
 pub extern "C" fn ml_cut_ib(cut: *const ml_cut, out: *mut f32) -> ml_status {
     ffi_fn!("ml_cut_ib", {
         let cut = arg::get(cut, "cut")?;
         let out = arg::out(out, "out")?;
-        let (_, c, _) = cut.built()?;
+        let (_, c, imp) = cut.built()?;
+        if !matches!(imp, CutImportance::Bl(_)) {
+            return Err(Error::state(
+                "cut: IB(x) is of a BRDF-oriented cut (built by ml_cut_build_bl); this one is a split cut (ml_cut_max_variance)",
+            ));
+        }
+        out.write(c.max_score());
+        Ok(())
+    })
+}
+
+/// The largest normalised variance over the clusters of a split cut (Conty & Kulla's
+/// splitting criterion, `ρ · (I_C / I_total)²`, of the clusters that were not split).
+///
+/// Errors: `ML_ERR_NULL` (`cut`, `out`); `ML_ERR_STATE` (never built, or built by
+/// `ml_cut_build_bl`: see `ml_cut_ib`).
+#[no_mangle]
+pub extern "C" fn ml_cut_max_variance(cut: *const ml_cut, out: *mut f32) -> ml_status {
+    ffi_fn!("ml_cut_max_variance", {
+        let cut = arg::get(cut, "cut")?;
+        let out = arg::out(out, "out")?;
+        let (_, c, imp) = cut.built()?;
+        if !matches!(imp, CutImportance::Tl(_)) {
+            return Err(Error::state(
+                "cut: the normalised variance is of a split cut (built by ml_cut_build_split); this one is BRDF-oriented (ml_cut_ib)",
+            ));
+        }
         out.write(c.max_score());
         Ok(())
     })

@@ -3,7 +3,7 @@
 //! weights; BSDF samples whose hits the host reports with its pdf).
 
 use crate::arg;
-use crate::cut::{cut_options, ml_cut_options, ml_split_options, split_options};
+use crate::cut::{cut_options, ml_bl_cut_options, ml_split_cut_options, split_options};
 use crate::error::{ml_status, Error, Result};
 use crate::ffi_fn;
 use crate::tree::{ml_tree, tree_arg, TreeData};
@@ -16,7 +16,7 @@ use manylights::direct::{
     BsdfDraw, DirectError, LambertMode, LightDraw, Occluder, Params, Step, Technique, Uniforms,
 };
 use manylights::mis::MAX_BUDGET;
-use manylights::{Estimator, LightSet};
+use manylights::{Estimator, Heuristic, LightSet};
 use std::cell::Cell;
 use std::sync::Arc;
 
@@ -63,20 +63,31 @@ pub enum ml_lambert_mode {
     BlTb = 3,
 }
 
+/// The MIS heuristic of the combined techniques (Veach 1997, section 9.2).
+#[repr(u32)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum ml_heuristic {
+    /// The power heuristic, β = 2 (the default).
+    Power = 0,
+    /// The balance heuristic.
+    Balance = 1,
+}
+
 /// The estimators' parameters (`ml_direct_params_default` fills the defaults).
 #[repr(C)]
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct ml_direct_params {
     /// The split-sampling cut (`tl-split`, `mis-equal`, `full`).
-    pub split: ml_split_options,
+    pub split_cut: ml_split_cut_options,
     /// The BRDF-oriented cut (`bl`, `bl-mis`, `mis-equal`, `full`).
-    pub cut: ml_cut_options,
+    pub bl_cut: ml_bl_cut_options,
     /// Nmax of the BRDF-aware budget N = ceil(Nmax · IB(x)), in [1, 64] (default 50).
     pub n_max: u32,
     /// An `ml_lambert_mode` (default `ML_LAMBERT_MODE_TL_ONLY`).
     pub lambert: u32,
-    /// 1 for the balance heuristic instead of the power heuristic (default 0).
-    pub balance_heuristic: u32,
+    /// An `ml_heuristic`: the MIS heuristic between the techniques (default
+    /// `ML_HEURISTIC_POWER`).
+    pub heuristic: u32,
 }
 
 /// The host's uniform numbers: `next_f32(user_data)` and `next_f64(user_data)` return the
@@ -215,17 +226,17 @@ pub extern "C" fn ml_direct_params_default(out: *mut ml_direct_params) -> ml_sta
     ffi_fn!("ml_direct_params_default", {
         let p = Params::default();
         arg::out(out, "out")?.write(ml_direct_params {
-            split: ml_split_options {
-                threshold: p.split.threshold,
-                max_size: p.split.max_size,
+            split_cut: ml_split_cut_options {
+                threshold: p.split_cut.threshold,
+                max_size: p.split_cut.max_size,
             },
-            cut: ml_cut_options {
-                delta: p.cut.delta,
-                max_size: p.cut.max_size,
+            bl_cut: ml_bl_cut_options {
+                delta: p.bl_cut.delta,
+                max_size: p.bl_cut.max_size,
             },
             n_max: p.n_max,
             lambert: ml_lambert_mode::TlOnly as u32,
-            balance_heuristic: 0,
+            heuristic: ml_heuristic::Power as u32,
         });
         Ok(())
     })
@@ -248,21 +259,21 @@ fn params(p: Option<&ml_direct_params>) -> Result<Params> {
             p.lambert
         ))
     })?;
-    let power = match p.balance_heuristic {
-        0 => true,
-        1 => false,
+    let heuristic = match p.heuristic {
+        0 => Heuristic::Power,
+        1 => Heuristic::Balance,
         v => {
             return Err(Error::invalid(format_args!(
-                "params.balance_heuristic must be 0 or 1 (got {v})"
+                "params.heuristic: {v} is not an ml_heuristic (0 or 1)"
             )))
         }
     };
     Ok(Params {
-        split: split_options(Some(&p.split), "params.split")?,
-        cut: cut_options(Some(&p.cut), "params.cut")?,
+        split_cut: split_options(Some(&p.split_cut), "params.split_cut")?,
+        bl_cut: cut_options(Some(&p.bl_cut), "params.bl_cut")?,
         n_max: p.n_max,
         lambert,
-        power,
+        heuristic,
     })
 }
 

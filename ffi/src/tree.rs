@@ -12,6 +12,10 @@ use manylights::light_sample::{pdf_point, sample_point};
 use manylights::{BlImportance, BuildOptions, Light, LightSet, LightTree, TlImportance};
 use std::sync::Arc;
 
+/// The most lights a tree may hold (`ml_tree_build`'s `count`).
+pub const ML_MAX_LIGHTS: u32 = 2_147_483_646;
+const _: () = assert!(ML_MAX_LIGHTS == manylights::tree::MAX_LIGHTS);
+
 /// What a tree handle holds: the lights with their tree (built from descriptors), or a tree
 /// alone (loaded from bytes).
 #[derive(Debug)]
@@ -145,9 +149,9 @@ pub extern "C" fn ml_tree_build(
                 }
             }
         }
-        if count >= 0x7fff_fffe {
+        if count > ML_MAX_LIGHTS as usize {
             return Err(Error::invalid(format_args!(
-                "count: {count} lights, at most 2147483645 are supported"
+                "count: {count} lights, at most ML_MAX_LIGHTS ({ML_MAX_LIGHTS}) are supported"
             )));
         }
         let mut core = Vec::with_capacity(count);

@@ -208,7 +208,10 @@ fn arbitrary_lights_points_and_numbers() {
             }
             let mut cut: *mut ml_cut = ptr::null_mut();
             assert_eq!(ml_cut_create(&mut cut), ML_OK);
-            if expect_ok_or_invalid(ml_cut_build(cut, tree, &sp, ptr::null()), "ml_cut_build") {
+            if expect_ok_or_invalid(
+                ml_cut_build_bl(cut, tree, &sp, ptr::null()),
+                "ml_cut_build_bl",
+            ) {
                 let mut ib = -1.0;
                 assert_eq!(ml_cut_ib(cut, &mut ib), ML_OK);
                 assert!(ib.is_finite() && ib >= 0.0);

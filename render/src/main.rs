@@ -3,7 +3,7 @@
 use clap::{Parser, Subcommand};
 use manylights::Technique;
 use manylights_render::instruments::{bench, compare, sptd_accuracy, sptd_fit};
-use manylights_render::params::ParamArgs;
+use manylights_render::params::{ParamArgs, TechniqueArg};
 use manylights_render::{image, render, scene};
 use std::path::PathBuf;
 
@@ -81,8 +81,8 @@ enum Command {
         #[arg(long)]
         json: bool,
     },
-    /// Unbiasedness, variance and time per estimate of the estimators (uniform, power, tl,
-    /// tl-split, bl, mis-equal, full, tl-mis) against exact values, without visibility.
+    /// Unbiasedness, variance and time per estimate of every technique against exact values,
+    /// without visibility.
     Estimator(manylights_render::instruments::estimator::EstimatorArgs),
     /// Instant radiosity for the indirect diffuse light, plain and with probabilistic VPL
     /// acceptance (Georgiev & Slusallek 2010), gathered from all VPLs or through a light tree,
@@ -97,9 +97,9 @@ enum Command {
         /// Number of lights (cornell only; default 1,494).
         #[arg(long)]
         lights: Option<usize>,
-        /// Technique: uniform, power, tl, tl-split, bl, mis-equal, full or tl-mis.
-        #[arg(long, default_value = "full")]
-        technique: String,
+        /// The technique (default: the core's `Technique::DEFAULT`).
+        #[arg(long, value_enum, default_value_t = TechniqueArg(Technique::DEFAULT))]
+        technique: TechniqueArg,
         /// Estimates per pixel.
         #[arg(long, default_value_t = 16, value_parser = at_least_one())]
         spp: usize,
@@ -329,7 +329,7 @@ fn main() {
             let code = run_render(
                 &scene,
                 lights,
-                &technique,
+                technique.0,
                 spp,
                 width,
                 height,
@@ -407,7 +407,7 @@ fn main() {
 fn run_render(
     scene: &str,
     lights: Option<usize>,
-    technique: &str,
+    technique: Technique,
     spp: usize,
     width: usize,
     height: usize,
@@ -416,10 +416,6 @@ fn run_render(
     protocol: render::Protocol,
     params: manylights::Params,
 ) -> i32 {
-    let Some(technique) = Technique::from_name(technique) else {
-        eprintln!("unknown technique {technique:?}");
-        return 2;
-    };
     let scene = match scene::by_name(scene, lights) {
         Ok(s) => s,
         Err(e) => {

@@ -433,6 +433,18 @@ fn cli_time_checks_and_exr_output() {
     let err = String::from_utf8_lossy(&o.stderr);
     assert!(err.contains("positive"), "{err}");
 
+    // `render --technique` takes every technique by its core name; the default is the core's.
+    let o = mlrender(&["render", "--help"]);
+    let help = String::from_utf8_lossy(&o.stdout);
+    for t in Technique::ALL {
+        assert!(help.contains(t.name()), "{t} missing from:\n{help}");
+    }
+    let default = format!("[default: {}]", Technique::DEFAULT.name());
+    assert!(help.contains(&default), "{default} missing from:\n{help}");
+    let o = mlrender(&["render", "--technique", "no-such"]);
+    assert_eq!(o.status.code(), Some(2));
+    assert!(String::from_utf8_lossy(&o.stderr).contains("bl-mis"));
+
     let out = temp_dir("cli");
     let exr = out.join("img.exr");
     let (w, h) = (W.to_string(), H.to_string());

@@ -144,7 +144,7 @@ fn every_technique_is_unbiased_on_a_small_scene() {
             cases.push((
                 t,
                 Params {
-                    power: false,
+                    heuristic: manylights::Heuristic::Balance,
                     ..params
                 },
             ));

@@ -17,6 +17,7 @@
 //! tan θ keeps them finite at grazing angles.
 
 use super::{finite, unit_square, Brdf};
+use crate::material::MIN_ALPHA;
 use crate::math;
 use core::f32::consts::{FRAC_1_PI, TAU};
 use glam::Vec3;
@@ -28,18 +29,14 @@ pub struct Ggx {
 }
 
 impl Ggx {
-    /// The smallest roughness (the materials' [`MIN_ALPHA`](crate::material::MIN_ALPHA)):
-    /// below it the lobe is a mirror that f32 pdfs do not resolve.
-    pub const MIN_ALPHA: f32 = crate::material::MIN_ALPHA;
-
     /// A lobe of roughness `alpha` (GGX α, i.e. perceptual roughness squared), clamped into
-    /// [[`Ggx::MIN_ALPHA`], 1]; NaN becomes 1.
+    /// [[`MIN_ALPHA`], 1]; NaN becomes 1.
     pub fn new(alpha: f32) -> Ggx {
         Ggx {
             alpha: if alpha.is_nan() {
                 1.0
             } else {
-                alpha.clamp(Self::MIN_ALPHA, 1.0)
+                alpha.clamp(MIN_ALPHA, 1.0)
             },
         }
     }

@@ -11,7 +11,7 @@ use crate::light_sample::{sample_point, LightPoint};
 use crate::light_set::LightSet;
 use crate::material::{Material, ShadingError, ShadingField, ShadingPoint};
 use crate::mis::{
-    brdf_budget, sample_budget, AdaptiveAllocator, CombinedWeights, Factors, Mixture,
+    brdf_budget, sample_budget, AdaptiveAllocator, CombinedWeights, Factors, Heuristic, Mixture,
     SequentialWeights,
 };
 use crate::sample::ONE_MINUS_EPSILON;
@@ -166,24 +166,25 @@ enum Phase {
 
 /// Per-light pmfs remembered at one shading point (direct-mapped): an estimate queries the
 /// same few lights again and again, and the pmfs are fixed functions of the light there.
+/// (It caches whole pmfs of lights; [`crate::Memo`] caches node importances of a descent.)
 #[derive(Clone, Debug)]
-struct PmfMemo {
-    tl: [(u32, f32); MEMO_SLOTS],
-    bl: [(u32, f32); MEMO_SLOTS],
+struct PmfCache {
+    tl: [(u32, f32); CACHE_SLOTS],
+    bl: [(u32, f32); CACHE_SLOTS],
 }
 
-/// Slots of each memo table.
-const MEMO_SLOTS: usize = 64;
+/// Slots of each cache table.
+const CACHE_SLOTS: usize = 64;
 
-impl PmfMemo {
-    const EMPTY: PmfMemo = PmfMemo {
-        tl: [(u32::MAX, 0.0); MEMO_SLOTS],
-        bl: [(u32::MAX, 0.0); MEMO_SLOTS],
+impl PmfCache {
+    const EMPTY: PmfCache = PmfCache {
+        tl: [(u32::MAX, 0.0); CACHE_SLOTS],
+        bl: [(u32::MAX, 0.0); CACHE_SLOTS],
     };
 
     #[inline]
-    fn get(table: &mut [(u32, f32); MEMO_SLOTS], light: u32, f: impl FnOnce() -> f32) -> f32 {
-        let slot = &mut table[light as usize % MEMO_SLOTS];
+    fn get(table: &mut [(u32, f32); CACHE_SLOTS], light: u32, f: impl FnOnce() -> f32) -> f32 {
+        let slot = &mut table[light as usize % CACHE_SLOTS];
         if slot.0 != light {
             *slot = (light, f());
         }
@@ -225,8 +226,8 @@ pub struct Estimator<'a> {
     n_mix: u32,
     /// BL takes part in `full`'s mixture.
     bl_in_full: bool,
-    power: bool,
-    memo: PmfMemo,
+    heuristic: Heuristic,
+    pmfs: PmfCache,
     run: Run,
 }
 
@@ -294,13 +295,13 @@ impl<'a> Estimator<'a> {
             _ => false,
         };
         let split = if needs_split {
-            LightCut::build_split(tree, tl.importance(), &params.split)
+            LightCut::build_split(tree, tl.importance(), &params.split_cut)
         } else {
             LightCut::new()
         };
         let bl = if needs_bl {
             let imp = BlImportance::new(sp)?;
-            Some(CutSampler::with_importance(tree, imp, &params.cut))
+            Some(CutSampler::with_importance(tree, imp, &params.bl_cut))
         } else {
             None
         };
@@ -317,7 +318,7 @@ impl<'a> Estimator<'a> {
             _ => 0,
         };
         let bl_in_full = !diffuse || params.lambert == LambertMode::BlTb;
-        let power = params.power;
+        let heuristic = params.heuristic;
         Ok(Estimator {
             set,
             technique,
@@ -330,8 +331,8 @@ impl<'a> Estimator<'a> {
             bl,
             n_mix,
             bl_in_full,
-            power,
-            memo: PmfMemo::EMPTY,
+            heuristic,
+            pmfs: PmfCache::EMPTY,
             run: Run {
                 phase: Phase::Done,
                 tl: [(0, 0.0, [0.0; 2]); CUT_CAPACITY],
@@ -339,7 +340,7 @@ impl<'a> Estimator<'a> {
                 tl_next: 0,
                 j: 0,
                 alloc: AdaptiveAllocator::new(false),
-                sw: SequentialWeights::new(0, 1.0, power),
+                sw: SequentialWeights::new(0, 1.0, heuristic),
                 pending_tb: None,
             },
         })
@@ -394,7 +395,7 @@ impl<'a> Estimator<'a> {
             n_tl: 1.0,
             n_mixture: self.n_mix as f32,
             p_ref: if self.bl.is_some() { 0.5 } else { 0.0 },
-            power: self.power,
+            heuristic: self.heuristic,
         }
     }
 
@@ -402,7 +403,7 @@ impl<'a> Estimator<'a> {
     #[inline]
     fn pmf_tl(&mut self, light: u32) -> f32 {
         let (split, tl) = (&self.split, &self.tl);
-        PmfMemo::get(&mut self.memo.tl, light, || {
+        PmfCache::get(&mut self.pmfs.tl, light, || {
             split
                 .pmf_in(tl.tree(), tl.importance(), light)
                 .map_or(0.0, |(_, p)| p)
@@ -415,7 +416,7 @@ impl<'a> Estimator<'a> {
         let Some(bl) = &self.bl else {
             return 0.0;
         };
-        PmfMemo::get(&mut self.memo.bl, light, || bl.pmf(light))
+        PmfCache::get(&mut self.pmfs.bl, light, || bl.pmf(light))
     }
 
     /// Starts a new estimate (forgetting the current one).
@@ -431,7 +432,7 @@ impl<'a> Estimator<'a> {
         r.tl_next = 0;
         r.j = 0;
         r.alloc = AdaptiveAllocator::new(self.bl.is_some() && self.bl_in_full);
-        r.sw = SequentialWeights::new(budget, 1.0, self.power);
+        r.sw = SequentialWeights::new(budget, 1.0, self.heuristic);
         r.pending_tb = None;
     }
 
@@ -740,7 +741,7 @@ impl<'a> Estimator<'a> {
     fn mixture_weight(&self, p: f32, pdf_tl: f32, pdf_bl: f32, pdf_tb: f32) -> Weighted {
         if self.technique == Technique::Full {
             // The term depends on the budget and the sample's own p only.
-            let terms = SequentialWeights::new(self.n_mix, 1.0, self.power);
+            let terms = SequentialWeights::new(self.n_mix, 1.0, self.heuristic);
             match terms.mixture_factors(p, pdf_tl, pdf_bl, pdf_tb) {
                 Some(f) => Weighted::checked(f),
                 None => Weighted::ZERO,

@@ -114,9 +114,10 @@ mod sampler;
 pub use estimator::{BsdfDraw, Estimator, LightDraw, LightHit, Step, Weighted};
 pub use sampler::{CutSampler, LightSampler, PowerSampler, TreeSampler, UniformSampler};
 
-use crate::cut::{CutOptions, SplitOptions};
-use crate::material::ShadingError;
-use crate::mis::N_MAX;
+pub use crate::error::DirectError;
+
+use crate::cut::{BlCutOptions, SplitCutOptions};
+use crate::mis::{Heuristic, N_MAX};
 use core::fmt;
 use glam::Vec3;
 
@@ -248,27 +249,26 @@ impl LambertMode {
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Params {
     /// The split-sampling cut (`tl-split`, `mis-equal`, `full`).
-    pub split: SplitOptions,
-    /// The BRDF-oriented cut (`bl`, `mis-equal`, `full`).
-    pub cut: CutOptions,
+    pub split_cut: SplitCutOptions,
+    /// The BRDF-oriented cut (`bl`, `bl-mis`, `mis-equal`, `full`).
+    pub bl_cut: BlCutOptions,
     /// Nmax of the BRDF-aware budget `N = ceil(Nmax · IB(x))` (clamped to
     /// 1..=[`MAX_BUDGET`](crate::mis::MAX_BUDGET)).
     pub n_max: u32,
     /// `full` at Lambert-only points.
     pub lambert: LambertMode,
-    /// The power heuristic (β = 2, the default) instead of the balance heuristic between TL and
-    /// the BRDF-aware mixture.
-    pub power: bool,
+    /// The MIS heuristic between the techniques (the power heuristic, β = 2, by default).
+    pub heuristic: Heuristic,
 }
 
 impl Default for Params {
     fn default() -> Self {
         Params {
-            split: SplitOptions::default(),
-            cut: CutOptions::default(),
+            split_cut: SplitCutOptions::default(),
+            bl_cut: BlCutOptions::default(),
             n_max: N_MAX,
             lambert: LambertMode::TlOnly,
-            power: true,
+            heuristic: Heuristic::Power,
         }
     }
 }
@@ -312,62 +312,3 @@ impl<O: Occluder + ?Sized> Occluder for &O {
         (**self).occluded(x, d, t)
     }
 }
-
-/// Why an estimator refused its input.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub enum DirectError {
-    /// The shading point is invalid.
-    Shading(ShadingError),
-    /// A uniform number from the host is NaN or outside [0, 1).
-    Uniform {
-        /// The number.
-        value: f64,
-    },
-    /// The host's BSDF pdf is NaN, negative or infinite.
-    BsdfPdf {
-        /// The pdf.
-        value: f32,
-    },
-    /// The host's BSDF direction is not finite or has zero length.
-    Direction {
-        /// Its squared length.
-        length_squared: f32,
-    },
-    /// The host's hit distance is NaN or negative.
-    HitDistance {
-        /// The distance.
-        value: f32,
-    },
-}
-
-impl From<ShadingError> for DirectError {
-    fn from(e: ShadingError) -> Self {
-        DirectError::Shading(e)
-    }
-}
-
-impl fmt::Display for DirectError {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        match *self {
-            DirectError::Shading(e) => e.fmt(f),
-            DirectError::Uniform { value } => {
-                write!(f, "uniform number: must be in [0, 1) (got {value})")
-            }
-            DirectError::BsdfPdf { value } => {
-                write!(f, "bsdf_pdf: must be finite and non-negative (got {value})")
-            }
-            DirectError::Direction { length_squared } => write!(
-                f,
-                "direction: must be finite and non-zero (squared length {length_squared})"
-            ),
-            DirectError::HitDistance { value } => {
-                write!(
-                    f,
-                    "hit_distance: must be non-negative or +inf (got {value})"
-                )
-            }
-        }
-    }
-}
-
-impl core::error::Error for DirectError {}

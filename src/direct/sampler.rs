@@ -1,7 +1,7 @@
 //! Light samplers bound to one shading point, in the shape of pbrt-v4's `LightSampler`: a
 //! light for a uniform number, with its probability, and the probability of any light.
 
-use crate::cut::{CutOptions, LightCut};
+use crate::cut::{BlCutOptions, LightCut};
 use crate::importance::{BlImportance, TlImportance};
 use crate::light_set::{AliasTable, LightSet};
 use crate::material::{ShadingError, ShadingPoint};
@@ -82,7 +82,7 @@ impl<'a> CutSampler<'a> {
     pub fn new(
         tree: &'a LightTree,
         sp: &ShadingPoint,
-        options: &CutOptions,
+        options: &BlCutOptions,
     ) -> Result<CutSampler<'a>, ShadingError> {
         let importance = BlImportance::new(sp)?;
         Ok(CutSampler::with_importance(tree, importance, options))
@@ -92,9 +92,9 @@ impl<'a> CutSampler<'a> {
     pub fn with_importance(
         tree: &'a LightTree,
         importance: BlImportance,
-        options: &CutOptions,
+        options: &BlCutOptions,
     ) -> CutSampler<'a> {
-        let cut = LightCut::build(tree, &importance, options);
+        let cut = LightCut::build_bl(tree, &importance, options);
         CutSampler {
             tree,
             importance,

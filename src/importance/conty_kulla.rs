@@ -307,12 +307,6 @@ pub(crate) struct ClusterView4 {
     pub emits: f32x4,
 }
 
-/// Byte `shift / 8` of each lane, as a number.
-#[inline(always)]
-fn byte(v: i32x4, shift: u32) -> f32x4 {
-    (v.unbounded_shr_scalar(shift) & i32x4::splat(0xFF)).round_float()
-}
-
 /// The cone words of a node's four slots, decoded: the axis as `quantize::decode_axis_raw`
 /// gives it (not normalised), cos θo and sin θo as `quantize::decode_angle`, cos θe as
 /// `quantize::decode_emission` ((255² − q²) / 255²).
@@ -336,8 +330,8 @@ impl Cones4 {
         let two = f32x4::splat(2.0);
         let q = i32x4::new(bytemuck::cast(node.cone));
         let scale = f32x4::splat(2.0 / 255.0);
-        let x = byte(q, 0) * scale - one;
-        let y = byte(q, 8) * scale - one;
+        let x = quantize::byte_lanes(q, 0) * scale - one;
+        let y = quantize::byte_lanes(q, 8) * scale - one;
         let z = one - x.abs() - y.abs();
         let t = (-z).fast_max(zero);
         // `x ≥ 0 ? x − t : x + t` as `x − (t with the sign of x)` (t ≥ 0): x is never ±0 (no
@@ -346,8 +340,8 @@ impl Cones4 {
         let sign = f32x4::splat(-0.0);
         let x = x - (t | (x & sign));
         let y = y - (t | (y & sign));
-        let so = byte(q, 16) * f32x4::splat(1.0 / 255.0);
-        let qe = byte(q, 24);
+        let so = quantize::byte_lanes(q, 16) * f32x4::splat(1.0 / 255.0);
+        let qe = quantize::byte_lanes(q, 24);
         Cones4 {
             x,
             y,
@@ -670,7 +664,7 @@ fn scaled4<L: Lanes>(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::test_rng::Rng;
+    use manylights_testkit::SplitMix64 as Rng;
 
     #[test]
     fn omni_angle_decodes_to_all_directions() {

@@ -44,7 +44,7 @@ pub mod table;
 
 pub use cap::{intersection_area, intersection_area4, Cap, Cap4};
 pub use ggx::{
-    ggx_params, table_node, CapIntegrals, CapIntegrals4, GgxParams, SptdGgx, ALPHA_MIN, TABLE_SIZE,
+    ggx_params, table_node, CapIntegrals, CapIntegrals4, GgxParams, SptdGgx, TABLE_SIZE,
     THETA_O_MAX,
 };
 pub use lambert::{lambert_cap, lambert_cap4, lambert_visible, lambert_visible4};

@@ -8,7 +8,7 @@ use super::*;
 use std::println;
 use std::time::Instant;
 
-use crate::test_rng::Rng;
+use manylights_testkit::SplitMix64 as Rng;
 
 /// Mean, relative variance per sample and ns per sample of the irradiance estimate at the
 /// origin (normal +z) of a unit-radiance triangle, with the given strategy.

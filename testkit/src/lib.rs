@@ -9,6 +9,9 @@
 //! Shading points are uniform in the same cube with uniformly random normals; [`surface_points`]
 //! gives them a material and a view direction in the normal's hemisphere.
 
+mod rng;
+pub use rng::{splitmix64, SplitMix64};
+
 use glam::Vec3;
 use manylights::{Light, LightSample, LightTree, Material, TlImportance};
 use rand::{Rng, SeedableRng};
@@ -111,9 +114,10 @@ pub fn point_lights(n: usize, seed: u64) -> Vec<Light> {
         .collect()
 }
 
-/// A shading point: position and unit normal.
+/// A bench shading point: position and unit normal (what a TL importance is set up from;
+/// [`manylights::ShadingPoint`] adds the view direction and material).
 #[derive(Clone, Copy, Debug)]
-pub struct ShadingPoint {
+pub struct BenchPoint {
     /// Position.
     pub position: Vec3,
     /// Unit normal.
@@ -121,10 +125,10 @@ pub struct ShadingPoint {
 }
 
 /// `m` shading points uniform in the cube with uniform normals, from `seed`.
-pub fn shading_points(m: usize, seed: u64) -> Vec<ShadingPoint> {
+pub fn shading_points(m: usize, seed: u64) -> Vec<BenchPoint> {
     let mut rng = Pcg64Mcg::seed_from_u64(seed ^ 0x5eed_0f90_1475);
     (0..m)
-        .map(|_| ShadingPoint {
+        .map(|_| BenchPoint {
             position: in_cube(&mut rng),
             normal: unit_vector(&mut rng),
         })
@@ -164,7 +168,7 @@ pub fn surface_points(m: usize, seed: u64, material: Material) -> Vec<manylights
 /// the sum of the pmfs, for the caller to keep the work from being optimised away.
 pub fn sample_batches(
     tree: &LightTree,
-    points: &[ShadingPoint],
+    points: &[BenchPoint],
     us: &[f32],
     imps: &mut Vec<TlImportance>,
     out: &mut [Option<LightSample>],
@@ -186,7 +190,7 @@ pub fn sample_batches(
 /// of the pmfs.
 pub fn pmf_batches(
     tree: &LightTree,
-    points: &[ShadingPoint],
+    points: &[BenchPoint],
     lights: &[u32],
     imps: &mut Vec<TlImportance>,
     out: &mut [f32],
@@ -205,7 +209,7 @@ pub fn pmf_batches(
 
 /// The light [`LightTree::sample`] returns at each point with its uniform number (0 where it
 /// returns none): the lights the pmf benches query.
-pub fn sampled_lights(tree: &LightTree, points: &[ShadingPoint], us: &[f32]) -> Vec<u32> {
+pub fn sampled_lights(tree: &LightTree, points: &[BenchPoint], us: &[f32]) -> Vec<u32> {
     points
         .iter()
         .zip(us)

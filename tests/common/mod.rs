@@ -18,84 +18,8 @@ use std::f32::consts::{FRAC_PI_2, PI};
 // RNG
 // ---------------------------------------------------------------------------------------------
 
-/// SplitMix64 (Steele, Lea, Flood 2014): tiny, full period 2^64, good enough for tests.
-#[derive(Clone, Debug)]
-pub struct Rng(u64);
-
-impl Rng {
-    pub fn new(seed: u64) -> Rng {
-        Rng(seed ^ 0x5851_F42D_4C95_7F2D)
-    }
-
-    pub fn next_u64(&mut self) -> u64 {
-        self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
-        let mut z = self.0;
-        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-        z ^ (z >> 31)
-    }
-
-    /// Uniform in [0, 1) with 24 random bits (every value exactly representable).
-    pub fn f32(&mut self) -> f32 {
-        (self.next_u64() >> 40) as f32 * (1.0 / (1u64 << 24) as f32)
-    }
-
-    /// Uniform in [0, 1) with 53 random bits.
-    pub fn f64(&mut self) -> f64 {
-        (self.next_u64() >> 11) as f64 * (1.0 / (1u64 << 53) as f64)
-    }
-
-    /// Two uniforms in [0, 1) (f32, 24 bits each), in that order.
-    pub fn u2(&mut self) -> [f32; 2] {
-        [self.f32(), self.f32()]
-    }
-
-    /// Uniform integer in [0, n).
-    pub fn below(&mut self, n: usize) -> usize {
-        assert!(n > 0);
-        (((self.next_u64() >> 32) * n as u64) >> 32) as usize
-    }
-
-    /// True with probability `p`.
-    pub fn chance(&mut self, p: f64) -> bool {
-        self.f64() < p
-    }
-
-    pub fn range(&mut self, lo: f32, hi: f32) -> f32 {
-        lo + (hi - lo) * self.f32()
-    }
-
-    /// Log-uniform in [lo, hi] (both > 0).
-    pub fn log_range(&mut self, lo: f32, hi: f32) -> f32 {
-        (lo.ln() + (hi.ln() - lo.ln()) * self.f32()).exp()
-    }
-
-    /// Uniform point in the cube [-half, half]^3.
-    pub fn in_cube(&mut self, half: f32) -> Vec3 {
-        Vec3::new(
-            self.range(-half, half),
-            self.range(-half, half),
-            self.range(-half, half),
-        )
-    }
-
-    /// Uniform unit vector.
-    pub fn unit(&mut self) -> Vec3 {
-        let z = 2.0 * self.f64() - 1.0;
-        let phi = 2.0 * std::f64::consts::PI * self.f64();
-        let s = (1.0 - z * z).max(0.0).sqrt();
-        Vec3::new((s * phi.cos()) as f32, (s * phi.sin()) as f32, z as f32).normalize()
-    }
-
-    /// A direction that need not be unit length (the API normalises), sometimes axis-aligned.
-    pub fn direction(&mut self) -> Vec3 {
-        let d = match self.below(8) {
-            0 => [Vec3::X, Vec3::Y, Vec3::Z, -Vec3::X, -Vec3::Y, -Vec3::Z][self.below(6)],
-            _ => self.unit(),
-        };
-        d * self.log_range(1e-3, 1e3)
-    }
-}
+/// The tests' generator (SplitMix64), shared with the core's unit tests.
+pub use manylights_testkit::SplitMix64 as Rng;
 
 // ---------------------------------------------------------------------------------------------
 // Scenes

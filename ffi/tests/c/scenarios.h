@@ -451,11 +451,12 @@ static void scenario_cut(const ml_tree *tree, size_t n) {
         float ib = -1;
         float us[ML_CUT_CAPACITY];
         ml_light_sample out[ML_CUT_CAPACITY];
-        OK(ml_cut_build(cut, tree, &sp, NULL));
+        OK(ml_cut_build_bl(cut, tree, &sp, NULL));
         OK(ml_cut_size(cut, &size));
         CHECK(size <= ML_CUT_CAPACITY);
         OK(ml_cut_ib(cut, &ib));
         CHECK(ib >= 0 && ib == ib);
+        CHECK(ml_cut_max_variance(cut, &ib) == ML_ERR_STATE);
         for (i = 0; i < 20; i++) {
             ml_light_sample s;
             float q = -1;
@@ -471,6 +472,10 @@ static void scenario_cut(const ml_tree *tree, size_t n) {
         OK(ml_cut_build_split(cut, tree, &tp, NULL));
         OK(ml_cut_size(cut, &size));
         CHECK(size >= 1 && size <= 32);
+        ib = -1;
+        OK(ml_cut_max_variance(cut, &ib));
+        CHECK(ib >= 0 && ib == ib);
+        CHECK(ml_cut_ib(cut, &ib) == ML_ERR_STATE);
         for (i = 0; i < size; i++) us[i] = rng_f32(&r);
         OK(ml_cut_sample_clusters(cut, us, size, out));
         for (i = 0; i < size; i++) {
@@ -885,8 +890,8 @@ static void scenario_bad_input(const ml_tree *tree, size_t n) {
     uint8_t buf[64], *bytes;
     ml_tree_statistics st;
     ml_build_options bo;
-    ml_cut_options co;
-    ml_split_options so;
+    ml_bl_cut_options co;
+    ml_split_cut_options so;
     ml_direct_params dp;
     ml_acceptor_options ao;
     ml_cut *cut = NULL, *fresh = NULL;
@@ -928,11 +933,11 @@ static void scenario_bad_input(const ml_tree *tree, size_t n) {
     BAD_NULL(ml_build_options_default, ml_build_options_default(NULL), "`out`");
     BAD_VALUE(ml_build_options_default, ml_build_options_default(MISALIGN(ml_build_options, dbl)),
               ML_ERR_INVALID_ARGUMENT, "misaligned");
-    BAD_NULL(ml_cut_options_default, ml_cut_options_default(NULL), "`out`");
-    BAD_VALUE(ml_cut_options_default, ml_cut_options_default(MISALIGN(ml_cut_options, dbl)),
+    BAD_NULL(ml_bl_cut_options_default, ml_bl_cut_options_default(NULL), "`out`");
+    BAD_VALUE(ml_bl_cut_options_default, ml_bl_cut_options_default(MISALIGN(ml_bl_cut_options, dbl)),
               ML_ERR_INVALID_ARGUMENT, "misaligned");
-    BAD_NULL(ml_split_options_default, ml_split_options_default(NULL), "`out`");
-    BAD_VALUE(ml_split_options_default, ml_split_options_default(MISALIGN(ml_split_options, dbl)),
+    BAD_NULL(ml_split_cut_options_default, ml_split_cut_options_default(NULL), "`out`");
+    BAD_VALUE(ml_split_cut_options_default, ml_split_cut_options_default(MISALIGN(ml_split_cut_options, dbl)),
               ML_ERR_INVALID_ARGUMENT, "misaligned");
     BAD_NULL(ml_direct_params_default, ml_direct_params_default(NULL), "`out`");
     BAD_VALUE(ml_direct_params_default, ml_direct_params_default(MISALIGN(ml_direct_params, &dp)),
@@ -1122,19 +1127,19 @@ static void scenario_bad_input(const ml_tree *tree, size_t n) {
     OK(ml_cut_create(&cut));
     OK(ml_cut_create(&fresh));
     FREE_NULL(ml_cut_free, ml_cut_free(NULL));
-    BAD_NULL(ml_cut_build, ml_cut_build(cut, tree, NULL, NULL), "`sp` is NULL");
-    BAD_NULL(ml_cut_build, ml_cut_build(NULL, tree, &sp, NULL), "`cut` is NULL");
-    OK(ml_cut_options_default(&co));
+    BAD_NULL(ml_cut_build_bl, ml_cut_build_bl(cut, tree, NULL, NULL), "`sp` is NULL");
+    BAD_NULL(ml_cut_build_bl, ml_cut_build_bl(NULL, tree, &sp, NULL), "`cut` is NULL");
+    OK(ml_bl_cut_options_default(&co));
     co.max_size = 100;
-    BAD_VALUE(ml_cut_build, ml_cut_build(cut, tree, &sp, &co), ML_ERR_INVALID_ARGUMENT,
+    BAD_VALUE(ml_cut_build_bl, ml_cut_build_bl(cut, tree, &sp, &co), ML_ERR_INVALID_ARGUMENT,
               "options.max_size must be in [4, 64] (got 100)");
     co.max_size = 16;
     co.delta = (float)NAN;
-    BAD_VALUE(ml_cut_build, ml_cut_build(cut, tree, &sp, &co), ML_ERR_INVALID_ARGUMENT,
+    BAD_VALUE(ml_cut_build_bl, ml_cut_build_bl(cut, tree, &sp, &co), ML_ERR_INVALID_ARGUMENT,
               "options.delta must be finite and non-negative");
     co.delta = 0.5f;
-    OK(ml_cut_build(cut, tree, &sp, &co));
-    OK(ml_split_options_default(&so));
+    OK(ml_cut_build_bl(cut, tree, &sp, &co));
+    OK(ml_split_cut_options_default(&so));
     so.threshold = -1;
     BAD_NULL(ml_cut_build_split, ml_cut_build_split(cut, NULL, &p, NULL), "`tree` is NULL");
     BAD_VALUE(ml_cut_build_split, ml_cut_build_split(cut, tree, &p, &so), ML_ERR_INVALID_ARGUMENT,
@@ -1143,6 +1148,10 @@ static void scenario_bad_input(const ml_tree *tree, size_t n) {
     BAD_VALUE(ml_cut_size, ml_cut_size(fresh, &sz), ML_ERR_STATE, "cut: not built yet");
     BAD_NULL(ml_cut_ib, ml_cut_ib(NULL, &f), "`cut` is NULL");
     BAD_VALUE(ml_cut_ib, ml_cut_ib(fresh, &f), ML_ERR_STATE, "not built yet");
+    BAD_NULL(ml_cut_max_variance, ml_cut_max_variance(cut, NULL), "`out` is NULL");
+    BAD_VALUE(ml_cut_max_variance, ml_cut_max_variance(fresh, &f), ML_ERR_STATE, "not built yet");
+    BAD_VALUE(ml_cut_max_variance, ml_cut_max_variance(cut, &f), ML_ERR_STATE,
+              "this one is BRDF-oriented");
     BAD_NULL(ml_cut_sample, ml_cut_sample(cut, 0.5f, NULL), "`out` is NULL");
     BAD_VALUE(ml_cut_sample, ml_cut_sample(cut, 2.0f, &s), ML_ERR_INVALID_ARGUMENT,
               "u must be in [0, 1) (got 2)");

@@ -7,7 +7,7 @@
 use crate::bounded::{unit, BLight, BPoint};
 use arbitrary::Arbitrary;
 use manylights::{
-    BlImportance, CutOptions, LightCut, LightTree, ShadingPoint, SplitOptions, TlImportance,
+    BlCutOptions, BlImportance, LightCut, LightTree, ShadingPoint, SplitCutOptions, TlImportance,
 };
 
 /// The target's input.
@@ -27,7 +27,7 @@ pub fn check(input: &Input) {
     };
     let sp = input.point.point();
     let tl = TlImportance::new(sp.position, sp.normal);
-    let split = LightCut::build_split(&tree, &tl, &SplitOptions::default());
+    let split = LightCut::build_split(&tree, &tl, &SplitCutOptions::default());
     let m = split.len();
     let us: Vec<f32> = (0..m)
         .map(|i| unit(input.us.get(i).copied().unwrap_or(0.3)))
@@ -111,7 +111,7 @@ pub fn check(input: &Input) {
         );
     }
     if let Ok(bl) = BlImportance::new(&sp) {
-        let cut = LightCut::build(&tree, &bl, &CutOptions::default());
+        let cut = LightCut::build_bl(&tree, &bl, &BlCutOptions::default());
         let mut p = vec![0.0f32; ls.len()];
         cut.pmf_each(&tree, &bl, &ls, &mut p);
         for (k, &l) in ls.iter().enumerate() {

@@ -370,7 +370,7 @@ pub struct Arg<T> {
     pub value: T,
 }
 
-/// `ml_cut_options`.
+/// `ml_bl_cut_options`.
 #[derive(Arbitrary, Debug, Clone, Copy)]
 pub struct CutOpts {
     /// δ.
@@ -380,15 +380,15 @@ pub struct CutOpts {
 }
 
 impl CutOpts {
-    fn ml(&self) -> ml_cut_options {
-        ml_cut_options {
+    fn ml(&self) -> ml_bl_cut_options {
+        ml_bl_cut_options {
             delta: self.delta.value(),
             max_size: self.max_size.value(),
         }
     }
 }
 
-/// `ml_split_options`.
+/// `ml_split_cut_options`.
 #[derive(Arbitrary, Debug, Clone, Copy)]
 pub struct SplitOpts {
     /// The variance threshold.
@@ -398,8 +398,8 @@ pub struct SplitOpts {
 }
 
 impl SplitOpts {
-    fn ml(&self) -> ml_split_options {
-        ml_split_options {
+    fn ml(&self) -> ml_split_cut_options {
+        ml_split_cut_options {
             threshold: self.threshold.value(),
             max_size: self.max_size.value(),
         }
@@ -424,15 +424,15 @@ pub struct Params {
 impl Params {
     fn ml(&self) -> ml_direct_params {
         ml_direct_params {
-            split: self.split.ml(),
-            cut: self.cut.ml(),
+            split_cut: self.split.ml(),
+            bl_cut: self.cut.ml(),
             n_max: if self.n_max < 240 {
                 1 + u32::from(self.n_max) % 64
             } else {
                 u32::from(self.n_max - 240)
             },
             lambert: self.lambert.value(4),
-            balance_heuristic: self.balance_heuristic.value(2),
+            heuristic: self.balance_heuristic.value(2),
         }
     }
 }
@@ -724,7 +724,7 @@ pub enum Op {
     },
     /// `ml_cut_free`.
     CutFree(Handle),
-    /// `ml_cut_build`.
+    /// `ml_cut_build_bl`.
     CutBuild {
         /// The cut.
         cut: Handle,
@@ -1811,8 +1811,8 @@ impl Harness<'_> {
                 let (t, n, th) = self.tree(*tree);
                 let p = In::one(sp.value.ml(), sp.ptr);
                 let opts = In::opt(options.as_ref().map(|o| (o.value.ml(), o.ptr)));
-                let s = ml_cut_build(c, t, p.p(), opts.p());
-                if self.status("ml_cut_build", s, &[&ch, &th, &p, &opts]) {
+                let s = ml_cut_build_bl(c, t, p.p(), opts.p());
+                if self.status("ml_cut_build_bl", s, &[&ch, &th, &p, &opts]) {
                     self.built(ci, n);
                 }
             }
@@ -2544,17 +2544,17 @@ impl Harness<'_> {
             let b = o.get(0).buckets;
             self.ensure(b == 0 || (12..=64).contains(&b), || format!("buckets {b}"));
         }
-        let mut o = Out::<ml_cut_options>::one(out);
-        let s = ml_cut_options_default(o.p());
-        if self.status("ml_cut_options_default", s, &[&o]) {
+        let mut o = Out::<ml_bl_cut_options>::one(out);
+        let s = ml_bl_cut_options_default(o.p());
+        if self.status("ml_bl_cut_options_default", s, &[&o]) {
             let c = o.get(0);
             self.ensure(c.delta >= 0.0 && (4..=64).contains(&c.max_size), || {
                 format!("{c:?}")
             });
         }
-        let mut o = Out::<ml_split_options>::one(out);
-        let s = ml_split_options_default(o.p());
-        if self.status("ml_split_options_default", s, &[&o]) {
+        let mut o = Out::<ml_split_cut_options>::one(out);
+        let s = ml_split_cut_options_default(o.p());
+        if self.status("ml_split_cut_options_default", s, &[&o]) {
             let c = o.get(0);
             self.ensure(c.threshold >= 0.0 && (4..=64).contains(&c.max_size), || {
                 format!("{c:?}")

@@ -6,7 +6,7 @@
 use crate::bounded::{unit, BLight, BPoint};
 use arbitrary::Arbitrary;
 use manylights::direct::{Estimator, Params, Technique, Uniforms, Unoccluded};
-use manylights::{BlImportance, CutOptions, LightCut, LightSet, SplitOptions, TlImportance};
+use manylights::{BlCutOptions, BlImportance, LightCut, LightSet, SplitCutOptions, TlImportance};
 
 /// The target's input.
 #[derive(Arbitrary, Debug)]
@@ -73,7 +73,7 @@ pub fn check(input: &Input) {
     check_sum("tl", n, any, |l| tree.pmf(&tl, l));
 
     if let Ok(bl) = BlImportance::new(&sp) {
-        let cut = LightCut::build(tree, &bl, &CutOptions::default());
+        let cut = LightCut::build_bl(tree, &bl, &BlCutOptions::default());
         let mut any = false;
         for &u in &us {
             if let Some(s) = cut.sample(tree, &bl, u) {
@@ -85,7 +85,7 @@ pub fn check(input: &Input) {
         check_sum("cut", n, any, |l| cut.pmf(tree, &bl, l));
     }
 
-    let split = LightCut::build_split(tree, &tl, &SplitOptions::default());
+    let split = LightCut::build_split(tree, &tl, &SplitCutOptions::default());
     for i in 0..split.len() {
         for &u in &us {
             if let Some(s) = split.sample_in(tree, &tl, i, u) {

@@ -10,7 +10,7 @@
 //!   cap: its value need only be finite); `sin σ ≥ 1` gives `ρ` exactly and a NaN axis or
 //!   sine 0; `ρ` is in
 //!   `(0, 1 + 1e-4]` for a finite, non-zero normal and ωo (any α: it is clamped to
-//!   `[ALPHA_MIN, 1]`, NaN to 1) and 0 otherwise, with every integral 0; the Lambert pair is
+//!   `[MIN_ALPHA, 1]`, NaN to 1) and 0 otherwise, with every integral 0; the Lambert pair is
 //!   in `[0, π]` and `[0, 2π]`; the 4-wide lanes equal the scalar values within the
 //!   importances' documented `1e-4 · max(|a|, |b|) + 1e-30`.
 //! - [`BlImportance::new`] on a shading point with a Lambert, GGX or plastic material from raw

@@ -6,11 +6,11 @@
 use crate::alloc_count;
 use manylights::baseline::BinaryLightTree;
 use manylights::{
-    BlImportance, CutOptions, Light, LightCut, LightTree, Material, Memo, MemoTable,
-    ShadingPoint as Sp, SplitOptions, TlImportance, CUT_CAPACITY,
+    BlCutOptions, BlImportance, Light, LightCut, LightTree, Material, Memo, MemoTable,
+    ShadingPoint, SplitCutOptions, TlImportance, CUT_CAPACITY,
 };
 use manylights_ffi as ffi;
-use manylights_testkit::{self as random_scene, ShadingPoint};
+use manylights_testkit::{self as random_scene, BenchPoint};
 use serde_json::json;
 use std::hint::black_box;
 use std::time::Instant;
@@ -106,7 +106,7 @@ const MEMO_SAMPLES: usize = 8;
 
 /// Throughput of one pass over the shading points, in million samples per second.
 fn time_pass(
-    points: &[ShadingPoint],
+    points: &[BenchPoint],
     us: &[f32],
     mut f: impl FnMut(&TlImportance, f32) -> f32,
 ) -> (f64, f64) {
@@ -338,7 +338,7 @@ pub fn run(cfg: &BenchConfig) -> serde_json::Value {
     }
 
     // Split sampling: build the Conty–Kulla cut, then one sample per cluster.
-    let split_opts = SplitOptions::default();
+    let split_opts = SplitCutOptions::default();
     let mut split_rate = 0.0f64;
     let mut split_each_rate = 0.0f64;
     let mut split_builds = 0.0f64;
@@ -392,7 +392,7 @@ pub fn run(cfg: &BenchConfig) -> serde_json::Value {
     // BRDF-oriented sampling: GGX α = 0.2, ωo uniform over the hemisphere of n. Per shading
     // point: set-up, the light cut, then the budget N = ceil(50 · IB) samples drawn from it
     // (how the method uses a cut), and separately cut + one sample.
-    let bl_points: Vec<Sp> = points
+    let bl_points: Vec<ShadingPoint> = points
         .iter()
         .zip(random_scene::shading_points(points.len(), cfg.seed ^ 0xb1))
         .map(|(p, q)| {
@@ -401,7 +401,7 @@ pub fn run(cfg: &BenchConfig) -> serde_json::Value {
             } else {
                 q.normal
             };
-            Sp {
+            ShadingPoint {
                 position: p.position,
                 normal: p.normal,
                 wo: (wo + p.normal * 1e-3).normalize(),
@@ -412,7 +412,7 @@ pub fn run(cfg: &BenchConfig) -> serde_json::Value {
             }
         })
         .collect();
-    let cut_opts = CutOptions::default();
+    let cut_opts = BlCutOptions::default();
     let mut bl_rate = 0.0f64;
     let mut bl_single_rate = 0.0f64;
     let mut bl_builds = 0.0f64;
@@ -426,7 +426,7 @@ pub fn run(cfg: &BenchConfig) -> serde_json::Value {
         bl_budget = 0;
         for (sp, &u) in bl_points.iter().zip(&us) {
             let imp = BlImportance::new(black_box(sp)).expect("valid shading point");
-            let cut = LightCut::build(&tree, &imp, &cut_opts);
+            let cut = LightCut::build_bl(&tree, &imp, &cut_opts);
             bl_cut_size += cut.len();
             let n = manylights::mis::sample_budget(cut.max_score(), manylights::mis::N_MAX);
             bl_budget += n as usize;
@@ -444,7 +444,7 @@ pub fn run(cfg: &BenchConfig) -> serde_json::Value {
         let mut acc = 0.0f64;
         for (sp, &u) in bl_points.iter().zip(&us) {
             let imp = BlImportance::new(black_box(sp)).expect("valid shading point");
-            let cut = LightCut::build(&tree, &imp, &cut_opts);
+            let cut = LightCut::build_bl(&tree, &imp, &cut_opts);
             acc += cut.sample(&tree, &imp, u).map_or(0.0, |s| f64::from(s.pmf));
         }
         black_box(acc);
@@ -454,7 +454,7 @@ pub fn run(cfg: &BenchConfig) -> serde_json::Value {
         let mut sizes = 0usize;
         for sp in &bl_points {
             let imp = BlImportance::new(black_box(sp)).expect("valid shading point");
-            sizes += LightCut::build(&tree, &imp, &cut_opts).len();
+            sizes += LightCut::build_bl(&tree, &imp, &cut_opts).len();
         }
         black_box(sizes);
         bl_builds = bl_builds.max(bl_points.len() as f64 / t.elapsed().as_secs_f64());

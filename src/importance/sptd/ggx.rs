@@ -30,13 +30,12 @@ use super::cap::{intersection_area, intersection_area4, Cap, Cap4};
 use super::lambert::{lambert_visible, lambert_visible4};
 use super::pivot::Pivot;
 use super::table;
+use crate::material::MIN_ALPHA;
 use crate::math;
 use core::f32::consts::{FRAC_PI_2, PI};
 use glam::Vec3;
 use wide::f32x4;
 
-/// Roughness below this is clamped to it (the fit and the table stop there).
-pub const ALPHA_MIN: f32 = 5e-3;
 /// View angles beyond this (radians from the normal, 89°) are clamped to it.
 pub const THETA_O_MAX: f32 = 89.0 * PI / 180.0;
 /// Number of table nodes along each axis.
@@ -58,22 +57,22 @@ pub struct GgxParams {
     pub masking_cos: f32,
 }
 
-/// The (α, θo) that table node `(i, j)` was fitted at: `u = i/(SIZE − 1)`, `α = max(u², ALPHA_MIN)`,
+/// The (α, θo) that table node `(i, j)` was fitted at: `u = i/(SIZE − 1)`, `α = max(u², MIN_ALPHA)`,
 /// `θo = min(j/(SIZE − 1) · π/2, THETA_O_MAX)`. Returns `(α, θo)`.
 pub fn table_node(i: usize, j: usize) -> (f32, f32) {
     let n = (TABLE_SIZE - 1) as f32;
     let u = (i.min(TABLE_SIZE - 1)) as f32 / n;
     let v = (j.min(TABLE_SIZE - 1)) as f32 / n;
-    ((u * u).max(ALPHA_MIN), (v * FRAC_PI_2).min(THETA_O_MAX))
+    ((u * u).max(MIN_ALPHA), (v * FRAC_PI_2).min(THETA_O_MAX))
 }
 
 /// The table's parameters at (α, |cos θo|), bilinearly interpolated in `(√α, 2θo/π)`.
-/// α is clamped to `[ALPHA_MIN, 1]` (NaN to 1), θo to `[0, THETA_O_MAX]`.
+/// α is clamped to `[MIN_ALPHA, 1]` (NaN to 1), θo to `[0, THETA_O_MAX]`.
 pub fn ggx_params(alpha: f32, cos_theta_o: f32) -> GgxParams {
     let alpha = if alpha.is_nan() {
         1.0
     } else {
-        alpha.clamp(ALPHA_MIN, 1.0)
+        alpha.clamp(MIN_ALPHA, 1.0)
     };
     let c = cos_theta_o.abs();
     let c = if c <= 1.0 { c } else { 1.0 };
@@ -206,7 +205,7 @@ impl SptdGgx {
         let alpha = if alpha.is_nan() {
             1.0
         } else {
-            alpha.clamp(ALPHA_MIN, 1.0)
+            alpha.clamp(MIN_ALPHA, 1.0)
         };
         let cos_max = math::cos(THETA_O_MAX);
         let c = cos_theta_o.abs();

@@ -8,38 +8,12 @@ use core::f64::consts::PI as PI64;
 use glam::{DVec3, Vec3};
 use wide::f32x4;
 
-/// SplitMix64: a small deterministic generator for the tests.
-struct Rng(u64);
-
-impl Rng {
-    fn next_u64(&mut self) -> u64 {
-        crate::test_rng::splitmix64(&mut self.0)
-    }
-    fn f64(&mut self) -> f64 {
-        (self.next_u64() >> 11) as f64 * (1.0 / (1u64 << 53) as f64)
-    }
-    fn range(&mut self, a: f64, b: f64) -> f64 {
-        a + (b - a) * self.f64()
-    }
-    fn unit(&mut self) -> DVec3 {
-        let z = self.range(-1.0, 1.0);
-        let phi = self.range(0.0, 2.0 * PI64);
-        let s = (1.0 - z * z).max(0.0).sqrt();
-        DVec3::new(s * phi.cos(), s * phi.sin(), z)
-    }
-    fn unit32(&mut self) -> Vec3 {
-        self.unit().as_vec3().normalize()
-    }
-    /// log-uniform in [a, b].
-    fn log_range(&mut self, a: f64, b: f64) -> f64 {
-        (a.ln() + (b.ln() - a.ln()) * self.f64()).exp()
-    }
-}
+use manylights_testkit::SplitMix64 as Rng;
 
 /// A random pivot of norm up to 0.995, including ones parallel to a given axis sometimes.
 fn random_pivot(rng: &mut Rng) -> Pivot {
-    let r = 1.0 - rng.log_range(0.005, 1.0);
-    Pivot::new(rng.unit32() * r as f32)
+    let r = 1.0 - rng.log_range64(0.005, 1.0);
+    Pivot::new(rng.unit() * r as f32)
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -180,7 +154,7 @@ fn pivot_transform_is_an_involution() {
     let mut worst64 = 0.0f64;
     for _ in 0..20_000 {
         let p = random_pivot(&mut rng);
-        let w = rng.unit32();
+        let w = rng.unit();
         // The identity, in f64.
         let (rp, w64) = (
             (p.direction().as_dvec3() * f64::from(p.norm())),
@@ -211,7 +185,7 @@ fn jacobian_matches_finite_differences() {
     for _ in 0..2000 {
         let p = random_pivot(&mut rng);
         let rp = p.direction().as_dvec3() * f64::from(p.norm());
-        let w = rng.unit32().as_dvec3();
+        let w = rng.unit().as_dvec3();
         // Scale of variation of the Jacobian: the distance to the pivot.
         let h = 1e-4 * (w - rp).length();
         let t1 = w.any_orthonormal_vector();
@@ -234,13 +208,13 @@ fn sptd_density_integrates_to_one() {
     // E_uniform[Dp(w)/(1/4π)] over uniform w is ∫ Dp = 1. Use 400k stratified-in-z samples.
     let mut rng = Rng(3);
     for _ in 0..8 {
-        let p = Pivot::new(rng.unit32() * rng.range(0.0, 0.9) as f32);
+        let p = Pivot::new(rng.unit() * rng.range64(0.0, 0.9) as f32);
         let n = 400_000;
         let mut sum = 0.0f64;
         let mut sum2 = 0.0f64;
         for i in 0..n {
             let z = -1.0 + 2.0 * (i as f64 + rng.f64()) / n as f64;
-            let phi = rng.range(0.0, 2.0 * PI64);
+            let phi = rng.range64(0.0, 2.0 * PI64);
             let s = (1.0 - z * z).sqrt();
             let w = DVec3::new(s * phi.cos(), s * phi.sin(), z).as_vec3();
             let v = f64::from(p.density(w)) * 4.0 * PI64;
@@ -259,10 +233,10 @@ fn point_in_cap_iff_image_in_image_cap() {
     let mut checked = 0;
     for _ in 0..4000 {
         let p = random_pivot(&mut rng);
-        let cap = Cap::new(rng.unit32(), rng.range(-1.0, 1.0) as f32);
+        let cap = Cap::new(rng.unit(), rng.range64(-1.0, 1.0) as f32);
         let img = p.map_cap(&cap);
         for _ in 0..50 {
-            let w = rng.unit32();
+            let w = rng.unit();
             let margin = (w.dot(cap.axis) - cap.cos).abs();
             let pw = p.transform(w);
             let margin2 = (pw.dot(img.axis) - img.cos).abs();
@@ -293,9 +267,9 @@ fn mapped_cap_is_stable_down_to_tiny_caps() {
         let axis = match i % 5 {
             0 => p.point().normalize(),
             1 => -p.point().normalize(),
-            _ => rng.unit32(),
+            _ => rng.unit(),
         };
-        let sigma = rng.log_range(1e-4, 1.5);
+        let sigma = rng.log_range64(1e-4, 1.5);
         let cap = Cap::from_sin(axis, sigma.sin() as f32);
         let img = p.map_cap(&cap);
         let omz64 = f64::from(cap.one_minus_cos);
@@ -334,11 +308,11 @@ fn mapped_cap_is_stable_down_to_tiny_caps() {
 
 /// A random cap: half-angle log-uniform in [1e-4, π − 1e-4] mixed with uniform ones.
 fn random_cap(rng: &mut Rng) -> Cap {
-    let axis = rng.unit32();
+    let axis = rng.unit();
     let sigma = if rng.f64() < 0.5 {
-        rng.log_range(1e-4, PI64 - 1e-4)
+        rng.log_range64(1e-4, PI64 - 1e-4)
     } else {
-        rng.range(0.0, PI64)
+        rng.range64(0.0, PI64)
     };
     if sigma <= PI64 / 2.0 {
         Cap::from_sin(axis, sigma.sin() as f32)
@@ -353,9 +327,12 @@ fn segment_form_equals_the_textbook_formula_in_f64() {
     // two-segment form used here is the same function.
     let mut rng = Rng(12);
     for _ in 0..200_000 {
-        let (r1, r2) = (rng.range(0.01, PI64 - 0.01), rng.range(0.01, PI64 - 0.01));
-        let c1 = rng.unit();
-        let c2 = rng.unit();
+        let (r1, r2) = (
+            rng.range64(0.01, PI64 - 0.01),
+            rng.range64(0.01, PI64 - 0.01),
+        );
+        let c1 = rng.unit64();
+        let c2 = rng.unit64();
         let p = Cap::new(c1.as_vec3(), r1.cos() as f32);
         let q = Cap::new(c2.as_vec3(), r2.cos() as f32);
         let (r1, r2) = (radius64(&p), radius64(&q));
@@ -384,7 +361,7 @@ fn intersection_area_matches_the_f64_formula() {
             // Straddling: b's axis near a's boundary.
             let r = radius64(&a);
             let t = a.axis.any_orthonormal_vector();
-            let off = r + rng.range(-1.0, 1.0) * radius64(&b).min(0.5);
+            let off = r + rng.range64(-1.0, 1.0) * radius64(&b).min(0.5);
             b.axis = (a.axis * off.cos() as f32 + t * off.sin() as f32).normalize();
         }
         if i % 11 == 0 {
@@ -420,11 +397,11 @@ fn intersection_area_matches_monte_carlo() {
     let n = 100_000;
     for _ in 0..60 {
         // Caps large enough for Monte Carlo to see them.
-        let a = Cap::new(rng.unit32(), rng.range(-0.9, 0.9) as f32);
-        let b = Cap::new(rng.unit32(), rng.range(-0.9, 0.9) as f32);
+        let a = Cap::new(rng.unit(), rng.range64(-0.9, 0.9) as f32);
+        let b = Cap::new(rng.unit(), rng.range64(-0.9, 0.9) as f32);
         let mut hits = 0usize;
         for _ in 0..n {
-            let w = rng.unit32();
+            let w = rng.unit();
             if a.contains(w) && b.contains(w) {
                 hits += 1;
             }
@@ -484,8 +461,8 @@ fn intersection_area_edge_cases() {
 fn lambert_cap_matches_snyder_and_monte_carlo() {
     let mut rng = Rng(8);
     for _ in 0..100_000 {
-        let omega = rng.range(0.0, PI64);
-        let sigma = rng.log_range(1e-3, PI64 / 2.0 - 1e-3);
+        let omega = rng.range64(0.0, PI64);
+        let sigma = rng.log_range64(1e-3, PI64 / 2.0 - 1e-3);
         let (c32, s32) = (omega.cos() as f32, sigma.sin() as f32);
         // The reference sees the f32-rounded inputs (sin σ near 1 is ill-conditioned).
         let want = snyder64(f64::from(c32).acos(), f64::from(s32).asin());
@@ -512,7 +489,7 @@ fn lambert_cap_matches_snyder_and_monte_carlo() {
         let omc = 1.0 - sigma.cos();
         for _ in 0..n {
             let ct = 1.0 - rng.f64() * omc;
-            let phi = rng.range(0.0, 2.0 * PI64);
+            let phi = rng.range64(0.0, 2.0 * PI64);
             let st = (1.0 - ct * ct).max(0.0).sqrt();
             let w = axis * ct + (t1 * phi.cos() + t2 * phi.sin()) * st;
             let v = w.z.max(0.0) * 2.0 * PI64 * omc;
@@ -561,12 +538,12 @@ fn lambert_visible_matches_lambert_cap_and_the_lens_with_the_hemisphere() {
     for i in 0..100_000 {
         let axis = if i % 3 == 0 {
             // near the horizon
-            let e = rng.range(-0.05, 0.05);
+            let e = rng.range64(-0.05, 0.05);
             Vec3::new(e.cos() as f32, 0.0, e.sin() as f32)
         } else {
-            rng.unit32()
+            rng.unit()
         };
-        let sigma = rng.log_range(1e-4, PI64 / 2.0 - 1e-4);
+        let sigma = rng.log_range64(1e-4, PI64 / 2.0 - 1e-4);
         let s32 = sigma.sin() as f32;
         let (l, v) = lambert_visible(axis.z, s32);
         assert_eq!(l, lambert_cap(axis.z, s32), "L differs from lambert_cap");
@@ -620,8 +597,8 @@ fn caps4(rng: &mut Rng, pivot: &Pivot) -> ([Vec3; 4], [f32; 4]) {
             1 => -pivot.point().normalize_or(Vec3::Z),
             2 => {
                 // near the horizon
-                let t = rng.range(-0.02, 0.02);
-                let phi = rng.range(0.0, 2.0 * PI64);
+                let t = rng.range64(-0.02, 0.02);
+                let phi = rng.range64(0.0, 2.0 * PI64);
                 Vec3::new(
                     (phi.cos() * t.cos()) as f32,
                     (phi.sin() * t.cos()) as f32,
@@ -629,12 +606,12 @@ fn caps4(rng: &mut Rng, pivot: &Pivot) -> ([Vec3; 4], [f32; 4]) {
                 )
                 .normalize()
             }
-            _ => rng.unit32(),
+            _ => rng.unit(),
         };
         sins[l] = match rng.next_u64() % 8 {
             0 => 1.0,
             1 => 0.0,
-            _ => rng.log_range(1e-4, 1.0) as f32,
+            _ => rng.log_range64(1e-4, 1.0) as f32,
         };
     }
     (axes, sins)
@@ -699,9 +676,9 @@ fn four_wide_equals_scalar() {
 fn sptd_ggx_four_wide_equals_scalar_and_handles_bad_input() {
     let mut rng = Rng(10);
     for _ in 0..20_000 {
-        let alpha = rng.range(0.0, 1.2) as f32;
-        let n = rng.unit32();
-        let wo = rng.unit32();
+        let alpha = rng.range64(0.0, 1.2) as f32;
+        let n = rng.unit();
+        let wo = rng.unit();
         let g = SptdGgx::oriented(alpha, n, wo);
         let (axes, sins) = caps4(&mut rng, g.pivot());
         let v4 = g
@@ -806,12 +783,12 @@ fn whole_hemisphere_reproduces_the_directional_albedo() {
     let mut rng = Rng(11);
     for i in 0..40 {
         // Off the grid, to include the bilinear filtering.
-        let u = rng.range(0.08, 1.0);
+        let u = rng.range64(0.08, 1.0);
         let alpha = (u * u) as f32;
         let theta = if i == 0 {
             0.0
         } else {
-            rng.range(0.0, 85f64.to_radians())
+            rng.range64(0.0, 85f64.to_radians())
         };
         let cos_o = theta.cos() as f32;
         let g = SptdGgx::new(alpha, cos_o);

@@ -18,7 +18,7 @@ use crate::scene::{Geometry, RenderScene};
 use glam::Vec3;
 use manylights::Occluder;
 use manylights::{
-    Light, LightCut, LightSample, LightTree, SplitOptions, TlImportance, Vpl, CUT_CAPACITY,
+    Light, LightCut, LightSample, LightTree, SplitCutOptions, TlImportance, Vpl, CUT_CAPACITY,
 };
 use rand::{Rng, SeedableRng};
 use rand_pcg::Pcg64Mcg;
@@ -204,9 +204,9 @@ impl VplTree {
                 (sum / spp as f32, spp)
             }
             TreeSampling::Split => {
-                let opts = SplitOptions {
+                let opts = SplitCutOptions {
                     max_size: spp.clamp(1, CUT_CAPACITY),
-                    ..SplitOptions::default()
+                    ..SplitCutOptions::default()
                 };
                 let cut = LightCut::build_split(tree, &imp, &opts);
                 let n = cut.len();
