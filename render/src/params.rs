@@ -101,6 +101,7 @@ value_enum!(
 
 value_enum!(
     /// A [`LambertMode`] on the command line.
+    #[derive(Default)]
     LambertArg(LambertMode),
     [
         LambertMode::TlOnly,
@@ -112,21 +113,10 @@ value_enum!(
 
 value_enum!(
     /// A [`Heuristic`] on the command line.
+    #[derive(Default)]
     HeuristicArg(Heuristic),
     [Heuristic::Balance, Heuristic::Power]
 );
-
-impl Default for LambertArg {
-    fn default() -> Self {
-        LambertArg(LambertMode::default())
-    }
-}
-
-impl Default for HeuristicArg {
-    fn default() -> Self {
-        HeuristicArg(Heuristic::default())
-    }
-}
 
 #[cfg(test)]
 mod tests {
