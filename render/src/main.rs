@@ -292,7 +292,7 @@ fn main() {
             });
             println!("{}", bench::table(&report));
             if json {
-                println!("{report}");
+                println!("{}", report.to_json());
             }
         }
         Command::SptdFit {

@@ -25,16 +25,18 @@ fn build_only_reports_the_build() {
     assert!(alloc_count::installed());
     for kinds in [SceneKinds::Mixed, SceneKinds::Point] {
         let r = run(&config(kinds, true));
-        assert_eq!(r["kinds"], kinds.name());
-        assert!(r["build_ms"].as_f64().unwrap() > 0.0);
-        let bpl = r["bytes_per_light"].as_f64().unwrap();
-        let peak = r["build_peak_bytes_per_light"].as_f64().unwrap();
+        assert_eq!(r.run.kinds, kinds);
+        assert_eq!(r.to_json()["kinds"], kinds.name());
+        assert!(r.build.build_ms > 0.0);
+        let bpl = f64::from(r.shape.bytes_per_light);
+        let peak = r.build.build_peak_bytes_per_light.unwrap();
         // Everything the build allocates is counted, the finished tree included.
         assert!(peak >= bpl, "{kinds:?}: peak {peak} < tree {bpl}");
         assert!(peak < 1000.0, "{kinds:?}: peak {peak}");
-        assert!(r["baseline_build_peak_bytes_per_light"].as_f64().unwrap() > 0.0);
-        assert!(r["nodes"].as_u64().unwrap() > 0 && r["depth"].as_u64().unwrap() > 0);
-        assert!(r.get("tl_msamples_per_s").is_none());
+        assert!(r.build.baseline_build_peak_bytes_per_light.unwrap() > 0.0);
+        assert!(r.shape.nodes > 0 && r.shape.depth > 0);
+        assert!(r.sampling.is_none());
+        assert!(r.to_json().get("tl_msamples_per_s").is_none());
         let t = table(&r);
         assert!(
             t.contains("build peak heap") && !t.contains("Msamples"),
@@ -48,9 +50,10 @@ fn full_report_has_build_and_sampling() {
     let mut cfg = config(SceneKinds::Point, false);
     cfg.repeats = 1;
     let r = run(&cfg);
-    assert!(r["build_peak_bytes_per_light"].as_f64().is_some());
-    assert!(r["tl_msamples_per_s"].as_f64().unwrap() > 0.0);
-    assert!(r["pmf_max_rel_err"].as_f64().unwrap() < 1e-3);
+    assert!(r.build.build_peak_bytes_per_light.is_some());
+    let s = r.sampling.expect("a full run samples");
+    assert!(s.single.tl_msamples_per_s > 0.0);
+    assert!(s.exactness.pmf_max_rel_err < 1e-3);
 }
 
 #[test]
