@@ -442,7 +442,7 @@ impl fmt::Display for DirectError {
 
 impl core::error::Error for DirectError {}
 
-/// A field of a [`ShadingPoint`].
+/// A field of a [`crate::ShadingPoint`].
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum ShadingField {
     /// `position`.

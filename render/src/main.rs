@@ -86,7 +86,7 @@ enum Command {
     Estimator(manylights_render::instruments::estimator::EstimatorArgs),
     /// Instant radiosity for the indirect diffuse light, plain and with probabilistic VPL
     /// acceptance (Georgiev & Slusallek 2010), gathered from all VPLs or through a light tree,
-    /// against a cached converged reference: images under out/vpl/<scene>/, a table.
+    /// against a cached converged reference: images under out/vpl/SCENE/, a table.
     Vpl(manylights_render::instruments::vpl::VplArgs),
     /// Render a built-in scene (direct illumination) with one technique to a PNG, or to a
     /// linear OpenEXR file when the output name ends in .exr.

@@ -8,7 +8,7 @@
 //! inside it), θ' and the distance clamp are those of the TL importance. The cap integral
 //! `SC = ∫_{Ω_C ∩ H} f cos θi dωi` is exact for the Lambert lobe (the horizon-clipped form factor)
 //! and approximated by an SPTD for the GGX lobe; plastic is the weighted sum. SC also drives the
-//! light cut ([`crate::LightCut::build`]): a cluster is split when SC > δ.
+//! light cut ([`crate::LightCut::build_bl`]): a cluster is split when SC > δ.
 //!
 //! **Staying unbiased.** The SPTD can round a tiny or grazing cap's integral to 0 while a light in
 //! it still contributes. So every BL importance carries a defensive share of the TL importance:

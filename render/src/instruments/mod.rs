@@ -1,7 +1,7 @@
 //! The project's instruments: each measures the core on its own terms and reports a table and,
 //! with `--json`, one JSON object on the last line of stdout.
 //!
-//! - [`bench`]: sampling throughput, tree size and build time (`mlrender bench`);
+//! - [`bench`](mod@bench): sampling throughput, tree size and build time (`mlrender bench`);
 //! - [`compare`]: every technique on a scene at equal spp and equal time against a reference
 //!   (`mlrender compare`, `mlrender reference`);
 //! - [`estimator`]: unbiasedness, variance and cost per estimate against exact values
