@@ -1026,7 +1026,8 @@ ml_status ml_cut_ib(const struct ml_cut *cut, float *out);
 
 /**
  * The largest normalised variance over the clusters of a split cut (Conty & Kulla's
- * splitting criterion, `ρ · (I_C / I_total)²`, of the clusters that were not split).
+ * splitting criterion `ρ · (I_C / I_total)²` of the clusters it kept; +∞ where the shading
+ * point is inside a cluster that could not be split).
  *
  * Errors: `ML_ERR_NULL` (`cut`, `out`); `ML_ERR_STATE` (never built, or built by
  * `ml_cut_build_bl`: see `ml_cut_ib`).

@@ -234,6 +234,25 @@ pub extern "C" fn ml_cut_size(cut: *const ml_cut, out: *mut usize) -> ml_status 
     })
 }
 
+/// `max_score()` of a cut built by `ml_cut_build_bl` (`bl`) or by `ml_cut_build_split`.
+fn score(cut: *const ml_cut, out: *mut f32, bl: bool) -> Result<()> {
+    let cut = arg::get(cut, "cut")?;
+    let out = arg::out(out, "out")?;
+    let (_, c, imp) = cut.built()?;
+    match (imp, bl) {
+        (CutImportance::Bl(_), true) | (CutImportance::Tl(_), false) => {
+            out.write(c.max_score());
+            Ok(())
+        }
+        (_, true) => Err(Error::state(
+            "cut: IB(x) is of a BRDF-oriented cut (built by ml_cut_build_bl); this one is a split cut (ml_cut_max_variance)",
+        )),
+        (_, false) => Err(Error::state(
+            "cut: the normalised variance is of a split cut (built by ml_cut_build_split); this one is BRDF-oriented (ml_cut_ib)",
+        )),
+    }
+}
+
 /// IB(x) of a BRDF-oriented cut: the largest BRDF integral over its clusters (Liu et al.
 /// 2019, section 4.2), what the BRDF-aware sample budget is computed from.
 ///
@@ -241,39 +260,18 @@ pub extern "C" fn ml_cut_size(cut: *const ml_cut, out: *mut usize) -> ml_status 
 /// `ml_cut_build_split`: see `ml_cut_max_variance`).
 #[no_mangle]
 pub extern "C" fn ml_cut_ib(cut: *const ml_cut, out: *mut f32) -> ml_status {
-    ffi_fn!("ml_cut_ib", {
-        let cut = arg::get(cut, "cut")?;
-        let out = arg::out(out, "out")?;
-        let (_, c, imp) = cut.built()?;
-        if !matches!(imp, CutImportance::Bl(_)) {
-            return Err(Error::state(
-                "cut: IB(x) is of a BRDF-oriented cut (built by ml_cut_build_bl); this one is a split cut (ml_cut_max_variance)",
-            ));
-        }
-        out.write(c.max_score());
-        Ok(())
-    })
+    ffi_fn!("ml_cut_ib", { score(cut, out, true) })
 }
 
 /// The largest normalised variance over the clusters of a split cut (Conty & Kulla's
-/// splitting criterion, `ρ · (I_C / I_total)²`, of the clusters that were not split).
+/// splitting criterion `ρ · (I_C / I_total)²` of the clusters it kept; +∞ where the shading
+/// point is inside a cluster that could not be split).
 ///
 /// Errors: `ML_ERR_NULL` (`cut`, `out`); `ML_ERR_STATE` (never built, or built by
 /// `ml_cut_build_bl`: see `ml_cut_ib`).
 #[no_mangle]
 pub extern "C" fn ml_cut_max_variance(cut: *const ml_cut, out: *mut f32) -> ml_status {
-    ffi_fn!("ml_cut_max_variance", {
-        let cut = arg::get(cut, "cut")?;
-        let out = arg::out(out, "out")?;
-        let (_, c, imp) = cut.built()?;
-        if !matches!(imp, CutImportance::Tl(_)) {
-            return Err(Error::state(
-                "cut: the normalised variance is of a split cut (built by ml_cut_build_split); this one is BRDF-oriented (ml_cut_ib)",
-            ));
-        }
-        out.write(c.max_score());
-        Ok(())
-    })
+    ffi_fn!("ml_cut_max_variance", { score(cut, out, false) })
 }
 
 /// Samples one light of the whole cut with `u` in [0, 1): a cluster in proportion to its

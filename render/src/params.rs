@@ -57,17 +57,29 @@ impl ParamArgs {
     }
 }
 
-/// A core enum as a clap value enum: its values are the core's names (`name()`), listed in
-/// the order of its `ALL`.
+/// A core enum as a clap value enum: its values are the core's names (`name()`), in the order
+/// of its `ALL` (`$first` is any value, to fill the array before it is copied).
 macro_rules! value_enum {
-    ($(#[$doc:meta])* $arg:ident($core:ty), [$($value:expr),+ $(,)?]) => {
+    ($(#[$doc:meta])* $arg:ident($core:ty), $all:expr, $first:expr) => {
         $(#[$doc])*
         #[derive(Clone, Copy, Debug, PartialEq, Eq)]
         pub struct $arg(pub $core);
 
+        impl $arg {
+            const ALL: [$arg; $all.len()] = {
+                let mut a = [$arg($first); $all.len()];
+                let mut i = 0;
+                while i < a.len() {
+                    a[i] = $arg($all[i]);
+                    i += 1;
+                }
+                a
+            };
+        }
+
         impl ValueEnum for $arg {
             fn value_variants<'a>() -> &'a [Self] {
-                &[$($arg($value)),+]
+                &Self::ALL
             }
 
             fn to_possible_value(&self) -> Option<PossibleValue> {
@@ -86,83 +98,46 @@ macro_rules! value_enum {
 value_enum!(
     /// A [`Technique`] on the command line (every one, by [`Technique::name`]).
     TechniqueArg(Technique),
-    [
-        Technique::Uniform,
-        Technique::Power,
-        Technique::Tl,
-        Technique::TlSplit,
-        Technique::Bl,
-        Technique::MisEqual,
-        Technique::Full,
-        Technique::TlMis,
-        Technique::BlMis,
-    ]
+    Technique::ALL,
+    Technique::Uniform
 );
 
 value_enum!(
     /// A [`LambertMode`] on the command line.
     #[derive(Default)]
     LambertArg(LambertMode),
-    [
-        LambertMode::TlOnly,
-        LambertMode::TbBudget,
-        LambertMode::TbOne,
-        LambertMode::BlTb,
-    ]
+    LambertMode::ALL,
+    LambertMode::TlOnly
 );
 
 value_enum!(
     /// A [`Heuristic`] on the command line.
     #[derive(Default)]
     HeuristicArg(Heuristic),
-    [Heuristic::Balance, Heuristic::Power]
+    Heuristic::ALL,
+    Heuristic::Power
 );
 
 #[cfg(test)]
 mod tests {
     use super::*;
 
+    /// The command-line names of a value enum's values.
+    fn names<T: ValueEnum>() -> Vec<String> {
+        T::value_variants()
+            .iter()
+            .map(|v| v.to_possible_value().unwrap().get_name().to_string())
+            .collect()
+    }
+
     /// Every value of the core's enums is a command-line value, under its core name.
     #[test]
     fn value_enums_cover_the_core_enums() {
-        let names = |v: &[PossibleValue]| -> Vec<String> {
-            v.iter().map(|p| p.get_name().to_string()).collect()
-        };
-        let values = |all: Vec<Option<PossibleValue>>| -> Vec<PossibleValue> {
-            all.into_iter().map(Option::unwrap).collect()
-        };
-        let t = values(
-            TechniqueArg::value_variants()
-                .iter()
-                .map(|v| v.to_possible_value())
-                .collect(),
-        );
-        let want: Vec<String> = Technique::ALL
-            .iter()
-            .map(|t| t.name().to_string())
-            .collect();
-        assert_eq!(names(&t), want);
-        let l = values(
-            LambertArg::value_variants()
-                .iter()
-                .map(|v| v.to_possible_value())
-                .collect(),
-        );
-        let want: Vec<String> = LambertMode::ALL
-            .iter()
-            .map(|m| m.name().to_string())
-            .collect();
-        assert_eq!(names(&l), want);
-        let h = values(
-            HeuristicArg::value_variants()
-                .iter()
-                .map(|v| v.to_possible_value())
-                .collect(),
-        );
-        let want: Vec<String> = Heuristic::ALL
-            .iter()
-            .map(|m| m.name().to_string())
-            .collect();
-        assert_eq!(names(&h), want);
+        let want: Vec<String> = Technique::ALL.iter().map(|t| t.name().into()).collect();
+        assert_eq!(names::<TechniqueArg>(), want);
+        let want: Vec<String> = LambertMode::ALL.iter().map(|m| m.name().into()).collect();
+        assert_eq!(names::<LambertArg>(), want);
+        let want: Vec<String> = Heuristic::ALL.iter().map(|h| h.name().into()).collect();
+        assert_eq!(names::<HeuristicArg>(), want);
     }
 }
