@@ -291,7 +291,7 @@ impl Drop for Harness<'_> {
     }
 }
 
-/// Runs the operations with the checks of the module's documentation.
+/// Runs the operations with the checks of [the `ffi` module's documentation](crate::ffi).
 pub fn check(input: &Input) {
     let mut h = Harness {
         input,
