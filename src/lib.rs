@@ -40,6 +40,11 @@
 
 extern crate alloc;
 
+/// The README, whose Rust example `cargo test --doc` compiles and runs.
+#[cfg(doctest)]
+#[doc = include_str!("../README.md")]
+pub struct ReadmeDoctests;
+
 pub mod baseline;
 pub mod bounds;
 pub mod brdf;
