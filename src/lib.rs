@@ -38,12 +38,12 @@
 #![forbid(unsafe_code)]
 #![deny(missing_docs)]
 
-extern crate alloc;
-
 /// The README, whose Rust example `cargo test --doc` compiles and runs.
 #[cfg(doctest)]
 #[doc = include_str!("../README.md")]
 pub struct ReadmeDoctests;
+
+extern crate alloc;
 
 pub mod baseline;
 pub mod bounds;
