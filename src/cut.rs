@@ -2,6 +2,11 @@
 //! contribute at a shading point. Fixed capacity ([`CUT_CAPACITY`]), no allocation: a cut is
 //! caller-owned per-thread state, rebuilt per shading point.
 //!
+//! Of [`LightTree`]'s API this file holds [`LightTree::sample_cluster`]: a light sampled under
+//! one cluster, with its pmf relative to the cluster (what the cuts' sampling is built on); the
+//! rest of the tree's API is in [`crate::tree`], [`crate::build`], [`crate::sample`] and
+//! [`crate::trace`].
+//!
 //! Two ways to build one:
 //! - **Split sampling** (Conty & Kulla, "Predicted variance"; docs/formulas.md, section 5):
 //!   [`LightCut::build_split`] opens a cluster while the variance its single sample would add is

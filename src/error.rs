@@ -148,7 +148,7 @@ pub enum FormatError {
     BadHeader,
     /// Bytes left over after the arrays the header announces.
     TrailingBytes,
-    /// A manylights tree of another format version (version 1 stored 128-byte nodes).
+    /// A manylights tree of another format version than the one this build reads.
     UnsupportedVersion {
         /// The version the bytes carry.
         found: u8,

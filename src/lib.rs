@@ -38,6 +38,11 @@
 #![forbid(unsafe_code)]
 #![deny(missing_docs)]
 
+/// The README, whose Rust example `cargo test --doc` compiles and runs.
+#[cfg(doctest)]
+#[doc = include_str!("../README.md")]
+pub struct ReadmeDoctests;
+
 extern crate alloc;
 
 /// The binary light tree the 4-wide tree is measured against (the benches' and instruments'

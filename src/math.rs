@@ -32,7 +32,7 @@ pub fn sqrt64(x: f64) -> f64 {
 
 /// Whether an f32 squared length `l2` is safe to normalise by in f32: far from overflow and
 /// from the subnormal range, so that `v / sqrt(l2)` is accurate. Outside it (components above
-/// about 1e15 or below about 1e-15) use [`unit`].
+/// about 1e15 or below about 1e-15) use [`unit()`].
 #[inline(always)]
 pub fn len2_is_safe(l2: f32) -> bool {
     (1e-30..=1e30).contains(&l2)

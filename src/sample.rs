@@ -1,6 +1,13 @@
 //! Sampling a light by tree descent with one warped uniform number, and the exact pmf of any
 //! light (the forum post that introduced light-tree sampling; docs/formulas.md, section 12).
 //!
+//! This file holds the sampling part of [`LightTree`]'s API: [`LightTree::sample`] and
+//! [`LightTree::pmf`] at one shading point, [`LightTree::sample_batch`] and
+//! [`LightTree::pmf_batch`] over many, and the crate's descents from any node that the cuts
+//! share. The tree's layout and accessors are in [`crate::tree`], its build in
+//! [`crate::build`], sampling inside one cluster ([`LightTree::sample_cluster`]) in
+//! [`crate::cut`] and ray queries in [`crate::trace`].
+//!
 //! At a node the four slot importances `I_k` are computed at once; slot k is chosen with
 //! probability `I_k / ΣI`, the pmf is multiplied by that ratio and `u` is rescaled into the
 //! chosen interval. [`LightTree::pmf`] recomputes the same ratios along the light's stored
@@ -200,8 +207,8 @@ pub(crate) fn pick(w: f32x4, sum: f32, u: f32) -> (usize, f32, f32) {
 /// Loads the first word of each inner child of `node` (consecutive nodes, so consecutive
 /// cache lines), so that the memory latency of the next level overlaps the evaluation of
 /// `node` (the core has no `unsafe`, so no prefetch intrinsic). Returns a value to be fed to
-/// `black_box`. Measured: a single descent at 10⁵ lights is about 1.3× faster with it;
-/// touching the leaf-array entry as well gains nothing measurable.
+/// `black_box`. What it gains is in docs/measurements.md ("Batch widths and the next level's
+/// loads").
 #[inline(always)]
 fn touch(tree: &LightTree, node: &Node4) -> u32 {
     let base = node.child_base as usize;
@@ -271,35 +278,30 @@ pub(crate) struct WalkStart {
     pub floor: f32,
 }
 
-/// Descents [`LightTree::sample_batch`] keeps in flight. Measured with 256 shading points per
-/// call against single calls, three runs on a shared 2-core machine: at 10⁶ lights (a tree in
-/// DRAM) 16 in flight gave 1.47–2.03× (12: 1.48–1.55×, 8: 1.36–1.48×, 4: 1.17–1.30×); at 10⁵
-/// lights (a tree in the last-level cache) every width from 4 to 16 gave 1.0–1.25×, within the
-/// noise of one another. More in flight only adds state: 16 hides the most latency where
-/// there is latency to hide.
+/// Descents [`LightTree::sample_batch`] keeps in flight: the loads of that many descents'
+/// next levels are issued back to back, so their memory latencies overlap. The results do not
+/// depend on it (each lane returns what [`LightTree::sample`] returns); the width was chosen
+/// by measurement (docs/measurements.md, "Batch widths and the next level's loads").
 pub const BATCH_LANES: usize = 16;
 
 /// The pmf walks [`LightTree::pmf_batch`] keeps in flight in a tree whose nodes fit in a
 /// last-level cache (below [`PMF_WIDE_NODES`]). A walk's next node depends on the node it
 /// reads and its path alone, not on the importances, so the core already runs ahead from
 /// level to level of one walk; with the nodes in cache more walks in flight mostly add their
-/// bookkeeping. Measured (best of alternating runs, 256 queries per call): at 10⁵ lights 4 in
-/// flight gave 3.25–3.65 M queries/s against 2.17–2.83 with 16 on one machine, 2.3–3.1
-/// against 1.9–2.3 on another. Reading each chunk's paths ahead of its walks, back to back,
-/// gained nothing measurable.
+/// bookkeeping. The results do not depend on it (each lane returns what [`LightTree::pmf`]
+/// returns); the widths were chosen by measurement (docs/measurements.md, "The chain of a
+/// 4-wide level").
 const PMF_BATCH_LANES: usize = 4;
 
 /// The pmf walks [`LightTree::pmf_batch`] keeps in flight in a tree of at least
 /// [`PMF_WIDE_NODES`] nodes, whose levels come from DRAM: there a walk waits on a miss per
-/// level, and more of them in flight overlap more misses. Measured at 10⁶ lights (385,000
-/// nodes, 24 MB) in five alternating rounds, each the best of three runs: 16 in flight
-/// 1.43–2.14 M queries/s (median 2.04), 8 1.38–2.14 (1.85), 4 1.31–1.79 (1.61).
+/// level, and more of them in flight overlap more misses (the same bits as
+/// [`PMF_BATCH_LANES`]; measured in docs/measurements.md, "The chain of a 4-wide level").
 const PMF_BATCH_LANES_WIDE: usize = 16;
 
 /// The node count from which [`LightTree::pmf_batch`] keeps [`PMF_BATCH_LANES_WIDE`] walks in
-/// flight: 2¹⁷ nodes of 64 bytes, 8 MiB, more than a core's share of most last-level caches
-/// (10⁵ bench lights make 39,000 nodes, 10⁶ make 385,000). Both widths return the same bits;
-/// only the speed depends on the choice.
+/// flight: 2¹⁷ nodes of 64 bytes, 8 MiB, more than a core's share of most last-level caches.
+/// Both widths return the same bits; only the speed depends on the choice.
 const PMF_WIDE_NODES: usize = 1 << 17;
 
 impl LightTree {

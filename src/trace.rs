@@ -1,6 +1,9 @@
 //! Which lights a ray reaches: [`LightTree::trace`] walks the tree's bounding spheres four
 //! slots at a time and intersects the lights whose spheres the ray may reach.
 //!
+//! Of [`LightTree`]'s API this file holds [`LightTree::trace`] alone; the rest is in
+//! [`crate::tree`], [`crate::build`], [`crate::sample`] and [`crate::cut`].
+//!
 //! BRDF sampling needs this: a direction drawn from the BRDF lands on the lights in front of
 //! the first surface, each with its own point and density ([`crate::light_sample::intersect`]).
 //! Lights do not block each other.

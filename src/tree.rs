@@ -1,6 +1,14 @@
 //! The light tree as flat, `bytemuck::Pod` arrays: [`Node4`] (four child clusters quantised
 //! into one 64-byte cache line), the lights of the leaf slots in tree order, and per-light
 //! paths, both bit-packed; its self-check ([`LightTree::validate`]) and its byte serialisation.
+//!
+//! This file holds the [`LightTree`] type and the part of its API that reads the finished
+//! tree: the accessors ([`LightTree::nodes`], [`LightTree::slot`], [`LightTree::path`],
+//! [`LightTree::stats`], …), the checks ([`LightTree::validate`],
+//! [`LightTree::validate_lights`]) and the byte form ([`LightTree::as_bytes`],
+//! [`LightTree::from_bytes`]). The rest of its API is spread over [`crate::build`] (building),
+//! [`crate::sample`] (sampling and pmfs), [`crate::cut`] (sampling inside one cluster,
+//! [`LightTree::sample_cluster`]) and [`crate::trace`] (the lights a ray reaches).
 
 use crate::bounds::{Cone, Sphere};
 use crate::error::{FormatError, ValidationError};
@@ -303,8 +311,9 @@ pub(crate) fn path_len(path: u64) -> u32 {
     }
 }
 
-/// Format version 3: 64-byte quantised nodes, a leaf array and paths bit-packed into 64-bit
-/// words (version 2 stored 32-bit leaf entries and 32- or 64-bit paths).
+/// The byte format's version, the only one [`LightTree::from_bytes`] reads: 64-byte quantised
+/// nodes, a leaf array and paths bit-packed into 64-bit words (laid out on
+/// [`LightTree::as_bytes`]).
 const VERSION: u8 = 3;
 const MAGIC: [u8; 7] = *b"MLTREE\x00";
 const HEADER: usize = 40;

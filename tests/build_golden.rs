@@ -3,13 +3,10 @@
 //! of the finished 4-wide tree's contents (nodes, node variances, each light slot's light and
 //! each light's path, read through the public accessors, so independent of how they are
 //! stored) built with the default options and with `compact`, and of the default tree's byte
-//! form ([`manylights::LightTree::as_bytes`]). The binary hashes are the ones recorded with the
-//! build of commit 7760e2d, before the build's memory layout and speed work; the content
-//! hashes were recorded with commit deaeef8 (whose 4-wide trees are those of 033bbe1 bit for
-//! bit: 64-byte quantised nodes, the collapse with free-form packing), before the leaf array
-//! and paths were bit-packed; the byte hashes are of format version 3. A change to a split, a
-//! bound, a slot or a code shows here; one that is meant must record new hashes (run with
-//! `GOLDEN_PRINT=1` and `--nocapture`).
+//! form ([`manylights::LightTree::as_bytes`]), which alone changes with the byte format. A
+//! change to a split, a bound, a slot or a code shows here; one that is meant must record new
+//! hashes: run `GOLDEN_PRINT=1 cargo test --test build_golden -- --nocapture` and paste the
+//! printed rows over `RECORDED`.
 
 mod golden;
 

@@ -1,5 +1,9 @@
 //! Building a [`LightTree`]: validate the lights, bound them, build a binary tree with the
 //! binned SAOH (module `saoh`), collapse it to 4-wide nodes (module `collapse`).
+//!
+//! This module holds the constructors of [`LightTree`]'s API: [`LightTree::build`] and
+//! [`LightTree::build_with`] (with [`BuildOptions`]). A tree can also be read back from bytes
+//! ([`LightTree::from_bytes`], in [`crate::tree`], which holds the layout and accessors).
 
 pub(crate) mod collapse;
 pub(crate) mod saoh;
@@ -15,10 +19,9 @@ use saoh::{BinNode, BinTree};
 pub struct BuildOptions {
     /// SAOH buckets per axis, clamped to 12..=64.
     pub buckets: usize,
-    /// Pack subtrees of at most 16 lights free-form so that their nodes are full: about 8 %
-    /// less memory (30.9 instead of 33.6 bytes per light on the `mlrender bench` scene of
-    /// 10⁵ lights) for about 10 % more variance (it mixes lights across the SAOH's clusters;
-    /// docs/measurements.md). Off by default.
+    /// Pack subtrees of at most 16 lights free-form so that their nodes are full: fewer nodes,
+    /// so less memory, for more variance (it mixes lights across the SAOH's clusters; both
+    /// are measured in docs/measurements.md). Off by default.
     pub compact: bool,
 }
 

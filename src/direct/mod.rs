@@ -160,7 +160,7 @@ impl Technique {
 
     /// The technique a renderer should use when it has no reason to choose another: `bl-mis`,
     /// one sample of the BRDF-oriented cut and one BSDF sample (see the module documentation;
-    /// the README has the measurements it was chosen from).
+    /// docs/measurements.md has the measurements it was chosen from).
     pub const DEFAULT: Technique = Technique::BlMis;
 
     /// The technique of a name (as [`Technique::name`] gives it).
@@ -203,8 +203,8 @@ impl fmt::Display for Technique {
 /// For a constant BRDF the BRDF-oriented importance is the TL one with exact cap integrals
 /// (Liu et al. 2019, end of section 4.2), so BL adds nothing and only TL and TB remain. Next to
 /// a small sphere light a few radii from a wall TL samples the light's cap uniformly and is
-/// nearly exact, and a cosine-distributed BRDF sample only adds variance and a ray; the README
-/// has the measurements behind the default.
+/// nearly exact, and a cosine-distributed BRDF sample only adds variance and a ray;
+/// docs/measurements.md has the measurements behind the default.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Default)]
 pub enum LambertMode {
     /// TL split alone (the default): the Lambert share of IB(x) asks for no BRDF-aware

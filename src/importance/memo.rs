@@ -9,8 +9,7 @@
 //! The table is a [`MemoTable`] the caller keeps (one per thread) and lends to one [`Memo`]
 //! per shading point. Starting a `Memo` does not clear the table: each `Memo` takes a new
 //! generation number, and a slot counts only if it was written in the current generation, so
-//! the set-up costs one increment instead of rewriting 24 KB (which cost more than the memo
-//! saved at 8 samples per point). A node is recognised by its index in the `Memo`'s tree;
+//! the set-up costs one increment instead of rewriting the table's 24 KB. A node is recognised by its index in the `Memo`'s tree;
 //! nodes of other trees are evaluated without the table. Neither type is `Sync` (the table is
 //! in `Cell`s).
 
