@@ -47,6 +47,7 @@ pub mod baseline;
 pub mod bounds;
 pub mod brdf;
 pub mod build;
+pub mod checksum;
 pub mod cut;
 pub mod direct;
 pub mod error;
@@ -70,8 +71,8 @@ pub use build::BuildOptions;
 pub use cut::{BlCutOptions, Cluster, LightCut, SplitCutOptions, CUT_CAPACITY};
 pub use direct::{Estimator, LightSampler, Occluder, Params, Technique, Uniforms};
 pub use error::{
-    BuildError, DirectError, FormatError, LengthMismatch, LightField, Problem, ShadingError,
-    ShadingField, ValidationError, VplError, VplField,
+    BuildError, DirectError, FormatError, LengthMismatch, LightField, LightMismatch, Problem,
+    ShadingError, ShadingField, ValidationError, VplError, VplField,
 };
 pub use importance::conty_kulla::Receiver;
 pub use importance::{BlImportance, Importance, Memo, MemoTable, TlImportance};
