@@ -84,10 +84,7 @@ impl Problem {
 fn light_problem(field: LightField, problem: Problem) -> &'static str {
     match (field, problem) {
         (
-            LightField::Position
-            | LightField::Center
-            | LightField::Vertex(_)
-            | LightField::Radius,
+            LightField::Position | LightField::Center | LightField::Vertex(_) | LightField::Radius,
             Problem::OutOfRange,
         ) => "exceeds MAX_COORDINATE (1e15) in magnitude",
         (LightField::HalfAngle, Problem::OutOfRange) => "must be in (0, π]",

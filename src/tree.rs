@@ -318,9 +318,12 @@ pub const HEADER_BYTES: usize = 24;
 /// mark (4).
 const COUNTS: usize = 32;
 
-/// The bytes of a tree: the header (magic, [`FORMAT_VERSION`], the payload's length, its
-/// CRC-64/XZ) and `payload`.
-fn seal(payload: &[u8]) -> Vec<u8> {
+/// The byte form of a payload: the header (magic, [`FORMAT_VERSION`], the payload's length, its
+/// CRC-64/XZ) followed by `payload`, as [`LightTree::as_bytes`] writes it. For tools that
+/// write payloads of their own (a fuzzer that reaches the parser behind the checksum, a
+/// test of the structural checks); [`LightTree::from_bytes`] still validates the payload
+/// fully.
+pub fn seal(payload: &[u8]) -> Vec<u8> {
     let mut out = Vec::with_capacity(HEADER_BYTES + payload.len());
     out.extend_from_slice(&MAGIC);
     out.push(FORMAT_VERSION);

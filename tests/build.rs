@@ -882,7 +882,10 @@ fn truncated_extended_and_bad_header_bytes_are_rejected() {
             let mut bad = bytes.clone();
             bad[24 + offset..24 + offset + 8].copy_from_slice(&value.to_le_bytes());
             assert!(
-                matches!(LightTree::from_bytes(&bad), Err(FormatError::Checksum { .. })),
+                matches!(
+                    LightTree::from_bytes(&bad),
+                    Err(FormatError::Checksum { .. })
+                ),
                 "count {value} at {offset}"
             );
             reseal(&mut bad);

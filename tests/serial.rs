@@ -201,7 +201,10 @@ fn a_tree_loaded_with_its_lights_estimates_bit_for_bit() {
                 sample_point(a, sp.position, uv),
                 sample_point(b, sp.position, uv)
             );
-            assert_eq!(loaded.power().sample(f64::from(u)), set.power().sample(f64::from(u)));
+            assert_eq!(
+                loaded.power().sample(f64::from(u)),
+                set.power().sample(f64::from(u))
+            );
         }
         // Every technique: the same estimates from the same uniform numbers.
         for t in Technique::ALL {
@@ -296,7 +299,13 @@ fn the_wrong_lights_are_rejected_naming_the_first_mismatch() {
     let mut m = lights.clone();
     m[100] = moved(&m[100], Vec3::new(1e-5, 0.0, 0.0));
     let e = lights_error(&bytes, &m);
-    assert_eq!(e, LightMismatch::Changed { first: 64, end: 128 });
+    assert_eq!(
+        e,
+        LightMismatch::Changed {
+            first: 64,
+            end: 128
+        }
+    );
     assert!(e.to_string().contains("lights 64 to 127"), "{e}");
     // The first mismatch is named: a hair's move at 30 comes before a far one at 200.
     m[30] = moved(&m[30], Vec3::new(0.0, 1e-5, 0.0));
