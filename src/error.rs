@@ -80,6 +80,22 @@ impl Problem {
     }
 }
 
+/// A number as messages print it: plainly, or in scientific notation when it is very large
+/// or very small (`5e25` rather than 26 digits).
+#[derive(Clone, Copy, Debug)]
+pub struct Num(pub f32);
+
+impl fmt::Display for Num {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        let v = self.0;
+        if v != 0.0 && v.is_finite() && !(1e-4..1e9).contains(&v.abs()) {
+            write!(f, "{v:e}")
+        } else {
+            write!(f, "{v}")
+        }
+    }
+}
+
 /// What is wrong with a light's field, in words, naming the limit a range refers to.
 fn light_problem(field: LightField, problem: Problem) -> &'static str {
     match (field, problem) {
@@ -132,9 +148,10 @@ impl fmt::Display for BuildError {
                 value,
             } => write!(
                 f,
-                "light {index}: field `{}` {} (got {value})",
+                "light {index}: field `{}` {} (got {})",
                 field.name(),
-                light_problem(field, problem)
+                light_problem(field, problem),
+                Num(value)
             ),
             BuildError::TooManyLights { count } => write!(
                 f,

@@ -65,6 +65,7 @@ pub mod sample;
 pub mod trace;
 pub mod tree;
 pub mod vpl;
+pub mod wavefront;
 
 pub use brdf::{Brdf, Frame, Ggx, Lambert};
 pub use build::BuildOptions;

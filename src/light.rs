@@ -26,7 +26,9 @@ pub const MAX_LIGHT_ENERGY: f32 = 1e24;
 /// Largest accepted sum of all lights' energies.
 pub const MAX_TOTAL_ENERGY: f32 = 1e26;
 
-/// One light. Powers are radiometric: `intensity` in W/sr, `radiance` in W/(m²·sr).
+/// One light. Powers are radiometric: `intensity` in W/sr, `radiance` in W/(m²·sr) (lengths
+/// in the scene's unit, m say); [`Light::energy`] is the flux in W (the crate documentation's
+/// "Units and limits" has the table).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum Light {
     /// Isotropic point light.
@@ -36,7 +38,10 @@ pub enum Light {
         /// Radiant intensity.
         intensity: f32,
     },
-    /// Spot light: intensity `intensity` inside `falloff_start`, falling to 0 at `half_angle`.
+    /// Spot light: intensity `intensity` inside `falloff_start`, falling to 0 at `half_angle`:
+    /// towards angle θ from the axis it sends `intensity · s(θ)`, with s = 1 for θ ≤ θf, 0 for
+    /// θ ≥ θs, and between them the smoothstep in cos θ, s = 3t² − 2t³ with t = (cos θ −
+    /// cos θs)/(cos θf − cos θs) (pbrt-v4's spot light; a hard edge when θf = θs).
     Spot {
         /// Position.
         position: Vec3,

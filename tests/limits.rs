@@ -44,7 +44,7 @@ fn limits_are_named_with_their_value_and_the_fields_own_value() {
         msg.contains("`intensity`") && msg.contains("MAX_LIGHT_ENERGY (1e24)"),
         "{msg}"
     );
-    assert!(msg.contains(&format!("(got {intensity})")), "{msg}");
+    assert!(msg.contains(&format!("(got {intensity:e})")), "{msg}");
     assert_eq!(MAX_LIGHT_ENERGY, 1e24);
     // An area light names its radiance.
     let e = LightTree::build(&[Light::Sphere {

@@ -24,7 +24,7 @@ pub const ML_NO_CLUSTER: u32 = u32::MAX;
 pub struct ml_bl_cut_options {
     /// Split a cluster whose BRDF integral over its cap exceeds δ (finite, ≥ 0; default 0.5).
     pub delta: f32,
-    /// Most clusters, in [4, 64] (default 32).
+    /// Most clusters, in [`ML_MIN_CUT_SIZE`, `ML_CUT_CAPACITY`] = [4, 64] (default 32).
     pub max_size: usize,
 }
 
@@ -35,7 +35,7 @@ pub struct ml_split_cut_options {
     /// Split while the cluster's share of the variance exceeds this (finite, ≥ 0; default
     /// 1e-3).
     pub threshold: f32,
-    /// Most clusters, in [4, 64] (default 32).
+    /// Most clusters, in [`ML_MIN_CUT_SIZE`, `ML_CUT_CAPACITY`] = [4, 64] (default 32).
     pub max_size: usize,
 }
 
@@ -67,11 +67,11 @@ impl ml_cut {
 }
 
 fn max_size(v: usize, name: &str) -> Result<usize> {
-    if (4..=ML_CUT_CAPACITY).contains(&v) {
+    if (crate::limits::ML_MIN_CUT_SIZE..=ML_CUT_CAPACITY).contains(&v) {
         Ok(v)
     } else {
         Err(Error::invalid(format_args!(
-            "{name} must be in [4, 64] (got {v})"
+            "{name} must be in [4, 64], ML_MIN_CUT_SIZE to ML_CUT_CAPACITY (got {v})"
         )))
     }
 }
