@@ -198,9 +198,12 @@ fn light_bytes(light: &Light, out: &mut [u8; 64]) -> usize {
     n
 }
 
-/// The CRC-64/XZ of the canonical bytes ([`light_bytes`]) of each block of [`LIGHT_BLOCK`]
-/// consecutive lights (the last block may be shorter): what the tree's bytes store to tell
-/// whether the lights a tree is loaded with are the ones it was built from.
+/// The CRC-64/XZ of the canonical bytes of each block of [`LIGHT_BLOCK`] consecutive lights
+/// (the last block may be shorter): what the tree's bytes store to tell whether the lights a
+/// tree is loaded with are the ones it was built from. A light's canonical bytes: a kind byte
+/// (0 point, 1 spot, 2 sphere, 3 disk, 4 triangle, 5 VPL), then every field in declaration
+/// order, each `f32` as its little-endian bits (so `-0.0` and `0.0` differ), each `bool` as one
+/// byte.
 pub fn light_checks(lights: &[Light]) -> alloc::vec::Vec<u64> {
     lights
         .chunks(LIGHT_BLOCK)

@@ -518,8 +518,8 @@ typedef struct ml_tl_point {
 
 /**
  * A sampled light: its index in the array the tree was built from and the probability of
- * the choice (finite, in [2⁻¹²⁶, 1]); `light = ML_NO_LIGHT` and `pmf = 0` when no light can
- * contribute.
+ * the choice (finite, in [`ML_MIN_PMF`, 1]); `light = ML_NO_LIGHT` and `pmf = 0`
+ * (`ML_LIGHT_SAMPLE_NONE`) when no light can contribute.
  */
 typedef struct ml_light_sample {
     /**
@@ -1092,7 +1092,11 @@ ml_status ml_cut_build_bl(struct ml_cut *cut,
 /**
  * Builds the split-sampling cut of `tree` at `point` (Conty & Kulla: a cluster is split while
  * its share of the variance is large, and always when the point is inside it), with
- * `options` (NULL: defaults). The cut is unchanged on error.
+ * `options` (NULL: defaults). The cut is unchanged on error. Its clusters hold every light
+ * that can contribute at `point`, not every light with `ml_tree_pmf_tl` > 0: below a slot
+ * whose child's slots all have importance 0, the tree's descent falls back to energies and
+ * gives those lights (which cannot contribute: behind the surface, outside their cones) a
+ * TL pmf > 0, while a cut that opens the slot leaves them out (`ML_NO_CLUSTER`, pmf 0).
  *
  * Errors: `ML_ERR_NULL` (`cut`, `tree`, `point`); `ML_ERR_INVALID_ARGUMENT` (a non-finite
  * point, a bad option).
@@ -1159,7 +1163,8 @@ ml_status ml_cut_sample_clusters(const struct ml_cut *cut,
 
 /**
  * The cluster of the cut holding `light` (`ML_NO_CLUSTER` if none) and the light's pmf
- * within it (what `ml_cut_sample_clusters` reports for it; 0 with `ML_NO_CLUSTER`).
+ * within it (what `ml_cut_sample_clusters` reports for it; 0 with `ML_NO_CLUSTER`, which a
+ * host combining TL and split pmfs takes as a density of 0: see `ml_cut_build_split`).
  *
  * Errors: `ML_ERR_NULL` (`cut`, `cluster`, `pmf`); `ML_ERR_INVALID_ARGUMENT` (`light` out of
  * range); `ML_ERR_STATE` (never built).
@@ -1433,7 +1438,8 @@ ml_status ml_tree_sample_tl(const struct ml_tree *tree,
 
 /**
  * The probability that `ml_tree_sample_tl` returns `light` at `point`: exactly the pmf it
- * reports (0 for lights that cannot contribute or have no energy).
+ * reports (0 for lights that cannot contribute or have no energy, and for the lights whose
+ * probability would be below `ML_MIN_PMF`: the one way a light that can contribute has pmf 0).
  *
  * Errors: `ML_ERR_NULL` (`tree`, `point`, `out`); `ML_ERR_INVALID_ARGUMENT` (a non-finite
  * point, `light` out of range).

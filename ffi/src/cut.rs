@@ -193,7 +193,11 @@ pub extern "C" fn ml_cut_build_bl(
 
 /// Builds the split-sampling cut of `tree` at `point` (Conty & Kulla: a cluster is split while
 /// its share of the variance is large, and always when the point is inside it), with
-/// `options` (NULL: defaults). The cut is unchanged on error.
+/// `options` (NULL: defaults). The cut is unchanged on error. Its clusters hold every light
+/// that can contribute at `point`, not every light with `ml_tree_pmf_tl` > 0: below a slot
+/// whose child's slots all have importance 0, the tree's descent falls back to energies and
+/// gives those lights (which cannot contribute: behind the surface, outside their cones) a
+/// TL pmf > 0, while a cut that opens the slot leaves them out (`ML_NO_CLUSTER`, pmf 0).
 ///
 /// Errors: `ML_ERR_NULL` (`cut`, `tree`, `point`); `ML_ERR_INVALID_ARGUMENT` (a non-finite
 /// point, a bad option).
@@ -364,7 +368,8 @@ pub extern "C" fn ml_cut_sample_clusters(
 }
 
 /// The cluster of the cut holding `light` (`ML_NO_CLUSTER` if none) and the light's pmf
-/// within it (what `ml_cut_sample_clusters` reports for it; 0 with `ML_NO_CLUSTER`).
+/// within it (what `ml_cut_sample_clusters` reports for it; 0 with `ML_NO_CLUSTER`, which a
+/// host combining TL and split pmfs takes as a density of 0: see `ml_cut_build_split`).
 ///
 /// Errors: `ML_ERR_NULL` (`cut`, `cluster`, `pmf`); `ML_ERR_INVALID_ARGUMENT` (`light` out of
 /// range); `ML_ERR_STATE` (never built).

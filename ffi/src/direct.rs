@@ -477,10 +477,11 @@ pub extern "C" fn ml_direct_estimate_batch(
         let mut res = vec![0.0f64; total];
         let per = per_point as usize;
         for (j, (sp, r)) in sps.iter().zip(res.chunks_exact_mut(per)).enumerate() {
-            let name = format!("points[{j}]");
-            let mut est = Estimator::new(set, sp, t, &p).map_err(|e| direct_error_at(e, &name))?;
+            let name = || format!("points[{j}]");
+            let mut est =
+                Estimator::new(set, sp, t, &p).map_err(|e| direct_error_at(e, &name()))?;
             for v in r {
-                *v = estimate_with(&mut est, vis, u).map_err(|e| e.within(&name))?;
+                *v = estimate_with(&mut est, vis, u).map_err(|e| e.within(&name()))?;
             }
         }
         for (i, v) in res.into_iter().enumerate() {

@@ -371,7 +371,8 @@ pub extern "C" fn ml_tree_sample_tl(
 }
 
 /// The probability that `ml_tree_sample_tl` returns `light` at `point`: exactly the pmf it
-/// reports (0 for lights that cannot contribute or have no energy).
+/// reports (0 for lights that cannot contribute or have no energy, and for the lights whose
+/// probability would be below `ML_MIN_PMF`: the one way a light that can contribute has pmf 0).
 ///
 /// Errors: `ML_ERR_NULL` (`tree`, `point`, `out`); `ML_ERR_INVALID_ARGUMENT` (a non-finite
 /// point, `light` out of range).
@@ -740,23 +741,25 @@ pub extern "C" fn ml_light_sample_point_batch(
         let u0s = arg::slice(u0s, count, "u0s")?;
         let u1s = arg::slice(u1s, count, "u1s")?;
         let mut out = arg::out_slice(out, count, "out")?;
-        let set = data.set()?;
-        let n = set.len();
-        let mut points = Vec::with_capacity(count);
-        let mut us = Vec::with_capacity(count);
+        let lights = data.set()?.lights();
+        let n = lights.len();
         for j in 0..count {
-            check_light(which[j], n, &format!("lights[{j}]"))?;
-            points.push(finite3(xs[j], &|| format!("xs[{j}]"))?);
-            us.push([
-                unit(u0s[j], &|| format!("u0s[{j}]"))?,
-                unit(u1s[j], &|| format!("u1s[{j}]"))?,
-            ]);
+            let x = xs[j];
+            let fine = (which[j] as usize) < n
+                && (x.x + x.y + x.z).is_finite()
+                && (0.0..1.0).contains(&u0s[j])
+                && (0.0..1.0).contains(&u1s[j]);
+            if !fine {
+                check_light(which[j], n, &format!("lights[{j}]"))?;
+                finite3(x, &|| format!("xs[{j}]"))?;
+                unit(u0s[j], &|| format!("u0s[{j}]"))?;
+                unit(u1s[j], &|| format!("u1s[{j}]"))?;
+            }
         }
-        let mut res = vec![None; count];
-        manylights::wavefront::sample_points(set.lights(), which, &points, &us, &mut res)
-            .map_err(|e| Error::internal(format_args!("batch lengths: {e}")))?;
-        for (j, p) in res.into_iter().enumerate() {
-            out.set(j, p.into());
+        // What `ml_light_sample_point` computes, element by element.
+        for j in 0..count {
+            let l = &lights[which[j] as usize];
+            out.set(j, sample_point(l, xs[j].into(), [u0s[j], u1s[j]]).into());
         }
         Ok(())
     })

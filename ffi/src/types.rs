@@ -237,8 +237,8 @@ pub struct ml_tl_point {
 pub const ML_NO_LIGHT: u32 = u32::MAX;
 
 /// A sampled light: its index in the array the tree was built from and the probability of
-/// the choice (finite, in [2⁻¹²⁶, 1]); `light = ML_NO_LIGHT` and `pmf = 0` when no light can
-/// contribute.
+/// the choice (finite, in [`ML_MIN_PMF`, 1]); `light = ML_NO_LIGHT` and `pmf = 0`
+/// (`ML_LIGHT_SAMPLE_NONE`) when no light can contribute.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct ml_light_sample {
