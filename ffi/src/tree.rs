@@ -85,7 +85,7 @@ pub struct ml_tree_statistics {
     pub sampled_lights: usize,
     /// Tree nodes.
     pub nodes: usize,
-    /// Bytes of the tree's arrays (nodes, node statistics, light paths).
+    /// Bytes of the tree's arrays (nodes, node statistics, light paths, the lights' checksums).
     pub bytes: usize,
     /// Levels of nodes (0 for a tree that samples nothing).
     pub depth: u32,
