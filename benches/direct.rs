@@ -59,5 +59,83 @@ fn direct(c: &mut Criterion) {
     group.finish();
 }
 
-criterion_group!(benches, direct);
+/// The wavefront batches against the single calls they equal bit for bit: the per-point
+/// set-up and one estimate at 1,024 shading points (`bl-mis` and `tl-split`), a loop of
+/// `Estimator::new` and `estimate` against `wavefront::estimate_each`; and 4,096 points on
+/// lights, `sample_point` per triple against `wavefront::sample_points`.
+fn wavefront(c: &mut Criterion) {
+    use manylights::light_sample::sample_point;
+    use manylights::wavefront::{estimate_each, sample_points};
+    let set = LightSet::build(random_scene::lights(100_000, 13)).unwrap();
+    let plastic = Material::Plastic {
+        albedo: 0.5,
+        specular: 0.5,
+        alpha: 0.2,
+    };
+    let sps = random_scene::surface_points(POINTS, 13, plastic);
+    let params = Params::default();
+    let mut group = c.benchmark_group("wavefront");
+    group.sample_size(10);
+    group.throughput(Throughput::Elements(POINTS as u64));
+    for technique in [Technique::BlMis, Technique::TlSplit] {
+        group.bench_function(format!("single calls, {technique}"), |b| {
+            b.iter(|| {
+                let mut u = Lcg(13);
+                let mut acc = 0.0f64;
+                for sp in &sps {
+                    let mut est = Estimator::new(&set, black_box(sp), technique, &params).unwrap();
+                    acc += est.estimate(&Unoccluded, &mut u).unwrap();
+                }
+                acc
+            })
+        });
+        group.bench_function(format!("estimate_each, {technique}"), |b| {
+            let mut out = vec![0.0f64; sps.len()];
+            b.iter(|| {
+                let mut u = Lcg(13);
+                estimate_each(
+                    &set,
+                    black_box(&sps),
+                    1,
+                    technique,
+                    &params,
+                    &Unoccluded,
+                    &mut u,
+                    &mut out,
+                )
+                .unwrap();
+                out.iter().sum::<f64>()
+            })
+        });
+    }
+    let n = 4096;
+    let which: Vec<u32> = (0..n).map(|i| (i * 7919 % 100_000) as u32).collect();
+    let xs: Vec<glam::Vec3> = random_scene::shading_points(n, 9)
+        .iter()
+        .map(|p| p.position)
+        .collect();
+    let raw = random_scene::uniforms(2 * n, 9);
+    let us: Vec<[f32; 2]> = raw.chunks(2).map(|c| [c[0], c[1]]).collect();
+    group.throughput(Throughput::Elements(n as u64));
+    group.bench_function("sample_point per triple", |b| {
+        b.iter(|| {
+            let mut acc = 0.0f32;
+            for j in 0..n {
+                let l = &set.lights()[which[j] as usize];
+                acc += sample_point(l, black_box(xs[j]), us[j]).map_or(0.0, |p| p.pdf);
+            }
+            acc
+        })
+    });
+    group.bench_function("sample_points", |b| {
+        let mut out = vec![None; n];
+        b.iter(|| {
+            sample_points(set.lights(), &which, black_box(&xs), &us, &mut out).unwrap();
+            out.iter().flatten().map(|p| p.pdf).sum::<f32>()
+        })
+    });
+    group.finish();
+}
+
+criterion_group!(benches, direct, wavefront);
 criterion_main!(benches);

@@ -27,6 +27,15 @@
 //! that would overflow `max_size`, in which case it stays a cluster. Clusters whose weight is 0
 //! are left out: by conservativeness no light under them can contribute.
 //!
+//! Coverage: a cut holds every light that can contribute at its point, but not every light
+//! with a TL pmf > 0 there. Below a slot of positive importance whose child's four slots all
+//! have importance 0, the tree's descent falls back to the child's energies (so that the pmfs
+//! still sum to 1), which gives those lights a TL pmf > 0; a cut that opens such a slot
+//! leaves its zero-weight children out. Such lights cannot contribute (they are behind the
+//! surface or outside their emission cones). A host combining TL and split pmfs (in MIS
+//! weights, say) takes [`LightCut::pmf_in`]'s `None` as a density of 0 for those lights, as
+//! the estimators do.
+//!
 //! Vanishing probabilities follow the tree's rule (see [`crate::sample`]): every pmf these
 //! functions report for a returned light is at least [`MIN_PMF`]. Within a cluster
 //! ([`LightCut::sample_in`]) the rule applies to the pmf relative to the cluster. For

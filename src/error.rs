@@ -61,7 +61,9 @@ pub enum Problem {
     /// Outside the documented range (coordinates beyond ±1e15, spot angles outside (0, π],
     /// a uniform number outside [0, 1), a count of 0).
     OutOfRange,
-    /// The light's energy (power) exceeds [`crate::MAX_LIGHT_ENERGY`].
+    /// The light's energy ([`crate::Light::energy`], its flux) exceeds
+    /// [`crate::MAX_LIGHT_ENERGY`] (1e24); the error's value is the field's own (the
+    /// intensity or radiance that sets it).
     EnergyTooLarge,
 }
 
@@ -73,8 +75,37 @@ impl Problem {
             Problem::NotPositive => "must be positive",
             Problem::ZeroLength => "has zero length",
             Problem::OutOfRange => "is out of range",
-            Problem::EnergyTooLarge => "gives an energy above MAX_LIGHT_ENERGY",
+            Problem::EnergyTooLarge => "gives an energy above MAX_LIGHT_ENERGY (1e24)",
         }
+    }
+}
+
+/// A number as messages print it: plainly, or in scientific notation when it is very large
+/// or very small (`5e25` rather than 26 digits).
+#[derive(Clone, Copy, Debug)]
+pub struct Num(pub f32);
+
+impl fmt::Display for Num {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        let v = self.0;
+        if v != 0.0 && v.is_finite() && !(1e-4..1e9).contains(&v.abs()) {
+            write!(f, "{v:e}")
+        } else {
+            write!(f, "{v}")
+        }
+    }
+}
+
+/// What is wrong with a light's field, in words, naming the limit a range refers to.
+fn light_problem(field: LightField, problem: Problem) -> &'static str {
+    match (field, problem) {
+        (
+            LightField::Position | LightField::Center | LightField::Vertex(_) | LightField::Radius,
+            Problem::OutOfRange,
+        ) => "exceeds MAX_COORDINATE (1e15) in magnitude",
+        (LightField::HalfAngle, Problem::OutOfRange) => "must be in (0, π]",
+        (LightField::FalloffStart, Problem::OutOfRange) => "must be in [0, half_angle]",
+        _ => problem.describe(),
     }
 }
 
@@ -93,12 +124,12 @@ pub enum BuildError {
         /// The offending value.
         value: f32,
     },
-    /// More lights than the tree can index (2³¹ − 2).
+    /// More lights than the tree can index ([`crate::tree::MAX_LIGHTS`], 2³¹ − 2).
     TooManyLights {
         /// The number passed.
         count: usize,
     },
-    /// The lights' energies add up beyond [`crate::MAX_TOTAL_ENERGY`].
+    /// The lights' energies add up beyond [`crate::MAX_TOTAL_ENERGY`] (1e26).
     TotalEnergyTooLarge,
     /// The collapsed tree is deeper than the 31 levels a 64-bit path can encode.
     TooDeep {
@@ -117,22 +148,23 @@ impl fmt::Display for BuildError {
                 value,
             } => write!(
                 f,
-                "light {index}: field `{}` {} (got {value})",
+                "light {index}: field `{}` {} (got {})",
                 field.name(),
-                problem.describe()
+                light_problem(field, problem),
+                Num(value)
             ),
-            BuildError::TooManyLights { count } => {
-                write!(f, "{count} lights: at most 2147483646 are supported")
-            }
-            BuildError::TotalEnergyTooLarge => {
-                write!(f, "the lights' total energy exceeds MAX_TOTAL_ENERGY")
-            }
-            BuildError::TooDeep { depth } => {
-                write!(
-                    f,
-                    "tree depth {depth} exceeds the 31 levels a path can encode"
-                )
-            }
+            BuildError::TooManyLights { count } => write!(
+                f,
+                "{count} lights: at most MAX_LIGHTS (2147483646) are supported"
+            ),
+            BuildError::TotalEnergyTooLarge => write!(
+                f,
+                "the lights' total energy exceeds MAX_TOTAL_ENERGY (1e26)"
+            ),
+            BuildError::TooDeep { depth } => write!(
+                f,
+                "tree depth {depth} exceeds MAX_DEPTH (31), the levels a path can encode"
+            ),
         }
     }
 }
@@ -140,7 +172,7 @@ impl fmt::Display for BuildError {
 impl core::error::Error for BuildError {}
 
 /// Why bytes given to [`crate::LightTree::from_bytes`] were rejected.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug, PartialEq)]
 pub enum FormatError {
     /// Shorter than the header or than the arrays the header announces.
     Truncated,
@@ -155,8 +187,19 @@ pub enum FormatError {
         /// The version this build reads.
         supported: u8,
     },
+    /// The payload's CRC-64 is not the one its header stores: the bytes were changed after
+    /// they were written.
+    Checksum {
+        /// The checksum the header stores.
+        stored: u64,
+        /// The checksum of the payload as it is.
+        computed: u64,
+    },
     /// The arrays decode but break an invariant of the tree.
     Invalid(ValidationError),
+    /// The tree is sound but the lights it was loaded with are not the ones it was built
+    /// from.
+    Lights(LightMismatch),
 }
 
 impl fmt::Display for FormatError {
@@ -169,12 +212,87 @@ impl fmt::Display for FormatError {
                 f,
                 "tree bytes are of format version {found}; this build reads version {supported} (rebuild the tree)"
             ),
+            FormatError::Checksum { stored, computed } => write!(
+                f,
+                "tree bytes are corrupt: their checksum is {computed:#018x}, the header says {stored:#018x}"
+            ),
             FormatError::Invalid(e) => write!(f, "tree bytes decode to an invalid tree: {e}"),
+            FormatError::Lights(e) => write!(f, "tree bytes do not match the lights: {e}"),
         }
     }
 }
 
 impl core::error::Error for FormatError {}
+
+/// Why lights are not the ones a tree was built from ([`crate::LightTree::check_lights`]): the
+/// first mismatch, in index order.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum LightMismatch {
+    /// Not as many lights as the tree was built from.
+    Count {
+        /// The number the tree was built from.
+        tree: u32,
+        /// The number given.
+        given: usize,
+    },
+    /// A light that no tree could have been built from (the error names it and its field).
+    Invalid(BuildError),
+    /// A light of positive energy that the tree does not hold, or one of zero energy that it
+    /// holds.
+    Sampled {
+        /// The light.
+        light: u32,
+        /// Whether the tree holds it.
+        in_tree: bool,
+    },
+    /// A light whose exact bounds (sphere, cone, energy) are not inside its leaf slot's.
+    Escapes {
+        /// The light.
+        light: u32,
+    },
+    /// Lights `first..end` each lie inside their slots, but their checksum is not the one the
+    /// tree stores: one of them changed within its slot's bounds, or they were reordered.
+    Changed {
+        /// The first light of the block.
+        first: u32,
+        /// One past its last.
+        end: u32,
+    },
+}
+
+impl fmt::Display for LightMismatch {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match *self {
+            LightMismatch::Count { tree, given } => write!(
+                f,
+                "{given} lights given, the tree was built from {tree}"
+            ),
+            LightMismatch::Invalid(e) => e.fmt(f),
+            LightMismatch::Sampled {
+                light,
+                in_tree: true,
+            } => write!(
+                f,
+                "light {light} has no energy but the tree holds it: not the light the tree was built from"
+            ),
+            LightMismatch::Sampled { light, .. } => write!(
+                f,
+                "light {light} has energy but the tree does not hold it: not the light the tree was built from"
+            ),
+            LightMismatch::Escapes { light } => write!(
+                f,
+                "light {light} lies outside its slot's bounds: not the light the tree was built from (moved, turned, grown or brighter)"
+            ),
+            LightMismatch::Changed { first, end } => write!(
+                f,
+                "lights {first} to {} differ from the ones the tree was built from (their checksum), though each lies inside its slot",
+                end.saturating_sub(1)
+            ),
+        }
+    }
+}
+
+impl core::error::Error for LightMismatch {}
 
 /// An invariant of a [`crate::LightTree`] that does not hold (see
 /// [`crate::LightTree::validate`]).

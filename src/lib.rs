@@ -33,6 +33,50 @@
 //! [`VplAcceptor`]) and sample the accepted ones through a tree like any other lights.
 //!
 //! The crate is `no_std` (it needs `alloc`) and has no `unsafe` code.
+//!
+//! # Units and limits
+//!
+//! Radiometric throughout: lengths in the scene's unit (m below), intensity I in W/sr,
+//! radiance L in W/(m²·sr). A light's energy ([`Light::energy`]) is its flux in W; the tree
+//! ranks clusters by it and [`LightTree::total_energy`] adds it up.
+//!
+//! | light | fields | emission | energy (flux) |
+//! |---|---|---|---|
+//! | [`Light::Point`] | `position` | `intensity` I, every direction | 4πI |
+//! | [`Light::Spot`] | `position`, `direction` (axis), `half_angle` θs ∈ (0, π], `falloff_start` θf ∈ [0, θs] | `intensity` I on the axis, I·smoothstep(cos θs, cos θf, cos θ) off it | 2π(1 − cos θs)·I (a bound of the flux with the falloff) |
+//! | [`Light::Sphere`] | `center`, `radius` | `radiance` L outwards | L·π·4πr² |
+//! | [`Light::Disk`] | `center`, `normal`, `radius`, `two_sided` | `radiance` L on the normal's side (both if two-sided) | L·π·πr² per side |
+//! | [`Light::Triangle`] | `vertices`, `two_sided` | `radiance` L on the side of (v1 − v0) × (v2 − v0) | L·π·area per side |
+//! | [`Light::Vpl`] | `position`, `normal` | `intensity` I·max(0, cos θ) about the normal | πI |
+//!
+//! A point on a light ([`LightPoint`]) carries `radiance`: the radiance arriving at x for area
+//! lights; for point, spot and VPL lights `I · falloff / d²` (W/m²), already divided by the
+//! squared distance, with `pdf` = 1 (the delta's weight).
+//!
+//! Materials ([`Material`]): Lambert f = albedo/π; GGX f = specular · D·G/(4 cos θo cos θi),
+//! the GGX (Trowbridge–Reitz) distribution with roughness α used as given (clamped below at
+//! [`material::MIN_ALPHA`]), height-correlated Smith masking–shadowing, no Fresnel; plastic
+//! their sum. Estimates are of the reflected radiance `∫ f L cos θi dω`, W/(m²·sr).
+//!
+//! VPL acceptance ([`vpl`]): the total luminance Φ̃_total is the sum over the image's P pixels
+//! of each pixel's radiance due to the VPLs, in the units of `f·G·I` (W/(m²·sr), before
+//! exposure or tone mapping); [`VplAcceptor::update`] takes each frame's sum (the running mean
+//! is the estimate); before the first frame, P times the mean over the importons j of
+//! `Σ_i c_ij` over a walk's candidates i (c_ij the radiance candidate i sends through importon
+//! j towards the camera) is a fair one, and 0 accepts every candidate of the first frame.
+//!
+//! What the build accepts (more is an error naming the light, the field and its value): lights
+//! at most [`tree::MAX_LIGHTS`] (2³¹ − 2); coordinates and radii of magnitude at most
+//! [`MAX_COORDINATE`] (1e15); a light's energy at most [`MAX_LIGHT_ENERGY`] (1e24) and their
+//! sum at most [`MAX_TOTAL_ENERGY`] (1e26); a tree at most [`tree::MAX_DEPTH`] (31) levels
+//! deep. A light that emits has a positive energy however small (at least 2⁻¹⁴⁹), so it is
+//! in the tree.
+//!
+//! Probabilities: a sampled light's pmf is at least [`sample::MIN_PMF`] (2⁻¹²⁶). A light that
+//! can contribute at a point has pmf > 0 there except in one case: its probability would be
+//! below `MIN_PMF` (at some node on its path the probability of reaching its slot falls below
+//! it; such slots get weight 0 and their siblings share their probability, so the pmfs still
+//! sum to 1).
 
 #![no_std]
 #![forbid(unsafe_code)]
@@ -52,6 +96,7 @@ pub mod baseline;
 pub mod bounds;
 pub mod brdf;
 pub mod build;
+pub mod checksum;
 pub mod cut;
 pub mod direct;
 pub mod error;
@@ -69,14 +114,15 @@ pub mod sample;
 pub mod trace;
 pub mod tree;
 pub mod vpl;
+pub mod wavefront;
 
 pub use brdf::{Brdf, Frame, Ggx, Lambert};
 pub use build::BuildOptions;
 pub use cut::{BlCutOptions, Cluster, LightCut, SplitCutOptions, CUT_CAPACITY};
 pub use direct::{Estimator, LightSampler, Occluder, Params, Technique, Uniforms};
 pub use error::{
-    BuildError, DirectError, FormatError, LengthMismatch, LightField, Problem, ShadingError,
-    ShadingField, ValidationError, VplError, VplField,
+    BuildError, DirectError, FormatError, LengthMismatch, LightField, LightMismatch, Problem,
+    ShadingError, ShadingField, ValidationError, VplError, VplField,
 };
 pub use importance::conty_kulla::Receiver;
 pub use importance::{BlImportance, Importance, Memo, MemoTable, TlImportance};

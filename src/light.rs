@@ -26,7 +26,9 @@ pub const MAX_LIGHT_ENERGY: f32 = 1e24;
 /// Largest accepted sum of all lights' energies.
 pub const MAX_TOTAL_ENERGY: f32 = 1e26;
 
-/// One light. Powers are radiometric: `intensity` in W/sr, `radiance` in W/(m²·sr).
+/// One light. Powers are radiometric: `intensity` in W/sr, `radiance` in W/(m²·sr) (lengths
+/// in the scene's unit, m say); [`Light::energy`] is the flux in W (the crate documentation's
+/// "Units and limits" has the table).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum Light {
     /// Isotropic point light.
@@ -36,7 +38,10 @@ pub enum Light {
         /// Radiant intensity.
         intensity: f32,
     },
-    /// Spot light: intensity `intensity` inside `falloff_start`, falling to 0 at `half_angle`.
+    /// Spot light: intensity `intensity` inside `falloff_start`, falling to 0 at `half_angle`:
+    /// towards angle θ from the axis it sends `intensity · s(θ)`, with s = 1 for θ ≤ θf, 0 for
+    /// θ ≥ θs, and between them the smoothstep in cos θ, s = 3t² − 2t³ with t = (cos θ −
+    /// cos θs)/(cos θf − cos θs) (pbrt-v4's spot light; a hard edge when θf = θs).
     Spot {
         /// Position.
         position: Vec3,
@@ -225,6 +230,18 @@ fn sphere_around(centre: [f64; 3], points: &[[f64; 3]]) -> Sphere {
     }
 }
 
+/// The f32 of an energy: rounded to the nearest, and at least the smallest positive f32
+/// (2⁻¹⁴⁹) when the energy is positive, so that a light that emits anything is in the tree
+/// (a spot of half-angle 1e-30 has an energy far below f32's range).
+fn energy_f32(e: f64) -> f32 {
+    let f = e as f32;
+    if f == 0.0 && e > 0.0 {
+        f32::from_bits(1)
+    } else {
+        f
+    }
+}
+
 /// Round a non-negative f64 length up to an f32 with a little relative slack.
 pub(crate) fn outward(r: f64) -> f32 {
     let r = r * (1.0 + 1e-6);
@@ -338,15 +355,18 @@ impl Light {
         }
         let e = self.energy_f64();
         if e > f64::from(MAX_LIGHT_ENERGY) {
-            let field = match self {
-                Light::Point { .. } | Light::Spot { .. } | Light::Vpl { .. } => {
-                    LightField::Intensity
-                }
-                _ => LightField::Radiance,
+            // The error names the field that sets the power, with its own value.
+            let (field, value) = match *self {
+                Light::Point { intensity, .. }
+                | Light::Spot { intensity, .. }
+                | Light::Vpl { intensity, .. } => (LightField::Intensity, intensity),
+                Light::Sphere { radiance, .. }
+                | Light::Disk { radiance, .. }
+                | Light::Triangle { radiance, .. } => (LightField::Radiance, radiance),
             };
-            return Err(invalid(index, field, Problem::EnergyTooLarge, e as f32));
+            return Err(invalid(index, field, Problem::EnergyTooLarge, value));
         }
-        Ok(e as f32)
+        Ok(energy_f32(e))
     }
 
     /// Emitting area (0 for point, spot and virtual point lights).
@@ -399,10 +419,13 @@ impl Light {
     /// Emitted power (docs/formulas.md, section 1; Conty & Kulla, "Orientation bounds"): 4πI
     /// for points, 2π(1 − cos θs)·I for spots (an upper bound of the flux with falloff;
     /// `1 − cos θs` is computed without cancellation, so a narrow cone keeps its energy), πI
-    /// for virtual point lights, L·π·A per emitting side for area lights.
-    /// Valid only for a light that passed [`Light::validate`].
+    /// for virtual point lights, L·π·A per emitting side for area lights, in W when
+    /// intensity is in W/sr and radiance in W/(m²·sr). Computed in f64 and rounded to the
+    /// nearest f32, but never to 0 for a light that emits: a positive energy below f32's
+    /// range is the smallest positive f32, 2⁻¹⁴⁹, so that every light that can light a point
+    /// is in the tree. Valid only for a light that passed [`Light::validate`].
     pub fn energy(&self) -> f32 {
-        self.energy_f64() as f32
+        energy_f32(self.energy_f64())
     }
 
     /// The light's bounds: box, tight bounding sphere, orientation cone and energy.

@@ -7,7 +7,7 @@
 use alloc::vec::Vec;
 
 use crate::build::BuildOptions;
-use crate::error::BuildError;
+use crate::error::{BuildError, FormatError};
 use crate::light::Light;
 use crate::light_sample::LightPoint;
 use crate::tree::LightTree;
@@ -31,6 +31,21 @@ impl LightSet {
     /// [`LightSet::build`] with the tree built with `opts`.
     pub fn build_with(lights: Vec<Light>, opts: &BuildOptions) -> Result<LightSet, BuildError> {
         let tree = LightTree::build_with(&lights, opts)?;
+        let power = AliasTable::new(lights.iter().map(|l| f64::from(l.energy())));
+        Ok(LightSet {
+            lights,
+            tree,
+            power,
+        })
+    }
+
+    /// The lights and the tree of `bytes` ([`LightTree::as_bytes`] of the tree of a set built
+    /// from these very lights), checked as [`LightTree::from_bytes_with_lights`] checks them
+    /// (corrupt bytes, or lights other than the ones the tree was built from, are an error
+    /// naming the first mismatch), and their alias table: a set that samples, answers pmfs,
+    /// gives points on lights and estimates bit for bit as the set the tree was saved from.
+    pub fn from_bytes(bytes: &[u8], lights: Vec<Light>) -> Result<LightSet, FormatError> {
+        let tree = LightTree::from_bytes_with_lights(bytes, &lights)?;
         let power = AliasTable::new(lights.iter().map(|l| f64::from(l.energy())));
         Ok(LightSet {
             lights,

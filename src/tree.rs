@@ -11,7 +11,8 @@
 //! [`LightTree::sample_cluster`]) and [`crate::trace`] (the lights a ray reaches).
 
 use crate::bounds::{Cone, Sphere};
-use crate::error::{FormatError, ValidationError};
+use crate::checksum::{self, light_check_count, LIGHT_BLOCK};
+use crate::error::{FormatError, LightMismatch, ValidationError};
 use crate::light::Light;
 use crate::packed::{index_bits, path_bits, Packed};
 use crate::quantize;
@@ -299,6 +300,9 @@ pub struct LightTree {
     /// Per light, its path (see [`LightTree::path`]), in [`path_bits`] of the depth.
     pub(crate) paths: Packed,
     pub(crate) depth: u32,
+    /// Per block of [`LIGHT_BLOCK`] lights, the CRC-64 of their descriptors
+    /// ([`checksum::light_checks`]): what a load with lights checks them against.
+    pub(crate) light_checks: Vec<u64>,
 }
 
 /// The number of levels a path encodes (0 for the "not in tree" path 0).
@@ -311,12 +315,69 @@ pub(crate) fn path_len(path: u64) -> u32 {
     }
 }
 
-/// The byte format's version, the only one [`LightTree::from_bytes`] reads: 64-byte quantised
-/// nodes, a leaf array and paths bit-packed into 64-bit words (laid out on
-/// [`LightTree::as_bytes`]).
-const VERSION: u8 = 3;
+/// The byte format's version, the only one [`LightTree::from_bytes`] reads: a 24-byte header
+/// (magic, version, payload length, CRC-64 of the payload) before the payload (counts, 64-byte
+/// quantised nodes, variances, the leaf array and paths bit-packed into 64-bit words, the
+/// lights' checksums), laid out on [`LightTree::as_bytes`].
+pub const FORMAT_VERSION: u8 = 4;
 const MAGIC: [u8; 7] = *b"MLTREE\x00";
-const HEADER: usize = 40;
+/// Bytes of the header: magic (7), version (1), payload length (8), checksum (8).
+pub const HEADER_BYTES: usize = 24;
+/// Bytes of the payload's own header: three counts (8 each), the depth (4), the byte-order
+/// mark (4).
+const COUNTS: usize = 32;
+
+/// The byte form of a payload: the header (magic, [`FORMAT_VERSION`], the payload's length, its
+/// CRC-64/XZ) followed by `payload`, as [`LightTree::as_bytes`] writes it. For tools that
+/// write payloads of their own (a fuzzer that reaches the parser behind the checksum, a
+/// test of the structural checks); [`LightTree::from_bytes`] still validates the payload
+/// fully.
+pub fn seal(payload: &[u8]) -> Vec<u8> {
+    let mut out = Vec::with_capacity(HEADER_BYTES + payload.len());
+    out.extend_from_slice(&MAGIC);
+    out.push(FORMAT_VERSION);
+    out.extend_from_slice(&(payload.len() as u64).to_le_bytes());
+    out.extend_from_slice(&checksum::crc64(payload).to_le_bytes());
+    out.extend_from_slice(payload);
+    out
+}
+
+/// The payload of sealed bytes, once the header says they are a tree of this format version
+/// whose payload is exactly the bytes after it and carries its checksum; nothing of the
+/// payload is read before.
+fn unseal(bytes: &[u8]) -> Result<&[u8], FormatError> {
+    if bytes.len() >= 8 && bytes[..7] == MAGIC && bytes[7] != FORMAT_VERSION {
+        return Err(FormatError::UnsupportedVersion {
+            found: bytes[7],
+            supported: FORMAT_VERSION,
+        });
+    }
+    if bytes.len() < HEADER_BYTES {
+        return Err(FormatError::Truncated);
+    }
+    if bytes[..7] != MAGIC {
+        return Err(FormatError::BadHeader);
+    }
+    let u64_at = |o: usize| {
+        let mut b = [0u8; 8];
+        b.copy_from_slice(&bytes[o..o + 8]);
+        u64::from_le_bytes(b)
+    };
+    let (declared, stored) = (u64_at(8), u64_at(16));
+    let payload = &bytes[HEADER_BYTES..];
+    let len = payload.len() as u64;
+    if len < declared {
+        return Err(FormatError::Truncated);
+    }
+    if len > declared {
+        return Err(FormatError::TrailingBytes);
+    }
+    let computed = checksum::crc64(payload);
+    if computed != stored {
+        return Err(FormatError::Checksum { stored, computed });
+    }
+    Ok(payload)
+}
 
 /// What [`LightTree::validate`] carries down the walk.
 struct Walk<'a> {
@@ -367,6 +428,7 @@ impl LightTree {
             leaves,
             paths,
             depth,
+            light_checks: vec![0; light_check_count(n_lights)],
         }
     }
 
@@ -439,12 +501,14 @@ impl LightTree {
         }
     }
 
-    /// Bytes of the nodes, the node variances, the leaf array and the paths.
+    /// Bytes of the nodes, the node variances, the leaf array, the paths and the lights'
+    /// checksums.
     fn array_bytes(&self) -> usize {
         core::mem::size_of_val(self.nodes.as_slice())
             + core::mem::size_of_val(self.variances.as_slice())
             + self.leaves.byte_len()
             + self.paths.byte_len()
+            + core::mem::size_of_val(self.light_checks.as_slice())
     }
 
     /// Size and shape.
@@ -490,6 +554,7 @@ impl LightTree {
             || self.variances.len() != n_nodes
             || n_lights > MAX_LIGHTS as usize
             || self.leaves.len() > n_lights
+            || self.light_checks.len() != light_check_count(n_lights)
         {
             return Err(ValidationError::BadStats);
         }
@@ -554,38 +619,98 @@ impl LightTree {
             if path == 0 {
                 continue;
             }
-            let (node, k) = self
-                .slot_at(path)
-                .ok_or(ValidationError::BadPath { light: l as u32 })?;
-            let n = &self.nodes[node as usize];
-            let s = n.sphere(k);
-            let escapes = ValidationError::BoundsViolation {
-                light: l as u32,
-                level: path_len(path) - 1,
-            };
-            if !s.contains(&b.sphere, sphere_tolerance(&s))
-                || !n.cone(k).contains(&b.cone, CONE_TOLERANCE)
-                || n.energy_of(k) < b.energy
-            {
-                return Err(escapes);
+            if !self.slot_holds(path, &b) {
+                return Err(ValidationError::BoundsViolation {
+                    light: l as u32,
+                    level: path_len(path) - 1,
+                });
             }
         }
         Ok(())
     }
 
+    /// Whether the slot at `path` (a light's path) contains the bounds `b`: sphere, cone and
+    /// energy.
+    fn slot_holds(&self, path: u64, b: &crate::bounds::LightBounds) -> bool {
+        let Some((node, k)) = self.slot_at(path) else {
+            return false;
+        };
+        let n = &self.nodes[node as usize];
+        let s = n.sphere(k);
+        s.contains(&b.sphere, sphere_tolerance(&s))
+            && n.cone(k).contains(&b.cone, CONE_TOLERANCE)
+            && n.energy_of(k) >= b.energy
+    }
+
+    /// Checks that `lights` are the lights this tree was built from, block by block of
+    /// [`LIGHT_BLOCK`] lights in index order: their number first; then in each block every
+    /// light valid ([`Light::validate`]), in the tree exactly when its energy is positive, its
+    /// exact bounds inside its leaf slot, and the block's CRC-64 the one the tree stores; and
+    /// the total energy within [`crate::MAX_TOTAL_ENERGY`]. The error names the first
+    /// mismatch: a light where its own checks fail, else the block whose checksum differs (a
+    /// light changed within its slot's bounds, or lights swapped within them).
+    pub fn check_lights(&self, lights: &[Light]) -> Result<(), LightMismatch> {
+        if lights.len() != self.paths.len() {
+            return Err(LightMismatch::Count {
+                tree: self.paths.len() as u32,
+                given: lights.len(),
+            });
+        }
+        let checks = checksum::light_checks(lights);
+        let mut total = 0.0f64;
+        for (block, (chunk, (&want, &got))) in lights
+            .chunks(LIGHT_BLOCK)
+            .zip(self.light_checks.iter().zip(&checks))
+            .enumerate()
+        {
+            let first = block * LIGHT_BLOCK;
+            for (i, light) in chunk.iter().enumerate() {
+                let l = first + i;
+                let e = light.validated_energy(l).map_err(LightMismatch::Invalid)?;
+                total += f64::from(e);
+                let index = l as u32;
+                let path = self.path(index);
+                if (path != 0) != (e > 0.0) {
+                    return Err(LightMismatch::Sampled {
+                        light: index,
+                        in_tree: path != 0,
+                    });
+                }
+                if path != 0 && !self.slot_holds(path, &light.bounds_with_energy(e)) {
+                    return Err(LightMismatch::Escapes { light: index });
+                }
+            }
+            if want != got {
+                return Err(LightMismatch::Changed {
+                    first: first as u32,
+                    end: (first + chunk.len()) as u32,
+                });
+            }
+        }
+        if total > f64::from(crate::MAX_TOTAL_ENERGY) {
+            return Err(LightMismatch::Invalid(
+                crate::BuildError::TotalEnergyTooLarge,
+            ));
+        }
+        Ok(())
+    }
+
     /// The tree as bytes, for a host to cache or send to another process; read back with
-    /// [`LightTree::from_bytes`]. Format version 3: a 40-byte header (magic `MLTREE\0`, the
-    /// version byte, then as little-endian integers the node, light and leaf counts (u64 each)
-    /// and the depth (u32), then a byte-order mark), followed in the host's byte order by the
-    /// nodes, the node variances (u16 each), the leaf array and the paths. The leaf array holds
-    /// each light slot's light index in as many bits as the largest index needs (at least 1),
-    /// the paths each light's path in `2·depth + 1` bits, each array packed back to back into
-    /// 64-bit words (value `i` in bits `i·w` to `(i + 1)·w − 1` of the words read as one
-    /// little-endian bit stream), with one word of padding after the last.
+    /// [`LightTree::from_bytes`] (or, with the lights, `LightSet::from_bytes`).
+    ///
+    /// Format version 4 ([`FORMAT_VERSION`]). A header of [`HEADER_BYTES`] bytes: the magic
+    /// `MLTREE\0`, the version byte, then as little-endian u64 the payload's length and its
+    /// CRC-64/XZ ([`checksum::crc64`]). The payload: as little-endian integers the node, light
+    /// and leaf counts (u64 each) and the depth (u32), then a byte-order mark (the u32
+    /// `0x01020304` in the host's byte order), followed in the host's byte order by the nodes,
+    /// the node variances (u16 each), the leaf array, the paths and the lights' checksums
+    /// (one u64 per block of [`LIGHT_BLOCK`] lights, [`checksum::light_checks`]). The leaf
+    /// array holds each light slot's light index in as many bits as the largest index needs
+    /// (at least 1), the paths each light's path in `2·depth + 1` bits, each array packed back
+    /// to back into 64-bit words (value `i` in bits `i·w` to `(i + 1)·w − 1` of the words read
+    /// as one little-endian bit stream), with one word of padding after the last.
     pub fn as_bytes(&self) -> Vec<u8> {
-        let mut out = Vec::with_capacity(HEADER + self.array_bytes());
-        out.extend_from_slice(&MAGIC);
-        out.push(VERSION);
+        let mut out = Vec::with_capacity(COUNTS + self.array_bytes());
         out.extend_from_slice(&(self.nodes.len() as u64).to_le_bytes());
         out.extend_from_slice(&(self.paths.len() as u64).to_le_bytes());
         out.extend_from_slice(&(self.leaves.len() as u64).to_le_bytes());
@@ -595,39 +720,40 @@ impl LightTree {
         out.extend_from_slice(bytemuck::cast_slice(&self.variances));
         out.extend_from_slice(bytemuck::cast_slice(self.leaves.words()));
         out.extend_from_slice(bytemuck::cast_slice(self.paths.words()));
-        out
+        out.extend_from_slice(bytemuck::cast_slice(&self.light_checks));
+        seal(&out)
     }
 
-    /// Reads a tree written by [`LightTree::as_bytes`] on a machine of the same byte order,
-    /// and validates it fully: corrupt bytes give an error, never a panic or a bad tree; bytes
-    /// of another format version give [`FormatError::UnsupportedVersion`].
+    /// Reads a tree written by [`LightTree::as_bytes`] on a machine of the same byte order.
+    /// The header is checked first (magic, version, the payload's length and its CRC-64), and
+    /// nothing of the payload is read unless its checksum matches; then the tree is validated
+    /// fully ([`LightTree::validate`]). Corrupt bytes give an error, never a panic or a bad
+    /// tree: a change confined to 64 consecutive bits of the payload always fails the
+    /// checksum, any other change does with probability 1 − 2⁻⁶⁴, and a change to the header
+    /// fails its own checks. Bytes of another format version give
+    /// [`FormatError::UnsupportedVersion`].
     pub fn from_bytes(bytes: &[u8]) -> Result<LightTree, FormatError> {
-        if bytes.len() >= 8 && bytes[..7] == MAGIC && bytes[7] != VERSION {
-            return Err(FormatError::UnsupportedVersion {
-                found: bytes[7],
-                supported: VERSION,
-            });
-        }
-        if bytes.len() < HEADER {
+        let payload = unseal(bytes)?;
+        if payload.len() < COUNTS {
             return Err(FormatError::Truncated);
         }
         let u64_at = |o: usize| {
             let mut b = [0u8; 8];
-            b.copy_from_slice(&bytes[o..o + 8]);
+            b.copy_from_slice(&payload[o..o + 8]);
             u64::from_le_bytes(b)
         };
         let u32_at = |o: usize| {
             let mut b = [0u8; 4];
-            b.copy_from_slice(&bytes[o..o + 4]);
+            b.copy_from_slice(&payload[o..o + 4]);
             b
         };
-        if bytes[..7] != MAGIC || u32_at(36) != 0x0102_0304u32.to_ne_bytes() {
+        if u32_at(28) != 0x0102_0304u32.to_ne_bytes() {
             return Err(FormatError::BadHeader);
         }
-        let n_nodes = u64_at(8);
-        let n_lights = u64_at(16);
-        let n_leaves = u64_at(24);
-        let depth = u32::from_le_bytes(u32_at(32));
+        let n_nodes = u64_at(0);
+        let n_lights = u64_at(8);
+        let n_leaves = u64_at(16);
+        let depth = u32::from_le_bytes(u32_at(24));
         let max = u64::from(MAX_LIGHTS);
         if n_nodes > max || n_lights > max || n_leaves > n_lights || depth > MAX_DEPTH {
             return Err(FormatError::Invalid(ValidationError::BadStats));
@@ -639,22 +765,25 @@ impl LightTree {
         let variance_bytes = n_nodes * 2;
         let leaf_bytes = Packed::word_count(n_leaves, leaf_bits) * 8;
         let path_bytes = Packed::word_count(n_lights, path_bits) * 8;
-        let need = HEADER + node_bytes + variance_bytes + leaf_bytes + path_bytes;
-        if bytes.len() < need {
+        let check_bytes = light_check_count(n_lights) * 8;
+        let need = COUNTS + node_bytes + variance_bytes + leaf_bytes + path_bytes + check_bytes;
+        if payload.len() < need {
             return Err(FormatError::Truncated);
         }
-        if bytes.len() > need {
+        if payload.len() > need {
             return Err(FormatError::TrailingBytes);
         }
-        let mut o = HEADER;
-        let nodes: Vec<Node4> = bytemuck::pod_collect_to_vec(&bytes[o..o + node_bytes]);
+        let mut o = COUNTS;
+        let nodes: Vec<Node4> = bytemuck::pod_collect_to_vec(&payload[o..o + node_bytes]);
         o += node_bytes;
-        let variances: Vec<u16> = bytemuck::pod_collect_to_vec(&bytes[o..o + variance_bytes]);
+        let variances: Vec<u16> = bytemuck::pod_collect_to_vec(&payload[o..o + variance_bytes]);
         o += variance_bytes;
         let words = |raw: &[u8]| bytemuck::pod_collect_to_vec::<u8, u64>(raw);
-        let leaves = Packed::from_words(n_leaves, leaf_bits, words(&bytes[o..o + leaf_bytes]));
+        let leaves = Packed::from_words(n_leaves, leaf_bits, words(&payload[o..o + leaf_bytes]));
         o += leaf_bytes;
-        let paths = Packed::from_words(n_lights, path_bits, words(&bytes[o..o + path_bytes]));
+        let paths = Packed::from_words(n_lights, path_bits, words(&payload[o..o + path_bytes]));
+        o += path_bytes;
+        let light_checks = words(&payload[o..o + check_bytes]);
         let (Some(leaves), Some(paths)) = (leaves, paths) else {
             return Err(FormatError::Truncated);
         };
@@ -664,8 +793,21 @@ impl LightTree {
             leaves,
             paths,
             depth,
+            light_checks,
         };
         tree.validate().map_err(FormatError::Invalid)?;
+        Ok(tree)
+    }
+
+    /// [`LightTree::from_bytes`], then [`LightTree::check_lights`]: the tree of `bytes` if
+    /// `lights` are the ones it was built from (else [`FormatError::Lights`] naming the first
+    /// mismatch).
+    pub fn from_bytes_with_lights(
+        bytes: &[u8],
+        lights: &[Light],
+    ) -> Result<LightTree, FormatError> {
+        let tree = LightTree::from_bytes(bytes)?;
+        tree.check_lights(lights).map_err(FormatError::Lights)?;
         Ok(tree)
     }
 

@@ -4,7 +4,7 @@
 
 mod common;
 
-use common::{random_importance, styled_scene, u_values, Rng};
+use common::{random_importance, reseal, styled_scene, u_values, Rng};
 use glam::Vec3;
 use manylights::baseline::BinaryLightTree;
 use manylights::{
@@ -820,8 +820,8 @@ fn truncated_extended_and_bad_header_bytes_are_rejected() {
                 Err(FormatError::TrailingBytes)
             );
         }
-        // Magic (bytes 0..7) and byte-order mark (36..40).
-        for i in (0..7).chain(36..40) {
+        // Magic (bytes 0..7).
+        for i in 0..7 {
             let mut bad = bytes.clone();
             bad[i] ^= 0x20;
             assert_eq!(
@@ -830,30 +830,65 @@ fn truncated_extended_and_bad_header_bytes_are_rejected() {
                 "byte {i}"
             );
         }
+        // The byte-order mark (payload bytes 28..32, after the 24-byte header), with the
+        // checksum rewritten so that the parser sees it.
+        for i in 24 + 28..24 + 32 {
+            let mut bad = bytes.clone();
+            bad[i] ^= 0x20;
+            assert!(matches!(
+                LightTree::from_bytes(&bad),
+                Err(FormatError::Checksum { .. })
+            ));
+            reseal(&mut bad);
+            assert_eq!(
+                LightTree::from_bytes(&bad),
+                Err(FormatError::BadHeader),
+                "byte {i}"
+            );
+        }
         // The format version (byte 7): another version (1: 128-byte nodes; 2: 32-bit leaf
-        // entries and 32- or 64-bit paths) is named as such.
-        for found in [1, 2, 4] {
+        // entries and 32- or 64-bit paths; 3: no checksum) is named as such.
+        for found in [1, 2, 3, 5] {
             let mut other = bytes.clone();
             other[7] = found;
             assert_eq!(
                 LightTree::from_bytes(&other),
                 Err(FormatError::UnsupportedVersion {
                     found,
-                    supported: 3
+                    supported: 4
                 })
             );
         }
-        // Counts that announce absurd sizes.
+        // A payload length (bytes 8..16) other than the payload's.
+        for value in [0u64, len as u64, u64::MAX] {
+            let mut bad = bytes.clone();
+            bad[8..16].copy_from_slice(&value.to_le_bytes());
+            let want = if value > (len - 24) as u64 {
+                FormatError::Truncated
+            } else {
+                FormatError::TrailingBytes
+            };
+            assert_eq!(LightTree::from_bytes(&bad), Err(want), "length {value}");
+        }
+        // Counts that announce absurd sizes (payload bytes 0, 8, 16), behind a valid checksum.
         for (offset, value) in [
-            (8usize, u64::MAX),
-            (8, 1 << 31),
+            (0usize, u64::MAX),
+            (0, 1 << 31),
+            (8, u64::MAX),
+            (8, 1 << 40),
             (16, u64::MAX),
-            (16, 1 << 40),
-            (24, u64::MAX),
-            (24, 1 << 33),
+            (16, 1 << 33),
         ] {
             let mut bad = bytes.clone();
-            bad[offset..offset + 8].copy_from_slice(&value.to_le_bytes());
+            bad[24 + offset..24 + offset + 8].copy_from_slice(&value.to_le_bytes());
+            assert!(
+                matches!(
+                    LightTree::from_bytes(&bad),
+                    Err(FormatError::Checksum { .. })
+                ),
+                "count {value} at {offset}"
+            );
+            reseal(&mut bad);
             assert!(
                 LightTree::from_bytes(&bad).is_err(),
                 "count {value} at {offset}"
@@ -889,7 +924,9 @@ fn check_accepted(tree: &LightTree, rng: &mut Rng) {
 }
 
 /// Thousands of random single-byte replacements and single-bit flips (fixed seed) in trees of
-/// 1 to 300 lights: `from_bytes` returns an error or a tree that validates, never panics.
+/// 1 to 300 lights, each behind a rewritten checksum so that the structural checks see it:
+/// `from_bytes` returns an error or a tree that validates, never panics (without the rewrite
+/// the checksum rejects every one).
 #[test]
 fn corrupt_bytes_never_panic() {
     let mut rng = Rng::new(0xB17F);
@@ -909,6 +946,8 @@ fn corrupt_bytes_never_panic() {
             } else {
                 bad[at] ^= 1 << rng.below(8);
             }
+            assert!(LightTree::from_bytes(&bad).is_err(), "byte {at} changed");
+            reseal(&mut bad);
             match LightTree::from_bytes(&bad) {
                 Ok(t) => {
                     accepted += 1;
@@ -1164,13 +1203,14 @@ fn corrupt_but_valid_tiny_energy_is_never_sampled_with_pmf_zero() {
     let tree = LightTree::build(&lights).unwrap();
     let mut bytes = tree.as_bytes();
     // The tree is one node of three light slots; light 1's energy code is the upper 16 bits at
-    // byte 40 (header) + 48 + 2·slot and 4 more bits at 40 + 60.
+    // byte 56 (headers) + 48 + 2·slot and 4 more bits at 56 + 60.
     let (node, k) = tree.slot_at(tree.path(1)).unwrap();
     assert_eq!(node, 0);
     let mut root = tree.nodes()[0];
     root.set_energy_code(k, 1e-40f32.to_bits() >> 12);
-    let at = 40;
+    let at = 56;
     bytes[at..at + 64].copy_from_slice(bytemuck::bytes_of(&root));
+    reseal(&mut bytes);
     // The parent's energy is the sum of its slots': the root has no parent, so the tree stays
     // valid.
     let bad = LightTree::from_bytes(&bytes).expect("a tiny energy is still a valid tree");

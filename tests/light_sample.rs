@@ -733,7 +733,14 @@ fn point_and_spot_lights_are_deltas() {
     let dist2 = d(Vec3::new(1.0, 2.0, 3.0) - x).length_squared();
     assert!(s.delta && s.pdf == 1.0 && s.normal == Vec3::ZERO);
     assert!(rel(f64::from(s.radiance), 5.0 / dist2) < 1e-6, "{s:?}");
-    assert_eq!(pdf_point(&p, x, s.position), 0.0);
+    // One convention: the delta's weight, reported as 1 at the light's position, 0 elsewhere.
+    assert_eq!(pdf_point(&p, x, s.position), 1.0);
+    assert_eq!(pdf_point(&p, x, s.position + Vec3::X), 0.0);
+    assert_eq!(
+        pdf_point(&p, s.position, s.position),
+        0.0,
+        "x at the light: no sample"
+    );
     assert_eq!(pdf_direction(&p, x, s.direction), 0.0);
     assert!(intersect(&p, x, s.direction).is_none());
 
@@ -863,7 +870,9 @@ fn degenerate_inputs_give_none_or_finite_values() {
                     assert_valid(&s, x, &format!("{light:?} from {x} u={u:?}"));
                     let q = pdf_point(light, x, s.position);
                     assert!(q.is_finite() && q >= 0.0, "{light:?} {x}: {q}");
-                    if !s.delta {
+                    if s.delta {
+                        assert_eq!(q.to_bits(), s.pdf.to_bits(), "{light:?} {x}");
+                    } else {
                         assert!(rel(f64::from(q), f64::from(s.pdf)) <= 1e-4, "{light:?} {x}");
                     }
                 }

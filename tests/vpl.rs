@@ -629,7 +629,7 @@ fn vpl_light_point_sampling() {
             "{} vs {expected}",
             s.radiance
         );
-        assert_eq!(pdf_point(&l, x, y), 0.0);
+        assert_eq!(pdf_point(&l, x, y), 1.0);
         assert_eq!(pdf_direction(&l, x, s.direction), 0.0);
         assert!(intersect(&l, x, s.direction).is_none());
     }

@@ -20,6 +20,13 @@
 #include <stdint.h>
 
 /**
+ * The `ml_light_sample` of no light, as an initializer valid in C99 and C++:
+ * `ml_light_sample s = ML_LIGHT_SAMPLE_NONE;` gives `light = ML_NO_LIGHT`, `pmf = 0` (what the
+ * sampling functions write when no light can contribute).
+ */
+#define ML_LIGHT_SAMPLE_NONE { ML_NO_LIGHT, 0.0f }
+
+/**
  * Major version of the library (the `version` of `ffi/Cargo.toml`).
  */
 #define ML_VERSION_MAJOR 0
@@ -50,6 +57,64 @@
 #define ML_TECHNIQUE_DEFAULT 8
 
 /**
+ * Largest magnitude of a light's coordinates (positions, centres, vertices) and radii, and of
+ * a VPL candidate's position.
+ */
+#define ML_MAX_COORDINATE 1e15
+
+/**
+ * Largest energy (flux, W) of one light: 4π·power for a point light, 2π(1 − cos θs)·power for
+ * a spot, π·power for a VPL, power·π·area per emitting side for an area light (see the
+ * README's units table). A VPL acceptor keeps accepted VPLs within it.
+ */
+#define ML_MAX_LIGHT_ENERGY 1e24
+
+/**
+ * Largest sum of the energies of a tree's lights.
+ */
+#define ML_MAX_TOTAL_ENERGY 1e26
+
+/**
+ * The smallest pmf a sampled light has (f32's smallest normal number, 2⁻¹²⁶). The one way a
+ * light that can contribute at a point gets pmf 0: its probability there would be below this
+ * (at some node on its path, the probability of reaching its slot would fall below it;
+ * those lights are never sampled and the others share their probability).
+ */
+#define ML_MIN_PMF 1.17549435e-38
+
+/**
+ * Deepest tree (levels of nodes) a build may give; a deeper one is `ML_ERR_INVALID_ARGUMENT`.
+ */
+#define ML_MAX_DEPTH 31
+
+/**
+ * Fewest SAOH buckets per axis of `ml_build_options.buckets` (0 is the default, 12).
+ */
+#define ML_MIN_BUCKETS 12
+
+/**
+ * Most SAOH buckets per axis of `ml_build_options.buckets`.
+ */
+#define ML_MAX_BUCKETS 64
+
+/**
+ * Fewest clusters a cut's `max_size` may ask for (the root's four slots); the most is
+ * `ML_CUT_CAPACITY`.
+ */
+#define ML_MIN_CUT_SIZE 4
+
+/**
+ * Largest `ml_direct_params.n_max`, the BRDF-aware budget's Nmax (the smallest is 1).
+ */
+#define ML_MAX_BUDGET 64
+
+/**
+ * The GGX roughness floor: a material's α (accepted in (0, 1]) is used as max(α,
+ * `ML_MIN_ALPHA`) by the BRDFs, the BRDF-oriented importance and the estimators.
+ */
+#define ML_MIN_ALPHA 5e-3
+
+/**
  * The most lights a tree may hold (`ml_tree_build`'s `count`).
  */
 #define ML_MAX_LIGHTS 2147483646
@@ -60,7 +125,10 @@
 #define ML_NO_LIGHT UINT32_MAX
 
 /**
- * The kind of an `ml_light` (the value of its `kind` field).
+ * The kind of an `ml_light` (the value of its `kind` field). Units: positions in any length
+ * unit m (the same as the scene's), intensity in W/sr, radiance in W/(m²·sr); a light's energy
+ * (its flux, W, what the tree's importance and `ml_tree_statistics.total_energy` add up) is
+ * given at each kind and is at most `ML_MAX_LIGHT_ENERGY`.
  */
 enum ml_light_kind
 #if defined(__cplusplus) || __STDC_VERSION__ >= 202311L
@@ -68,32 +136,40 @@ enum ml_light_kind
 #endif // defined(__cplusplus) || __STDC_VERSION__ >= 202311L
  {
     /**
-     * Isotropic point light: `position`, `power` = intensity (W/sr).
+     * Isotropic point light: `position`, `power` = intensity I (W/sr). Energy 4πI.
      */
     ML_LIGHT_KIND_POINT = 0,
     /**
-     * Spot light: `position`, `direction` (axis, any non-zero length), `power` = intensity on
-     * the axis, `half_angle` θs in (0, π], `falloff_start` θf in [0, θs] (radians).
+     * Spot light: `position`, `direction` (axis, any non-zero length), `power` = intensity I
+     * on the axis (W/sr), `half_angle` θs in (0, π], `falloff_start` θf in [0, θs] (radians).
+     * Intensity towards angle θ from the axis: I for θ ≤ θf, 0 for θ ≥ θs, and between them
+     * I · smoothstep(cos θs, cos θf, cos θ) (t = (cos θ − cos θs)/(cos θf − cos θs), 3t² − 2t³;
+     * pbrt-v4's spot light). Energy 2π(1 − cos θs)·I (an upper bound of the flux with the
+     * falloff).
      */
     ML_LIGHT_KIND_SPOT = 1,
     /**
-     * Sphere light: `position` = centre, `radius` > 0, `power` = radiance (W/(m²·sr)).
+     * Sphere light: `position` = centre, `radius` > 0, `power` = radiance L (W/(m²·sr)),
+     * emitted outwards from every point. Energy L·π·4πr².
      */
     ML_LIGHT_KIND_SPHERE = 2,
     /**
      * Disk light: `position` = centre, `direction` = normal (the emitting side when
-     * one-sided), `radius` > 0, `power` = radiance, `two_sided` 0 or 1.
+     * one-sided), `radius` > 0, `power` = radiance L, `two_sided` 0 or 1. Energy L·π·πr² per
+     * emitting side.
      */
     ML_LIGHT_KIND_DISK = 3,
     /**
      * Triangle light: vertices `position`, `direction`, `vertex2` (one-sided lights emit on
-     * the side of (v1 − v0) × (v2 − v0)), `power` = radiance, `two_sided` 0 or 1.
+     * the side of (v1 − v0) × (v2 − v0)), `power` = radiance L, `two_sided` 0 or 1. Energy
+     * L·π·area per emitting side.
      */
     ML_LIGHT_KIND_TRIANGLE = 4,
     /**
      * Virtual point light (Keller 1997): `position`, `direction` = normal, `power` =
-     * intensity along the normal (a one-sided Lambertian point emitter, intensity
-     * `power · max(0, cos θ)`).
+     * intensity I along the normal (a one-sided Lambertian point emitter, intensity
+     * `I · max(0, cos θ)`; what a diffuse point that received flux Φ with albedo ρ re-emits
+     * is I = ρΦ/π). Energy πI.
      */
     ML_LIGHT_KIND_VPL = 5,
 };
@@ -263,7 +339,9 @@ enum ml_step_kind
     ML_STEP_KIND_LIGHT = 0,
     /**
      * A BSDF sample to take with `u0`, `u1`: sample the BSDF, cast the ray and report the
-     * direction, its pdf and the first surface's distance to `ml_estimator_bsdf_hits`.
+     * direction, its pdf and the first surface's distance to `ml_estimator_bsdf_hits`. When
+     * the host's BSDF gives no direction for them, skip the report (as the one call does):
+     * the sample contributes nothing, and `full` counts it as a ray that reached no light.
      */
     ML_STEP_KIND_BSDF = 1,
     /**
@@ -403,7 +481,7 @@ typedef struct ml_bl_cut_options {
      */
     float delta;
     /**
-     * Most clusters, in [4, 64] (default 32).
+     * Most clusters, in [`ML_MIN_CUT_SIZE`, `ML_CUT_CAPACITY`] = [4, 64] (default 32).
      */
     size_t max_size;
 } ml_bl_cut_options;
@@ -418,7 +496,7 @@ typedef struct ml_split_cut_options {
      */
     float threshold;
     /**
-     * Most clusters, in [4, 64] (default 32).
+     * Most clusters, in [`ML_MIN_CUT_SIZE`, `ML_CUT_CAPACITY`] = [4, 64] (default 32).
      */
     size_t max_size;
 } ml_split_cut_options;
@@ -440,8 +518,8 @@ typedef struct ml_tl_point {
 
 /**
  * A sampled light: its index in the array the tree was built from and the probability of
- * the choice (finite, in [2⁻¹²⁶, 1]); `light = ML_NO_LIGHT` and `pmf = 0` when no light can
- * contribute.
+ * the choice (finite, in [`ML_MIN_PMF`, 1]); `light = ML_NO_LIGHT` and `pmf = 0`
+ * (`ML_LIGHT_SAMPLE_NONE`) when no light can contribute.
  */
 typedef struct ml_light_sample {
     /**
@@ -453,10 +531,6 @@ typedef struct ml_light_sample {
      */
     float pmf;
 } ml_light_sample;
-/**
- * No light.
- */
-#define ml_light_sample_NONE (ml_light_sample){ .light = ML_NO_LIGHT, .pmf = 0.0 }
 
 /**
  * The estimators' parameters (`ml_direct_params_default` fills the defaults).
@@ -471,7 +545,8 @@ typedef struct ml_direct_params {
      */
     struct ml_bl_cut_options bl_cut;
     /**
-     * Nmax of the BRDF-aware budget N = ceil(Nmax · IB(x)), in [1, 64] (default 50).
+     * Nmax of the BRDF-aware budget N = ceil(Nmax · IB(x)), in [1, `ML_MAX_BUDGET`] = [1, 64]
+     * (default 50).
      */
     uint32_t n_max;
     /**
@@ -550,12 +625,15 @@ typedef struct ml_light_point {
      */
     float distance;
     /**
-     * Solid-angle pdf of `direction` at x (> 0, finite); 1 for delta lights; 0: no point.
+     * Solid-angle pdf of `direction` at x (> 0, finite); 1 for delta lights (as
+     * `ml_light_pdf_point` reports it at their position); 0: no point.
      */
     float pdf;
     /**
-     * What the estimate multiplies by (≥ 0): the radiance arriving at x for area lights,
-     * `I · falloff / d²` for point, spot and VPL lights.
+     * What the estimate multiplies by (≥ 0): the radiance arriving at x for area lights
+     * (W/(m²·sr)); for point, spot and VPL lights `I · falloff / d²` (W/m²), already divided
+     * by the squared distance: do not divide again (the contribution is `f · radiance ·
+     * cos θi / pdf`, `pdf` = 1).
      */
     float radiance;
     /**
@@ -600,7 +678,7 @@ typedef struct ml_step {
 
 /**
  * A sample's MIS weight and density: its contribution is `value · scale`, with `value = f ·
- * L · cos θi` (or one channel of it) evaluated by the host.
+ * L · cos θi` (or each channel of it, of any sign) evaluated by the host.
  */
 typedef struct ml_weighted {
     /**
@@ -608,11 +686,14 @@ typedef struct ml_weighted {
      */
     float weight;
     /**
-     * The density the sample was drawn with (solid angle; 1 for point, spot and VPL lights).
+     * The density the weight is relative to (solid angle; 1 for point, spot and VPL lights):
+     * the light sample's density for light steps; for BSDF hits the BSDF's pdf with
+     * `tl-mis` and `bl-mis`, and the combined density of the mixed BL and BSDF samples with
+     * `mis-equal` and `full`.
      */
     float pdf;
     /**
-     * `weight / pdf` as the one-call estimator applies it (finite, ≥ 0).
+     * `weight / pdf` (finite, ≥ 0), the factor of every channel of the value.
      */
     float scale;
 } ml_weighted;
@@ -631,7 +712,7 @@ typedef struct ml_light_hit {
      */
     struct ml_light_point point;
     /**
-     * Its weight and the BSDF's density.
+     * Its weight and the density the weight is relative to (see `ml_weighted.pdf`).
      */
     struct ml_weighted weighted;
 } ml_light_hit;
@@ -646,7 +727,8 @@ typedef void (*ml_hit_fn)(void *user_data, const struct ml_light_hit *hit);
  */
 typedef struct ml_build_options {
     /**
-     * SAOH buckets per axis, in [12, 64]; 0 for the default (12).
+     * SAOH buckets per axis, in [`ML_MIN_BUCKETS`, `ML_MAX_BUCKETS`] = [12, 64]; 0 for the
+     * default (12).
      */
     uint32_t buckets;
 } ml_build_options;
@@ -654,7 +736,9 @@ typedef struct ml_build_options {
 /**
  * One light, as given to `ml_tree_build`. Which fields a kind reads is listed at each
  * `ml_light_kind`; the others are ignored (zero them). Coordinates finite with magnitude at
- * most 1e15; `power` finite and ≥ 0 (0: accepted and never sampled).
+ * most `ML_MAX_COORDINATE`; `power` finite and ≥ 0 (0: accepted and never sampled), the
+ * light's energy at most `ML_MAX_LIGHT_ENERGY` and all of them together at most
+ * `ML_MAX_TOTAL_ENERGY`.
  */
 typedef struct ml_light {
     /**
@@ -720,11 +804,13 @@ typedef struct ml_tree_statistics {
      */
     uint32_t depth;
     /**
-     * 1 if the tree holds its light descriptors (built by `ml_tree_build`), 0 if loaded.
+     * 1 if the tree holds its light descriptors (built by `ml_tree_build` or loaded by
+     * `ml_tree_load_with_lights`), 0 if loaded by `ml_tree_load`.
      */
     uint32_t has_lights;
     /**
-     * Total energy of the sampled lights.
+     * Total energy of the sampled lights: the sum of their fluxes in W (see `ml_light_kind`),
+     * as the root's slots store it (each rounded up by at most 2⁻¹¹ relative).
      */
     float total_energy;
 } ml_tree_statistics;
@@ -786,7 +872,7 @@ typedef struct ml_importon {
  */
 typedef struct ml_vpl {
     /**
-     * Position (finite, magnitude at most 1e15).
+     * Position (finite, magnitude at most `ML_MAX_COORDINATE`, 1e15).
      */
     struct ml_vec3 position;
     /**
@@ -928,7 +1014,9 @@ ml_status ml_version(uint32_t *major, uint32_t *minor, uint32_t *patch);
 /**
  * Samples the material of `sp` (GGX through its visible normals, Heitz 2018; Lambert by
  * cosine; plastic by choosing a lobe in proportion to its weight) with `u0`, `u1` in [0, 1).
- * The local frame has `sp->normal` as +z (as the estimators use it).
+ * The local frame has `sp->normal` as +z (as the estimators use it). With a BSDF step's `u0`,
+ * `u1` the draw is the one-call estimator's BSDF sample: the same direction (here in world
+ * space), its pdf and value bit for bit.
  *
  * Errors: `ML_ERR_NULL` (`sp`, `out`); `ML_ERR_INVALID_ARGUMENT` (a bad shading point, `u0`
  * or `u1` outside [0, 1)).
@@ -940,7 +1028,12 @@ ml_status ml_brdf_sample(const struct ml_shading_point *sp,
 
 /**
  * The solid-angle pdf with which `ml_brdf_sample` returns the direction `wi` (world space,
- * any non-zero length; 0 below the surface).
+ * any non-zero length; 0 below the surface). For a light step's `point.direction` it is, bit
+ * for bit, the BSDF pdf the one-call estimator uses. For the `wi` of an `ml_brdf_sample` draw
+ * it is recomputed after the draw's round trip through the shading frame, so it differs from
+ * the draw's `pdf` by f32 rounding (about 1e-6 relative for α ≥ 0.4, up to about 1e-4 for
+ * the sharpest lobes, α near `ML_MIN_ALPHA`): pass the draw's own `pdf` to
+ * `ml_estimator_bsdf_hits`, as the one call does.
  *
  * Errors: `ML_ERR_NULL` (`sp`, `out`); `ML_ERR_INVALID_ARGUMENT` (a bad shading point, a zero
  * or non-finite `wi`).
@@ -949,7 +1042,8 @@ ml_status ml_brdf_pdf(const struct ml_shading_point *sp, struct ml_vec3 wi, floa
 
 /**
  * The BRDF value f(ωo, ωi) of `sp`'s material for the direction `wi` (world space, any
- * non-zero length; 0 below the surface).
+ * non-zero length; 0 below the surface): for a light step's `point.direction`, bit for bit
+ * the f of the one-call estimator.
  *
  * Errors: `ML_ERR_NULL` (`sp`, `out`); `ML_ERR_INVALID_ARGUMENT` (a bad shading point, a zero
  * or non-finite `wi`).
@@ -998,7 +1092,11 @@ ml_status ml_cut_build_bl(struct ml_cut *cut,
 /**
  * Builds the split-sampling cut of `tree` at `point` (Conty & Kulla: a cluster is split while
  * its share of the variance is large, and always when the point is inside it), with
- * `options` (NULL: defaults). The cut is unchanged on error.
+ * `options` (NULL: defaults). The cut is unchanged on error. Its clusters hold every light
+ * that can contribute at `point`, not every light with `ml_tree_pmf_tl` > 0: below a slot
+ * whose child's slots all have importance 0, the tree's descent falls back to energies and
+ * gives those lights (which cannot contribute: behind the surface, outside their cones) a
+ * TL pmf > 0, while a cut that opens the slot leaves them out (`ML_NO_CLUSTER`, pmf 0).
  *
  * Errors: `ML_ERR_NULL` (`cut`, `tree`, `point`); `ML_ERR_INVALID_ARGUMENT` (a non-finite
  * point, a bad option).
@@ -1066,7 +1164,8 @@ ml_status ml_cut_sample_clusters(const struct ml_cut *cut,
 
 /**
  * The cluster of the cut holding `light` (`ML_NO_CLUSTER` if none) and the light's pmf
- * within it (what `ml_cut_sample_clusters` reports for it; 0 with `ML_NO_CLUSTER`).
+ * within it (what `ml_cut_sample_clusters` reports for it; 0 with `ML_NO_CLUSTER`, which a
+ * host combining TL and split pmfs takes as a density of 0: see `ml_cut_build_split`).
  *
  * Errors: `ML_ERR_NULL` (`cut`, `cluster`, `pmf`); `ML_ERR_INVALID_ARGUMENT` (`light` out of
  * range); `ML_ERR_STATE` (never built).
@@ -1089,21 +1188,49 @@ ml_status ml_direct_params_default(struct ml_direct_params *out);
  *
  * Errors: `ML_ERR_NULL` (`tree`, `sp`, `uniforms`, `uniforms->next_f32`, `out`);
  * `ML_ERR_INVALID_ARGUMENT` (a bad shading point, technique or parameter; a uniform number
- * outside [0, 1); a NaN or negative `first_hit`); `ML_ERR_STATE` (a tree loaded from bytes).
+ * outside [0, 1); a NaN or negative `first_hit`); `ML_ERR_STATE` (a tree loaded by
+ * `ml_tree_load`, without its lights).
  */
 ml_status ml_direct_estimate(const struct ml_tree *tree,
                              const struct ml_shading_point *sp,
-                             uint32_t technique_,
-                             const struct ml_direct_params *params_,
+                             uint32_t technique,
+                             const struct ml_direct_params *params,
                              const struct ml_visibility *visibility,
                              const struct ml_uniforms *uniforms,
                              double *out);
 
 /**
- * Creates an estimator for the lights of `tree` (built by `ml_tree_build`). Set it up for a
- * shading point with `ml_estimator_set_point`. Free it with `ml_estimator_free`.
+ * Estimates at `count` shading points at once, for wavefront hosts: for each `points[j]` in
+ * order, the per-point set-up (as `ml_estimator_set_point` with `technique` and `params`) and
+ * `per_point` (≥ 1) estimates (as `ml_estimator_estimate` with `visibility` and `uniforms`),
+ * written to `out[j · per_point + i]` — bit for bit, and drawing exactly the uniform numbers,
+ * of those calls made one after the other (with `per_point` = 1, of `count` calls of
+ * `ml_direct_estimate`). Every shading point is checked before the first estimate; `out`
+ * (`count · per_point` doubles) is written only on success.
  *
- * Errors: `ML_ERR_NULL` (`tree`, `out`); `ML_ERR_STATE` (a tree loaded from bytes).
+ * Errors: `ML_ERR_NULL` (`tree`, `uniforms`, `uniforms->next_f32`; `points`, `out` when
+ * `count` > 0); `ML_ERR_INVALID_ARGUMENT` (`per_point` 0, a count that overflows, a bad
+ * technique or parameter, a bad shading point named `points[j]`, a uniform number outside
+ * [0, 1) or a bad `first_hit` named with the point it was drawn for); `ML_ERR_STATE` (a
+ * tree loaded without its lights).
+ */
+ml_status ml_direct_estimate_batch(const struct ml_tree *tree,
+                                   const struct ml_shading_point *points,
+                                   size_t count,
+                                   uint32_t per_point,
+                                   uint32_t technique,
+                                   const struct ml_direct_params *params,
+                                   const struct ml_visibility *visibility,
+                                   const struct ml_uniforms *uniforms,
+                                   double *out);
+
+/**
+ * Creates an estimator for the lights of `tree` (built by `ml_tree_build` or loaded by
+ * `ml_tree_load_with_lights`). Set it up for a shading point with `ml_estimator_set_point`.
+ * Free it with `ml_estimator_free`.
+ *
+ * Errors: `ML_ERR_NULL` (`tree`, `out`); `ML_ERR_STATE` (a tree loaded by `ml_tree_load`,
+ * without its lights).
  */
 ml_status ml_estimator_create(const struct ml_tree *tree, struct ml_estimator **out);
 
@@ -1122,8 +1249,8 @@ ml_status ml_estimator_free(struct ml_estimator *est);
  */
 ml_status ml_estimator_set_point(struct ml_estimator *est,
                                  const struct ml_shading_point *sp,
-                                 uint32_t technique_,
-                                 const struct ml_direct_params *params_);
+                                 uint32_t technique,
+                                 const struct ml_direct_params *params);
 
 /**
  * One estimate at the estimator's shading point with the core's material: as
@@ -1220,7 +1347,10 @@ ml_status ml_build_options_default(struct ml_build_options *out);
  * accepted and never sampled. Free the tree with `ml_tree_free`.
  *
  * Errors: `ML_ERR_NULL` (`lights` with `count` > 0, `out`); `ML_ERR_INVALID_ARGUMENT` (a bad
- * light, a bad option, too many lights, a total energy above 1e26).
+ * light, a bad option, more than `ML_MAX_LIGHTS` lights, a light's energy above
+ * `ML_MAX_LIGHT_ENERGY`, coordinates beyond `ML_MAX_COORDINATE`, a total energy above
+ * `ML_MAX_TOTAL_ENERGY`, a tree deeper than `ML_MAX_DEPTH`: the message names the macro, the
+ * light, the field and its value).
  */
 ml_status ml_tree_build(const struct ml_light *lights,
                         size_t count,
@@ -1247,9 +1377,11 @@ ml_status ml_tree_stats(const struct ml_tree *tree, struct ml_tree_statistics *o
 ml_status ml_tree_serialized_size(const struct ml_tree *tree, size_t *out);
 
 /**
- * Writes the tree as bytes (an opaque, versioned format for the same library version and
- * byte order; the light descriptors are not included) to `buffer` of `capacity` bytes, and
- * their number to `*written`. Read back with `ml_tree_load`.
+ * Writes the tree as bytes (a versioned format for the same library version and byte order,
+ * with a CRC-64 of everything after its header and a checksum of the lights per block of 64;
+ * the light descriptors themselves are not included) to `buffer` of `capacity` bytes, and
+ * their number to `*written`. Read back with `ml_tree_load`, or with
+ * `ml_tree_load_with_lights` and the descriptors it was built from.
  *
  * Errors: `ML_ERR_NULL` (`tree`, `buffer` with `capacity` > 0, `written`);
  * `ML_ERR_BUFFER_TOO_SMALL` when `capacity` is below `ml_tree_serialized_size`.
@@ -1260,14 +1392,38 @@ ml_status ml_tree_serialize(const struct ml_tree *tree,
                             size_t *written);
 
 /**
- * Loads a tree written by `ml_tree_serialize`. Every byte is validated: corrupt, truncated or
- * foreign bytes give `ML_ERR_FORMAT`, never a crash or a bad tree. The loaded tree samples
- * and answers pmfs (TL, BL, cuts); it has no light descriptors, so points on lights and the
- * direct estimators need a tree from `ml_tree_build` (they return `ML_ERR_STATE`).
+ * Loads a tree written by `ml_tree_serialize`. The header is checked first (magic, version,
+ * length and the CRC-64 of the rest) and nothing else is read unless it matches; then the tree
+ * is validated fully: corrupt, truncated or foreign bytes give `ML_ERR_FORMAT`, never a crash
+ * or a bad tree (a change confined to 64 consecutive bits is always caught, any other
+ * change escapes with probability 2⁻⁶⁴). The loaded tree samples and answers pmfs (TL, BL,
+ * cuts); it has no light descriptors, so points on lights and the direct estimators need
+ * `ml_tree_load_with_lights` or `ml_tree_build` (they return `ML_ERR_STATE`).
  *
  * Errors: `ML_ERR_NULL` (`bytes` with `len` > 0, `out`); `ML_ERR_FORMAT`.
  */
 ml_status ml_tree_load(const uint8_t *bytes, size_t len, struct ml_tree **out);
+
+/**
+ * Loads a tree written by `ml_tree_serialize` together with the `count` light descriptors it
+ * was built from (`lights` may be NULL when `count` is 0): the bytes are checked as
+ * `ml_tree_load` checks them, then the lights against the tree, in index order by blocks of
+ * 64: their count, each light valid, in the tree exactly when its energy is positive, its
+ * bounds inside its slot, and each block's checksum the one the bytes store. The tree is then
+ * the one it was saved from with its lights: sampling, pmfs, points on lights and every
+ * estimator give bit for bit what the saved tree gives. Free it with `ml_tree_free`.
+ *
+ * Errors: `ML_ERR_NULL` (`bytes` with `len` > 0, `lights` with `count` > 0, `out`);
+ * `ML_ERR_FORMAT` (corrupt bytes, or lights other than the ones the tree was built from: the
+ * message names the first mismatch, `lights[123]` or the block `lights[64..128]`);
+ * `ML_ERR_INVALID_ARGUMENT` (a light descriptor no tree could be built from, named as
+ * `ml_tree_build` names it).
+ */
+ml_status ml_tree_load_with_lights(const uint8_t *bytes,
+                                   size_t len,
+                                   const struct ml_light *lights,
+                                   size_t count,
+                                   struct ml_tree **out);
 
 /**
  * Samples a light with TL importance (Conty & Kulla) at `point` with the uniform number `u`
@@ -1283,7 +1439,8 @@ ml_status ml_tree_sample_tl(const struct ml_tree *tree,
 
 /**
  * The probability that `ml_tree_sample_tl` returns `light` at `point`: exactly the pmf it
- * reports (0 for lights that cannot contribute or have no energy).
+ * reports (0 for lights that cannot contribute or have no energy, and for the lights whose
+ * probability would be below `ML_MIN_PMF`: the one way a light that can contribute has pmf 0).
  *
  * Errors: `ML_ERR_NULL` (`tree`, `point`, `out`); `ML_ERR_INVALID_ARGUMENT` (a non-finite
  * point, `light` out of range).
@@ -1369,10 +1526,13 @@ ml_status ml_tree_pmf_bl_batch(const struct ml_tree *tree,
 /**
  * Samples a point on light `light` as seen from `x`, with `u0`, `u1` in [0, 1): its position,
  * direction, distance, solid-angle pdf and arriving radiance (`pdf = 0` when the light cannot
- * reach x). The sample's contribution to an estimate is `f · radiance · cos θ / (pmf · pdf)`.
+ * reach x). The sample's contribution to an estimate is `f · radiance · cos θ / (pmf · pdf)`
+ * (`radiance` is already divided by d² for point, spot and VPL lights, whose `pdf` is 1: see
+ * `ml_light_point`).
  *
  * Errors: `ML_ERR_NULL` (`tree`, `out`); `ML_ERR_INVALID_ARGUMENT` (`light` out of range, a
- * non-finite `x`, `u0` or `u1` outside [0, 1)); `ML_ERR_STATE` (a tree loaded from bytes).
+ * non-finite `x`, `u0` or `u1` outside [0, 1)); `ML_ERR_STATE` (a tree loaded without its
+ * lights).
  */
 ml_status ml_light_sample_point(const struct ml_tree *tree,
                                 uint32_t light,
@@ -1383,16 +1543,35 @@ ml_status ml_light_sample_point(const struct ml_tree *tree,
 
 /**
  * The solid-angle pdf at `x` with which `ml_light_sample_point` returns the point `point` of
- * light `light` (0 for point, spot and VPL lights, and where it returns none).
+ * light `light` (0 where it returns none). Point, spot and VPL lights have the convention of
+ * `ml_light_point.pdf`: the delta's weight reported as 1 at the light's position (0 at any
+ * other point).
  *
  * Errors: `ML_ERR_NULL` (`tree`, `out`); `ML_ERR_INVALID_ARGUMENT` (`light` out of range,
- * non-finite `x` or `point`); `ML_ERR_STATE` (a tree loaded from bytes).
+ * non-finite `x` or `point`); `ML_ERR_STATE` (a tree loaded without its lights).
  */
 ml_status ml_light_pdf_point(const struct ml_tree *tree,
                              uint32_t light,
                              struct ml_vec3 x,
                              struct ml_vec3 point,
                              float *out);
+
+/**
+ * `count` points on lights at once, for wavefront hosts: `out[j]` is what
+ * `ml_light_sample_point(tree, lights[j], xs[j], u0s[j], u1s[j])` gives, bit for bit. Every
+ * input is checked before anything is written.
+ *
+ * Errors: `ML_ERR_NULL` (`tree`; `lights`, `xs`, `u0s`, `u1s`, `out` when `count` > 0);
+ * `ML_ERR_INVALID_ARGUMENT` naming the element (`lights[j]` out of range, `xs[j]` not finite,
+ * `u0s[j]` or `u1s[j]` outside [0, 1)); `ML_ERR_STATE` (a tree loaded without its lights).
+ */
+ml_status ml_light_sample_point_batch(const struct ml_tree *tree,
+                                      const uint32_t *lights,
+                                      const struct ml_vec3 *xs,
+                                      const float *u0s,
+                                      const float *u1s,
+                                      size_t count,
+                                      struct ml_light_point *out);
 
 /**
  * Fills `*out` with the default options (`pixels` = `wanted` = 0: set them).

@@ -24,7 +24,7 @@ pub const ML_NO_CLUSTER: u32 = u32::MAX;
 pub struct ml_bl_cut_options {
     /// Split a cluster whose BRDF integral over its cap exceeds δ (finite, ≥ 0; default 0.5).
     pub delta: f32,
-    /// Most clusters, in [4, 64] (default 32).
+    /// Most clusters, in [`ML_MIN_CUT_SIZE`, `ML_CUT_CAPACITY`] = [4, 64] (default 32).
     pub max_size: usize,
 }
 
@@ -35,7 +35,7 @@ pub struct ml_split_cut_options {
     /// Split while the cluster's share of the variance exceeds this (finite, ≥ 0; default
     /// 1e-3).
     pub threshold: f32,
-    /// Most clusters, in [4, 64] (default 32).
+    /// Most clusters, in [`ML_MIN_CUT_SIZE`, `ML_CUT_CAPACITY`] = [4, 64] (default 32).
     pub max_size: usize,
 }
 
@@ -67,11 +67,11 @@ impl ml_cut {
 }
 
 fn max_size(v: usize, name: &str) -> Result<usize> {
-    if (4..=ML_CUT_CAPACITY).contains(&v) {
+    if (crate::limits::ML_MIN_CUT_SIZE..=ML_CUT_CAPACITY).contains(&v) {
         Ok(v)
     } else {
         Err(Error::invalid(format_args!(
-            "{name} must be in [4, 64] (got {v})"
+            "{name} must be in [4, 64], ML_MIN_CUT_SIZE to ML_CUT_CAPACITY (got {v})"
         )))
     }
 }
@@ -193,7 +193,11 @@ pub extern "C" fn ml_cut_build_bl(
 
 /// Builds the split-sampling cut of `tree` at `point` (Conty & Kulla: a cluster is split while
 /// its share of the variance is large, and always when the point is inside it), with
-/// `options` (NULL: defaults). The cut is unchanged on error.
+/// `options` (NULL: defaults). The cut is unchanged on error. Its clusters hold every light
+/// that can contribute at `point`, not every light with `ml_tree_pmf_tl` > 0: below a slot
+/// whose child's slots all have importance 0, the tree's descent falls back to energies and
+/// gives those lights (which cannot contribute: behind the surface, outside their cones) a
+/// TL pmf > 0, while a cut that opens the slot leaves them out (`ML_NO_CLUSTER`, pmf 0).
 ///
 /// Errors: `ML_ERR_NULL` (`cut`, `tree`, `point`); `ML_ERR_INVALID_ARGUMENT` (a non-finite
 /// point, a bad option).
@@ -362,7 +366,8 @@ pub extern "C" fn ml_cut_sample_clusters(
 }
 
 /// The cluster of the cut holding `light` (`ML_NO_CLUSTER` if none) and the light's pmf
-/// within it (what `ml_cut_sample_clusters` reports for it; 0 with `ML_NO_CLUSTER`).
+/// within it (what `ml_cut_sample_clusters` reports for it; 0 with `ML_NO_CLUSTER`, which a
+/// host combining TL and split pmfs takes as a density of 0: see `ml_cut_build_split`).
 ///
 /// Errors: `ML_ERR_NULL` (`cut`, `cluster`, `pmf`); `ML_ERR_INVALID_ARGUMENT` (`light` out of
 /// range); `ML_ERR_STATE` (never built).

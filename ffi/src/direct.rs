@@ -81,7 +81,8 @@ pub struct ml_direct_params {
     pub split_cut: ml_split_cut_options,
     /// The BRDF-oriented cut (`bl`, `bl-mis`, `mis-equal`, `full`).
     pub bl_cut: ml_bl_cut_options,
-    /// Nmax of the BRDF-aware budget N = ceil(Nmax · IB(x)), in [1, 64] (default 50).
+    /// Nmax of the BRDF-aware budget N = ceil(Nmax · IB(x)), in [1, `ML_MAX_BUDGET`] = [1, 64]
+    /// (default 50).
     pub n_max: u32,
     /// An `ml_lambert_mode` (default `ML_LAMBERT_MODE_TL_ONLY`).
     pub lambert: u32,
@@ -133,7 +134,9 @@ pub enum ml_step_kind {
     /// `needs_bsdf_pdf`) and add `value · scale`.
     Light = 0,
     /// A BSDF sample to take with `u0`, `u1`: sample the BSDF, cast the ray and report the
-    /// direction, its pdf and the first surface's distance to `ml_estimator_bsdf_hits`.
+    /// direction, its pdf and the first surface's distance to `ml_estimator_bsdf_hits`. When
+    /// the host's BSDF gives no direction for them, skip the report (as the one call does):
+    /// the sample contributes nothing, and `full` counts it as a ray that reached no light.
     Bsdf = 1,
     /// The estimate is complete.
     Done = 2,
@@ -160,15 +163,18 @@ pub struct ml_step {
 }
 
 /// A sample's MIS weight and density: its contribution is `value · scale`, with `value = f ·
-/// L · cos θi` (or one channel of it) evaluated by the host.
+/// L · cos θi` (or each channel of it, of any sign) evaluated by the host.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct ml_weighted {
     /// The MIS weight, in [0, 1].
     pub weight: f32,
-    /// The density the sample was drawn with (solid angle; 1 for point, spot and VPL lights).
+    /// The density the weight is relative to (solid angle; 1 for point, spot and VPL lights):
+    /// the light sample's density for light steps; for BSDF hits the BSDF's pdf with
+    /// `tl-mis` and `bl-mis`, and the combined density of the mixed BL and BSDF samples with
+    /// `mis-equal` and `full`.
     pub pdf: f32,
-    /// `weight / pdf` as the one-call estimator applies it (finite, ≥ 0).
+    /// `weight / pdf` (finite, ≥ 0), the factor of every channel of the value.
     pub scale: f32,
 }
 
@@ -181,7 +187,7 @@ pub struct ml_light_hit {
     pub light: u32,
     /// The point the ray reached on it.
     pub point: ml_light_point,
-    /// Its weight and the BSDF's density.
+    /// Its weight and the density the weight is relative to (see `ml_weighted.pdf`).
     pub weighted: ml_weighted,
 }
 
@@ -204,13 +210,13 @@ impl From<manylights::direct::Weighted> for ml_weighted {
         ml_weighted {
             weight: w.weight(),
             pdf: w.pdf(),
-            scale: w.contribution(1.0),
+            scale: w.factor(),
         }
     }
 }
 
 /// The technique of a C value.
-fn technique(t: u32) -> Result<Technique> {
+fn technique_of(t: u32) -> Result<Technique> {
     Technique::ALL.get(t as usize).copied().ok_or_else(|| {
         Error::invalid(format_args!(
             "technique: {t} is not an ml_technique (0 to 8)"
@@ -243,13 +249,13 @@ pub extern "C" fn ml_direct_params_default(out: *mut ml_direct_params) -> ml_sta
 }
 
 /// The core's parameters of checked C ones (NULL: defaults).
-fn params(p: Option<&ml_direct_params>) -> Result<Params> {
+fn params_of(p: Option<&ml_direct_params>) -> Result<Params> {
     let Some(p) = p else {
         return Ok(Params::default());
     };
     if !(1..=MAX_BUDGET).contains(&p.n_max) {
         return Err(Error::invalid(format_args!(
-            "params.n_max must be in [1, {MAX_BUDGET}] (got {})",
+            "params.n_max must be in [1, {MAX_BUDGET}], 1 to ML_MAX_BUDGET (got {})",
             p.n_max
         )));
     }
@@ -394,13 +400,14 @@ fn sp_arg(sp: *const ml_shading_point) -> Result<manylights::ShadingPoint> {
 ///
 /// Errors: `ML_ERR_NULL` (`tree`, `sp`, `uniforms`, `uniforms->next_f32`, `out`);
 /// `ML_ERR_INVALID_ARGUMENT` (a bad shading point, technique or parameter; a uniform number
-/// outside [0, 1); a NaN or negative `first_hit`); `ML_ERR_STATE` (a tree loaded from bytes).
+/// outside [0, 1); a NaN or negative `first_hit`); `ML_ERR_STATE` (a tree loaded by
+/// `ml_tree_load`, without its lights).
 #[no_mangle]
 pub extern "C" fn ml_direct_estimate(
     tree: *const ml_tree,
     sp: *const ml_shading_point,
-    technique_: u32,
-    params_: *const ml_direct_params,
+    technique: u32,
+    params: *const ml_direct_params,
     visibility: *const ml_visibility,
     uniforms: *const ml_uniforms,
     out: *mut f64,
@@ -408,8 +415,8 @@ pub extern "C" fn ml_direct_estimate(
     ffi_fn!("ml_direct_estimate", {
         let data = tree_arg(tree)?;
         let sp = sp_arg(sp)?;
-        let t = technique(technique_)?;
-        let p = params(arg::opt(params_, "params")?)?;
+        let t = technique_of(technique)?;
+        let p = params_of(arg::opt(params, "params")?)?;
         let vis = arg::opt(visibility, "visibility")?;
         let u = arg::get(uniforms, "uniforms")?;
         let out = arg::out(out, "out")?;
@@ -420,10 +427,84 @@ pub extern "C" fn ml_direct_estimate(
     })
 }
 
-/// Creates an estimator for the lights of `tree` (built by `ml_tree_build`). Set it up for a
-/// shading point with `ml_estimator_set_point`. Free it with `ml_estimator_free`.
+/// Estimates at `count` shading points at once, for wavefront hosts: for each `points[j]` in
+/// order, the per-point set-up (as `ml_estimator_set_point` with `technique` and `params`) and
+/// `per_point` (≥ 1) estimates (as `ml_estimator_estimate` with `visibility` and `uniforms`),
+/// written to `out[j · per_point + i]` — bit for bit, and drawing exactly the uniform numbers,
+/// of those calls made one after the other (with `per_point` = 1, of `count` calls of
+/// `ml_direct_estimate`). Every shading point is checked before the first estimate; `out`
+/// (`count · per_point` doubles) is written only on success.
 ///
-/// Errors: `ML_ERR_NULL` (`tree`, `out`); `ML_ERR_STATE` (a tree loaded from bytes).
+/// Errors: `ML_ERR_NULL` (`tree`, `uniforms`, `uniforms->next_f32`; `points`, `out` when
+/// `count` > 0); `ML_ERR_INVALID_ARGUMENT` (`per_point` 0, a count that overflows, a bad
+/// technique or parameter, a bad shading point named `points[j]`, a uniform number outside
+/// [0, 1) or a bad `first_hit` named with the point it was drawn for); `ML_ERR_STATE` (a
+/// tree loaded without its lights).
+#[no_mangle]
+pub extern "C" fn ml_direct_estimate_batch(
+    tree: *const ml_tree,
+    points: *const ml_shading_point,
+    count: usize,
+    per_point: u32,
+    technique: u32,
+    params: *const ml_direct_params,
+    visibility: *const ml_visibility,
+    uniforms: *const ml_uniforms,
+    out: *mut f64,
+) -> ml_status {
+    ffi_fn!("ml_direct_estimate_batch", {
+        let data = tree_arg(tree)?;
+        if per_point == 0 {
+            return Err(Error::invalid("per_point must be at least 1 (got 0)"));
+        }
+        let total = count.checked_mul(per_point as usize).ok_or_else(|| {
+            Error::invalid(format_args!(
+                "count: {count} points of {per_point} estimates overflow the address space"
+            ))
+        })?;
+        let pts = arg::slice(points, count, "points")?;
+        let t = technique_of(technique)?;
+        let p = params_of(arg::opt(params, "params")?)?;
+        let vis = arg::opt(visibility, "visibility")?;
+        let u = arg::get(uniforms, "uniforms")?;
+        let mut out = arg::out_slice(out, total, "out")?;
+        let set = data.set()?;
+        HostUniforms::new(u)?;
+        let mut sps = Vec::with_capacity(count);
+        for (j, sp) in pts.iter().enumerate() {
+            sps.push(shading_point(sp, &|| format!("points[{j}]"))?);
+        }
+        let mut res = vec![0.0f64; total];
+        let per = per_point as usize;
+        for (j, (sp, r)) in sps.iter().zip(res.chunks_exact_mut(per)).enumerate() {
+            let name = || format!("points[{j}]");
+            let mut est =
+                Estimator::new(set, sp, t, &p).map_err(|e| direct_error_at(e, &name()))?;
+            for v in r {
+                *v = estimate_with(&mut est, vis, u).map_err(|e| e.within(&name()))?;
+            }
+        }
+        for (i, v) in res.into_iter().enumerate() {
+            out.set(i, v);
+        }
+        Ok(())
+    })
+}
+
+/// A core estimator error in the C arguments' terms, the shading point named `path`.
+fn direct_error_at(e: DirectError, path: &str) -> Error {
+    match e {
+        DirectError::Shading(s) => shading_error(s, &|| path.into()),
+        e => direct_error(e),
+    }
+}
+
+/// Creates an estimator for the lights of `tree` (built by `ml_tree_build` or loaded by
+/// `ml_tree_load_with_lights`). Set it up for a shading point with `ml_estimator_set_point`.
+/// Free it with `ml_estimator_free`.
+///
+/// Errors: `ML_ERR_NULL` (`tree`, `out`); `ML_ERR_STATE` (a tree loaded by `ml_tree_load`,
+/// without its lights).
 #[no_mangle]
 pub extern "C" fn ml_estimator_create(
     tree: *const ml_tree,
@@ -459,14 +540,14 @@ pub extern "C" fn ml_estimator_free(est: *mut ml_estimator) -> ml_status {
 pub extern "C" fn ml_estimator_set_point(
     est: *mut ml_estimator,
     sp: *const ml_shading_point,
-    technique_: u32,
-    params_: *const ml_direct_params,
+    technique: u32,
+    params: *const ml_direct_params,
 ) -> ml_status {
     ffi_fn!("ml_estimator_set_point", {
         let h = arg::get_mut(est, "est")?;
         let sp = sp_arg(sp)?;
-        let t = technique(technique_)?;
-        let p = params(arg::opt(params_, "params")?)?;
+        let t = technique_of(technique)?;
+        let p = params_of(arg::opt(params, "params")?)?;
         let set: &LightSet = h.tree.set()?;
         // SAFETY: the light set lives in `h.tree`'s allocation, which `h` keeps alive and never
         // replaces; `h.est` is declared before `h.tree` (dropped first) and the reference never

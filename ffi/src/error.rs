@@ -82,6 +82,14 @@ impl Error {
         }
     }
 
+    /// The same error, its message prefixed with `context: ` (the element it happened at).
+    pub(crate) fn within(self, context: &str) -> Error {
+        Error {
+            status: self.status,
+            message: format!("{context}: {}", self.message),
+        }
+    }
+
     /// A caught panic.
     #[doc(hidden)]
     pub fn from_panic(payload: Box<dyn std::any::Any + Send>) -> Error {

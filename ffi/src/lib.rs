@@ -21,6 +21,7 @@ pub mod brdf;
 pub mod cut;
 pub mod direct;
 mod error;
+pub mod limits;
 pub mod tree;
 pub mod types;
 pub mod vpl;
@@ -29,6 +30,7 @@ pub use brdf::*;
 pub use cut::*;
 pub use direct::*;
 pub use error::*;
+pub use limits::*;
 pub use tree::*;
 pub use types::*;
 pub use vpl::*;
@@ -95,6 +97,56 @@ mod tests {
         assert_eq!(ML_VERSION_MAJOR, parse(env!("CARGO_PKG_VERSION_MAJOR")));
         assert_eq!(ML_VERSION_MINOR, parse(env!("CARGO_PKG_VERSION_MINOR")));
         assert_eq!(ML_VERSION_PATCH, parse(env!("CARGO_PKG_VERSION_PATCH")));
+    }
+
+    #[test]
+    fn every_macro_of_the_header_is_ml_and_every_limit_has_its_value() {
+        let header = include_str!("../include/manylights.h");
+        for line in header.lines().filter(|l| l.starts_with("#define ")) {
+            let name = line.split_whitespace().nth(1).unwrap_or("");
+            assert!(
+                name.starts_with("ML_") || name == "MANYLIGHTS_H",
+                "a macro outside ML_: {line}"
+            );
+        }
+        for (name, value) in [
+            ("ML_MAX_COORDINATE", "1e15"),
+            ("ML_MAX_LIGHT_ENERGY", "1e24"),
+            ("ML_MAX_TOTAL_ENERGY", "1e26"),
+            ("ML_MAX_LIGHTS", "2147483646"),
+            ("ML_MIN_PMF", "1.17549435e-38"),
+            ("ML_MAX_DEPTH", "31"),
+            ("ML_MIN_BUCKETS", "12"),
+            ("ML_MAX_BUCKETS", "64"),
+            ("ML_MIN_CUT_SIZE", "4"),
+            ("ML_CUT_CAPACITY", "64"),
+            ("ML_MAX_BUDGET", "64"),
+            ("ML_MIN_ALPHA", "5e-3"),
+            ("ML_LIGHT_SAMPLE_NONE", "{ ML_NO_LIGHT, 0.0f }"),
+        ] {
+            let line = format!("#define {name} {value}");
+            assert!(header.contains(&line), "the header lacks `{line}`");
+        }
+    }
+
+    #[test]
+    fn no_prototype_parameter_name_ends_in_an_underscore() {
+        let header = include_str!("../include/manylights.h");
+        let mut in_prototype = false;
+        for line in header.lines() {
+            let t = line.trim_start();
+            if t.starts_with("ml_status ml_") || t.starts_with("const char *ml_") {
+                in_prototype = true;
+            }
+            if in_prototype {
+                for word in t.split(|c: char| !(c.is_alphanumeric() || c == '_')) {
+                    assert!(!word.ends_with('_') || word.is_empty(), "{line}");
+                }
+                if t.contains(");") {
+                    in_prototype = false;
+                }
+            }
+        }
     }
 
     #[test]

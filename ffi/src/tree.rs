@@ -4,23 +4,27 @@
 use crate::arg;
 use crate::error::{ml_status, Error, Result};
 use crate::ffi_fn;
+use crate::limits::{ML_MAX_BUCKETS, ML_MIN_BUCKETS};
 use crate::types::{
     build_error, finite3, light, ml_light, ml_light_point, ml_light_sample, ml_shading_point,
     ml_tl_point, ml_vec3, shading_point, tl_point, unit,
 };
 use manylights::light_sample::{pdf_point, sample_point};
-use manylights::{BlImportance, BuildOptions, Light, LightSet, LightTree, TlImportance};
+use manylights::{
+    BlImportance, BuildOptions, FormatError, Light, LightMismatch, LightSet, LightTree,
+    TlImportance,
+};
 use std::sync::Arc;
 
 /// The most lights a tree may hold (`ml_tree_build`'s `count`).
 pub const ML_MAX_LIGHTS: u32 = 2_147_483_646;
 const _: () = assert!(ML_MAX_LIGHTS == manylights::tree::MAX_LIGHTS);
 
-/// What a tree handle holds: the lights with their tree (built from descriptors), or a tree
-/// alone (loaded from bytes).
+/// What a tree handle holds: the lights with their tree (built from descriptors, or loaded
+/// with them), or a tree alone (loaded from bytes without them).
 #[derive(Debug)]
 pub(crate) enum TreeData {
-    /// Built by `ml_tree_build`.
+    /// Built by `ml_tree_build` or loaded by `ml_tree_load_with_lights`.
     Set(LightSet),
     /// Loaded by `ml_tree_load`: sampling and pmfs only.
     Tree(LightTree),
@@ -40,8 +44,9 @@ impl TreeData {
         match self {
             TreeData::Set(s) => Ok(s),
             TreeData::Tree(_) => Err(Error::state(
-                "tree: loaded from bytes, it holds no light descriptors (build it with \
-                 ml_tree_build for points on lights and the direct estimators)",
+                "tree: loaded from bytes, it holds no light descriptors (load it with \
+                 ml_tree_load_with_lights, or build it with ml_tree_build, for points on \
+                 lights and the direct estimators)",
             )),
         }
     }
@@ -65,7 +70,8 @@ pub struct ml_tree {
 #[repr(C)]
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct ml_build_options {
-    /// SAOH buckets per axis, in [12, 64]; 0 for the default (12).
+    /// SAOH buckets per axis, in [`ML_MIN_BUCKETS`, `ML_MAX_BUCKETS`] = [12, 64]; 0 for the
+    /// default (12).
     pub buckets: u32,
 }
 
@@ -79,13 +85,15 @@ pub struct ml_tree_statistics {
     pub sampled_lights: usize,
     /// Tree nodes.
     pub nodes: usize,
-    /// Bytes of the tree's arrays (nodes, node statistics, light paths).
+    /// Bytes of the tree's arrays (nodes, node statistics, light paths, the lights' checksums).
     pub bytes: usize,
     /// Levels of nodes (0 for a tree that samples nothing).
     pub depth: u32,
-    /// 1 if the tree holds its light descriptors (built by `ml_tree_build`), 0 if loaded.
+    /// 1 if the tree holds its light descriptors (built by `ml_tree_build` or loaded by
+    /// `ml_tree_load_with_lights`), 0 if loaded by `ml_tree_load`.
     pub has_lights: u32,
-    /// Total energy of the sampled lights.
+    /// Total energy of the sampled lights: the sum of their fluxes in W (see `ml_light_kind`),
+    /// as the root's slots store it (each rounded up by at most 2⁻¹¹ relative).
     pub total_energy: f32,
 }
 
@@ -125,7 +133,10 @@ pub extern "C" fn ml_build_options_default(out: *mut ml_build_options) -> ml_sta
 /// accepted and never sampled. Free the tree with `ml_tree_free`.
 ///
 /// Errors: `ML_ERR_NULL` (`lights` with `count` > 0, `out`); `ML_ERR_INVALID_ARGUMENT` (a bad
-/// light, a bad option, too many lights, a total energy above 1e26).
+/// light, a bad option, more than `ML_MAX_LIGHTS` lights, a light's energy above
+/// `ML_MAX_LIGHT_ENERGY`, coordinates beyond `ML_MAX_COORDINATE`, a total energy above
+/// `ML_MAX_TOTAL_ENERGY`, a tree deeper than `ML_MAX_DEPTH`: the message names the macro, the
+/// light, the field and its value).
 #[no_mangle]
 pub extern "C" fn ml_tree_build(
     lights: *const ml_light,
@@ -141,10 +152,11 @@ pub extern "C" fn ml_tree_build(
         if let Some(o) = options {
             match o.buckets {
                 0 => {}
-                b @ 12..=64 => opts.buckets = b as usize,
+                b @ ML_MIN_BUCKETS..=ML_MAX_BUCKETS => opts.buckets = b as usize,
                 b => {
                     return Err(Error::invalid(format_args!(
-                        "options.buckets must be 0 or in [12, 64] (got {b})"
+                        "options.buckets must be 0 or in [12, 64], ML_MIN_BUCKETS to \
+                         ML_MAX_BUCKETS (got {b})"
                     )))
                 }
             }
@@ -208,9 +220,11 @@ pub extern "C" fn ml_tree_serialized_size(tree: *const ml_tree, out: *mut usize)
     })
 }
 
-/// Writes the tree as bytes (an opaque, versioned format for the same library version and
-/// byte order; the light descriptors are not included) to `buffer` of `capacity` bytes, and
-/// their number to `*written`. Read back with `ml_tree_load`.
+/// Writes the tree as bytes (a versioned format for the same library version and byte order,
+/// with a CRC-64 of everything after its header and a checksum of the lights per block of 64;
+/// the light descriptors themselves are not included) to `buffer` of `capacity` bytes, and
+/// their number to `*written`. Read back with `ml_tree_load`, or with
+/// `ml_tree_load_with_lights` and the descriptors it was built from.
 ///
 /// Errors: `ML_ERR_NULL` (`tree`, `buffer` with `capacity` > 0, `written`);
 /// `ML_ERR_BUFFER_TOO_SMALL` when `capacity` is below `ml_tree_serialized_size`.
@@ -240,10 +254,13 @@ pub extern "C" fn ml_tree_serialize(
     })
 }
 
-/// Loads a tree written by `ml_tree_serialize`. Every byte is validated: corrupt, truncated or
-/// foreign bytes give `ML_ERR_FORMAT`, never a crash or a bad tree. The loaded tree samples
-/// and answers pmfs (TL, BL, cuts); it has no light descriptors, so points on lights and the
-/// direct estimators need a tree from `ml_tree_build` (they return `ML_ERR_STATE`).
+/// Loads a tree written by `ml_tree_serialize`. The header is checked first (magic, version,
+/// length and the CRC-64 of the rest) and nothing else is read unless it matches; then the tree
+/// is validated fully: corrupt, truncated or foreign bytes give `ML_ERR_FORMAT`, never a crash
+/// or a bad tree (a change confined to 64 consecutive bits is always caught, any other
+/// change escapes with probability 2⁻⁶⁴). The loaded tree samples and answers pmfs (TL, BL,
+/// cuts); it has no light descriptors, so points on lights and the direct estimators need
+/// `ml_tree_load_with_lights` or `ml_tree_build` (they return `ML_ERR_STATE`).
 ///
 /// Errors: `ML_ERR_NULL` (`bytes` with `len` > 0, `out`); `ML_ERR_FORMAT`.
 #[no_mangle]
@@ -258,6 +275,76 @@ pub extern "C" fn ml_tree_load(bytes: *const u8, len: usize, out: *mut *mut ml_t
         }));
         Ok(())
     })
+}
+
+/// Loads a tree written by `ml_tree_serialize` together with the `count` light descriptors it
+/// was built from (`lights` may be NULL when `count` is 0): the bytes are checked as
+/// `ml_tree_load` checks them, then the lights against the tree, in index order by blocks of
+/// 64: their count, each light valid, in the tree exactly when its energy is positive, its
+/// bounds inside its slot, and each block's checksum the one the bytes store. The tree is then
+/// the one it was saved from with its lights: sampling, pmfs, points on lights and every
+/// estimator give bit for bit what the saved tree gives. Free it with `ml_tree_free`.
+///
+/// Errors: `ML_ERR_NULL` (`bytes` with `len` > 0, `lights` with `count` > 0, `out`);
+/// `ML_ERR_FORMAT` (corrupt bytes, or lights other than the ones the tree was built from: the
+/// message names the first mismatch, `lights[123]` or the block `lights[64..128]`);
+/// `ML_ERR_INVALID_ARGUMENT` (a light descriptor no tree could be built from, named as
+/// `ml_tree_build` names it).
+#[no_mangle]
+pub extern "C" fn ml_tree_load_with_lights(
+    bytes: *const u8,
+    len: usize,
+    lights: *const ml_light,
+    count: usize,
+    out: *mut *mut ml_tree,
+) -> ml_status {
+    ffi_fn!("ml_tree_load_with_lights", {
+        let bytes = arg::slice(bytes, len, "bytes")?;
+        let descs = arg::slice(lights, count, "lights")?;
+        let out = arg::out(out, "out")?;
+        let mut core = Vec::with_capacity(count);
+        for (i, l) in descs.iter().enumerate() {
+            core.push(light(l, i, "lights")?);
+        }
+        let set = LightSet::from_bytes(bytes, core).map_err(|e| match e {
+            FormatError::Lights(LightMismatch::Invalid(b)) => build_error(b, descs, "lights"),
+            FormatError::Lights(m) => Error::format(format_args!("lights: {}", mismatch(m))),
+            e => Error::format(format_args!("bytes: {e}")),
+        })?;
+        out.write(arg::into_handle(ml_tree {
+            data: Arc::new(TreeData::Set(set)),
+        }));
+        Ok(())
+    })
+}
+
+/// A light mismatch in the C array's terms.
+fn mismatch(m: LightMismatch) -> String {
+    match m {
+        LightMismatch::Count { tree, given } => {
+            format!("count is {given}, the tree was built from {tree} lights")
+        }
+        LightMismatch::Sampled {
+            light,
+            in_tree: true,
+        } => format!(
+            "lights[{light}] has no energy but the tree holds it: not the light the tree was \
+             built from"
+        ),
+        LightMismatch::Sampled { light, .. } => format!(
+            "lights[{light}] has energy but the tree does not hold it: not the light the tree \
+             was built from"
+        ),
+        LightMismatch::Escapes { light } => format!(
+            "lights[{light}] lies outside its slot's bounds: not the light the tree was built \
+             from (moved, turned, grown or brighter)"
+        ),
+        LightMismatch::Changed { first, end } => format!(
+            "lights[{first}..{end}] differ from the lights the tree was built from (their \
+             checksum), though each lies inside its slot"
+        ),
+        LightMismatch::Invalid(e) => e.to_string(),
+    }
 }
 
 /// Samples a light with TL importance (Conty & Kulla) at `point` with the uniform number `u`
@@ -284,7 +371,8 @@ pub extern "C" fn ml_tree_sample_tl(
 }
 
 /// The probability that `ml_tree_sample_tl` returns `light` at `point`: exactly the pmf it
-/// reports (0 for lights that cannot contribute or have no energy).
+/// reports (0 for lights that cannot contribute or have no energy, and for the lights whose
+/// probability would be below `ML_MIN_PMF`: the one way a light that can contribute has pmf 0).
 ///
 /// Errors: `ML_ERR_NULL` (`tree`, `point`, `out`); `ML_ERR_INVALID_ARGUMENT` (a non-finite
 /// point, `light` out of range).
@@ -574,10 +662,13 @@ pub extern "C" fn ml_tree_pmf_bl_batch(
 
 /// Samples a point on light `light` as seen from `x`, with `u0`, `u1` in [0, 1): its position,
 /// direction, distance, solid-angle pdf and arriving radiance (`pdf = 0` when the light cannot
-/// reach x). The sample's contribution to an estimate is `f · radiance · cos θ / (pmf · pdf)`.
+/// reach x). The sample's contribution to an estimate is `f · radiance · cos θ / (pmf · pdf)`
+/// (`radiance` is already divided by d² for point, spot and VPL lights, whose `pdf` is 1: see
+/// `ml_light_point`).
 ///
 /// Errors: `ML_ERR_NULL` (`tree`, `out`); `ML_ERR_INVALID_ARGUMENT` (`light` out of range, a
-/// non-finite `x`, `u0` or `u1` outside [0, 1)); `ML_ERR_STATE` (a tree loaded from bytes).
+/// non-finite `x`, `u0` or `u1` outside [0, 1)); `ML_ERR_STATE` (a tree loaded without its
+/// lights).
 #[no_mangle]
 pub extern "C" fn ml_light_sample_point(
     tree: *const ml_tree,
@@ -600,10 +691,12 @@ pub extern "C" fn ml_light_sample_point(
 }
 
 /// The solid-angle pdf at `x` with which `ml_light_sample_point` returns the point `point` of
-/// light `light` (0 for point, spot and VPL lights, and where it returns none).
+/// light `light` (0 where it returns none). Point, spot and VPL lights have the convention of
+/// `ml_light_point.pdf`: the delta's weight reported as 1 at the light's position (0 at any
+/// other point).
 ///
 /// Errors: `ML_ERR_NULL` (`tree`, `out`); `ML_ERR_INVALID_ARGUMENT` (`light` out of range,
-/// non-finite `x` or `point`); `ML_ERR_STATE` (a tree loaded from bytes).
+/// non-finite `x` or `point`); `ML_ERR_STATE` (a tree loaded without its lights).
 #[no_mangle]
 pub extern "C" fn ml_light_pdf_point(
     tree: *const ml_tree,
@@ -619,6 +712,55 @@ pub extern "C" fn ml_light_pdf_point(
         let x = finite3(x, &|| "x".into())?;
         let p = finite3(point, &|| "point".into())?;
         out.write(pdf_point(l, x, p));
+        Ok(())
+    })
+}
+
+/// `count` points on lights at once, for wavefront hosts: `out[j]` is what
+/// `ml_light_sample_point(tree, lights[j], xs[j], u0s[j], u1s[j])` gives, bit for bit. Every
+/// input is checked before anything is written.
+///
+/// Errors: `ML_ERR_NULL` (`tree`; `lights`, `xs`, `u0s`, `u1s`, `out` when `count` > 0);
+/// `ML_ERR_INVALID_ARGUMENT` naming the element (`lights[j]` out of range, `xs[j]` not finite,
+/// `u0s[j]` or `u1s[j]` outside [0, 1)); `ML_ERR_STATE` (a tree loaded without its lights).
+#[no_mangle]
+pub extern "C" fn ml_light_sample_point_batch(
+    tree: *const ml_tree,
+    lights: *const u32,
+    xs: *const ml_vec3,
+    u0s: *const f32,
+    u1s: *const f32,
+    count: usize,
+    out: *mut ml_light_point,
+) -> ml_status {
+    ffi_fn!("ml_light_sample_point_batch", {
+        let data = tree_arg(tree)?;
+        arg::check_count::<ml_light_point>(count, "count")?;
+        let which = arg::slice(lights, count, "lights")?;
+        let xs = arg::slice(xs, count, "xs")?;
+        let u0s = arg::slice(u0s, count, "u0s")?;
+        let u1s = arg::slice(u1s, count, "u1s")?;
+        let mut out = arg::out_slice(out, count, "out")?;
+        let lights = data.set()?.lights();
+        let n = lights.len();
+        for j in 0..count {
+            let x = xs[j];
+            let fine = (which[j] as usize) < n
+                && (x.x + x.y + x.z).is_finite()
+                && (0.0..1.0).contains(&u0s[j])
+                && (0.0..1.0).contains(&u1s[j]);
+            if !fine {
+                check_light(which[j], n, &format!("lights[{j}]"))?;
+                finite3(x, &|| format!("xs[{j}]"))?;
+                unit(u0s[j], &|| format!("u0s[{j}]"))?;
+                unit(u1s[j], &|| format!("u1s[{j}]"))?;
+            }
+        }
+        // What `ml_light_sample_point` computes, element by element.
+        for j in 0..count {
+            let l = &lights[which[j] as usize];
+            out.set(j, sample_point(l, xs[j].into(), [u0s[j], u1s[j]]).into());
+        }
         Ok(())
     })
 }

@@ -3,7 +3,7 @@
 
 use crate::error::{Error, Result};
 use glam::Vec3;
-use manylights::error::{LightField, Problem};
+use manylights::error::{LightField, Num, Problem};
 use manylights::material::ShadingField;
 use manylights::{
     BuildError, Light, LightPoint, LightSample, Material, ShadingError, ShadingPoint,
@@ -39,32 +39,45 @@ impl From<Vec3> for ml_vec3 {
     }
 }
 
-/// The kind of an `ml_light` (the value of its `kind` field).
+/// The kind of an `ml_light` (the value of its `kind` field). Units: positions in any length
+/// unit m (the same as the scene's), intensity in W/sr, radiance in W/(m²·sr); a light's energy
+/// (its flux, W, what the tree's importance and `ml_tree_statistics.total_energy` add up) is
+/// given at each kind and is at most `ML_MAX_LIGHT_ENERGY`.
 #[repr(u32)]
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum ml_light_kind {
-    /// Isotropic point light: `position`, `power` = intensity (W/sr).
+    /// Isotropic point light: `position`, `power` = intensity I (W/sr). Energy 4πI.
     Point = 0,
-    /// Spot light: `position`, `direction` (axis, any non-zero length), `power` = intensity on
-    /// the axis, `half_angle` θs in (0, π], `falloff_start` θf in [0, θs] (radians).
+    /// Spot light: `position`, `direction` (axis, any non-zero length), `power` = intensity I
+    /// on the axis (W/sr), `half_angle` θs in (0, π], `falloff_start` θf in [0, θs] (radians).
+    /// Intensity towards angle θ from the axis: I for θ ≤ θf, 0 for θ ≥ θs, and between them
+    /// I · smoothstep(cos θs, cos θf, cos θ) (t = (cos θ − cos θs)/(cos θf − cos θs), 3t² − 2t³;
+    /// pbrt-v4's spot light). Energy 2π(1 − cos θs)·I (an upper bound of the flux with the
+    /// falloff).
     Spot = 1,
-    /// Sphere light: `position` = centre, `radius` > 0, `power` = radiance (W/(m²·sr)).
+    /// Sphere light: `position` = centre, `radius` > 0, `power` = radiance L (W/(m²·sr)),
+    /// emitted outwards from every point. Energy L·π·4πr².
     Sphere = 2,
     /// Disk light: `position` = centre, `direction` = normal (the emitting side when
-    /// one-sided), `radius` > 0, `power` = radiance, `two_sided` 0 or 1.
+    /// one-sided), `radius` > 0, `power` = radiance L, `two_sided` 0 or 1. Energy L·π·πr² per
+    /// emitting side.
     Disk = 3,
     /// Triangle light: vertices `position`, `direction`, `vertex2` (one-sided lights emit on
-    /// the side of (v1 − v0) × (v2 − v0)), `power` = radiance, `two_sided` 0 or 1.
+    /// the side of (v1 − v0) × (v2 − v0)), `power` = radiance L, `two_sided` 0 or 1. Energy
+    /// L·π·area per emitting side.
     Triangle = 4,
     /// Virtual point light (Keller 1997): `position`, `direction` = normal, `power` =
-    /// intensity along the normal (a one-sided Lambertian point emitter, intensity
-    /// `power · max(0, cos θ)`).
+    /// intensity I along the normal (a one-sided Lambertian point emitter, intensity
+    /// `I · max(0, cos θ)`; what a diffuse point that received flux Φ with albedo ρ re-emits
+    /// is I = ρΦ/π). Energy πI.
     Vpl = 5,
 }
 
 /// One light, as given to `ml_tree_build`. Which fields a kind reads is listed at each
 /// `ml_light_kind`; the others are ignored (zero them). Coordinates finite with magnitude at
-/// most 1e15; `power` finite and ≥ 0 (0: accepted and never sampled).
+/// most `ML_MAX_COORDINATE`; `power` finite and ≥ 0 (0: accepted and never sampled), the
+/// light's energy at most `ML_MAX_LIGHT_ENERGY` and all of them together at most
+/// `ML_MAX_TOTAL_ENERGY`.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct ml_light {
@@ -224,8 +237,8 @@ pub struct ml_tl_point {
 pub const ML_NO_LIGHT: u32 = u32::MAX;
 
 /// A sampled light: its index in the array the tree was built from and the probability of
-/// the choice (finite, in [2⁻¹²⁶, 1]); `light = ML_NO_LIGHT` and `pmf = 0` when no light can
-/// contribute.
+/// the choice (finite, in [`ML_MIN_PMF`, 1]); `light = ML_NO_LIGHT` and `pmf = 0`
+/// (`ML_LIGHT_SAMPLE_NONE`) when no light can contribute.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct ml_light_sample {
@@ -236,8 +249,9 @@ pub struct ml_light_sample {
 }
 
 impl ml_light_sample {
-    /// No light.
-    pub const NONE: ml_light_sample = ml_light_sample {
+    /// No light (`ML_LIGHT_SAMPLE_NONE` in the header, an initializer written in
+    /// `cbindgen.toml`: a struct constant would be a C99 compound literal, not C++).
+    pub(crate) const NONE: ml_light_sample = ml_light_sample {
         light: ML_NO_LIGHT,
         pmf: 0.0,
     };
@@ -269,10 +283,13 @@ pub struct ml_light_point {
     pub direction: ml_vec3,
     /// Distance from x to `position` (> 0).
     pub distance: f32,
-    /// Solid-angle pdf of `direction` at x (> 0, finite); 1 for delta lights; 0: no point.
+    /// Solid-angle pdf of `direction` at x (> 0, finite); 1 for delta lights (as
+    /// `ml_light_pdf_point` reports it at their position); 0: no point.
     pub pdf: f32,
-    /// What the estimate multiplies by (≥ 0): the radiance arriving at x for area lights,
-    /// `I · falloff / d²` for point, spot and VPL lights.
+    /// What the estimate multiplies by (≥ 0): the radiance arriving at x for area lights
+    /// (W/(m²·sr)); for point, spot and VPL lights `I · falloff / d²` (W/m²), already divided
+    /// by the squared distance: do not divide again (the contribution is `f · radiance ·
+    /// cos θi / pdf`, `pdf` = 1).
     pub radiance: f32,
     /// 1 for point, spot and VPL lights (`pdf` is a Dirac delta reported as 1), else 0.
     pub delta: u32,
@@ -304,7 +321,7 @@ pub(crate) fn describe(p: Problem) -> &'static str {
         Problem::NotPositive => "must be positive",
         Problem::ZeroLength => "has zero length",
         Problem::OutOfRange => "is out of range",
-        Problem::EnergyTooLarge => "gives an energy above MAX_LIGHT_ENERGY (1e24)",
+        Problem::EnergyTooLarge => "gives an energy above ML_MAX_LIGHT_ENERGY (1e24)",
     }
 }
 
@@ -405,20 +422,47 @@ pub(crate) fn build_error(e: BuildError, lights: &[ml_light], name: &str) -> Err
             problem,
             value,
         } => {
-            let kind = lights.get(index).map_or(0, |l| l.kind);
+            let desc = lights.get(index);
+            let kind = desc.map_or(0, |l| l.kind);
+            let what = match (field, problem) {
+                (_, Problem::EnergyTooLarge) => {
+                    // The energy the field's value gives, with the macro it exceeds.
+                    let energy = desc
+                        .and_then(|d| light(d, index, name).ok())
+                        .map_or(f32::INFINITY, |l| l.energy());
+                    format!(
+                        "gives an energy of {} W, above ML_MAX_LIGHT_ENERGY (1e24)",
+                        Num(energy)
+                    )
+                }
+                (
+                    LightField::Position
+                    | LightField::Center
+                    | LightField::Vertex(_)
+                    | LightField::Radius,
+                    Problem::OutOfRange,
+                ) => "exceeds ML_MAX_COORDINATE (1e15) in magnitude".to_string(),
+                (LightField::HalfAngle, Problem::OutOfRange) => "must be in (0, pi]".to_string(),
+                (LightField::FalloffStart, Problem::OutOfRange) => {
+                    "must be in [0, half_angle]".to_string()
+                }
+                _ => describe(problem).to_string(),
+            };
             Error::invalid(format_args!(
-                "{name}[{index}].{} {} (got {value})",
+                "{name}[{index}].{} {what} (got {})",
                 light_field(kind, field),
-                describe(problem)
+                Num(value)
             ))
         }
         BuildError::TooManyLights { count } => Error::invalid(format_args!(
-            "count: {count} lights, at most 2147483646 are supported"
+            "count: {count} lights, at most ML_MAX_LIGHTS (2147483646) are supported"
         )),
         BuildError::TotalEnergyTooLarge => Error::invalid(format_args!(
-            "{name}: the lights' total energy exceeds MAX_TOTAL_ENERGY (1e26)"
+            "{name}: the lights' total energy exceeds ML_MAX_TOTAL_ENERGY (1e26)"
         )),
-        other => Error::invalid(format_args!("{name}: {other}")),
+        BuildError::TooDeep { depth } => Error::invalid(format_args!(
+            "{name}: the tree would be {depth} levels deep, above ML_MAX_DEPTH (31)"
+        )),
     }
 }
 

@@ -17,7 +17,7 @@ use manylights::{Importons, Material, Vpl, VplAcceptor};
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct ml_vpl {
-    /// Position (finite, magnitude at most 1e15).
+    /// Position (finite, magnitude at most `ML_MAX_COORDINATE`, 1e15).
     pub position: ml_vec3,
     /// Normal: the emitting side.
     pub normal: ml_vec3,

@@ -60,16 +60,37 @@ impl Weighted {
         (self.f.num * self.f.pdf / self.f.den).clamp(0.0, 1.0)
     }
 
-    /// The density the sample was drawn with (in the measure of its value: solid angle, or 1
-    /// for point and spot lights).
+    /// The density the weight is relative to (in the measure of its value: solid angle, or 1
+    /// for point, spot and VPL lights): for a light sample, its technique's density (pmf ·
+    /// point pdf; for a BRDF-aware sample of `mis-equal` or `full`, the mixture's density);
+    /// for a BSDF hit ([`LightHit`]), the BSDF's pdf for `tl-mis` and `bl-mis`, and the
+    /// combined density of the BRDF-aware mixture (BL and BSDF, as the technique mixes them)
+    /// for `mis-equal` and `full`. The contribution is `value · weight / pdf` in every case.
     #[inline]
     pub fn pdf(&self) -> f32 {
         self.f.pdf
     }
 
+    /// The factor a sample's value is multiplied by, `weight / pdf` (finite, ≥ 0): what a host
+    /// applies to each channel of a spectral or RGB value (negative values included, which
+    /// [`Weighted::contribution`] clamps to 0). `value · factor()` equals
+    /// `contribution(value)` for positive values up to one rounding (the one call computes
+    /// `value · num / den`, with weight = num·pdf/den); the C ABI's `ml_weighted.scale` is
+    /// this factor, bit for bit.
+    #[inline]
+    pub fn factor(&self) -> f32 {
+        let v = self.f.num / self.f.den;
+        if v < f32::INFINITY {
+            v
+        } else {
+            0.0
+        }
+    }
+
     /// What a sample of `value` (`f · L · cos θi`, or one channel of it) contributes:
     /// `value · weight / pdf`, evaluated as the one-call estimator does; 0 for a value that is
-    /// not positive, and never NaN or infinite.
+    /// not positive, and never NaN or infinite. For values of any sign use
+    /// [`Weighted::factor`].
     #[inline]
     pub fn contribution(&self, value: f32) -> f32 {
         if value.is_nan() || value <= 0.0 {
@@ -115,7 +136,10 @@ pub struct LightDraw {
 }
 
 /// A BSDF sample for the host to take: sample its BSDF with `u`, cast the ray, and report the
-/// direction, its pdf and the first surface's distance to [`Estimator::bsdf_hits`].
+/// direction, its pdf and the first surface's distance to [`Estimator::bsdf_hits`]. A host
+/// whose BSDF gives no direction for `u` (below the surface, a zero pdf) skips the report, as
+/// the one call does: the sample contributes nothing, and for `full` it counts as a ray that
+/// reached no light (the next [`Estimator::next`] records it so).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct BsdfDraw {
     /// The two uniform numbers (in [0, 1)) for sampling the BSDF.
@@ -125,14 +149,17 @@ pub struct BsdfDraw {
 }
 
 /// A light a BSDF ray reached: the host shades it (`f · L · cos θi` with its own `f`, L =
-/// `point.radiance`) and adds `weighted.contribution(value)`.
+/// `point.radiance`) and adds `weighted.contribution(value)` (or `value ·
+/// weighted.factor()` per channel). `weighted.pdf()` is the BSDF's pdf only for `tl-mis` and
+/// `bl-mis`; for `mis-equal` and `full` it is the combined density of the mixed samples (see
+/// [`Weighted::pdf`]).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct LightHit {
     /// The light's index in the light set.
     pub light: u32,
     /// The point the ray reached on it.
     pub point: LightPoint,
-    /// Its weight and the BSDF's density.
+    /// Its weight and the density the weight is relative to.
     pub weighted: Weighted,
 }
 

@@ -13,7 +13,7 @@
 //!   to sample its BSDF with; the host reports the direction, its pdf and what its ray hit to
 //!   [`Estimator::bsdf_hits`], which returns the lights reached with their weights. The
 //!   adaptive allocation (Liu et al. 2019, Algorithm 1) learns from those reports. The one
-//!   call is this loop with the core's materials.
+//!   call is this loop with the core's materials (see "What is exact" below).
 //!
 //! ```
 //! use glam::Vec3;
@@ -48,8 +48,12 @@
 //! # Ok::<(), Box<dyn std::error::Error>>(())
 //! ```
 //!
-//! Every contribution is `value · weight / pdf` ([`Weighted::contribution`]), with `value =
-//! f · L · cos θi` evaluated by whoever owns the BSDF; an estimate is the sum over the steps.
+//! Every contribution is `value · weight / pdf` ([`Weighted::contribution`], or `value ·`
+//! [`Weighted::factor`] for each channel of a spectral value of any sign), with `value = f · L
+//! · cos θi` evaluated by whoever owns the BSDF; an estimate is the sum over the steps.
+//!
+//! Many shading points at once (a wavefront host): [`crate::wavefront::estimate_each`], bit
+//! for bit the per-point set-up and estimates one after the other.
 //!
 //! # Techniques
 //!
@@ -98,6 +102,46 @@
 //! reaches the lights through the tree's bounding spheres ([`LightTree::trace`]); lights do not
 //! block each other. The TB "hit" the allocator counts: the ray reached at least one light with
 //! non-zero radiance in front of the first surface.
+//!
+//! # What is exact
+//!
+//! From the same uniform numbers the lower level yields the one call's steps: the same lights,
+//! points, pmfs, weights and BSDF uniform numbers. The one call evaluates its material in the
+//! shading frame of [`Frame::from_normal`](crate::Frame::from_normal): `wi =
+//! frame.to_local(point.direction)` for a light step (f, the BSDF pdf and cos θi = `wi.z`), and
+//! for a BSDF step the local direction of `Material::sample`, its pdf and value, sent as
+//! `frame.to_world(wi).normalize()`. A host that evaluates the core's material the same way
+//! gets the one call's terms bit for bit, and the C ABI's `ml_brdf_eval` / `ml_brdf_pdf` of a
+//! light step's direction and `ml_brdf_sample`'s draw are exactly those. What is not exact: the
+//! host's own arithmetic (its cos θi, its products with the weight, its sum) rounds otherwise,
+//! a few units in the last place of f32 per term; and the pdf of a sampled direction
+//! recomputed from its world-space form (`ml_brdf_pdf` of a draw's `wi`) is that of a
+//! direction moved by the frame's round trip, which for a sharp GGX lobe is a visible relative
+//! difference: pass the draw's own pdf, as the one call does.
+//!
+//! # Host BSDFs
+//!
+//! A host with its own BSDF gives the estimators a stand-in [`Material`](crate::Material) for
+//! the BRDF-aware parts: the BL importance and cut (which lights to choose), IB(x) and with it
+//! `mis-equal`'s and `full`'s budget N, and `full`'s allocation. The weights use the host's
+//! own pdfs for its BSDF samples and the library's pmfs for its light samples, consistently,
+//! so the stand-in changes the variance only, never the expectation (for a host BSDF that
+//! reflects into the normal's hemisphere, where the library's lobes are positive). A close
+//! stand-in keeps the variance low:
+//!
+//! - a Phong lobe of exponent n about the mirror direction: GGX with α = 1/√(2n + 1); a
+//!   Blinn–Phong lobe of exponent e about the half vector: α = √(2/(e + 2)) (Walter et al. 2007,
+//!   section 5.2, the Beckmann–Phong correspondence, which serves for GGX as well);
+//! - RGB albedos and specular colours: one scalar each, their luminance (0.2126 R + 0.7152 G +
+//!   0.0722 B) or their largest channel, in [0, 1];
+//! - a diffuse-plus-glossy BSDF: `Plastic` with the two weights.
+//!
+//! A Lambert stand-in has no glossy lobe, so `mis-equal` and `full` take no BSDF samples there
+//! (N = 0; `full` per [`LambertMode`]): right for a diffuse host BSDF, a loss of the BSDF
+//! samples' coverage for a glossy one (still unbiased: the split samples cover every light).
+//! When the host's BSDF gives no direction for a [`Step::Bsdf`]'s numbers it skips
+//! [`Estimator::bsdf_hits`], as the one call does: the sample contributes nothing and `full`
+//! counts it as a ray that reached no light.
 //!
 //! # Bad input
 //!

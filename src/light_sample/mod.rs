@@ -6,7 +6,7 @@
 //!
 //! | light | sampling | pdf (solid angle at x) |
 //! |---|---|---|
-//! | point, spot, VPL | the position | delta: reported as `pdf = 1`, `delta = true` |
+//! | point, spot, VPL | the position | delta: reported as `pdf = 1`, `delta = true` (by [`pdf_point`] too, at the position) |
 //! | sphere, x outside | uniform in the visible cap | `1 / (2π(1 − cos θmax))` |
 //! | sphere, x inside or on it | uniform by area | `d² / (A · abs(cos θy))` |
 //! | disk | uniform by area (concentric map) | `d² / (A · abs(cos θy))` |
@@ -26,8 +26,11 @@
 //! lights the pdf is a Dirac delta, reported as `pdf = 1` with [`LightPoint::delta`] set, and
 //! `radiance` is `I · falloff / d²` (the irradiance at normal incidence; for a virtual point
 //! light the falloff is `max(0, cos θ)` about its normal), so the same formula
-//! holds. A delta light can never be hit by a BRDF ray: [`pdf_point`] and [`pdf_direction`]
-//! return 0 for it, and MIS must give its light samples the full weight.
+//! holds. One convention for delta lights everywhere: their pdf is the delta's weight,
+//! reported as 1, by [`sample_point`] and by [`pdf_point`] at the light's position (0 at any
+//! other point). A delta light can never be hit by a BRDF ray: [`intersect`] gives `None` and
+//! [`pdf_direction`] 0 for it (a direction reaches it with probability 0), and MIS must give
+//! its light samples the full weight (the estimators do: a BSDF density of 0).
 //!
 //! # Conventions
 //!
@@ -43,7 +46,8 @@
 //!   every point.
 //!
 //! The geometry runs in f64 and is rounded to f32 once. A sample's `pdf` is computed by the same
-//! code as [`pdf_point`] for its `position`, so the two agree to the bit.
+//! code as [`pdf_point`] for its `position` (up to the f32 rounding of that position for area
+//! lights, within 1e-4 relative; to the bit for delta lights).
 
 mod delta;
 pub(crate) mod disk;
@@ -76,8 +80,10 @@ pub struct LightPoint {
     pub delta: bool,
     /// What the estimator multiplies by (≥ 0, finite): the emitted radiance arriving at x along
     /// `-direction` for area lights (0 if x is behind a one-sided emitter, or inside or on a
-    /// sphere); `I · falloff / d²` for point, spot and virtual point lights (0 outside a spot's
-    /// cone or behind a VPL).
+    /// sphere); for point, spot and virtual point lights the irradiance at normal incidence
+    /// `I · falloff / d²`, already divided by the squared distance (do not divide again: the
+    /// contribution is `f · radiance · cos θi / pdf` with `pdf` = 1), 0 outside a spot's cone
+    /// or behind a VPL.
     pub radiance: f32,
 }
 
@@ -192,14 +198,21 @@ pub fn sample_point(light: &Light, x: Vec3, u: [f32; 2]) -> Option<LightPoint> {
 }
 
 /// The solid-angle pdf at `x` with which [`sample_point`] returns the point `point` of `light`
-/// (taken as the first point of the light on the ray from x through it). 0 for point, spot and virtual point
-/// lights (a delta that no ray hits) and wherever `sample_point` gives `None`.
+/// (taken as the first point of the light on the ray from x through it); 0 wherever
+/// `sample_point` gives `None`. For point, spot and virtual point lights the delta's weight,
+/// reported as 1, exactly as `sample_point` reports it: 1 at the light's position, 0 at any
+/// other point.
 pub fn pdf_point(light: &Light, x: Vec3, point: Vec3) -> f32 {
     if !(x.is_finite() && point.is_finite()) {
         return 0.0;
     }
     let pdf = match *light {
-        Light::Point { .. } | Light::Spot { .. } | Light::Vpl { .. } => 0.0,
+        Light::Point { .. } | Light::Spot { .. } | Light::Vpl { .. } => {
+            // The only point there is, where `sample_point` gives one.
+            return sample_point(light, x, [0.5; 2])
+                .filter(|s| s.position == point)
+                .map_or(0.0, |s| s.pdf);
+        }
         Light::Sphere { center, radius, .. } => sphere::pdf_point(center, radius, x, point),
         Light::Disk {
             center,

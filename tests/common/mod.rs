@@ -846,3 +846,18 @@ pub fn boundary_scene(rng: &mut Rng) -> Vec<Light> {
     }
     lights
 }
+
+// ---------------------------------------------------------------------------------------------
+// Tree bytes
+// ---------------------------------------------------------------------------------------------
+
+/// Rewrites the checksum in the header of a tree's bytes (the CRC-64 of everything after the
+/// header, stored at bytes 16..24 as the format documents it), so that an edit of the payload
+/// reaches the structural checks behind the checksum.
+pub fn reseal(bytes: &mut [u8]) {
+    let h = manylights::tree::HEADER_BYTES;
+    if bytes.len() >= h {
+        let c = manylights::checksum::crc64(&bytes[h..]);
+        bytes[16..24].copy_from_slice(&c.to_le_bytes());
+    }
+}

@@ -286,7 +286,7 @@ static void sample_job_run(sample_job *job) {
             JOB_CHECK(job, s.light == out[i].light && bits(s.pmf) == bits(out[i].pmf));
             lights[i] = s.light == ML_NO_LIGHT ? 0 : s.light;
             if (s.light != ML_NO_LIGHT) {
-                JOB_CHECK(job, s.pmf > 0 && s.pmf <= 1);
+                JOB_CHECK(job, s.pmf >= ML_MIN_PMF && s.pmf <= 1);
                 JOB_CHECK(job, ml_tree_pmf_tl(job->tree, &pts[i], s.light, &q) == ML_OK);
                 JOB_CHECK(job, bits(q) == bits(s.pmf));
                 job->checksum += (double)s.pmf;
@@ -436,6 +436,118 @@ static void scenario_tree(const ml_tree *tree, size_t n) {
     free(buf);
 }
 
+/* ---- a cached tree: loaded with its lights, corrupt bytes, the wrong lights ------------- */
+
+/* The estimate of technique t at sp with the uniform numbers of `seed`. */
+static double estimate_seeded(const ml_tree *tree, const ml_shading_point *sp, uint32_t t,
+                              uint64_t seed) {
+    rng r;
+    ml_uniforms u = uniforms_of(&r);
+    double e = -1;
+    r.s = seed;
+    OK(ml_direct_estimate(tree, sp, t, NULL, NULL, &u, &e));
+    return e;
+}
+
+/* Whether the last error message contains `part`. */
+static int message_has(const char *part) { return strstr(ml_last_error_message(), part) != NULL; }
+
+static void scenario_cache(const ml_tree *tree, const ml_light *lights, size_t n) {
+    size_t size = 0, written = 0, i;
+    uint8_t *buf;
+    ml_tree *loaded = NULL, *bad = NULL;
+    ml_tree_statistics st;
+    ml_light *wrong = (ml_light *)malloc(n * sizeof(ml_light));
+    ml_light_sample none = ML_LIGHT_SAMPLE_NONE;
+    rng r;
+    int k;
+    uint32_t t;
+    long rejected = 0;
+    CHECK(none.light == ML_NO_LIGHT && none.pmf == 0);
+    OK(ml_tree_serialized_size(tree, &size));
+    buf = (uint8_t *)malloc(size);
+    OK(ml_tree_serialize(tree, buf, size, &written));
+    OK(ml_tree_load_with_lights(buf, size, lights, n, &loaded));
+    if (loaded != NULL) {
+        OK(ml_tree_stats(loaded, &st));
+        CHECK(st.lights == n && st.has_lights == 1);
+        r.s = 404;
+        /* Samples, points on lights and every technique: bit for bit the saved tree's. */
+        for (k = 0; k < 100; k++) {
+            ml_tl_point p = make_tl_point(&r);
+            ml_shading_point sp = make_sp(&r);
+            float u = rng_f32(&r), u0 = rng_f32(&r), u1 = rng_f32(&r);
+            uint32_t l = (uint32_t)(rng_next(&r) % n);
+            uint64_t seed = rng_next(&r);
+            ml_light_sample a, b;
+            ml_light_point pa, pb;
+            OK(ml_tree_sample_bl(tree, &sp, u, &a));
+            OK(ml_tree_sample_bl(loaded, &sp, u, &b));
+            CHECK(a.light == b.light && bits(a.pmf) == bits(b.pmf));
+            OK(ml_tree_sample_tl(tree, &p, u, &a));
+            OK(ml_tree_sample_tl(loaded, &p, u, &b));
+            CHECK(a.light == b.light && bits(a.pmf) == bits(b.pmf));
+            OK(ml_light_sample_point(tree, l, p.position, u0, u1, &pa));
+            OK(ml_light_sample_point(loaded, l, p.position, u0, u1, &pb));
+            CHECK(memcmp(&pa, &pb, sizeof pa) == 0);
+            t = (uint32_t)(k % 9);
+            {
+                double ea = estimate_seeded(tree, &sp, t, seed);
+                double eb = estimate_seeded(loaded, &sp, t, seed);
+                CHECK(memcmp(&ea, &eb, sizeof ea) == 0);
+            }
+        }
+    }
+    /* The wrong lights: the first mismatch is named. */
+    memcpy(wrong, lights, n * sizeof(ml_light));
+    wrong[123].position.z += 1000;
+    CHECK(ml_tree_load_with_lights(buf, size, wrong, n, &bad) == ML_ERR_FORMAT && bad == NULL);
+    CHECK(message_has("lights[123] lies outside its slot's bounds"));
+    wrong[123] = lights[123];
+    CHECK(ml_tree_load_with_lights(buf, size, lights, n - 1, &bad) == ML_ERR_FORMAT);
+    CHECK(message_has("count is 9999, the tree was built from 10000 lights"));
+    wrong[100].position.x = nextafterf(wrong[100].position.x, (float)INFINITY);
+    CHECK(ml_tree_load_with_lights(buf, size, wrong, n, &bad) == ML_ERR_FORMAT);
+    CHECK(message_has("lights[100]") || message_has("lights[64..128] differ"));
+    wrong[100] = lights[100];
+    wrong[0] = lights[n - 1];
+    wrong[n - 1] = lights[0];
+    CHECK(ml_tree_load_with_lights(buf, size, wrong, n, &bad) == ML_ERR_FORMAT);
+    CHECK(message_has("lights[0"));
+    CHECK(bad == NULL);
+    /* Corrupt bytes never load: 0xFF into every 97th byte, one at a time, then random flips,
+     * replacements and truncations. */
+    for (i = 0; i < size; i += 97) {
+        buf[i] ^= 0xFF;
+        CHECK(ml_tree_load(buf, size, &bad) == ML_ERR_FORMAT && bad == NULL);
+        buf[i] ^= 0xFF;
+    }
+    r.s = 12222;
+    for (k = 0; k < 3000; k++) {
+        size_t at = (size_t)(rng_next(&r) % size);
+        uint8_t old = buf[at], x = (uint8_t)(1u << (rng_next(&r) % 8));
+        if (k % 3 == 0) {
+            CHECK(ml_tree_load(buf, at, &bad) == ML_ERR_FORMAT && bad == NULL);
+            rejected++;
+            continue;
+        }
+        if (k % 3 == 1) x = (uint8_t)(rng_next(&r) | 1);
+        buf[at] ^= x;
+        if (ml_tree_load(buf, size, &bad) == ML_ERR_FORMAT && bad == NULL) rejected++;
+        if (k % 100 == 1) {
+            CHECK(ml_tree_load_with_lights(buf, size, lights, n, &bad) == ML_ERR_FORMAT);
+            CHECK(message_has("bytes: tree bytes are corrupt"));
+        }
+        buf[at] = old;
+    }
+    CHECK(rejected == 3000);
+    OK(ml_tree_load(buf, size, &bad));
+    OK(ml_tree_free(bad));
+    OK(ml_tree_free(loaded));
+    free(wrong);
+    free(buf);
+}
+
 /* ---- cuts ---------------------------------------------------------------------------- */
 
 static void scenario_cut(const ml_tree *tree, size_t n) {
@@ -505,7 +617,8 @@ static void scenario_points(const ml_tree *tree, const ml_light *lights, size_t 
             CHECK(p.distance > 0 && p.radiance >= 0);
             OK(ml_light_pdf_point(tree, l, x, p.position, &q));
             if (p.delta) {
-                CHECK(q == 0 && p.pdf == 1);
+                /* One convention: the delta's weight, reported as 1, at its position. */
+                CHECK(q == 1 && p.pdf == 1);
             } else if (lights[l].kind == ML_LIGHT_KIND_SPHERE || lights[l].kind == ML_LIGHT_KIND_DISK) {
                 CHECK(fabs(q - p.pdf) <= 1e-2 * p.pdf);
             }
@@ -758,6 +871,74 @@ static void scenario_lower_level(void) {
     OK(ml_estimator_free(est));
 }
 
+/* ---- batches for wavefront hosts --------------------------------------------------------- */
+
+#define WAVE_POINTS 40
+#define WAVE_PER_POINT 3
+
+static void scenario_wavefront(void) {
+    ml_light ls[DIRECT_LIGHTS];
+    ml_tree *tree;
+    ml_shading_point sps[WAVE_POINTS];
+    double batch[WAVE_POINTS * WAVE_PER_POINT], single;
+    uint32_t which[300];
+    ml_vec3 xs[300];
+    float u0s[300], u1s[300];
+    ml_light_point pts[300];
+    ml_estimator *est = NULL;
+    rng r, ra, rb;
+    ml_uniforms ua = uniforms_of(&ra), ub = uniforms_of(&rb);
+    uint32_t t;
+    int i, j;
+    direct_scene(ls, 0.5f);
+    tree = build_tree(ls, DIRECT_LIGHTS);
+    r.s = 77;
+    for (i = 0; i < WAVE_POINTS; i++) {
+        sps[i] = make_sp(&r);
+        sps[i].position = v3(rng_range(&r, -1, 1), rng_range(&r, -1, 1), 0);
+    }
+    OK(ml_estimator_create(tree, &est));
+    for (t = 0; t < 9; t++) {
+        /* The batch is the per-point set-up and its estimates, one point after the other. */
+        ra.s = rb.s = 1000 + t;
+        OK(ml_direct_estimate_batch(tree, sps, WAVE_POINTS, WAVE_PER_POINT, t, NULL, NULL, &ua,
+                                    batch));
+        for (i = 0; i < WAVE_POINTS; i++) {
+            OK(ml_estimator_set_point(est, &sps[i], t, NULL));
+            for (j = 0; j < WAVE_PER_POINT; j++) {
+                single = -1;
+                OK(ml_estimator_estimate(est, NULL, &ub, &single));
+                CHECK(memcmp(&single, &batch[i * WAVE_PER_POINT + j], sizeof single) == 0);
+            }
+        }
+        CHECK(ra.s == rb.s);
+        /* One estimate a point: ml_direct_estimate's. */
+        ra.s = rb.s = 2000 + t;
+        OK(ml_direct_estimate_batch(tree, sps, WAVE_POINTS, 1, t, NULL, NULL, &ua, batch));
+        for (i = 0; i < WAVE_POINTS; i++) {
+            single = -1;
+            OK(ml_direct_estimate(tree, &sps[i], t, NULL, NULL, &ub, &single));
+            CHECK(memcmp(&single, &batch[i], sizeof single) == 0);
+        }
+    }
+    OK(ml_estimator_free(est));
+    /* Points on lights for many (light, x, u) triples. */
+    for (i = 0; i < 300; i++) {
+        which[i] = (uint32_t)(rng_next(&r) % DIRECT_LIGHTS);
+        xs[i] = v3(rng_range(&r, -2, 2), rng_range(&r, -2, 2), 0);
+        u0s[i] = rng_f32(&r);
+        u1s[i] = rng_f32(&r);
+    }
+    OK(ml_light_sample_point_batch(tree, which, xs, u0s, u1s, 300, pts));
+    for (i = 0; i < 300; i++) {
+        ml_light_point p;
+        OK(ml_light_sample_point(tree, which[i], xs[i], u0s[i], u1s[i], &p));
+        CHECK(memcmp(&p, &pts[i], sizeof p) == 0);
+    }
+    OK(ml_light_sample_point_batch(tree, NULL, NULL, NULL, NULL, 0, NULL));
+    OK(ml_tree_free(tree));
+}
+
 /* ---- VPL acceptance -------------------------------------------------------------------- */
 
 static int32_t count_visible(void *user, ml_vec3 importon, ml_vec3 vpl) {
@@ -880,7 +1061,7 @@ static float nan_hit(void *user, ml_vec3 x, ml_vec3 d) {
 
 static void scenario_bad_input(const ml_tree *tree, size_t n) {
     ml_light ls[4];
-    ml_tree *t = NULL, *loaded = NULL;
+    ml_tree *t = NULL, *loaded = NULL, *t2 = NULL;
     ml_tl_point p, pts[8];
     ml_shading_point sp, sps[8];
     ml_light_sample s, outs[8];
@@ -897,7 +1078,8 @@ static void scenario_bad_input(const ml_tree *tree, size_t n) {
     ml_cut *cut = NULL, *fresh = NULL;
     ml_estimator *est = NULL;
     ml_acceptor *acc = NULL;
-    ml_light_point lp;
+    ml_light_point lp, lps[4];
+    ml_vec3 xs4[4];
     ml_brdf_draw bd;
     ml_step step;
     ml_weighted w;
@@ -985,13 +1167,13 @@ static void scenario_bad_input(const ml_tree *tree, size_t n) {
     ls[0].direction = v3(0, 0, -1);
     ls[0].half_angle = 4;
     BAD_VALUE(ml_tree_build, ml_tree_build(ls, 4, NULL, &t), ML_ERR_INVALID_ARGUMENT,
-              "lights[0].half_angle is out of range (got 4)");
+              "lights[0].half_angle must be in (0, pi] (got 4)");
     ls[0].half_angle = 0.5f;
     BAD_VALUE(ml_tree_build, ml_tree_build(ls, (size_t)-1, NULL, &t), ML_ERR_INVALID_ARGUMENT,
               "overflow");
     bo.buckets = 5;
     BAD_VALUE(ml_tree_build, ml_tree_build(ls, 4, &bo, &t), ML_ERR_INVALID_ARGUMENT,
-              "options.buckets must be 0 or in [12, 64] (got 5)");
+              "options.buckets must be 0 or in [12, 64], ML_MIN_BUCKETS to ML_MAX_BUCKETS (got 5)");
     CHECK(t == NULL); /* no output on failure */
     bo.buckets = 32;
     OK(ml_tree_build(ls, 4, &bo, &t));
@@ -1018,7 +1200,44 @@ static void scenario_bad_input(const ml_tree *tree, size_t n) {
     bytes[0] ^= 1;
     BAD_VALUE(ml_tree_load, ml_tree_load(bytes, sz - 8, &loaded), ML_ERR_FORMAT, "truncated");
     OK(ml_tree_load(bytes, sz, &loaded));
+    BAD_NULL(ml_tree_load_with_lights, ml_tree_load_with_lights(bytes, sz, NULL, 4, &t2),
+             "`lights` is NULL");
+    BAD_NULL(ml_tree_load_with_lights, ml_tree_load_with_lights(bytes, sz, ls, 4, NULL),
+             "`out` is NULL");
+    BAD_VALUE(ml_tree_load_with_lights, ml_tree_load_with_lights(bytes, sz, ls, 3, &t2),
+              ML_ERR_FORMAT, "lights: count is 3, the tree was built from 4 lights");
+    ls[1].position.y = (float)NAN;
+    BAD_VALUE(ml_tree_load_with_lights, ml_tree_load_with_lights(bytes, sz, ls, 4, &t2),
+              ML_ERR_INVALID_ARGUMENT,
+              "lights[1].position (the sphere light's centre) is NaN or infinite");
+    ls[1].position.y = 0;
+    ls[2].position.z += 5;
+    BAD_VALUE(ml_tree_load_with_lights, ml_tree_load_with_lights(bytes, sz, ls, 4, &t2),
+              ML_ERR_FORMAT, "lights[2] lies outside its slot's bounds");
+    ls[2].position.z -= 5;
+    bytes[sz / 2] ^= 4;
+    BAD_VALUE(ml_tree_load_with_lights, ml_tree_load_with_lights(bytes, sz, ls, 4, &t2),
+              ML_ERR_FORMAT, "bytes: tree bytes are corrupt: their checksum is");
+    bytes[sz / 2] ^= 4;
+    CHECK(t2 == NULL);
+    OK(ml_tree_load_with_lights(bytes, sz, ls, 4, &t2));
+    OK(ml_tree_free(t2));
+    t2 = NULL;
     free(bytes);
+    /* The limits, named by their macros with the field's own value. */
+    ls[0].kind = ML_LIGHT_KIND_POINT;
+    ls[0].power = 5e25f / (4 * (float)ML_PI);
+    BAD_VALUE(ml_tree_build, ml_tree_build(ls, 4, NULL, &t2), ML_ERR_INVALID_ARGUMENT,
+              "lights[0].power (the point light's intensity) gives an energy of 5e25 W, above "
+              "ML_MAX_LIGHT_ENERGY (1e24) (got 3.9788736e24)");
+    CHECK(5e25 > ML_MAX_LIGHT_ENERGY);
+    ls[0].power = 1;
+    ls[0].position.x = 2 * ML_MAX_COORDINATE;
+    BAD_VALUE(ml_tree_build, ml_tree_build(ls, 4, NULL, &t2), ML_ERR_INVALID_ARGUMENT,
+              "lights[0].position exceeds ML_MAX_COORDINATE (1e15) in magnitude (got 2e15)");
+    ls[0].position.x = 0;
+    ls[0].kind = ML_LIGHT_KIND_SPOT;
+    CHECK(t2 == NULL);
 
     /* sampling and pmfs */
     p.position = v3(0, 0, 0);
@@ -1119,6 +1338,28 @@ static void scenario_bad_input(const ml_tree *tree, size_t n) {
     BAD_VALUE(ml_light_pdf_point,
               ml_light_pdf_point(tree, 0, v3(0, 0, 0), v3(0, (float)INFINITY, 1), &f),
               ML_ERR_INVALID_ARGUMENT, "point is NaN or infinite");
+    for (i = 0; i < 8; i++) us[i] = 0.5f;
+    for (i = 0; i < 4; i++) {
+        u32s[i] = (uint32_t)i;
+        xs4[i] = v3(0, 0, 0);
+    }
+    BAD_NULL(ml_light_sample_point_batch,
+             ml_light_sample_point_batch(tree, u32s, NULL, us, us, 4, lps), "`xs` is NULL");
+    BAD_NULL(ml_light_sample_point_batch,
+             ml_light_sample_point_batch(NULL, u32s, xs4, us, us, 4, lps), "`tree` is NULL");
+    u32s[2] = (uint32_t)n;
+    BAD_VALUE(ml_light_sample_point_batch,
+              ml_light_sample_point_batch(tree, u32s, xs4, us, us, 4, lps),
+              ML_ERR_INVALID_ARGUMENT, "lights[2]: light index 10000 is out of range");
+    u32s[2] = 2;
+    us[5] = 1;
+    BAD_VALUE(ml_light_sample_point_batch,
+              ml_light_sample_point_batch(tree, u32s, xs4, us, us + 4, 4, lps),
+              ML_ERR_INVALID_ARGUMENT, "u1s[1] must be in [0, 1) (got 1)");
+    us[5] = 0.5f;
+    BAD_VALUE(ml_light_sample_point_batch,
+              ml_light_sample_point_batch(loaded, u32s, xs4, us, us, 4, lps), ML_ERR_STATE,
+              "no light descriptors");
 
     /* cuts */
     BAD_NULL(ml_cut_create, ml_cut_create(NULL), "`out` is NULL");
@@ -1132,7 +1373,7 @@ static void scenario_bad_input(const ml_tree *tree, size_t n) {
     OK(ml_bl_cut_options_default(&co));
     co.max_size = 100;
     BAD_VALUE(ml_cut_build_bl, ml_cut_build_bl(cut, tree, &sp, &co), ML_ERR_INVALID_ARGUMENT,
-              "options.max_size must be in [4, 64] (got 100)");
+              "options.max_size must be in [4, 64], ML_MIN_CUT_SIZE to ML_CUT_CAPACITY (got 100)");
     co.max_size = 16;
     co.delta = (float)NAN;
     BAD_VALUE(ml_cut_build_bl, ml_cut_build_bl(cut, tree, &sp, &co), ML_ERR_INVALID_ARGUMENT,
@@ -1191,10 +1432,34 @@ static void scenario_bad_input(const ml_tree *tree, size_t n) {
     OK(ml_direct_params_default(&dp));
     dp.n_max = 0;
     BAD_VALUE(ml_direct_estimate, ml_direct_estimate(tree, &sp, 0, &dp, NULL, &u, &e),
-              ML_ERR_INVALID_ARGUMENT, "params.n_max must be in [1, 64] (got 0)");
+              ML_ERR_INVALID_ARGUMENT, "params.n_max must be in [1, 64], 1 to ML_MAX_BUDGET (got 0)");
     dp.n_max = 50;
     BAD_VALUE(ml_direct_estimate, ml_direct_estimate(loaded, &sp, 0, NULL, NULL, &u, &e), ML_ERR_STATE,
               "loaded from bytes");
+    sps[0] = sp;
+    sps[1] = sp;
+    BAD_NULL(ml_direct_estimate_batch,
+             ml_direct_estimate_batch(tree, NULL, 2, 1, 0, NULL, NULL, &u, dbl), "`points` is NULL");
+    BAD_NULL(ml_direct_estimate_batch,
+             ml_direct_estimate_batch(tree, sps, 2, 1, 0, NULL, NULL, &u, NULL), "`out` is NULL");
+    BAD_VALUE(ml_direct_estimate_batch,
+              ml_direct_estimate_batch(tree, sps, 2, 0, 0, NULL, NULL, &u, dbl),
+              ML_ERR_INVALID_ARGUMENT, "per_point must be at least 1 (got 0)");
+    sps[1].material.alpha = 2;
+    BAD_VALUE(ml_direct_estimate_batch,
+              ml_direct_estimate_batch(tree, sps, 2, 1, 0, NULL, NULL, &u, dbl),
+              ML_ERR_INVALID_ARGUMENT, "points[1].material.alpha must be in (0, 1] (got 2)");
+    sps[1].material.alpha = 0.5f;
+    dbl[0] = dbl[1] = -7;
+    BAD_VALUE(ml_direct_estimate_batch,
+              ml_direct_estimate_batch(tree, sps, 2, 1, ML_TECHNIQUE_TL, NULL, NULL, &badu, dbl),
+              ML_ERR_INVALID_ARGUMENT, "points[0]: uniforms: a number from next_f32 or next_f64 is outside [0, 1) (got 1.5)");
+    CHECK(dbl[0] == -7 && dbl[1] == -7);
+    BAD_VALUE(ml_direct_estimate_batch,
+              ml_direct_estimate_batch(loaded, sps, 2, 1, 0, NULL, NULL, &u, dbl), ML_ERR_STATE,
+              "loaded from bytes");
+    OK(ml_direct_estimate_batch(tree, sps, 2, 1, 0, NULL, NULL, &u, dbl));
+    CHECK(dbl[0] >= 0 && dbl[1] >= 0);
     vis.occluded = NULL;
     vis.first_hit = nan_hit;
     vis.user_data = NULL;

@@ -47,10 +47,12 @@ int main(int argc, char **argv) {
 
     dump_consistency(argv[1], tree, lights, n);
     scenario_tree(tree, n);
+    scenario_cache(tree, lights, n);
     scenario_cut(tree, n);
     scenario_points(tree, lights, n);
     scenario_direct();
     scenario_lower_level();
+    scenario_wavefront();
     scenario_vpl();
     scenario_bad_input(tree, n);
 

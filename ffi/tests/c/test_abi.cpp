@@ -63,10 +63,12 @@ int main(int argc, char **argv) {
     vector_batches(tree.get());
     dump_consistency(argv[1], tree.get(), lights.get(), n);
     scenario_tree(tree.get(), n);
+    scenario_cache(tree.get(), lights.get(), n);
     scenario_cut(tree.get(), n);
     scenario_points(tree.get(), lights.get(), n);
     scenario_direct();
     scenario_lower_level();
+    scenario_wavefront();
     scenario_vpl();
     scenario_bad_input(tree.get(), n);
 

@@ -12,7 +12,7 @@
 //! | target | checks |
 //! |---|---|
 //! | [`build_bad_input`] | raw floats as lights: the build is an error or a tree that validates |
-//! | [`tree_bytes`] | bytes to `LightTree::from_bytes`: an error or a tree that validates and samples |
+//! | [`tree_bytes`] | bytes to `LightTree::from_bytes`, as they are (edits of a valid tree always rejected) or resealed (the parser behind the checksum): an error or a tree that validates and samples |
 //! | [`pdf_consistency`] | sampled pmfs equal queried ones, pmfs sum to 1, estimates finite |
 //! | [`batch`] | the batched cut queries equal the single calls bit for bit |
 //! | [`sptd`] | the BRDF-oriented cap integral: finite, ≥ 0, ≤ the albedo (with [`sptd::ALBEDO_TOLERANCE`]) |

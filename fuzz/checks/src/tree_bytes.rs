@@ -1,13 +1,23 @@
-//! Arbitrary bytes, and mutations of a valid tree's bytes, to `LightTree::from_bytes`: an error
-//! or a tree that validates and samples without panicking.
+//! Arbitrary bytes, and edits of a valid tree's bytes, to `LightTree::from_bytes`, in two modes:
+//!
+//! - as they are (`resealed` false): edits of a valid tree's bytes that change them and leave
+//!   its checksum field (bytes 16..24) alone are always rejected; anything else is an error or
+//!   a tree that validates and samples;
+//! - resealed (`resealed` true): the bytes, or the valid tree's payload with the edits, get a
+//!   fresh header with their own length and checksum (`manylights::tree::seal`), so that the
+//!   structural checks behind the checksum are fuzzed: an error or a tree that validates and
+//!   samples, with pmf > 0 equal to the queried one.
 
 use arbitrary::Arbitrary;
 use glam::Vec3;
+use manylights::tree::{seal, HEADER_BYTES};
 use manylights::{Light, LightTree, TlImportance};
 
 /// The target's input.
 #[derive(Arbitrary, Debug)]
 pub struct Input {
+    /// The mode: rewrite the header's length and checksum after the edits.
+    pub resealed: bool,
     /// Raw bytes, or (with `mutate`) byte edits of a valid tree.
     pub bytes: Vec<u8>,
     pub mutate: bool,
@@ -31,17 +41,38 @@ fn valid_tree_bytes() -> Vec<u8> {
 
 /// Checks the properties of the module's documentation.
 pub fn check(input: &Input) {
-    let bytes = if input.mutate {
-        let mut b = valid_tree_bytes();
+    let valid = valid_tree_bytes();
+    let (bytes, must_reject) = if input.resealed {
+        let payload = if input.mutate {
+            let mut p = valid[HEADER_BYTES..].to_vec();
+            let n = p.len();
+            for &(at, value) in &input.edits {
+                p[at as usize % n] = value;
+            }
+            p
+        } else {
+            input.bytes.clone()
+        };
+        (seal(&payload), false)
+    } else if input.mutate {
+        let mut b = valid.clone();
         let n = b.len();
+        let mut checksum_edited = false;
         for &(at, value) in &input.edits {
-            b[at as usize % n] = value;
+            let i = at as usize % n;
+            checksum_edited |= (16..24).contains(&i);
+            b[i] = value;
         }
-        b
+        let changed = b != valid;
+        (b, changed && !checksum_edited)
     } else {
-        input.bytes.clone()
+        (input.bytes.clone(), false)
     };
     if let Ok(tree) = LightTree::from_bytes(&bytes) {
+        assert!(
+            !must_reject,
+            "edited tree bytes (checksum field untouched) loaded: {input:?}"
+        );
         tree.validate()
             .expect("from_bytes returned a tree that does not validate");
         let imp = TlImportance::new(Vec3::ZERO, Vec3::Z);
