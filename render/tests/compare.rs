@@ -319,6 +319,7 @@ fn compare_writes_every_output() {
                 assert!((r - corrected / mis_c).abs() <= 1e-12 * r.max(1e-300));
             }
             assert!(t["mean_rel_diff_sigma"].as_f64().is_some());
+            assert!(t[format!("mse_{at}_se")].as_f64().is_some_and(|x| x >= 0.0));
         }
     }
 
@@ -354,6 +355,10 @@ fn compare_writes_every_output() {
                 for (p, c) in parts.iter().zip(list) {
                     assert_eq!(p["class"], c["name"]);
                     assert!(p["rmse"].as_f64().is_some_and(|r| r >= 0.0));
+                    let px = list.iter().find(|c| c["name"] == p["class"]).unwrap()["pixels"]
+                        .as_u64()
+                        .unwrap();
+                    assert_eq!(p["mse_se"].as_f64().is_some(), px >= 2, "{p}");
                     assert!(p["rmse_corrected"].as_f64().is_some_and(|r| r >= 0.0));
                 }
             }

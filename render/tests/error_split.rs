@@ -195,6 +195,33 @@ fn splits_add_up_to_the_whole() {
     }
 }
 
+/// The standard error of a class's part of the MSE: from the sample variance of its squared
+/// errors, `sqrt(n · s²) / total`.
+#[test]
+fn standard_error_of_a_part() {
+    let sq = [1.0, 2.0, 3.0, 4.0, 10.0];
+    let rv = [0.0; 5];
+    let c = Classes {
+        what: "material",
+        names: vec![("a".into(), "lambert"), ("b".into(), "ggx")],
+        of_pixel: vec![0, 0, 0, 0, 1],
+    };
+    let parts = split(&sq, &rv, &c);
+    // Class a: mean 2.5, s² = 5/3.
+    let expect = (4.0f64 * 5.0 / 3.0).sqrt() / 5.0;
+    assert!((parts[0].mse_part_se(5) - expect).abs() < 1e-12);
+    assert!(parts[1].mse_part_se(5).is_nan());
+    // The whole image's: over all five.
+    let e = ErrorSummary::new(&sq, &rv, &[c]);
+    let mean = 4.0f64;
+    let s2 = [1.0f64, 2.0, 3.0, 4.0, 10.0]
+        .iter()
+        .map(|x| (x - mean).powi(2))
+        .sum::<f64>()
+        / 4.0;
+    assert!((e.mse_se - (s2 / 5.0).sqrt()).abs() < 1e-12);
+}
+
 #[test]
 fn angle_bins() {
     assert_eq!(angle_bin(0.0), 0);

@@ -43,7 +43,9 @@
 //!   scene where it names them), by view angle (bins of cos θo 0.1 wide) and by both. Per
 //!   technique and class: the class's part of the MSE (the parts add up to the MSE; with
 //!   their share of `V` removed, to `MSE − V`) and the RMSE over the class's pixels, both also
-//!   with `V` removed, and that RMSE over tl-mis's in the same class.
+//!   with `V` removed, and that RMSE over tl-mis's in the same class; `mse_se` is the
+//!   standard error of a part (and `mse_*_se` of a whole MSE) from the spread of the
+//!   per-pixel squared errors, so that a class's ratio can be told from noise.
 //!
 //! Outputs under `out/compare/<scene>-<lights>/`: per technique `<technique>.png` and
 //! `<technique>.exr` (equal spp) and `<technique>-equal-time.png` / `.exr`, `reference.png` /
@@ -54,8 +56,9 @@
 //! [`side_by_side_labelled`]), `side_by_side_equal_time.png` (the same with the equal-time
 //! images and their RMSE), `convergence.svg` (unless `--no-plot`: RMSE against busy time,
 //! log-log, from renders at 1, 2, 4, … 4 × spp), `table.md` (the Markdown tables, also
-//! printed: the main one, the RMSEs with the reference's variance removed, and the splits by
-//! material and view angle at equal spp and equal time). Error maps: per technique
+//! printed: the main one, the RMSEs with the reference's variance removed, the splits by
+//! material and view angle at equal spp and equal time, and the [`JOINT_ROWS`] classes of
+//! material and view angle that hold most of the default technique's error). Error maps: per technique
 //! `<technique>-error.png` / `.exr` and `<technique>-equal-time-error.png` / `.exr`,
 //! `reference-error.png` / `.exr` (the reference's own variance of its pixel means): the EXR
 //! holds the per-pixel squared error against the reference (linear), the PNG the absolute
@@ -66,10 +69,11 @@
 //! `{scene, lights, resolution, spp, ref_spp, time_budget_s, time_budget_from, dir,
 //! techniques: [{name, rmse_equal_spp, rmse_equal_time, spp_equal_time, seconds_equal_time,
 //! ms_per_spp, ms_fixed, seconds_equal_spp, mean_rel_diff, mean_rel_diff_spp,
-//! mean_rel_diff_se, mean_rel_diff_sigma, rmse_equal_spp_corrected, rmse_equal_time_corrected,
+//! mean_rel_diff_se, mean_rel_diff_sigma, mse_equal_spp_se, mse_equal_time_se,
+//! rmse_equal_spp_corrected, rmse_equal_time_corrected,
 //! rmse_equal_spp_vs_tl_mis, rmse_equal_time_vs_tl_mis, rmse_equal_spp_corrected_vs_tl_mis,
 //! rmse_equal_time_corrected_vs_tl_mis, errors: {material, angle, material_angle: {equal_spp,
-//! equal_time: [{class, mse, mse_corrected, rmse, rmse_corrected,
+//! equal_time: [{class, mse, mse_corrected, mse_se, rmse, rmse_corrected,
 //! rmse_corrected_vs_tl_mis}]}}}], reference_mean_variance, reference_rmse_floor,
 //! error_class_pixel, error_map_scale, error_classes: {material, angle, material_angle:
 //! [{name, pixels, reference_mean, kind (not for angle)}]}}`, techniques in
@@ -314,6 +318,8 @@ impl Report {
                 "mean_rel_diff_spp": t.mean_rel_diff_spp,
                 "mean_rel_diff_se": num(t.mean_rel_diff_se),
                 "mean_rel_diff_sigma": num(ratio(t.mean_rel_diff, t.mean_rel_diff_se)),
+                "mse_equal_spp_se": num(t.errors_equal_spp.mse_se),
+                "mse_equal_time_se": num(t.errors_equal_time.mse_se),
                 "rmse_equal_spp_corrected": num(t.rmse_equal_spp_corrected()),
                 "rmse_equal_time_corrected": num(t.rmse_equal_time_corrected()),
                 "rmse_equal_spp_vs_tl_mis": num(ratio(t.rmse_equal_spp, mis.rmse_equal_spp)),
@@ -335,6 +341,7 @@ impl Report {
                                 "class": name,
                                 "mse": num(x.mse_part(n)),
                                 "mse_corrected": num(x.mse_part_corrected(n)),
+                                "mse_se": num(x.mse_part_se(n)),
                                 "rmse": num(x.rmse()),
                                 "rmse_corrected": num(x.rmse_corrected()),
                                 "rmse_corrected_vs_tl_mis": num(ratio(x.rmse_corrected(), y.rmse_corrected())),
@@ -426,11 +433,64 @@ impl Report {
         s.push_str(&self.corrected_table());
         for (k, c) in self.classes.iter().enumerate() {
             if c.what == "material_angle" {
+                s.push_str(&self.joint_table(k, JOINT_ROWS));
                 continue;
             }
             for equal_time in [false, true] {
                 s.push_str(&self.split_table(k, equal_time));
             }
+        }
+        s
+    }
+
+    /// The `rows` classes of split `k` with the largest parts of the default technique's
+    /// MSE at equal time: for tl-mis, bl and the default, at equal spp and equal time, the
+    /// class's share of the technique's MSE − V and its RMSE' over tl-mis's in the class.
+    fn joint_table(&self, k: usize, rows: usize) -> String {
+        let c = &self.classes[k];
+        let n = self.resolution.0 * self.resolution.1;
+        let mut shown = vec![Technique::TlMis, Technique::Bl];
+        if !shown.contains(&Technique::DEFAULT) {
+            shown.push(Technique::DEFAULT);
+        }
+        let mis = self.tl_mis();
+        let default = &self.techniques[index_of(Technique::DEFAULT)];
+        let mut order: Vec<usize> = (0..c.names.len()).collect();
+        let part = |i: usize| default.errors_equal_time.splits[k][i].mse_part_corrected(n);
+        order.sort_by(|&a, &b| part(b).total_cmp(&part(a)));
+        let mut s = format!(
+            "\nthe {rows} classes of material and view angle with the largest parts of {}'s MSE − V at equal time: \
+             per technique, the class's share of its MSE − V and its RMSE' over tl-mis's in the class\n\n",
+            Technique::DEFAULT.name()
+        );
+        s.push_str("| class | pixels |");
+        for t in &shown {
+            s.push_str(&format!(
+                " {0} share, equal spp | {0} ×tl-mis | {0} share, equal time | {0} ×tl-mis |",
+                t.name()
+            ));
+        }
+        s.push_str("\n|---|---:|");
+        s.push_str(&"---:|".repeat(4 * shown.len()));
+        s.push('\n');
+        let pixels = c.pixels();
+        for &i in order.iter().take(rows) {
+            s.push_str(&format!("| {} | {} |", c.names[i].0, pixels[i]));
+            for &t in &shown {
+                let r = &self.techniques[index_of(t)];
+                for (e, m) in [
+                    (&r.errors_equal_spp, &mis.errors_equal_spp),
+                    (&r.errors_equal_time, &mis.errors_equal_time),
+                ] {
+                    let x = e.splits[k][i];
+                    s.push_str(&format!(
+                        " {:.1} % | {} |",
+                        100.0 * ratio(x.mse_part_corrected(n), e.mse - e.ref_variance),
+                        fmt_ratio(ratio(x.rmse_corrected(), m.splits[k][i].rmse_corrected()))
+                    ));
+                }
+            }
+            s.push('\n');
         }
         s
     }
@@ -444,13 +504,16 @@ impl Report {
              over the pixels of the variance of the reference's pixel means (RMSE floor √V = {:.5})\n\n",
             v.sqrt()
         );
-        s.push_str("| technique | RMSE equal spp | RMSE' | ×tl-mis | RMSE' ×tl-mis | RMSE equal time | RMSE' | ×tl-mis | RMSE' ×tl-mis |\n");
-        s.push_str("|---|---:|---:|---:|---:|---:|---:|---:|---:|\n");
+        s.push_str("MSE ±: the standard error of the MSE, relative (from the spread of the per-pixel squared errors)\n\n");
+        s.push_str("| technique | RMSE equal spp | MSE ± | RMSE' | ×tl-mis | RMSE' ×tl-mis | RMSE equal time | MSE ± | RMSE' | ×tl-mis | RMSE' ×tl-mis |\n");
+        s.push_str("|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|\n");
+        let rel = |e: &ErrorSummary| 100.0 * ratio(e.mse_se, e.mse);
         for t in &self.techniques {
             s.push_str(&format!(
-                "| {} | {:.5} | {:.5} | {} | {} | {:.5} | {:.5} | {} | {} |\n",
+                "| {} | {:.5} | {:.1} % | {:.5} | {} | {} | {:.5} | {:.1} % | {:.5} | {} | {} |\n",
                 t.technique.name(),
                 t.rmse_equal_spp,
+                rel(&t.errors_equal_spp),
                 t.rmse_equal_spp_corrected(),
                 fmt_ratio(ratio(t.rmse_equal_spp, mis.rmse_equal_spp)),
                 fmt_ratio(ratio(
@@ -458,6 +521,7 @@ impl Report {
                     mis.rmse_equal_spp_corrected()
                 )),
                 t.rmse_equal_time,
+                rel(&t.errors_equal_time),
                 t.rmse_equal_time_corrected(),
                 fmt_ratio(ratio(t.rmse_equal_time, mis.rmse_equal_time)),
                 fmt_ratio(ratio(
@@ -691,6 +755,9 @@ fn write_both(dir: &Path, stem: &str, img: &Image) -> std::io::Result<()> {
         &img.mean,
     )
 }
+
+/// The number of classes of material and view angle in the table of the largest parts.
+pub const JOINT_ROWS: usize = 10;
 
 /// The absolute error shown as white in the error maps' PNG files, in units of tl-mis's RMSE
 /// at equal spp.

@@ -187,6 +187,8 @@ pub struct ClassError {
     pub pixels: usize,
     /// The sum of their squared errors.
     pub squared_error: f64,
+    /// The sum of the squares of their squared errors (for [`ClassError::mse_part_se`]).
+    pub squared_error_sq: f64,
     /// The sum of their reference variances (of the reference's pixel means).
     pub ref_variance: f64,
 }
@@ -195,6 +197,20 @@ impl ClassError {
     /// The class's part of the MSE of an image of `total` pixels.
     pub fn mse_part(&self, total: usize) -> f64 {
         self.squared_error / total as f64
+    }
+
+    /// The standard error of [`ClassError::mse_part`] from the spread of the class's squared
+    /// errors: `sqrt(n · s²) / total`, `s²` their sample variance over the class's `n`
+    /// pixels (the pixels' errors are independent; their spread also holds that of their
+    /// expectations, so this errs on the large side). NaN below 2 pixels.
+    pub fn mse_part_se(&self, total: usize) -> f64 {
+        let n = self.pixels as f64;
+        if self.pixels < 2 {
+            return f64::NAN;
+        }
+        let mean = self.squared_error / n;
+        let s2 = ((self.squared_error_sq - n * mean * mean) / (n - 1.0)).max(0.0);
+        (n * s2).sqrt() / total as f64
     }
 
     /// The class's part of the MSE with its reference variance removed (may be negative: the
@@ -222,6 +238,7 @@ pub fn split(squared: &[f64], ref_variance: &[f64], classes: &Classes) -> Vec<Cl
     for ((&c, &e), &v) in classes.of_pixel.iter().zip(squared).zip(ref_variance) {
         out[c].pixels += 1;
         out[c].squared_error += e;
+        out[c].squared_error_sq += e * e;
         out[c].ref_variance += v;
     }
     out
@@ -234,6 +251,9 @@ pub struct ErrorSummary {
     pub mse: f64,
     /// Mean over the pixels of the variance of the reference's pixel means.
     pub ref_variance: f64,
+    /// The standard error of `mse` from the spread of the per-pixel squared errors (see
+    /// [`ClassError::mse_part_se`]).
+    pub mse_se: f64,
     /// Per split (in the order of the `Classes` given), per class.
     pub splits: Vec<Vec<ClassError>>,
 }
@@ -243,8 +263,18 @@ impl ErrorSummary {
     /// `ref_variance`, split by each of `classes`.
     pub fn new(squared: &[f64], ref_variance: &[f64], classes: &[Classes]) -> ErrorSummary {
         let n = squared.len() as f64;
+        let whole = split(
+            squared,
+            ref_variance,
+            &Classes {
+                what: "all",
+                names: vec![("all".into(), "")],
+                of_pixel: vec![0; squared.len()],
+            },
+        );
         ErrorSummary {
             mse: squared.iter().sum::<f64>() / n,
+            mse_se: whole[0].mse_part_se(squared.len()),
             ref_variance: ref_variance.iter().sum::<f64>() / n,
             splits: classes
                 .iter()
