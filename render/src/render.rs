@@ -119,6 +119,18 @@ pub fn primary(
     primary_at(scene, px, py, w, h, [0.5, 0.5])
 }
 
+/// The shading point seen through the centre of every pixel of a `w × h` image, row-major
+/// ([`primary`]; `None` where the centre's ray hits nothing or grazes its surface): the
+/// primary hit by which `compare` classes a pixel (its material and view angle). Under the
+/// jittered protocol a pixel's own estimates take their primary hits anywhere in the pixel;
+/// the centre's is the one the pixel is classed by.
+pub fn centre_hits(scene: &RenderScene, w: usize, h: usize) -> Vec<Option<ShadingPoint>> {
+    (0..w * h)
+        .into_par_iter()
+        .map(|i| primary(scene, i % w, i / w, w, h))
+        .collect()
+}
+
 /// The shading point seen through position `offset` (in [0, 1)²) of pixel (`px`, `py`).
 pub fn primary_at(
     scene: &RenderScene,

@@ -109,13 +109,17 @@ fn compare_writes_every_output() {
     let mut files = vec![
         "reference.png".to_string(),
         "reference.exr".to_string(),
+        "reference-error.png".to_string(),
+        "reference-error.exr".to_string(),
         "side_by_side.png".to_string(),
         "side_by_side_equal_time.png".to_string(),
+        "side_by_side_error.png".to_string(),
+        "side_by_side_equal_time_error.png".to_string(),
         "convergence.svg".to_string(),
         "table.md".to_string(),
     ];
     for n in NAMES {
-        for suffix in ["", "-equal-time"] {
+        for suffix in ["", "-equal-time", "-error", "-equal-time-error"] {
             files.push(format!("{n}{suffix}.png"));
             files.push(format!("{n}{suffix}.exr"));
         }
@@ -127,7 +131,12 @@ fn compare_writes_every_output() {
             .len();
         assert!(len > 0, "{} is empty", p.display());
     }
-    for name in ["side_by_side.png", "side_by_side_equal_time.png"] {
+    for name in [
+        "side_by_side.png",
+        "side_by_side_equal_time.png",
+        "side_by_side_error.png",
+        "side_by_side_equal_time_error.png",
+    ] {
         let (w, h, px) = read_png(&dir.join(name));
         // The techniques' images and the reference, and their crops, 4-pixel gaps, under a
         // caption strip: 12-pixel panels are too narrow for ×2 text, so ×1, 1 + 7 + 1 rows.
@@ -159,7 +168,12 @@ fn compare_writes_every_output() {
         }
         // Below the strip: the reference panel as written on its own (but for the outline of
         // the crop region), and its crop.
-        let (rw, rh, rpx) = read_png(&dir.join("reference.png"));
+        let own = if name.ends_with("_error.png") {
+            "reference-error.png"
+        } else {
+            "reference.png"
+        };
+        let (rw, rh, rpx) = read_png(&dir.join(own));
         assert_eq!((rw, rh), (W, H));
         let (cx0, cy0, cx1, cy1) = image::crop_region(W, H);
         let x0 = NAMES.len() * (W + 4);
@@ -209,6 +223,38 @@ fn compare_writes_every_output() {
     }
     let reference = read_raw(&compare::reference_path(&s, &cfg)).expect("cached reference");
     assert_same(&dir.join("reference.exr"), &reference.mean);
+    // The error maps' EXR: the squared errors against the reference (the reference's own: the
+    // variance of its pixel means); their PNG: the absolute error over the report's scale.
+    let ref_var: Vec<f32> = reference
+        .mean_variances()
+        .iter()
+        .map(|&v| v as f32)
+        .collect();
+    assert_same(&dir.join("reference-error.exr"), &ref_var);
+    let tl_mis = render(
+        &s,
+        &RenderConfig {
+            width: W,
+            height: H,
+            spp: cfg.spp,
+            technique: Technique::TlMis,
+            seed: cfg.seed,
+            progress: false,
+            protocol: cfg.protocol,
+            params: cfg.params,
+        },
+    );
+    let sq = tl_mis.squared_errors(&reference);
+    let sq32: Vec<f32> = sq.iter().map(|&e| e as f32).collect();
+    assert_same(&dir.join("tl-mis-error.exr"), &sq32);
+    let (_, _, png) = read_png(&dir.join("tl-mis-error.png"));
+    let expect: Vec<u8> = sq
+        .iter()
+        .map(|&e| image::tone_map((e.sqrt() / report.error_map_scale) as f32))
+        .collect();
+    assert_eq!(png, expect);
+    let mse = sq.iter().sum::<f64>() / sq.len() as f64;
+    assert!((report.error_map_scale - compare::ERROR_MAP_SCALE * mse.sqrt()).abs() < 1e-12);
 
     // JSON.
     let j = report.json();
@@ -245,6 +291,107 @@ fn compare_writes_every_output() {
     }
     // `full` gets its own spp back when the budget is its own time.
     assert_eq!(techs[6]["spp_equal_time"], 2);
+
+    // The reference's variance and the corrected RMSEs: RMSE' = sqrt(max(0, MSE − V)) and
+    // the ratios to tl-mis.
+    let v = j["reference_mean_variance"].as_f64().unwrap();
+    let expect_v = reference.mean_variances().iter().sum::<f64>() / (W * H) as f64;
+    assert!((v - expect_v).abs() <= 1e-12 * expect_v && v > 0.0);
+    assert!((j["reference_rmse_floor"].as_f64().unwrap() - v.sqrt()).abs() < 1e-12);
+    let mis = &techs[7];
+    assert_eq!(mis["name"], "tl-mis");
+    for t in techs {
+        for at in ["equal_spp", "equal_time"] {
+            let rmse = t[format!("rmse_{at}")].as_f64().unwrap();
+            let corrected = t[format!("rmse_{at}_corrected")].as_f64().unwrap();
+            assert!(
+                (corrected - (rmse * rmse - v).max(0.0).sqrt()).abs() <= 1e-9 * rmse,
+                "{}: {at}",
+                t["name"]
+            );
+            let ratio = t[format!("rmse_{at}_vs_tl_mis")].as_f64().unwrap();
+            let mis_rmse = mis[format!("rmse_{at}")].as_f64().unwrap();
+            assert!((ratio - rmse / mis_rmse).abs() <= 1e-12 * ratio);
+            let key = format!("rmse_{at}_corrected_vs_tl_mis");
+            let mis_c = mis[format!("rmse_{at}_corrected")].as_f64().unwrap();
+            if mis_c > 0.0 {
+                let r = t[key.as_str()].as_f64().unwrap();
+                assert!((r - corrected / mis_c).abs() <= 1e-12 * r.max(1e-300));
+            }
+            assert!(t["mean_rel_diff_sigma"].as_f64().is_some());
+            assert!(t[format!("mse_{at}_se")].as_f64().is_some_and(|x| x >= 0.0));
+        }
+    }
+
+    // The splits: every pixel in one class of each; per technique the parts add up to its
+    // MSE (and, with the reference's variance removed, to MSE − V).
+    let classes = &j["error_classes"];
+    for what in ["material", "angle", "material_angle"] {
+        let list = classes[what].as_array().unwrap();
+        let pixels: u64 = list.iter().map(|c| c["pixels"].as_u64().unwrap()).sum();
+        assert_eq!(pixels, (W * H) as u64, "{what}");
+        for c in list {
+            assert!(c["pixels"].as_u64().unwrap() > 0);
+            assert!(c["reference_mean"].as_f64().is_some_and(|m| m >= 0.0));
+            assert_eq!(c.get("kind").is_some(), what != "angle", "{what}: {c}");
+        }
+        for t in techs {
+            for at in ["equal_spp", "equal_time"] {
+                let parts = t["errors"][what][at].as_array().unwrap();
+                assert_eq!(parts.len(), list.len());
+                let rmse = t[format!("rmse_{at}")].as_f64().unwrap();
+                let sum: f64 = parts.iter().map(|p| p["mse"].as_f64().unwrap()).sum();
+                assert!(
+                    (sum - rmse * rmse).abs() <= 1e-9 * rmse * rmse,
+                    "{} {what} {at}: {sum} vs {}",
+                    t["name"],
+                    rmse * rmse
+                );
+                let sum_c: f64 = parts
+                    .iter()
+                    .map(|p| p["mse_corrected"].as_f64().unwrap())
+                    .sum();
+                assert!((sum_c - (rmse * rmse - v)).abs() <= 1e-9 * rmse * rmse);
+                for (p, c) in parts.iter().zip(list) {
+                    assert_eq!(p["class"], c["name"]);
+                    assert!(p["rmse"].as_f64().is_some_and(|r| r >= 0.0));
+                    let px = list.iter().find(|c| c["name"] == p["class"]).unwrap()["pixels"]
+                        .as_u64()
+                        .unwrap();
+                    assert_eq!(p["mse_se"].as_f64().is_some(), px >= 2, "{p}");
+                    assert!(p["rmse_corrected"].as_f64().is_some_and(|r| r >= 0.0));
+                }
+            }
+        }
+    }
+    // Stairs: Lambert walls, plastic steps, a GGX rail; view-angle bins grazing first.
+    let materials: Vec<&str> = classes["material"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|c| c["kind"].as_str().unwrap())
+        .collect();
+    assert!(materials.contains(&"lambert") && materials.contains(&"plastic"));
+    let angles: Vec<&str> = classes["angle"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|c| c["name"].as_str().unwrap())
+        .collect();
+    let mut sorted = angles.clone();
+    sorted.sort();
+    if let Some(i) = sorted.iter().position(|&a| a == "no hit") {
+        let nh = sorted.remove(i);
+        sorted.push(nh);
+    }
+    assert_eq!(angles, sorted);
+    for name in [
+        "reference variance removed",
+        "error by material",
+        "error by view angle",
+    ] {
+        assert!(table.contains(name), "{name} missing from the table");
+    }
 
     // A given budget, no plot: the cached reference is reused.
     let report = compare::run(&s, &config(&out, false, Some(0.002))).expect("compare runs");

@@ -239,3 +239,134 @@ fn brdf_sampling_alone_is_unbiased() {
         assert!(z.abs() <= 5.0, "{name}: {z:.2} SE");
     }
 }
+
+/// The null distribution of the largest of K bias z's: known values of `(2Φ(z) − 1)^K`, its
+/// quantiles inverting it, and the z of one pair with the reference's error in the
+/// denominator.
+#[test]
+fn largest_bias_against_its_null_distribution() {
+    use manylights_render::instruments::estimator::{
+        bias_sigma, max_abs_normal_cdf, max_abs_normal_quantile, max_abs_normal_sf, MaxBias,
+    };
+    // z = (mean − exact) / sqrt(se² + se_ref²): 0.1 / sqrt(0.03² + 0.04²) = 2.
+    assert!((bias_sigma(1.1, 0.03, 1.0, 0.04) - 2.0).abs() < 1e-12);
+    assert!((bias_sigma(0.9, 0.03, 1.0, 0.04) + 2.0).abs() < 1e-12);
+    assert_eq!(bias_sigma(1.0, 0.0, 1.0, 0.0), 0.0);
+    assert_eq!(bias_sigma(1.5, 0.0, 1.0, 0.0), f64::INFINITY);
+    // One pair: P(|Z| ≤ 1.959964) = 0.95, P(|Z| ≤ 3) = 0.99730.
+    assert!((max_abs_normal_cdf(1.959_964, 1) - 0.95).abs() < 1e-6);
+    assert!((max_abs_normal_cdf(3.0, 1) - 0.997_300_2).abs() < 1e-7);
+    // 576 pairs: P(max ≤ 4) = (1 − 6.334e-5)^576 = 0.9642.
+    let p4 = (1.0f64 - 6.334_248_4e-5).powi(576);
+    assert!((max_abs_normal_cdf(4.0, 576) - p4).abs() < 1e-6);
+    assert!((max_abs_normal_sf(4.0, 576) - (1.0 - p4)).abs() < 1e-6);
+    // Far in the tail the p-value keeps its digits: P(max > 8) over 576 ≈ 576 × 1.24e-15.
+    let tail = max_abs_normal_sf(8.0, 576);
+    assert!(
+        (tail / (576.0 * 1.244_192e-15) - 1.0).abs() < 1e-3,
+        "{tail}"
+    );
+    for k in [1, 90, 576] {
+        for p in [0.05, 0.5, 0.95, 0.99] {
+            let z = max_abs_normal_quantile(p, k);
+            assert!((max_abs_normal_cdf(z, k) - p).abs() < 1e-7, "{k} {p}");
+        }
+    }
+    assert!(max_abs_normal_quantile(1.0, 5).is_nan());
+    let mb = MaxBias::of(&[0.5, -4.34, 1.0, 3.5]);
+    assert_eq!((mb.max, mb.pairs, mb.above_3), (4.34, 4, 2));
+    assert!((mb.rms - ((0.25 + 4.34 * 4.34 + 1.0 + 12.25) / 4.0f64).sqrt()).abs() < 1e-12);
+    assert!((mb.null_quantile + mb.null_p_value - 1.0).abs() < 1e-12);
+    assert!((mb.above_3_expected - 4.0 * 2.699_796e-3).abs() < 1e-8);
+
+    // Under the null the observed maximum's quantile is uniform: over 2,000 runs of 576
+    // standard normal z's, the fraction below the median is 1/2 within 5 binomial standard
+    // deviations, and the fraction above the 95 % quantile 5 % within 5.
+    let mut rng = Pcg64Mcg::seed_from_u64(576);
+    let runs = 2000;
+    let (mut below_half, mut above_95) = (0usize, 0usize);
+    for _ in 0..runs {
+        let z: Vec<f64> = (0..576)
+            .map(|_| {
+                let u: f64 = 1.0 - rng.random::<f64>();
+                let v: f64 = rng.random();
+                (-2.0 * u.ln()).sqrt() * (std::f64::consts::TAU * v).cos()
+            })
+            .collect();
+        let q = MaxBias::of(&z).null_quantile;
+        below_half += usize::from(q < 0.5);
+        above_95 += usize::from(q > 0.95);
+    }
+    let n = runs as f64;
+    let tol = |p: f64| 5.0 * (p * (1.0 - p) / n).sqrt();
+    assert!(
+        (below_half as f64 / n - 0.5).abs() <= tol(0.5),
+        "{below_half}"
+    );
+    assert!(
+        (above_95 as f64 / n - 0.05).abs() <= tol(0.05),
+        "{above_95}"
+    );
+}
+
+/// `estimator::run` on a tiny configuration: the JSON has the bias keys, consistent with its
+/// per-configuration results.
+#[test]
+fn estimator_json_keys() {
+    use manylights_render::instruments::estimator::{self, EstimatorConfig};
+    let cfg = EstimatorConfig {
+        estimates: 300,
+        lights: 40,
+        points: 5,
+        ref_target: 1e-2,
+        ref_total_target: 1e-3,
+        time_ms: 0.05,
+        ..EstimatorConfig::quick(4)
+    };
+    let (rs, j) = estimator::run(&cfg);
+    let pairs = rs.len() * Technique::ALL.len();
+    assert_eq!(j["seed"], 4);
+    assert_eq!(j["bias_pairs"].as_u64(), Some(pairs as u64));
+    let z: Vec<f64> = rs
+        .iter()
+        .flat_map(|r| r.results.iter().map(|t| t.bias_sigma))
+        .collect();
+    let max = z.iter().fold(0.0f64, |m, x| m.max(x.abs()));
+    assert_eq!(j["max_bias_sigma"].as_f64(), Some(max));
+    let at = &j["max_bias_sigma_at"];
+    let (ci, name) = (
+        at["config"].as_u64().unwrap() as usize,
+        at["technique"].as_str().unwrap(),
+    );
+    let ti = Technique::ALL
+        .iter()
+        .position(|t| t.name() == name)
+        .unwrap();
+    assert_eq!(rs[ci].results[ti].bias_sigma.abs(), max);
+    for key in [
+        "max_bias_sigma_null_quantile",
+        "max_bias_sigma_null_p_value",
+        "max_bias_sigma_null_below_4",
+    ] {
+        assert!(
+            j[key].as_f64().is_some_and(|p| (0.0..=1.0).contains(&p)),
+            "{key}: {}",
+            j[key]
+        );
+    }
+    let (m, p95, p99) = (
+        j["max_bias_sigma_null_median"].as_f64().unwrap(),
+        j["max_bias_sigma_null_p95"].as_f64().unwrap(),
+        j["max_bias_sigma_null_p99"].as_f64().unwrap(),
+    );
+    assert!(0.0 < m && m < p95 && p95 < p99);
+    assert!(j["rms_bias_sigma"].as_f64().is_some_and(|r| r >= 0.0));
+    assert_eq!(
+        j["pairs_above_3_sigma"].as_u64(),
+        Some(z.iter().filter(|x| x.abs() > 3.0).count() as u64)
+    );
+    assert!(j["pairs_above_3_sigma_expected"].as_f64().unwrap() > 0.0);
+    assert_eq!(j["bias_sigma_denominator"], "sqrt(se_mean^2 + se_ref^2)");
+    let table = estimator::table(&rs, &j, false);
+    assert!(table.contains("null distribution"), "{table}");
+}

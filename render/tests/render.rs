@@ -346,3 +346,51 @@ fn fingerprint_tells_scenes_apart() {
     assert_ne!(a.fingerprint(), moved.fingerprint());
     assert_ne!(scene::stairs().fingerprint(), a.fingerprint());
 }
+
+/// `compare`'s material classes: every material of `city` is one of its five named classes;
+/// the other scenes' classes are their kind and glossy lobe.
+#[test]
+fn material_classes() {
+    let city = scene::city();
+    let mut names: Vec<String> = city
+        .geometry
+        .triangles
+        .iter()
+        .map(|t| city.material_class(&t.material).name)
+        .collect();
+    names.sort();
+    names.dedup();
+    assert_eq!(
+        names,
+        [
+            "cars (plastic α 0.07 ks 0.6)",
+            "glass façades (plastic α 0.1 ks 0.7)",
+            "lamp poles (ggx α 0.2 ks 0.6)",
+            "sidewalks and stone façades (lambert)",
+            "wet street (plastic α 0.15 ks 0.5)",
+        ]
+    );
+    let stairs = scene::stairs();
+    for t in &stairs.geometry.triangles {
+        let c = stairs.material_class(&t.material);
+        let kind = match t.material {
+            Material::Lambert { .. } => "lambert",
+            Material::Ggx { .. } => "ggx",
+            Material::Plastic { .. } => "plastic",
+        };
+        assert_eq!(c.kind, kind);
+        assert!(c.name.starts_with(kind) && !c.name.contains('('), "{c:?}");
+    }
+    // The albedo does not change the class.
+    let a = Material::Plastic {
+        albedo: 0.1,
+        specular: 0.5,
+        alpha: 0.15,
+    };
+    let b = Material::Plastic {
+        albedo: 0.9,
+        specular: 0.5,
+        alpha: 0.15,
+    };
+    assert_eq!(city.material_class(&a), city.material_class(&b));
+}

@@ -47,14 +47,37 @@ impl Image {
         (s / self.spp.max(1) as f64).sqrt() / n
     }
 
-    /// Root mean square difference to `other` (same size).
-    pub fn rmse(&self, other: &Image) -> f64 {
-        let s: f64 = self
-            .mean
+    /// The squared difference to `other` (same size) at every pixel, row-major: the per-pixel
+    /// error every RMSE and error split of the renderer sums.
+    pub fn squared_errors(&self, other: &Image) -> Vec<f64> {
+        self.mean
             .iter()
             .zip(&other.mean)
             .map(|(&a, &b)| (f64::from(a) - f64::from(b)).powi(2))
-            .sum();
+            .collect()
+    }
+
+    /// The variance of each pixel's mean estimated from the image's own estimates: the
+    /// per-estimate sample variance over the number of estimates, row-major (0 everywhere
+    /// below 2 estimates, where there is no estimate of it).
+    pub fn mean_variances(&self) -> Vec<f64> {
+        let spp = self.spp;
+        self.var
+            .iter()
+            .map(|&v| {
+                if spp >= 2 {
+                    f64::from(v) / spp as f64
+                } else {
+                    0.0
+                }
+            })
+            .collect()
+    }
+
+    /// Root mean square difference to `other` (same size): the root of the mean of
+    /// [`Image::squared_errors`].
+    pub fn rmse(&self, other: &Image) -> f64 {
+        let s: f64 = self.squared_errors(other).iter().sum();
         (s / self.mean.len() as f64).sqrt()
     }
 }

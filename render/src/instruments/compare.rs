@@ -2,7 +2,8 @@
 //! time, against a cached reference.
 //!
 //! - **Reference**: the `full` technique at `ref_spp` estimates per pixel (default 64 × the
-//!   compared spp), with its own seed, cached as raw f32 under
+//!   compared spp), with its own seed, cached as raw f32 (per pixel the mean and the
+//!   per-estimate sample variance of its estimates) under
 //!   `out/reference/<scene>-<lights>-<fingerprint>-<W>x<H>-<ref_spp>-<seed>.bin`, the fingerprint
 //!   being [`RenderScene::fingerprint`] (a changed scene never reuses a stale reference; delete
 //!   the folder to reclaim the space).
@@ -30,7 +31,21 @@
 //!   reference, for the technique's image with the most spp among its equal-spp, equal-time and
 //!   convergence renders (`mean_rel_diff_spp`); `mean_rel_diff_se` is the standard error of
 //!   that difference (relative; from both images' per-pixel variances, `null` below 2 spp), so
-//!   that noise can be told from bias.
+//!   that noise can be told from bias; `mean_rel_diff_sigma` is their ratio.
+//! - **Reference variance removed** ([`error_split`](super::error_split); docs/formulas.md,
+//!   section 15): beside each RMSE, `RMSE' = sqrt(max(0, MSE − V))` with `V` the mean over the
+//!   pixels of the reference's own variance of its pixel means (its per-estimate sample
+//!   variance over `ref_spp`), the part of the MSE that is the reference's noise; and the
+//!   ratios of both to tl-mis's (the peer strategy).
+//! - **Error splits**: each pixel is classed by the primary hit at its centre (under the
+//!   jittered protocol its estimates hit anywhere in the pixel; the centre's hit classes it):
+//!   by material class ([`RenderScene::material_class`]: kind and glossy lobe, named by the
+//!   scene where it names them), by view angle (bins of cos θo 0.1 wide) and by both. Per
+//!   technique and class: the class's part of the MSE (the parts add up to the MSE; with
+//!   their share of `V` removed, to `MSE − V`) and the RMSE over the class's pixels, both also
+//!   with `V` removed, and that RMSE over tl-mis's in the same class; `mse_se` is the
+//!   standard error of a part (and `mse_*_se` of a whole MSE) from the spread of the
+//!   per-pixel squared errors, so that a class's ratio can be told from noise.
 //!
 //! Outputs under `out/compare/<scene>-<lights>/`: per technique `<technique>.png` and
 //! `<technique>.exr` (equal spp) and `<technique>-equal-time.png` / `.exr`, `reference.png` /
@@ -40,18 +55,37 @@
 //! below, each one's lower middle quarter, outlined on the image above, magnified 2×: see
 //! [`side_by_side_labelled`]), `side_by_side_equal_time.png` (the same with the equal-time
 //! images and their RMSE), `convergence.svg` (unless `--no-plot`: RMSE against busy time,
-//! log-log, from renders at 1, 2, 4, … 4 × spp), `table.md` (the Markdown table, also printed).
+//! log-log, from renders at 1, 2, 4, … 4 × spp), `table.md` (the Markdown tables, also
+//! printed: the main one, the RMSEs with the reference's variance removed, the splits by
+//! material and view angle at equal spp and equal time, and the [`JOINT_ROWS`] classes of
+//! material and view angle that hold most of the default technique's error). Error maps: per technique
+//! `<technique>-error.png` / `.exr` and `<technique>-equal-time-error.png` / `.exr`,
+//! `reference-error.png` / `.exr` (the reference's own variance of its pixel means): the EXR
+//! holds the per-pixel squared error against the reference (linear), the PNG the absolute
+//! error with white at [`ERROR_MAP_SCALE`] × tl-mis's RMSE at equal spp (clamped; the same
+//! scale in every map); `side_by_side_error.png` and `side_by_side_equal_time_error.png` put
+//! them side by side as the images are.
 //! With `--json` the last line of stdout is
 //! `{scene, lights, resolution, spp, ref_spp, time_budget_s, time_budget_from, dir,
 //! techniques: [{name, rmse_equal_spp, rmse_equal_time, spp_equal_time, seconds_equal_time,
 //! ms_per_spp, ms_fixed, seconds_equal_spp, mean_rel_diff, mean_rel_diff_spp,
-//! mean_rel_diff_se}]}`, techniques in the order `uniform`, `power`, `tl`, `tl-split`, `bl`,
-//! `mis-equal`, `full`; `ms_per_spp` and `ms_fixed` are the cost model's (busy milliseconds).
+//! mean_rel_diff_se, mean_rel_diff_sigma, mse_equal_spp_se, mse_equal_time_se,
+//! rmse_equal_spp_corrected, rmse_equal_time_corrected,
+//! rmse_equal_spp_vs_tl_mis, rmse_equal_time_vs_tl_mis, rmse_equal_spp_corrected_vs_tl_mis,
+//! rmse_equal_time_corrected_vs_tl_mis, errors: {material, angle, material_angle: {equal_spp,
+//! equal_time: [{class, mse, mse_corrected, mse_se, rmse, rmse_corrected,
+//! rmse_corrected_vs_tl_mis}]}}}], reference_mean_variance, reference_rmse_floor,
+//! error_class_pixel, error_map_scale, error_classes: {material, angle, material_angle:
+//! [{name, pixels, reference_mean, kind (not for angle)}]}}`, techniques in
+//! [`Technique::ALL`] order, each split's classes in the order of `error_classes`;
+//! `ms_per_spp` and `ms_fixed` are the cost model's (busy milliseconds), `mse` a class's part
+//! of the image's MSE.
 
 use crate::image::{
     convergence_svg, read_raw, side_by_side_labelled, write_exr, write_png, write_raw, Image,
 };
-use crate::render::{render, Protocol, RenderConfig};
+use crate::instruments::error_split::{error_map, map_image, Classes, ErrorSummary};
+use crate::render::{centre_hits, render, Protocol, RenderConfig};
 use crate::scene::RenderScene;
 use manylights::{Params, Technique};
 use serde_json::json;
@@ -168,6 +202,23 @@ pub struct TechReport {
     pub mean_rel_diff_spp: usize,
     /// Standard error of `mean_rel_diff` (relative to the reference average); NaN below 2 spp.
     pub mean_rel_diff_se: f64,
+    /// The equal-spp image's error against the reference: totals, the reference's variance,
+    /// and the splits by [`Report::classes`].
+    pub errors_equal_spp: ErrorSummary,
+    /// The same of the equal-time image.
+    pub errors_equal_time: ErrorSummary,
+}
+
+impl TechReport {
+    /// RMSE at equal spp with the reference's variance removed.
+    pub fn rmse_equal_spp_corrected(&self) -> f64 {
+        self.errors_equal_spp.rmse_corrected()
+    }
+
+    /// RMSE at equal time with the reference's variance removed.
+    pub fn rmse_equal_time_corrected(&self) -> f64 {
+        self.errors_equal_time.rmse_corrected()
+    }
 }
 
 /// The comparison.
@@ -193,6 +244,41 @@ pub struct Report {
     pub techniques: Vec<TechReport>,
     /// Where the estimates were taken.
     pub protocol: Protocol,
+    /// Mean over the pixels of the variance of the reference's pixel means (its own
+    /// estimate, from its samples).
+    pub reference_variance: f64,
+    /// The pixel classes of the error splits: by material, by view angle, by both.
+    pub classes: Vec<Classes>,
+    /// Per split, per class: the reference's average over the class's pixels.
+    pub class_reference_means: Vec<Vec<f64>>,
+    /// The absolute error shown as white in the error maps' PNG files.
+    pub error_map_scale: f64,
+}
+
+/// The index of `t` in [`Technique::ALL`].
+fn index_of(t: Technique) -> usize {
+    Technique::ALL
+        .iter()
+        .position(|&x| x == t)
+        .expect("every technique is in Technique::ALL")
+}
+
+/// `a / b`, NaN unless both are finite and `b` is positive.
+fn ratio(a: f64, b: f64) -> f64 {
+    if a.is_finite() && b.is_finite() && b > 0.0 {
+        a / b
+    } else {
+        f64::NAN
+    }
+}
+
+/// A ratio for a table: 3 decimals, `–` when not finite.
+fn fmt_ratio(x: f64) -> String {
+    if x.is_finite() {
+        format!("{x:.3}")
+    } else {
+        "–".into()
+    }
 }
 
 /// A number for JSON: `null` when not finite.
@@ -207,6 +293,7 @@ fn num(x: f64) -> serde_json::Value {
 impl Report {
     /// The JSON object of the last line.
     pub fn json(&self) -> serde_json::Value {
+        let mis = self.tl_mis();
         json!({
             "scene": self.scene,
             "lights": self.lights,
@@ -230,8 +317,67 @@ impl Report {
                 "mean_rel_diff": num(t.mean_rel_diff),
                 "mean_rel_diff_spp": t.mean_rel_diff_spp,
                 "mean_rel_diff_se": num(t.mean_rel_diff_se),
+                "mean_rel_diff_sigma": num(ratio(t.mean_rel_diff, t.mean_rel_diff_se)),
+                "mse_equal_spp_se": num(t.errors_equal_spp.mse_se),
+                "mse_equal_time_se": num(t.errors_equal_time.mse_se),
+                "rmse_equal_spp_corrected": num(t.rmse_equal_spp_corrected()),
+                "rmse_equal_time_corrected": num(t.rmse_equal_time_corrected()),
+                "rmse_equal_spp_vs_tl_mis": num(ratio(t.rmse_equal_spp, mis.rmse_equal_spp)),
+                "rmse_equal_time_vs_tl_mis": num(ratio(t.rmse_equal_time, mis.rmse_equal_time)),
+                "rmse_equal_spp_corrected_vs_tl_mis": num(ratio(
+                    t.rmse_equal_spp_corrected(),
+                    mis.rmse_equal_spp_corrected()
+                )),
+                "rmse_equal_time_corrected_vs_tl_mis": num(ratio(
+                    t.rmse_equal_time_corrected(),
+                    mis.rmse_equal_time_corrected()
+                )),
+                "errors": self.classes.iter().enumerate().map(|(k, c)| {
+                    let n = self.resolution.0 * self.resolution.1;
+                    let per = |e: &ErrorSummary, m: &ErrorSummary| {
+                        c.names.iter().enumerate().map(|(i, (name, _))| {
+                            let (x, y) = (e.splits[k][i], m.splits[k][i]);
+                            json!({
+                                "class": name,
+                                "mse": num(x.mse_part(n)),
+                                "mse_corrected": num(x.mse_part_corrected(n)),
+                                "mse_se": num(x.mse_part_se(n)),
+                                "rmse": num(x.rmse()),
+                                "rmse_corrected": num(x.rmse_corrected()),
+                                "rmse_corrected_vs_tl_mis": num(ratio(x.rmse_corrected(), y.rmse_corrected())),
+                            })
+                        }).collect::<Vec<_>>()
+                    };
+                    (c.what.to_string(), json!({
+                        "equal_spp": per(&t.errors_equal_spp, &mis.errors_equal_spp),
+                        "equal_time": per(&t.errors_equal_time, &mis.errors_equal_time),
+                    }))
+                }).collect::<serde_json::Map<_, _>>(),
             })).collect::<Vec<_>>(),
+            "reference_mean_variance": num(self.reference_variance),
+            "reference_rmse_floor": num(self.reference_variance.sqrt()),
+            "error_class_pixel": "the primary hit at the pixel centre",
+            "error_map_scale": num(self.error_map_scale),
+            "error_classes": self.classes.iter().zip(&self.class_reference_means).map(|(c, means)| {
+                let pixels = c.pixels();
+                (c.what.to_string(), c.names.iter().enumerate().map(|(i, (name, kind))| {
+                    let mut o = json!({
+                        "name": name,
+                        "pixels": pixels[i],
+                        "reference_mean": num(means[i]),
+                    });
+                    if c.what != "angle" {
+                        o["kind"] = json!(kind);
+                    }
+                    o
+                }).collect::<Vec<_>>().into())
+            }).collect::<serde_json::Map<_, _>>(),
         })
+    }
+
+    /// The report of tl-mis, the peer strategy every ratio is taken against.
+    fn tl_mis(&self) -> &TechReport {
+        &self.techniques[index_of(Technique::TlMis)]
     }
 
     /// The Markdown table.
@@ -283,6 +429,156 @@ impl Report {
                 100.0 * t.mean_rel_diff_se,
                 t.mean_rel_diff_spp,
             ));
+        }
+        s.push_str(&self.corrected_table());
+        for (k, c) in self.classes.iter().enumerate() {
+            if c.what == "material_angle" {
+                s.push_str(&self.joint_table(k, JOINT_ROWS));
+                continue;
+            }
+            for equal_time in [false, true] {
+                s.push_str(&self.split_table(k, equal_time));
+            }
+        }
+        s
+    }
+
+    /// The `rows` classes of split `k` with the largest parts of the default technique's
+    /// MSE at equal time: for tl-mis, bl and the default, at equal spp and equal time, the
+    /// class's share of the technique's MSE − V and its RMSE' over tl-mis's in the class.
+    fn joint_table(&self, k: usize, rows: usize) -> String {
+        let c = &self.classes[k];
+        let n = self.resolution.0 * self.resolution.1;
+        let mut shown = vec![Technique::TlMis, Technique::Bl];
+        if !shown.contains(&Technique::DEFAULT) {
+            shown.push(Technique::DEFAULT);
+        }
+        let mis = self.tl_mis();
+        let default = &self.techniques[index_of(Technique::DEFAULT)];
+        let mut order: Vec<usize> = (0..c.names.len()).collect();
+        let part = |i: usize| default.errors_equal_time.splits[k][i].mse_part_corrected(n);
+        order.sort_by(|&a, &b| part(b).total_cmp(&part(a)));
+        let mut s = format!(
+            "\nthe {rows} classes of material and view angle with the largest parts of {}'s MSE − V at equal time: \
+             per technique, the class's share of its MSE − V and its RMSE' over tl-mis's in the class\n\n",
+            Technique::DEFAULT.name()
+        );
+        s.push_str("| class | pixels |");
+        for t in &shown {
+            s.push_str(&format!(
+                " {0} share, equal spp | {0} ×tl-mis | {0} share, equal time | {0} ×tl-mis |",
+                t.name()
+            ));
+        }
+        s.push_str("\n|---|---:|");
+        s.push_str(&"---:|".repeat(4 * shown.len()));
+        s.push('\n');
+        let pixels = c.pixels();
+        for &i in order.iter().take(rows) {
+            s.push_str(&format!("| {} | {} |", c.names[i].0, pixels[i]));
+            for &t in &shown {
+                let r = &self.techniques[index_of(t)];
+                for (e, m) in [
+                    (&r.errors_equal_spp, &mis.errors_equal_spp),
+                    (&r.errors_equal_time, &mis.errors_equal_time),
+                ] {
+                    let x = e.splits[k][i];
+                    s.push_str(&format!(
+                        " {:.1} % | {} |",
+                        100.0 * ratio(x.mse_part_corrected(n), e.mse - e.ref_variance),
+                        fmt_ratio(ratio(x.rmse_corrected(), m.splits[k][i].rmse_corrected()))
+                    ));
+                }
+            }
+            s.push('\n');
+        }
+        s
+    }
+
+    /// The table of RMSEs with the reference's variance removed and their ratios to tl-mis's.
+    fn corrected_table(&self) -> String {
+        let mis = self.tl_mis();
+        let v = self.reference_variance;
+        let mut s = format!(
+            "\nreference variance removed: RMSE' = sqrt(max(0, MSE − V)), V = {v:.3e} the mean \
+             over the pixels of the variance of the reference's pixel means (RMSE floor √V = {:.5})\n\n",
+            v.sqrt()
+        );
+        s.push_str("MSE ±: the standard error of the MSE, relative (from the spread of the per-pixel squared errors)\n\n");
+        s.push_str("| technique | RMSE equal spp | MSE ± | RMSE' | ×tl-mis | RMSE' ×tl-mis | RMSE equal time | MSE ± | RMSE' | ×tl-mis | RMSE' ×tl-mis |\n");
+        s.push_str("|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|\n");
+        let rel = |e: &ErrorSummary| 100.0 * ratio(e.mse_se, e.mse);
+        for t in &self.techniques {
+            s.push_str(&format!(
+                "| {} | {:.5} | {:.1} % | {:.5} | {} | {} | {:.5} | {:.1} % | {:.5} | {} | {} |\n",
+                t.technique.name(),
+                t.rmse_equal_spp,
+                rel(&t.errors_equal_spp),
+                t.rmse_equal_spp_corrected(),
+                fmt_ratio(ratio(t.rmse_equal_spp, mis.rmse_equal_spp)),
+                fmt_ratio(ratio(
+                    t.rmse_equal_spp_corrected(),
+                    mis.rmse_equal_spp_corrected()
+                )),
+                t.rmse_equal_time,
+                rel(&t.errors_equal_time),
+                t.rmse_equal_time_corrected(),
+                fmt_ratio(ratio(t.rmse_equal_time, mis.rmse_equal_time)),
+                fmt_ratio(ratio(
+                    t.rmse_equal_time_corrected(),
+                    mis.rmse_equal_time_corrected()
+                )),
+            ));
+        }
+        s
+    }
+
+    /// The table of split `k` at equal spp or equal time: per class its pixels, the
+    /// reference's average there, and per technique its class RMSE over tl-mis's in the same
+    /// class and (in parentheses) the class's share of the technique's MSE, both with the
+    /// reference's variance removed.
+    fn split_table(&self, k: usize, equal_time: bool) -> String {
+        let c = &self.classes[k];
+        let n = self.resolution.0 * self.resolution.1;
+        fn errors(t: &TechReport, equal_time: bool) -> &ErrorSummary {
+            if equal_time {
+                &t.errors_equal_time
+            } else {
+                &t.errors_equal_spp
+            }
+        }
+        let mis = errors(self.tl_mis(), equal_time);
+        let mut s = format!(
+            "\nerror by {} at {} (each pixel classed by its centre's primary hit): per technique, \
+             the class's RMSE' over tl-mis's in the class (the class's share of the technique's MSE − V)\n\n",
+            if c.what == "angle" { "view angle" } else { c.what },
+            if equal_time { "equal time" } else { "equal spp" }
+        );
+        s.push_str("| class | pixels | reference mean |");
+        for t in &self.techniques {
+            s.push_str(&format!(" {} |", t.technique.name()));
+        }
+        s.push_str("\n|---|---:|---:|");
+        s.push_str(&"---:|".repeat(self.techniques.len()));
+        s.push('\n');
+        let pixels = c.pixels();
+        for (i, (name, _)) in c.names.iter().enumerate() {
+            s.push_str(&format!(
+                "| {name} | {:.1} % | {:.4} |",
+                100.0 * pixels[i] as f64 / n as f64,
+                self.class_reference_means[k][i]
+            ));
+            for t in &self.techniques {
+                let e = errors(t, equal_time);
+                let x = e.splits[k][i];
+                let total = e.mse - e.ref_variance;
+                s.push_str(&format!(
+                    " {} ({:.0} %) |",
+                    fmt_ratio(ratio(x.rmse_corrected(), mis.splits[k][i].rmse_corrected())),
+                    100.0 * ratio(x.mse_part_corrected(n), total)
+                ));
+            }
+            s.push('\n');
         }
         s
     }
@@ -460,6 +756,26 @@ fn write_both(dir: &Path, stem: &str, img: &Image) -> std::io::Result<()> {
     )
 }
 
+/// The number of classes of material and view angle in the table of the largest parts.
+pub const JOINT_ROWS: usize = 10;
+
+/// The absolute error shown as white in the error maps' PNG files, in units of tl-mis's RMSE
+/// at equal spp.
+pub const ERROR_MAP_SCALE: f64 = 4.0;
+
+/// Writes an error map: `<dir>/<stem>.png` (the grey levels of `map`) and `<dir>/<stem>.exr`
+/// (the per-pixel `squared` errors, linear).
+fn write_error_map(dir: &Path, stem: &str, map: &Image, squared: &[f64]) -> std::io::Result<()> {
+    write_png(
+        &dir.join(format!("{stem}.png")),
+        map.width,
+        map.height,
+        &map.mean,
+    )?;
+    let sq: Vec<f32> = squared.iter().map(|&e| e as f32).collect();
+    write_exr(&dir.join(format!("{stem}.exr")), map.width, map.height, &sq)
+}
+
 /// Runs the comparison and writes its images and table (see the module documentation).
 /// Errors: an invalid configuration (`InvalidInput`) or an output folder or file that cannot
 /// be written (checked before the renders; the message names the path).
@@ -514,6 +830,83 @@ pub fn run(scene: &RenderScene, cfg: &CompareConfig) -> std::io::Result<Report> 
         eq_images.push(eq);
     }
     write_both(&dir, "reference", &reference)?;
+
+    // Errors: the per-pixel squared errors and the reference's variances, split by the
+    // classes of the pixels' centre hits; error maps on one scale for every technique.
+    let hits = centre_hits(scene, cfg.width, cfg.height);
+    let classes = vec![
+        Classes::by_material(scene, &hits),
+        Classes::by_angle(&hits),
+        Classes::by_material_and_angle(scene, &hits),
+    ];
+    let ref_var = reference.mean_variances();
+    let class_reference_means: Vec<Vec<f64>> = classes
+        .iter()
+        .map(|c| {
+            let mut sums = vec![0f64; c.names.len()];
+            for (&k, &v) in c.of_pixel.iter().zip(&reference.mean) {
+                sums[k] += f64::from(v);
+            }
+            sums.iter()
+                .zip(c.pixels())
+                .map(|(&s, n)| s / n as f64)
+                .collect()
+        })
+        .collect();
+    let squared: Vec<Vec<f64>> = images
+        .iter()
+        .map(|i| i.squared_errors(&reference))
+        .collect();
+    let eq_squared: Vec<Vec<f64>> = eq_images
+        .iter()
+        .map(|i| i.squared_errors(&reference))
+        .collect();
+    let summaries: Vec<ErrorSummary> = squared
+        .iter()
+        .map(|sq| ErrorSummary::new(sq, &ref_var, &classes))
+        .collect();
+    let eq_summaries: Vec<ErrorSummary> = eq_squared
+        .iter()
+        .map(|sq| ErrorSummary::new(sq, &ref_var, &classes))
+        .collect();
+    let mis_rmse = summaries[index_of(Technique::TlMis)].rmse();
+    let error_map_scale = if mis_rmse.is_finite() && mis_rmse > 0.0 {
+        ERROR_MAP_SCALE * mis_rmse
+    } else {
+        1.0
+    };
+    let ref_error = map_image(&reference, error_map(&ref_var, error_map_scale));
+    write_error_map(&dir, "reference-error", &ref_error, &ref_var)?;
+    for (stem, sqs, suffix) in [
+        ("side_by_side_error.png", &squared, ""),
+        (
+            "side_by_side_equal_time_error.png",
+            &eq_squared,
+            "-equal-time",
+        ),
+    ] {
+        let maps: Vec<Image> = sqs
+            .iter()
+            .map(|sq| map_image(&reference, error_map(sq, error_map_scale)))
+            .collect();
+        for ((t, map), sq) in Technique::ALL.iter().zip(&maps).zip(sqs.iter()) {
+            write_error_map(&dir, &format!("{}{suffix}-error", t.name()), map, sq)?;
+        }
+        let captions: Vec<String> = Technique::ALL
+            .iter()
+            .zip(sqs.iter())
+            .map(|(t, sq)| caption(t.name(), (sq.iter().sum::<f64>() / sq.len() as f64).sqrt()))
+            .collect();
+        let mut panels: Vec<(&str, &Image)> = captions
+            .iter()
+            .map(String::as_str)
+            .zip(maps.iter())
+            .collect();
+        panels.push(("reference", &ref_error));
+        let (w, h, sbs) = side_by_side_labelled(&panels, 4);
+        write_png(&dir.join(stem), w, h, &sbs)?;
+    }
+
     for (name, imgs) in [
         ("side_by_side.png", &images),
         ("side_by_side_equal_time.png", &eq_images),
@@ -573,6 +966,8 @@ pub fn run(scene: &RenderScene, cfg: &CompareConfig) -> std::io::Result<Report> 
                 mean_rel_diff: (hi.average - ref_avg).abs() / ref_avg,
                 mean_rel_diff_spp: hi.spp,
                 mean_rel_diff_se: (hi.se.powi(2) + ref_se.powi(2)).sqrt() / ref_avg,
+                errors_equal_spp: summaries[i].clone(),
+                errors_equal_time: eq_summaries[i].clone(),
             }
         })
         .collect();
@@ -587,6 +982,10 @@ pub fn run(scene: &RenderScene, cfg: &CompareConfig) -> std::io::Result<Report> 
         dir: dir.clone(),
         techniques,
         protocol: cfg.protocol,
+        reference_variance: summaries.first().map_or(f64::NAN, |e| e.ref_variance),
+        classes,
+        class_reference_means,
+        error_map_scale,
     };
     let path = dir.join("table.md");
     std::fs::write(&path, report.table())

@@ -3,7 +3,8 @@
 //!
 //! - [`bench`](mod@bench): sampling throughput, tree size and build time (`mlrender bench`);
 //! - [`compare`]: every technique on a scene at equal spp and equal time against a reference
-//!   (`mlrender compare`, `mlrender reference`);
+//!   (`mlrender compare`, `mlrender reference`), with [`error_split`]: where the error comes
+//!   from, and how much of it is the reference's own;
 //! - [`estimator`]: unbiasedness, variance and cost per estimate against exact values
 //!   (`mlrender estimator`);
 //! - [`sptd_fit`], [`sptd_accuracy`]: the fit of the SPTD table and its accuracy
@@ -11,6 +12,7 @@
 
 pub mod bench;
 pub mod compare;
+pub mod error_split;
 pub mod estimator;
 pub mod ggx;
 pub mod sptd_accuracy;

@@ -254,3 +254,23 @@ pub fn city() -> RenderScene {
         },
     }
 }
+
+/// The name of a material of [`city`] by its kind and glossy lobe (the albedo aside): the
+/// classes of `compare`'s error split by material. `None` for a material the city does not
+/// use.
+pub(crate) fn material_name(material: &Material) -> Option<&'static str> {
+    match *material {
+        Material::Lambert { .. } => Some("sidewalks and stone façades"),
+        Material::Plastic {
+            specular, alpha, ..
+        } if (specular, alpha) == (0.5, 0.15) => Some("wet street"),
+        Material::Plastic {
+            specular, alpha, ..
+        } if (specular, alpha) == (0.7, 0.1) => Some("glass façades"),
+        Material::Plastic {
+            specular, alpha, ..
+        } if (specular, alpha) == (0.6, 0.07) => Some("cars"),
+        Material::Ggx { alpha, specular } if (specular, alpha) == (0.6, 0.2) => Some("lamp poles"),
+        _ => None,
+    }
+}

@@ -43,7 +43,7 @@ pub use geometry::{Geometry, Hit, Triangle};
 pub use stairs::stairs;
 
 use glam::Vec3;
-use manylights::LightSet;
+use manylights::{LightSet, Material};
 use std::path::Path;
 
 /// The built-in scene names, in help order (`by_name` also takes a path to an `.obj` file).
@@ -112,6 +112,41 @@ impl RenderScene {
             let _ = write!(h, "{l:?}");
         }
         h.0
+    }
+}
+
+/// The class of a material in `compare`'s error split by material: its kind and its glossy
+/// lobe (roughness α and specular weight, not the albedo, so that the many albedos of one
+/// finish are one class), named after what it is where the scene names it.
+#[derive(Clone, Debug, PartialEq, Eq, Hash)]
+pub struct MaterialClass {
+    /// The scene's name for the class with its kind and lobe (`wet street (plastic α 0.15 ks
+    /// 0.5)`), or its kind and lobe alone (`plastic α 0.15 ks 0.5`, `lambert`).
+    pub name: String,
+    /// `lambert`, `ggx` or `plastic`.
+    pub kind: &'static str,
+}
+
+impl RenderScene {
+    /// The class of `material` in this scene (see [`MaterialClass`]); only `city` names its
+    /// classes.
+    pub fn material_class(&self, material: &Material) -> MaterialClass {
+        let (kind, lobe) = match *material {
+            Material::Lambert { .. } => ("lambert", String::new()),
+            Material::Ggx { alpha, specular } => ("ggx", format!(" α {alpha} ks {specular}")),
+            Material::Plastic {
+                specular, alpha, ..
+            } => ("plastic", format!(" α {alpha} ks {specular}")),
+        };
+        let generic = format!("{kind}{lobe}");
+        let named = match self.name.as_str() {
+            "city" => city::material_name(material),
+            _ => None,
+        };
+        MaterialClass {
+            name: named.map_or(generic.clone(), |n| format!("{n} ({generic})")),
+            kind,
+        }
     }
 }
 

@@ -24,6 +24,17 @@
 //! - `max_share`: the largest single estimate over the sum of all estimates (a heavy-tail
 //!   diagnostic: when it is large the sample variance, hence `se`, is unreliable).
 //!
+//! `max_bias_sigma` is the largest |bias_sigma| over all `bias_pairs` (configuration,
+//! technique) pairs. With hundreds of pairs a large maximum comes by chance, so it is reported
+//! against its null distribution — every technique unbiased and every z an independent
+//! N(0, 1), whose maximum of K absolute values has `P(max ≤ z) = (2Φ(z) − 1)^K`
+//! ([`max_abs_normal_cdf`]): the observed maximum's quantile under it
+//! (`max_bias_sigma_null_quantile`; above 0.99 is evidence of a bias or of an underestimated
+//! standard error), the null maximum's median, 95 % and 99 % quantiles, the probability that
+//! it stays ≤ 4, the rms of all z's (1 under the null) and the count above 3 against its
+//! expectation. (The techniques of a configuration share its reference, so their z's are
+//! correlated through `se_ref`; it is small against `se`, and the null ignores it.)
+//!
 //! Equal-time variance ratio of technique A against `tl-split` at a configuration:
 //! `(var·time)_A / (var·time)_tl-split`. `var_ratio_full_vs_tl_glossy` is its **geometric
 //! mean** over the GGX α ≤ 0.2 configurations, `var_ratio_full_vs_tl_diffuse` over the
@@ -190,8 +201,10 @@ fn rng_for(seed: u64, config: usize, t: usize, stream: u64) -> Pcg64Mcg {
     Pcg64Mcg::seed_from_u64(s)
 }
 
-/// `(mean − exact)/sqrt(se² + se_ref²)`, guarding the degenerate cases.
-fn bias_sigma(mean: f64, se: f64, exact: f64, se_ref: f64) -> f64 {
+/// The bias z of a mean with standard error `se` against an exact value that has its own
+/// standard error `se_ref`: `(mean − exact)/sqrt(se² + se_ref²)`; 0 when both errors are 0
+/// and the values agree, ±∞ when they are 0 and the values differ.
+pub fn bias_sigma(mean: f64, se: f64, exact: f64, se_ref: f64) -> f64 {
     let s = (se * se + se_ref * se_ref).sqrt();
     let d = mean - exact;
     if s > 0.0 {
@@ -200,6 +213,109 @@ fn bias_sigma(mean: f64, se: f64, exact: f64, se_ref: f64) -> f64 {
         0.0
     } else {
         f64::INFINITY.copysign(d)
+    }
+}
+
+/// `P(|Z| ≤ z)` for a standard normal `Z`: `2Φ(z) − 1 = 1 − erfc(z/√2)` (0 for `z ≤ 0`).
+fn abs_normal_cdf(z: f64) -> f64 {
+    if z > 0.0 {
+        1.0 - libm::erfc(z / std::f64::consts::SQRT_2)
+    } else {
+        0.0
+    }
+}
+
+/// `P(max of k independent |N(0,1)| ≤ z) = (2Φ(z) − 1)^k`: where the largest of `k` bias z's
+/// falls in its distribution when every technique is unbiased and every standard error
+/// right (computed as `exp(k · ln(1 − erfc(z/√2)))`, which keeps its precision in the tail).
+pub fn max_abs_normal_cdf(z: f64, k: usize) -> f64 {
+    if z.is_nan() {
+        return f64::NAN;
+    }
+    if z <= 0.0 {
+        return if k == 0 { 1.0 } else { 0.0 };
+    }
+    (k as f64 * (-libm::erfc(z / std::f64::consts::SQRT_2)).ln_1p()).exp()
+}
+
+/// `1 −` [`max_abs_normal_cdf`]`(z, k)`, the probability that the largest of `k`
+/// independent `|N(0,1)|` exceeds `z` (computed as `−expm1(k · ln(1 − erfc(z/√2)))`, exact
+/// far in the tail).
+pub fn max_abs_normal_sf(z: f64, k: usize) -> f64 {
+    if z.is_nan() {
+        return f64::NAN;
+    }
+    if z <= 0.0 {
+        return if k == 0 { 0.0 } else { 1.0 };
+    }
+    -(k as f64 * (-libm::erfc(z / std::f64::consts::SQRT_2)).ln_1p()).exp_m1()
+}
+
+/// The `p` quantile of the largest of `k` independent `|N(0,1)|`: the z with
+/// [`max_abs_normal_cdf`]`(z, k) = p` (by bisection, to 1e-9; NaN unless 0 < p < 1 and
+/// k ≥ 1).
+pub fn max_abs_normal_quantile(p: f64, k: usize) -> f64 {
+    if !(p > 0.0 && p < 1.0) || k == 0 {
+        return f64::NAN;
+    }
+    let (mut lo, mut hi) = (0.0f64, 40.0f64);
+    while hi - lo > 1e-9 {
+        let mid = 0.5 * (lo + hi);
+        if max_abs_normal_cdf(mid, k) < p {
+            lo = mid;
+        } else {
+            hi = mid;
+        }
+    }
+    0.5 * (lo + hi)
+}
+
+/// The largest bias z among `k` pairs against its null distribution (every technique
+/// unbiased, every z an independent N(0, 1)).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct MaxBias {
+    /// The largest |z|.
+    pub max: f64,
+    /// The number of (configuration, technique) pairs it is the largest of.
+    pub pairs: usize,
+    /// `P(max of pairs |N(0,1)| ≤ max)`: its quantile under the null.
+    pub null_quantile: f64,
+    /// `P(max of pairs |N(0,1)| ≥ max)`: its p-value under the null.
+    pub null_p_value: f64,
+    /// The median and the 95 % and 99 % quantiles of the null's maximum.
+    pub null_median: f64,
+    /// See `null_median`.
+    pub null_p95: f64,
+    /// See `null_median`.
+    pub null_p99: f64,
+    /// `P(max of pairs |N(0,1)| ≤ 4)`: how often a 4 σ limit holds by chance alone.
+    pub null_below_4: f64,
+    /// The root mean square of the z's (1 under the null).
+    pub rms: f64,
+    /// How many |z| exceed 3, and how many the null expects (`pairs · P(|Z| > 3)`).
+    pub above_3: usize,
+    /// See `above_3`.
+    pub above_3_expected: f64,
+}
+
+impl MaxBias {
+    /// The summary of the bias z's `z` (NaN-free; infinite z's count as the largest).
+    pub fn of(z: &[f64]) -> MaxBias {
+        let k = z.len();
+        let max = z.iter().fold(0.0f64, |m, x| m.max(x.abs()));
+        MaxBias {
+            max,
+            pairs: k,
+            null_quantile: max_abs_normal_cdf(max, k),
+            null_p_value: max_abs_normal_sf(max, k),
+            null_median: max_abs_normal_quantile(0.5, k),
+            null_p95: max_abs_normal_quantile(0.95, k),
+            null_p99: max_abs_normal_quantile(0.99, k),
+            null_below_4: max_abs_normal_cdf(4.0, k),
+            rms: (z.iter().map(|x| x * x).sum::<f64>() / k.max(1) as f64).sqrt(),
+            above_3: z.iter().filter(|x| x.abs() > 3.0).count(),
+            above_3_expected: k as f64 * (1.0 - abs_normal_cdf(3.0)),
+        }
     }
 }
 
@@ -405,10 +521,32 @@ fn report(
     time_s: f64,
     total: Duration,
 ) -> Value {
-    let max_bias = rs
+    let all_z: Vec<f64> = rs
         .iter()
-        .flat_map(|r| r.results.iter().map(|t| t.bias_sigma.abs()))
-        .fold(0.0f64, f64::max);
+        .flat_map(|r| r.results.iter().map(|t| t.bias_sigma))
+        .collect();
+    let mb = MaxBias::of(&all_z);
+    let max_bias = mb.max;
+    let max_at = rs
+        .iter()
+        .enumerate()
+        .flat_map(|(ci, r)| {
+            r.results
+                .iter()
+                .enumerate()
+                .map(move |(ti, t)| (t.bias_sigma.abs(), ci, ti))
+        })
+        .max_by(|a, b| a.0.total_cmp(&b.0))
+        .map_or(Value::Null, |(_, ci, ti)| {
+            json!({
+                "config": ci,
+                "point": rs[ci].config.point,
+                "material": rs[ci].config.material_name(),
+                "technique": Technique::ALL[ti].name(),
+                "bias_sigma": rs[ci].results[ti].bias_sigma,
+            })
+        });
+    let json_num = |x: f64| if x.is_finite() { json!(x) } else { Value::Null };
     let glossy = |r: &ConfigResult| r.config.is_glossy();
     let diffuse = |r: &ConfigResult| r.config.is_diffuse();
     let (g_geo, g_mean, g_med) = summarise(&ratios(rs, Technique::Full, glossy));
@@ -505,7 +643,21 @@ fn report(
             }),
         );
     }
-    json!({
+    let bias = json!({
+        "bias_sigma_denominator": "sqrt(se_mean^2 + se_ref^2)",
+        "bias_pairs": mb.pairs,
+        "max_bias_sigma_at": max_at,
+        "max_bias_sigma_null_quantile": json_num(mb.null_quantile),
+        "max_bias_sigma_null_p_value": json_num(mb.null_p_value),
+        "max_bias_sigma_null_median": json_num(mb.null_median),
+        "max_bias_sigma_null_p95": json_num(mb.null_p95),
+        "max_bias_sigma_null_p99": json_num(mb.null_p99),
+        "max_bias_sigma_null_below_4": json_num(mb.null_below_4),
+        "rms_bias_sigma": json_num(mb.rms),
+        "pairs_above_3_sigma": mb.above_3,
+        "pairs_above_3_sigma_expected": mb.above_3_expected,
+    });
+    let mut out = json!({
         "configs": rs.len(),
         "lights": cfg.lights,
         "points": cfg.points,
@@ -540,7 +692,11 @@ fn report(
         "estimates_s": stats_s,
         "timing_s": time_s,
         "runtime_s": total.as_secs_f64(),
-    })
+    });
+    if let (Some(o), Value::Object(b)) = (out.as_object_mut(), bias) {
+        o.extend(b);
+    }
+    out
 }
 
 /// The human-readable tables: per technique and material, then the worst configurations.
@@ -583,6 +739,22 @@ pub fn table(rs: &[ConfigResult], report: &Value, verbose: bool) -> String {
         report["max_bias_sigma"].as_f64().unwrap_or(f64::NAN),
         report["var_ratio_full_vs_tl_glossy"].as_f64().unwrap_or(f64::NAN),
         report["var_ratio_full_vs_tl_diffuse"].as_f64().unwrap_or(f64::NAN),
+    ));
+    let f = |k: &str| report[k].as_f64().unwrap_or(f64::NAN);
+    s.push_str(&format!(
+        "largest |bias| against its null distribution (seed {}; z = (mean − exact)/sqrt(se² + se_ref²), {} pairs taken as independent N(0, 1)): P(max ≤ {:.2}) = {:.4} (p-value {:.2e}); the null's maximum has median {:.2}, 95 % {:.2}, 99 % {:.2}, and stays ≤ 4 with probability {:.3}; rms z {:.3}; {} pairs above 3 SE ({:.2} expected)\n",
+        report["seed"],
+        report["bias_pairs"],
+        f("max_bias_sigma"),
+        f("max_bias_sigma_null_quantile"),
+        f("max_bias_sigma_null_p_value"),
+        f("max_bias_sigma_null_median"),
+        f("max_bias_sigma_null_p95"),
+        f("max_bias_sigma_null_p99"),
+        f("max_bias_sigma_null_below_4"),
+        f("rms_bias_sigma"),
+        report["pairs_above_3_sigma"],
+        f("pairs_above_3_sigma_expected"),
     ));
     if let Some(v) = report["lambert_tb_one"]["var_ratio_vs_tl_diffuse"].as_f64() {
         s.push_str(&format!(
