@@ -25,6 +25,8 @@ const _: () = assert!(ML_MAX_TOTAL_ENERGY.to_bits() == manylights::MAX_TOTAL_ENE
 /// light that can contribute at a point gets pmf 0: its probability there would be below this
 /// (at some node on its path, the probability of reaching its slot would fall below it;
 /// those lights are never sampled and the others share their probability).
+// Written as C's FLT_MIN is, so that the header's macro reads as the C constant.
+#[allow(clippy::excessive_precision)]
 pub const ML_MIN_PMF: f32 = 1.17549435e-38;
 const _: () = assert!(ML_MIN_PMF.to_bits() == manylights::sample::MIN_PMF.to_bits());
 
