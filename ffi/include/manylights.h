@@ -796,7 +796,7 @@ typedef struct ml_tree_statistics {
      */
     size_t nodes;
     /**
-     * Bytes of the tree's arrays (nodes, node statistics, light paths).
+     * Bytes of the tree's arrays (nodes, node statistics, light paths, the lights' checksums).
      */
     size_t bytes;
     /**
