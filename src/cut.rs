@@ -362,8 +362,15 @@ impl LightCut {
     pub fn build_bl(tree: &LightTree, imp: &BlImportance, opts: &BlCutOptions) -> LightCut {
         let x = imp.position();
         let delta = opts.delta;
+        // The root is evaluated once: its importances (those of `eval4`, bit for bit) give the
+        // total, and its integrals its slots' decisions.
+        let root = tree.nodes.first();
+        let root_eval = root.map(|r| imp.eval4_with_lobe_integrals(r));
         let decide = |node: &Node4, _: f32| {
-            let (w, sc, glossy) = imp.eval4_with_lobe_integrals(node);
+            let (w, sc, glossy) = match (root, root_eval) {
+                (Some(r), Some(e)) if core::ptr::eq(node, r) => e,
+                _ => imp.eval4_with_lobe_integrals(node),
+            };
             let (w, sc, glossy) = (w.to_array(), sc.to_array(), glossy.to_array());
             let mut out = [SlotDecision::default(); 4];
             for k in 0..4 {
@@ -379,7 +386,7 @@ impl LightCut {
             }
             out
         };
-        let total = |root: &Node4| imp.eval4(root).to_array().iter().sum();
+        let total = |_: &Node4| root_eval.map_or(0.0, |e| e.0.to_array().iter().sum());
         LightCut::build_with(tree, opts.max_size, decide, total)
     }
 
