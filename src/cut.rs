@@ -150,6 +150,11 @@ pub struct LightCut {
     scale: f32,
     skipped: u64,
     sample_total: f32,
+    /// `ends[i]`: the sum of the weights [`LightCut::sample`] gives clusters `0..=i`, added in
+    /// their order (clusters left out add nothing), so `ends[len − 1]` is `sample_total`.
+    ends: [f32; CUT_CAPACITY],
+    /// The last cluster [`LightCut::sample`] can choose.
+    last: usize,
 }
 
 impl Default for LightCut {
@@ -177,6 +182,8 @@ impl LightCut {
             scale: 1.0,
             skipped: 0,
             sample_total: 0.0,
+            ends: [0.0; CUT_CAPACITY],
+            last: 0,
         }
     }
 
@@ -324,6 +331,14 @@ impl LightCut {
         }
         self.skipped = skipped;
         self.sample_total = if skipped == 0 { all } else { kept };
+        let mut acc = 0.0f32;
+        for i in 0..self.len {
+            if let Some(w) = self.sample_weight(i) {
+                acc += w;
+                self.last = i;
+            }
+            self.ends[i] = acc;
+        }
     }
 
     /// The weight [`LightCut::sample`] gives cluster `i` (over `sample_total`); `None` for a
@@ -361,28 +376,32 @@ impl LightCut {
     pub fn build_bl(tree: &LightTree, imp: &BlImportance, opts: &BlCutOptions) -> LightCut {
         let x = imp.position();
         let delta = opts.delta;
-        LightCut::build_with(
-            tree,
-            opts.max_size,
-            |node, _| {
-                let (w, sc, glossy) = imp.eval4_with_lobe_integrals(node);
-                let (w, sc, glossy) = (w.to_array(), sc.to_array(), glossy.to_array());
-                let mut out = [SlotDecision::default(); 4];
-                for k in 0..4 {
-                    let sphere = node.sphere(k);
-                    let (c, r) = (sphere.center, sphere.radius);
-                    let inside = (c - x).length_squared() <= r * r;
-                    out[k] = SlotDecision {
-                        weight: w[k],
-                        score: sc[k],
-                        glossy_score: glossy[k],
-                        split: inside || sc[k] > delta,
-                    };
-                }
-                out
-            },
-            |root| imp.eval4(root).to_array().iter().sum(),
-        )
+        // The root is evaluated once: its importances (those of `eval4`, bit for bit) give the
+        // total, and its integrals its slots' decisions.
+        let root = tree.nodes.first();
+        let root_eval = root.map(|r| imp.eval4_with_lobe_integrals(r));
+        let decide = |node: &Node4, _: f32| {
+            let (w, sc, glossy) = match (root, root_eval) {
+                (Some(r), Some(e)) if core::ptr::eq(node, r) => e,
+                _ => imp.eval4_with_lobe_integrals(node),
+            };
+            let (w, sc, glossy) = (w.to_array(), sc.to_array(), glossy.to_array());
+            let mut out = [SlotDecision::default(); 4];
+            for k in 0..4 {
+                let sphere = node.sphere(k);
+                let (c, r) = (sphere.center, sphere.radius);
+                let inside = (c - x).length_squared() <= r * r;
+                out[k] = SlotDecision {
+                    weight: w[k],
+                    score: sc[k],
+                    glossy_score: glossy[k],
+                    split: inside || sc[k] > delta,
+                };
+            }
+            out
+        };
+        let total = |_: &Node4| root_eval.map_or(0.0, |e| e.0.to_array().iter().sum());
+        LightCut::build_with(tree, opts.max_size, decide, total)
     }
 
     /// The split-sampling cut of Conty & Kulla at the shading point of `imp` (see the module
@@ -646,23 +665,18 @@ impl LightCut {
         imp: &I,
         u: f32,
     ) -> Option<LightSample> {
+        if self.len == 0 {
+            return None;
+        }
         let total = self.sample_total;
         let t = sanitize(u) * total;
-        let mut acc = 0.0f32;
-        let mut chosen = None;
-        let mut before = 0.0f32;
-        for i in 0..self.len {
-            let Some(w) = self.sample_weight(i) else {
-                continue;
-            };
-            before = acc;
-            chosen = Some((i, w));
-            if t < acc + w {
-                break;
-            }
-            acc += w;
-        }
-        let (i, w) = chosen?;
+        // The first cluster whose running sum passes t (one that is left out repeats the sum
+        // before it, so it is never the first), else the last that can be chosen: the
+        // clusters' weights in [0, total) laid end to end in their order.
+        let ends = &self.ends[..self.len];
+        let i = ends.partition_point(|&e| e <= t).min(self.last);
+        let w = self.sample_weight(i)?;
+        let before = if i == 0 { 0.0 } else { ends[i - 1] };
         let u2 = ((t - before) / w).clamp(0.0, ONE_MINUS_EPSILON);
         let (q, floor) = self.sample_share(i)?;
         let s = tree.sample_cluster_from(imp, &self.clusters[i], u2, floor)?;

@@ -39,8 +39,11 @@ pub struct ml_split_cut_options {
     pub max_size: usize,
 }
 
-/// The importance a cut was built with (its sampling and pmfs use the same one).
+/// The importance a cut was built with (its sampling and pmfs use the same one). It lives in
+/// the [`ml_cut`] that owns it and is rebuilt there in place, so the size of the BL variant
+/// (its 4-wide constants) is not boxed: boxing would allocate at every build.
 #[derive(Clone, Copy, Debug)]
+#[allow(clippy::large_enum_variant)]
 enum CutImportance {
     None,
     Tl(TlImportance),
@@ -56,8 +59,8 @@ pub struct ml_cut {
 }
 
 impl ml_cut {
-    fn built(&self) -> Result<(&TreeData, &LightCut, CutImportance)> {
-        match (&self.tree, self.imp) {
+    fn built(&self) -> Result<(&TreeData, &LightCut, &CutImportance)> {
+        match (&self.tree, &self.imp) {
             (Some(t), imp) if !matches!(imp, CutImportance::None) => Ok((t, &self.cut, imp)),
             _ => Err(Error::state(
                 "cut: not built yet (call ml_cut_build_bl or ml_cut_build_split first)",
@@ -295,8 +298,8 @@ pub extern "C" fn ml_cut_sample(
         let (t, c, imp) = cut.built()?;
         let u = unit(u, &|| "u".into())?;
         let s = match imp {
-            CutImportance::Tl(i) => c.sample(t.tree(), &i, u),
-            CutImportance::Bl(i) => c.sample(t.tree(), &i, u),
+            CutImportance::Tl(i) => c.sample(t.tree(), i, u),
+            CutImportance::Bl(i) => c.sample(t.tree(), i, u),
             CutImportance::None => None,
         };
         out.write(s.into());
@@ -316,8 +319,8 @@ pub extern "C" fn ml_cut_pmf(cut: *const ml_cut, light: u32, out: *mut f32) -> m
         let (t, c, imp) = cut.built()?;
         check_light(light, t.tree().light_count() as usize, "light")?;
         let p = match imp {
-            CutImportance::Tl(i) => c.pmf(t.tree(), &i, light),
-            CutImportance::Bl(i) => c.pmf(t.tree(), &i, light),
+            CutImportance::Tl(i) => c.pmf(t.tree(), i, light),
+            CutImportance::Bl(i) => c.pmf(t.tree(), i, light),
             CutImportance::None => 0.0,
         };
         out.write(p);
@@ -354,8 +357,8 @@ pub extern "C" fn ml_cut_sample_clusters(
         }
         let mut res = [None; CUT_CAPACITY];
         match imp {
-            CutImportance::Tl(i) => c.sample_each(t.tree(), &i, us, &mut res[..count]),
-            CutImportance::Bl(i) => c.sample_each(t.tree(), &i, us, &mut res[..count]),
+            CutImportance::Tl(i) => c.sample_each(t.tree(), i, us, &mut res[..count]),
+            CutImportance::Bl(i) => c.sample_each(t.tree(), i, us, &mut res[..count]),
             CutImportance::None => {}
         }
         for (i, r) in res[..count].iter().enumerate() {
@@ -385,8 +388,8 @@ pub extern "C" fn ml_cut_pmf_in(
         let (t, c, imp) = cut.built()?;
         check_light(light, t.tree().light_count() as usize, "light")?;
         let r = match imp {
-            CutImportance::Tl(i) => c.pmf_in(t.tree(), &i, light),
-            CutImportance::Bl(i) => c.pmf_in(t.tree(), &i, light),
+            CutImportance::Tl(i) => c.pmf_in(t.tree(), i, light),
+            CutImportance::Bl(i) => c.pmf_in(t.tree(), i, light),
             CutImportance::None => None,
         };
         let (k, p) = r.map_or((ML_NO_CLUSTER, 0.0), |(k, p)| (k as u32, p));

@@ -18,7 +18,7 @@
 //! ranking of clusters the SPTD sees.
 
 use super::conty_kulla::{ClusterView, ClusterView4, COS_FLOOR, COS_SLACK};
-use super::sptd::{lambert_visible, lambert_visible4, SptdGgx};
+use super::sptd::{lambert_visible, lambert_visible4, SptdGgx, SptdGgx4};
 use super::Importance;
 use crate::error::Problem;
 use crate::material::{ShadingError, ShadingField, ShadingPoint, MIN_ALPHA};
@@ -35,6 +35,9 @@ pub const DEFENSIVE: f32 = 0.05;
 /// `f cos` in the cap's direction (the ratio of two vanishing integrals would be 0/0, and for
 /// point and spot lights both are exactly 0).
 pub const POINT_LIMIT_SIN: f32 = 1e-3;
+
+/// The mask of all four lanes.
+const ALL_LANES: f32x4 = f32x4::new([f32::from_bits(u32::MAX); 4]);
 
 /// Largest importance returned: the GGX lobe of a near-mirror surface times `E/d²` could
 /// otherwise overflow f32 where TL does not; four clamped lanes still sum to a finite value.
@@ -57,9 +60,11 @@ fn lambert_pair(cos_omega: f32, sin_sigma: f32) -> (f32, f32) {
     }
 }
 
-/// The 4-wide twin of [`lambert_pair`], with the same per-lane choice.
+/// The 4-wide twin of [`lambert_pair`], with the same per-lane choice, in the lanes of the
+/// mask `lanes` (a cap across the horizon outside them gets the closed forms of one that does
+/// not cross it: values of no meaning, and no lens to pay for).
 #[inline]
-fn lambert_pair4(cos_omega: f32x4, sin_sigma: f32x4) -> (f32x4, f32x4) {
+fn lambert_pair4(cos_omega: f32x4, sin_sigma: f32x4, lanes: f32x4) -> (f32x4, f32x4) {
     let zero = f32x4::ZERO;
     let one = f32x4::ONE;
     let pi = f32x4::splat(PI);
@@ -69,7 +74,7 @@ fn lambert_pair4(cos_omega: f32x4, sin_sigma: f32x4) -> (f32x4, f32x4) {
     let a = s * s / (one + ((one - s) * (one + s)).fast_max(zero).sqrt());
     let l = above.select(s * s * cos_omega * pi, zero);
     let v = above.select(f32x4::splat(2.0) * (a * pi), zero);
-    if crossing.any() {
+    if (crossing & lanes).any() {
         let (lc, vc) = lambert_visible4(cos_omega, sin_sigma);
         (crossing.select(lc, l), crossing.select(vc, v))
     } else {
@@ -92,6 +97,21 @@ pub struct BlImportance {
     defensive: f32,
     /// ρd + ks · (GGX albedo): SC of the whole hemisphere.
     albedo: f32,
+    /// The constants of the 4-wide evaluation, in four lanes.
+    lanes: Lanes,
+}
+
+/// [`BlImportance`]'s constants in four lanes (loaded, not splatted, by every 4-wide
+/// evaluation).
+#[derive(Clone, Copy, Debug)]
+struct Lanes {
+    nx: f32x4,
+    ny: f32x4,
+    nz: f32x4,
+    kd: f32x4,
+    ks: f32x4,
+    defensive: f32x4,
+    ggx: SptdGgx4,
 }
 
 /// One cluster's BL evaluation.
@@ -131,14 +151,25 @@ impl BlImportance {
         let ggx = SptdGgx::oriented(alpha.max(MIN_ALPHA), n, wo);
         let ks = if specular > 0.0 { specular } else { 0.0 };
         let albedo = albedo_d + ks * ggx.albedo();
+        let kd = albedo_d * FRAC_1_PI;
+        let defensive = DEFENSIVE * albedo * FRAC_1_PI;
         Ok(BlImportance {
             position: sp.position,
             normal: n,
-            kd: albedo_d * FRAC_1_PI,
+            kd,
             ks,
             ggx,
-            defensive: DEFENSIVE * albedo * FRAC_1_PI,
+            defensive,
             albedo,
+            lanes: Lanes {
+                nx: f32x4::splat(n.x),
+                ny: f32x4::splat(n.y),
+                nz: f32x4::splat(n.z),
+                kd: f32x4::splat(kd),
+                ks: f32x4::splat(ks),
+                defensive: f32x4::splat(defensive),
+                ggx: SptdGgx4::new(&ggx),
+            },
         })
     }
 
@@ -222,48 +253,64 @@ impl BlImportance {
     /// (`ks ∫ f_GGX cos`, 0 for Lambert): `(importances, cap integrals, glossy parts)`.
     #[inline]
     pub fn eval4_with_lobe_integrals(&self, node: &Node4) -> (f32x4, f32x4, f32x4) {
+        self.eval4_core::<true>(node)
+    }
+
+    /// The 4-wide twin of [`BlImportance::point_value`].
+    #[inline(always)]
+    fn point_value4(&self, wx: f32x4, wy: f32x4, wz: f32x4, cos_omega: f32x4) -> f32x4 {
+        let l = &self.lanes;
+        let v = l.kd * cos_omega;
+        let v = if self.ks > 0.0 {
+            v + l.ks * l.ggx.lobe(wx, wy, wz)
+        } else {
+            v
+        };
+        cos_omega.simd_le(f32x4::ZERO).select(f32x4::ZERO, v)
+    }
+
+    /// The body of the 4-wide evaluations: `(importances, cap integrals, glossy parts)`. With
+    /// `INTEGRALS` false only the importances are asked for, and the cap integrals are
+    /// computed only where an importance depends on them (lanes that take the point limit
+    /// or are not live do not): the other two results then have no meaning, and the
+    /// importances are bit for bit those of `INTEGRALS` true.
+    #[inline(always)]
+    fn eval4_core<const INTEGRALS: bool>(&self, node: &Node4) -> (f32x4, f32x4, f32x4) {
         let zero = f32x4::ZERO;
         let one = f32x4::ONE;
+        let l = &self.lanes;
         let v = ClusterView4::new(self.position, node);
-        let n = self.normal;
-        let cos_omega =
-            f32x4::splat(n.x) * v.wx + f32x4::splat(n.y) * v.wy + f32x4::splat(n.z) * v.wz;
+        let cos_omega = l.nx * v.wx + l.ny * v.wy + l.nz * v.wz;
         let sin_i = (one - cos_omega * cos_omega).fast_max(zero).sqrt();
         let cos_ip = cos_omega
             .simd_ge(v.cos_u)
             .select(one, cos_omega * v.cos_u + sin_i * v.sin_u);
         let cos_ip = v.inside.select(one, cos_ip);
         let sin_sigma = v.inside.select(one, v.sin_u);
-        let (sc, glossy, omega) = if self.ks > 0.0 {
-            let c = self.ggx.cap_integrals4(v.wx, v.wy, v.wz, sin_sigma);
-            let glossy = f32x4::splat(self.ks) * c.ggx;
-            (
-                f32x4::splat(self.kd) * c.lambert + glossy,
-                glossy,
-                c.visible,
-            )
-        } else {
-            let (l, vis) = lambert_pair4(cos_omega, sin_sigma);
-            (f32x4::splat(self.kd) * l, zero, vis)
-        };
-        let avg = omega.simd_gt(zero).select(sc / omega, zero);
         let small = sin_sigma.simd_lt(f32x4::splat(POINT_LIMIT_SIN));
+        let live = v.emits & cos_ip.simd_gt(f32x4::splat(-COS_SLACK));
+        // The lanes whose importance takes the cap average (all of them for the integrals).
+        let needed = if INTEGRALS { ALL_LANES } else { live & !small };
+        let (sc, glossy, avg) = if !INTEGRALS && !needed.any() {
+            (zero, zero, zero)
+        } else {
+            let (sc, glossy, omega) = if self.ks > 0.0 {
+                let c = l.ggx.cap_integrals(v.wx, v.wy, v.wz, sin_sigma, needed);
+                let glossy = l.ks * c.ggx;
+                (l.kd * c.lambert + glossy, glossy, c.visible)
+            } else {
+                let (lam, vis) = lambert_pair4(cos_omega, sin_sigma, needed);
+                (l.kd * lam, zero, vis)
+            };
+            (sc, glossy, omega.simd_gt(zero).select(sc / omega, zero))
+        };
         let avg = if small.any() {
-            let (wx, wy, wz, c) = (
-                v.wx.to_array(),
-                v.wy.to_array(),
-                v.wz.to_array(),
-                cos_omega.to_array(),
-            );
-            let limit: [f32; 4] =
-                core::array::from_fn(|k| self.point_value(Vec3::new(wx[k], wy[k], wz[k]), c[k]));
-            small.select(f32x4::new(limit), avg)
+            small.select(self.point_value4(v.wx, v.wy, v.wz, cos_omega), avg)
         } else {
             avg
         };
         let floor = f32x4::splat(COS_FLOOR);
-        let brdf = avg + f32x4::splat(self.defensive) * cos_ip.fast_max(floor);
-        let live = v.emits & cos_ip.simd_gt(f32x4::splat(-COS_SLACK));
+        let brdf = avg + l.defensive * cos_ip.fast_max(floor);
         let energy = node.energy4();
         let value = (energy * v.cos_tp.fast_max(floor) / v.d2c * brdf)
             .fast_min(f32x4::splat(MAX_IMPORTANCE));
@@ -274,7 +321,7 @@ impl BlImportance {
 impl Importance for BlImportance {
     #[inline]
     fn eval4(&self, node: &Node4) -> f32x4 {
-        self.eval4_with_integrals(node).0
+        self.eval4_core::<false>(node).0
     }
 
     /// The importance of [`BlImportance::eval`]. Lane `k` of `eval4` equals it within `1e-4`

@@ -293,7 +293,14 @@ impl ClusterView {
     }
 }
 
-/// [`ClusterView`] for the four slots of a node, lane by lane the same operations.
+/// [`ClusterView`] for the four slots of a node, lane by lane the same operations, except
+/// that a node whose four cones have θo = π ([`all_omni`]) skips the emitter's orientation:
+/// cos θ' is then 1 and every lane emits. That is bit for bit what the decoded cones give
+/// wherever the direction `w` is finite (cos θo = −1 and sin θo = 0 exactly, so either
+/// cos θ ≥ −1, the test that sets 1, or c1 = −cos θ > 1 ≥ cos θu, the other test that sets 1;
+/// and 1 emits, as `cos θe − COS_SLACK < 1`). Where `w` is NaN (a centre at infinity) the
+/// decoded form does not emit, and this one does, but the receiver's cosine n·w is NaN there
+/// too, so no importance built on the view takes such a lane.
 #[derive(Clone, Copy, Debug)]
 pub(crate) struct ClusterView4 {
     pub d2c: f32x4,
@@ -455,23 +462,28 @@ impl ClusterView4 {
         let sin_u = (rk * inv_d).fast_min(one);
         let cos_u = (one - sin_u * sin_u).fast_max(zero).sqrt();
 
-        let Cones4 {
-            x,
-            y,
-            z,
-            cos_o,
-            sin_o,
-            cos_e,
-        } = Cones4::new(node);
-        let inv = one / (x * x + y * y + z * z).sqrt();
-        let (ax, ay, az) = (x * inv, y * inv, z * inv);
+        let (cos_tp, emits) = if all_omni(node) {
+            (one, ALL_LANES)
+        } else {
+            let Cones4 {
+                x,
+                y,
+                z,
+                cos_o,
+                sin_o,
+                cos_e,
+            } = Cones4::new(node);
+            let inv = one / (x * x + y * y + z * z).sqrt();
+            let (ax, ay, az) = (x * inv, y * inv, z * inv);
 
-        let cos_t = -(ax * wx + ay * wy + az * wz);
-        let sin_t = (one - cos_t * cos_t).fast_max(zero).sqrt();
-        let c1 = cos_t * cos_o + sin_t * sin_o;
-        let s1 = (sin_t * cos_o - cos_t * sin_o).fast_max(zero);
-        let whole = c1.simd_ge(cos_u) | cos_t.simd_ge(cos_o) | inside;
-        let cos_tp = whole.select(one, c1 * cos_u + s1 * sin_u);
+            let cos_t = -(ax * wx + ay * wy + az * wz);
+            let sin_t = (one - cos_t * cos_t).fast_max(zero).sqrt();
+            let c1 = cos_t * cos_o + sin_t * sin_o;
+            let s1 = (sin_t * cos_o - cos_t * sin_o).fast_max(zero);
+            let whole = c1.simd_ge(cos_u) | cos_t.simd_ge(cos_o) | inside;
+            let cos_tp = whole.select(one, c1 * cos_u + s1 * sin_u);
+            (cos_tp, cos_tp.simd_gt(cos_e - f32x4::splat(COS_SLACK)))
+        };
         ClusterView4 {
             d2c,
             inside,
@@ -481,10 +493,13 @@ impl ClusterView4 {
             sin_u,
             cos_u,
             cos_tp,
-            emits: cos_tp.simd_gt(cos_e - f32x4::splat(COS_SLACK)),
+            emits,
         }
     }
 }
+
+/// The mask of all four lanes.
+const ALL_LANES: f32x4 = f32x4::new([f32::from_bits(u32::MAX); 4]);
 
 impl Importance for TlImportance {
     /// [`TlImportance::eval`] for the four slots of `node` at once, in a scaled form that

@@ -43,6 +43,7 @@ pub mod trig;
 pub mod table;
 
 pub use cap::{intersection_area, intersection_area4, Cap, Cap4};
+pub(crate) use ggx::SptdGgx4;
 pub use ggx::{
     ggx_params, table_node, CapIntegrals, CapIntegrals4, GgxParams, SptdGgx, TABLE_SIZE,
     THETA_O_MAX,

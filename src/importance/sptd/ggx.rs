@@ -28,13 +28,16 @@
 
 use super::cap::{intersection_area, intersection_area4, Cap, Cap4};
 use super::lambert::{lambert_visible, lambert_visible4};
-use super::pivot::Pivot;
+use super::pivot::{Pivot, Pivot4};
 use super::table;
 use crate::material::MIN_ALPHA;
 use crate::math;
 use core::f32::consts::{FRAC_PI_2, PI};
 use glam::Vec3;
 use wide::f32x4;
+
+/// The mask of all four lanes.
+const ALL_LANES: f32x4 = f32x4::new([f32::from_bits(u32::MAX); 4]);
 
 /// View angles beyond this (radians from the normal, 89°) are clamped to it.
 pub const THETA_O_MAX: f32 = 89.0 * PI / 180.0;
@@ -284,15 +287,6 @@ impl SptdGgx {
         }
     }
 
-    #[inline(always)]
-    fn mask4(&self, c: f32x4) -> f32x4 {
-        let half = f32x4::splat(0.5);
-        let e = c * f32x4::splat(self.h0)
-            + half * (c * c + f32x4::splat(self.alpha2) * (f32x4::ONE - c * c)).sqrt();
-        let m = f32x4::splat(self.d_ref) * c / e;
-        m.simd_lt(f32x4::ONE).select(m, f32x4::ONE)
-    }
-
     /// The parameters looked up.
     pub fn params(&self) -> GgxParams {
         self.params
@@ -442,11 +436,84 @@ impl SptdGgx {
         az: f32x4,
         sin_sigma: f32x4,
     ) -> CapIntegrals4 {
+        SptdGgx4::new(self).cap_integrals(ax, ay, az, sin_sigma, ALL_LANES)
+    }
+}
+
+/// An [`SptdGgx`]'s per-point constants in four lanes, for the 4-wide evaluators: set up once
+/// per shading point ([`SptdGgx4::new`]), so that the evaluators load them instead of splatting
+/// them at every call; the same operations on the same values as the [`SptdGgx`] methods.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct SptdGgx4 {
+    nx: f32x4,
+    ny: f32x4,
+    nz: f32x4,
+    pivot: Pivot4,
+    horizon: Cap4,
+    scale_lobe: f32x4,
+    scale_lambert: f32x4,
+    amplitude: f32x4,
+    h0: f32x4,
+    alpha2: f32x4,
+    d_ref: f32x4,
+    albedo: f32x4,
+}
+
+impl SptdGgx4 {
+    #[inline(always)]
+    pub(crate) fn new(g: &SptdGgx) -> SptdGgx4 {
+        SptdGgx4 {
+            nx: f32x4::splat(g.normal.x),
+            ny: f32x4::splat(g.normal.y),
+            nz: f32x4::splat(g.normal.z),
+            pivot: Pivot4::new(&g.pivot),
+            horizon: Cap4::splat(&g.horizon),
+            scale_lobe: f32x4::splat(g.scale_lobe),
+            scale_lambert: f32x4::splat(g.scale_lambert),
+            amplitude: f32x4::splat(g.amplitude()),
+            h0: f32x4::splat(g.h0),
+            alpha2: f32x4::splat(g.alpha2),
+            d_ref: f32x4::splat(g.d_ref),
+            albedo: f32x4::splat(g.albedo),
+        }
+    }
+
+    /// The 4-wide twin of [`SptdGgx::mask`].
+    #[inline(always)]
+    fn mask(&self, c: f32x4) -> f32x4 {
+        let half = f32x4::splat(0.5);
+        let e = c * self.h0 + half * (c * c + self.alpha2 * (f32x4::ONE - c * c)).sqrt();
+        let m = self.d_ref * c / e;
+        m.simd_lt(f32x4::ONE).select(m, f32x4::ONE)
+    }
+
+    /// The 4-wide twin of [`SptdGgx::lobe`], lane by lane the same operations, for unit
+    /// directions `(wx, wy, wz)`.
+    #[inline(always)]
+    pub(crate) fn lobe(&self, wx: f32x4, wy: f32x4, wz: f32x4) -> f32x4 {
+        let c = wx * self.nx + wy * self.ny + wz * self.nz;
+        let v =
+            self.amplitude * self.pivot.density(wx, wy, wz) * self.mask(c) + self.scale_lambert * c;
+        c.simd_ge(f32x4::ZERO).select(v, f32x4::ZERO)
+    }
+
+    /// [`SptdGgx::cap_integrals4`] in the lanes of the mask `lanes`: the others hold finite or
+    /// non-finite values of no meaning (a cap across the horizon outside `lanes` gets the
+    /// closed forms of a cap that does not cross it, so that a group whose crossing caps are
+    /// all outside `lanes` pays for no intersection).
+    #[inline(always)]
+    pub(crate) fn cap_integrals(
+        &self,
+        ax: f32x4,
+        ay: f32x4,
+        az: f32x4,
+        sin_sigma: f32x4,
+        lanes: f32x4,
+    ) -> CapIntegrals4 {
         let zero = f32x4::ZERO;
         let cap = Cap4::from_sin(ax, ay, az, sin_sigma);
-        let mapped = self.pivot.map_cap4(&cap);
-        let n = self.normal;
-        let cos_omega = ax * f32x4::splat(n.x) + ay * f32x4::splat(n.y) + az * f32x4::splat(n.z);
+        let mapped = self.pivot.map_cap(&cap);
+        let cos_omega = ax * self.nx + ay * self.ny + az * self.nz;
         let pi = f32x4::splat(PI);
         let s = sin_sigma.simd_gt(zero).select(sin_sigma, zero);
         let crossing = ((s - cos_omega) * (s + cos_omega)).simd_gt(zero);
@@ -457,9 +524,9 @@ impl SptdGgx {
         let v = above.select(f32x4::splat(2.0) * (cap.one_minus_cos * pi), zero);
         // Only groups with a cap across the horizon pay for the intersections (same per-lane
         // choice as the scalar form, so the two agree lane by lane).
-        let (lens, l, v) = if crossing.any() {
+        let (lens, l, v) = if (crossing & lanes).any() {
             let (lc, vc) = lambert_visible4(cos_omega, sin_sigma);
-            let lensc = intersection_area4(&mapped, &Cap4::splat(&self.horizon));
+            let lensc = intersection_area4(&mapped, &self.horizon);
             (
                 crossing.select(lensc, lens),
                 crossing.select(lc, l),
@@ -472,14 +539,13 @@ impl SptdGgx {
         let cbar = l / live.select(v, f32x4::ONE);
         let cbar = live.select(cbar, zero);
         let cbar = cbar.simd_lt(f32x4::ONE).select(cbar, f32x4::ONE);
-        let r = f32x4::splat(self.scale_lobe) * lens * self.mask4(cbar)
-            + f32x4::splat(self.scale_lambert) * l;
+        let r = self.scale_lobe * lens * self.mask(cbar) + self.scale_lambert * l;
         let r = r.simd_ge(zero).select(r, zero);
-        let rho = f32x4::splat(self.albedo);
+        let rho = self.albedo;
         let r = r.simd_ge(rho).select(rho, r);
         let inside = sin_sigma.simd_ge(f32x4::ONE);
         CapIntegrals4 {
-            ggx: inside.select(f32x4::splat(self.albedo), r),
+            ggx: inside.select(self.albedo, r),
             lambert: l,
             visible: v,
         }

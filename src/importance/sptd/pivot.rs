@@ -187,16 +187,58 @@ impl Pivot {
     /// The 4-wide twin of [`Pivot::map_cap`].
     #[inline]
     pub fn map_cap4(&self, cap: &Cap4) -> Cap4 {
+        Pivot4::new(self).map_cap(cap)
+    }
+}
+
+/// A [`Pivot`]'s constants in four lanes, for its 4-wide evaluators (set up once per shading
+/// point so that the evaluators load them instead of splatting them at every call).
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct Pivot4 {
+    px: f32x4,
+    py: f32x4,
+    pz: f32x4,
+    r: f32x4,
+    k: f32x4,
+    /// `(1 − R)²`.
+    g2: f32x4,
+    one_plus: f32x4,
+    /// `k²`.
+    k2: f32x4,
+}
+
+impl Pivot4 {
+    #[inline(always)]
+    pub(crate) fn new(p: &Pivot) -> Pivot4 {
+        Pivot4 {
+            px: f32x4::splat(p.dir.x),
+            py: f32x4::splat(p.dir.y),
+            pz: f32x4::splat(p.dir.z),
+            r: f32x4::splat(p.norm),
+            k: f32x4::splat(p.k),
+            g2: f32x4::splat(p.gap * p.gap),
+            one_plus: f32x4::splat(p.one_plus),
+            k2: f32x4::splat(p.k * p.k),
+        }
+    }
+
+    /// The 4-wide twin of [`Pivot::density`], lane by lane the same operations, for unit
+    /// directions `(wx, wy, wz)`.
+    #[inline(always)]
+    pub(crate) fn density(&self, wx: f32x4, wy: f32x4, wz: f32x4) -> f32x4 {
+        let (ex, ey, ez) = (self.px - wx, self.py - wy, self.pz - wz);
+        let e2 = ex * ex + ey * ey + ez * ez;
+        let d2 = self.g2 + self.r * e2;
+        self.k2 / (d2 * d2) / f32x4::splat(4.0 * PI)
+    }
+
+    /// [`Pivot::map_cap4`].
+    #[inline(always)]
+    pub(crate) fn map_cap(&self, cap: &Cap4) -> Cap4 {
         let one = f32x4::ONE;
         let two = f32x4::splat(2.0);
-        let (px, py, pz) = (
-            f32x4::splat(self.dir.x),
-            f32x4::splat(self.dir.y),
-            f32x4::splat(self.dir.z),
-        );
-        let r = f32x4::splat(self.norm);
-        let k = f32x4::splat(self.k);
-        let g2 = f32x4::splat(self.gap * self.gap);
+        let (px, py, pz) = (self.px, self.py, self.pz);
+        let (r, k, g2) = (self.r, self.k, self.g2);
         let a = cap.one_minus_cos;
         let (ex, ey, ez) = (cap.ax - px, cap.ay - py, cap.az - pz);
         let delta = f32x4::splat(0.5) * (ex * ex + ey * ey + ez * ez);
@@ -204,11 +246,11 @@ impl Pivot {
         let mx = along * px + k * ex;
         let my = along * py + k * ey;
         let mz = along * pz + k * ez;
-        let w = f32x4::splat(self.one_plus) * a - g2 - two * r * delta;
+        let w = self.one_plus * a - g2 - two * r * delta;
         let ml = (mx * mx + my * my + mz * mz).sqrt();
         let tiny = f32x4::splat(f32::MIN_POSITIVE);
         let ml = ml.simd_gt(tiny).select(ml, tiny);
-        let k2s2 = k * k * (a * cap.one_plus_cos);
+        let k2s2 = self.k2 * (a * cap.one_plus_cos);
         let neg = w.simd_le(f32x4::ZERO);
         let big = neg.select(ml - w, ml + w);
         let small = k2s2 / (ml * big);
