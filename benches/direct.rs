@@ -8,6 +8,7 @@
 
 use criterion::{criterion_group, criterion_main, Criterion, Throughput};
 use manylights::direct::{Estimator, Params, Technique, Uniforms, Unoccluded};
+use manylights::Rgb;
 use manylights::{LightSet, Material};
 use manylights_testkit as random_scene;
 use std::hint::black_box;
@@ -34,7 +35,7 @@ impl Uniforms for Lcg {
 fn direct(c: &mut Criterion) {
     let set = LightSet::build(random_scene::lights(100_000, 13)).unwrap();
     let plastic = Material::Plastic {
-        albedo: 0.5,
+        albedo: Rgb::grey(0.5),
         specular: 0.5,
         alpha: 0.2,
     };
@@ -50,7 +51,7 @@ fn direct(c: &mut Criterion) {
                 let mut acc = 0.0f64;
                 for sp in &sps {
                     let mut est = Estimator::new(&set, black_box(sp), technique, &params).unwrap();
-                    acc += est.estimate(&Unoccluded, &mut u).unwrap();
+                    acc += est.estimate(&Unoccluded, &mut u).unwrap()[0];
                 }
                 acc
             })

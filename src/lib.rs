@@ -10,12 +10,16 @@
 //! light's probability; [`LightTree::pmf`] gives that same probability for any light.
 //!
 //! ```
-//! use manylights::{Light, LightTree, TlImportance};
+//! use manylights::{Light, LightTree, Rgb, TlImportance};
 //! use glam::Vec3;
 //!
 //! let lights = [
-//!     Light::Point { position: Vec3::new(0.0, 0.0, 2.0), intensity: 1.0 },
-//!     Light::Sphere { center: Vec3::new(3.0, 0.0, 1.0), radius: 0.5, radiance: 2.0 },
+//!     Light::Point { position: Vec3::new(0.0, 0.0, 2.0), intensity: Rgb::grey(1.0) },
+//!     Light::Sphere {
+//!         center: Vec3::new(3.0, 0.0, 1.0),
+//!         radius: 0.5,
+//!         radiance: Rgb::new(2.0, 1.5, 1.0),
+//!     },
 //! ];
 //! let tree = LightTree::build(&lights)?;
 //! let at = TlImportance::new(Vec3::ZERO, Vec3::Z);
@@ -47,6 +51,7 @@ pub mod baseline;
 pub mod bounds;
 pub mod brdf;
 pub mod build;
+pub mod colour;
 pub mod cut;
 pub mod direct;
 pub mod error;
@@ -67,6 +72,7 @@ pub mod vpl;
 
 pub use brdf::{Brdf, Frame, Ggx, Lambert};
 pub use build::BuildOptions;
+pub use colour::Rgb;
 pub use cut::{BlCutOptions, Cluster, LightCut, SplitCutOptions, CUT_CAPACITY};
 pub use direct::{Estimator, LightSampler, Occluder, Params, Technique, Uniforms};
 pub use error::{

@@ -14,6 +14,7 @@
 //!   [`MAX_TOTAL_ENERGY`], so that importances cannot overflow f32.
 
 use crate::bounds::{Aabb, Cone, LightBounds, Sphere};
+use crate::colour::Rgb;
 use crate::error::{BuildError, LightField, Problem};
 use crate::math;
 use core::f32::consts::{FRAC_PI_2, PI};
@@ -26,15 +27,17 @@ pub const MAX_LIGHT_ENERGY: f32 = 1e24;
 /// Largest accepted sum of all lights' energies.
 pub const MAX_TOTAL_ENERGY: f32 = 1e26;
 
-/// One light. Powers are radiometric: `intensity` in W/sr, `radiance` in W/(m²·sr).
+/// One light. Powers are radiometric and linear RGB ([`Rgb`]): `intensity` in W/sr,
+/// `radiance` in W/(m²·sr), per channel. The tree ranks lights by the luminance of these
+/// ([`Rgb::luminance`]), so a grey light samples as a scalar one of the same value.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum Light {
     /// Isotropic point light.
     Point {
         /// Position.
         position: Vec3,
-        /// Radiant intensity.
-        intensity: f32,
+        /// Radiant intensity (W/sr).
+        intensity: Rgb,
     },
     /// Spot light: intensity `intensity` inside `falloff_start`, falling to 0 at `half_angle`.
     Spot {
@@ -42,8 +45,8 @@ pub enum Light {
         position: Vec3,
         /// Direction of the cone's axis (need not be unit length).
         direction: Vec3,
-        /// Radiant intensity on the axis.
-        intensity: f32,
+        /// Radiant intensity on the axis (W/sr).
+        intensity: Rgb,
         /// Cone half-angle θs in radians, in (0, π].
         half_angle: f32,
         /// Angle θf where the falloff starts, in [0, θs].
@@ -55,8 +58,8 @@ pub enum Light {
         center: Vec3,
         /// Radius (> 0).
         radius: f32,
-        /// Emitted radiance.
-        radiance: f32,
+        /// Emitted radiance (W/(m²·sr)).
+        radiance: Rgb,
     },
     /// Disk area light of uniform radiance.
     Disk {
@@ -66,8 +69,8 @@ pub enum Light {
         normal: Vec3,
         /// Radius (> 0).
         radius: f32,
-        /// Emitted radiance.
-        radiance: f32,
+        /// Emitted radiance (W/(m²·sr)).
+        radiance: Rgb,
         /// Emits on both sides.
         two_sided: bool,
     },
@@ -76,8 +79,8 @@ pub enum Light {
     Triangle {
         /// Vertices.
         vertices: [Vec3; 3],
-        /// Emitted radiance.
-        radiance: f32,
+        /// Emitted radiance (W/(m²·sr)).
+        radiance: Rgb,
         /// Emits on both sides.
         two_sided: bool,
     },
@@ -90,8 +93,8 @@ pub enum Light {
         position: Vec3,
         /// Normal: the emitting side (need not be unit length).
         normal: Vec3,
-        /// Radiant intensity along the normal.
-        intensity: f32,
+        /// Radiant intensity along the normal (W/sr).
+        intensity: Rgb,
     },
 }
 
@@ -116,12 +119,15 @@ fn check_point(index: usize, field: LightField, p: Vec3) -> Result<(), BuildErro
     Ok(())
 }
 
-fn check_power(index: usize, field: LightField, v: f32) -> Result<(), BuildError> {
-    if !v.is_finite() {
-        return Err(invalid(index, field, Problem::NotFinite, v));
-    }
-    if v < 0.0 {
-        return Err(invalid(index, field, Problem::Negative, v));
+/// Every channel finite and ≥ 0; the error carries the first channel that is not.
+fn check_power(index: usize, field: LightField, c: Rgb) -> Result<(), BuildError> {
+    for v in c.to_array() {
+        if !v.is_finite() {
+            return Err(invalid(index, field, Problem::NotFinite, v));
+        }
+        if v < 0.0 {
+            return Err(invalid(index, field, Problem::Negative, v));
+        }
     }
     Ok(())
 }
@@ -223,6 +229,12 @@ fn sphere_around(centre: [f64; 3], points: &[[f64; 3]]) -> Sphere {
         center: c,
         radius: outward(math::sqrt64(r2)),
     }
+}
+
+/// The luminance of a colour, as the energies use it (exactly `c` for a grey `c`).
+#[inline]
+fn lum(c: Rgb) -> f64 {
+    f64::from(c.luminance())
 }
 
 /// Round a non-negative f64 length up to an f32 with a little relative slack.
@@ -371,15 +383,15 @@ impl Light {
     fn energy_f64(&self) -> f64 {
         let pi = core::f64::consts::PI;
         match *self {
-            Light::Point { intensity, .. } => 4.0 * pi * f64::from(intensity),
+            Light::Point { intensity, .. } => 4.0 * pi * lum(intensity),
             // ∫ I·max(0, cos θ) dω over the sphere = πI.
-            Light::Vpl { intensity, .. } => pi * f64::from(intensity),
+            Light::Vpl { intensity, .. } => pi * lum(intensity),
             Light::Spot {
                 intensity,
                 half_angle,
                 ..
-            } => 2.0 * pi * math::one_minus_cos64(f64::from(half_angle)) * f64::from(intensity),
-            Light::Sphere { radiance, .. } => f64::from(radiance) * pi * self.area_f64(),
+            } => 2.0 * pi * math::one_minus_cos64(f64::from(half_angle)) * lum(intensity),
+            Light::Sphere { radiance, .. } => lum(radiance) * pi * self.area_f64(),
             Light::Disk {
                 radiance,
                 two_sided,
@@ -391,12 +403,13 @@ impl Light {
                 ..
             } => {
                 let sides = if two_sided { 2.0 } else { 1.0 };
-                sides * f64::from(radiance) * pi * self.area_f64()
+                sides * lum(radiance) * pi * self.area_f64()
             }
         }
     }
 
-    /// Emitted power (docs/formulas.md, section 1; Conty & Kulla, "Orientation bounds"): 4πI
+    /// Emitted power as luminance (docs/formulas.md, sections 1 and 15; Conty & Kulla,
+    /// "Orientation bounds"), with I and L the luminance of the light's colour: 4πI
     /// for points, 2π(1 − cos θs)·I for spots (an upper bound of the flux with falloff;
     /// `1 − cos θs` is computed without cancellation, so a narrow cone keeps its energy), πI
     /// for virtual point lights, L·π·A per emitting side for area lights.
@@ -564,7 +577,7 @@ mod tests {
         let l = Light::Sphere {
             center: Vec3::ZERO,
             radius: -1.0,
-            radiance: 1.0,
+            radiance: Rgb::grey(1.0),
         };
         let e = l.validate(7).unwrap_err();
         assert_eq!(
@@ -584,20 +597,34 @@ mod tests {
     fn energies() {
         let p = Light::Point {
             position: Vec3::ZERO,
-            intensity: 2.0,
+            intensity: Rgb::grey(2.0),
         };
         assert!((p.energy() - 8.0 * PI).abs() < 1e-4);
+        // The luminance of a colour: Y(1, 2, 4) = 0.2126 + 1.4304 + 0.2888 = 1.9318.
+        let c = Light::Point {
+            position: Vec3::ZERO,
+            intensity: Rgb::new(1.0, 2.0, 4.0),
+        };
+        assert!((c.energy() - 4.0 * PI * 1.9318).abs() < 1e-4);
+        let bad = Light::Point {
+            position: Vec3::ZERO,
+            intensity: Rgb::new(1.0, -2.0, 1.0),
+        };
+        assert_eq!(
+            bad.validate(3),
+            Err(invalid(3, LightField::Intensity, Problem::Negative, -2.0))
+        );
         let d = Light::Disk {
             center: Vec3::ZERO,
             normal: Vec3::Z,
             radius: 1.0,
-            radiance: 1.0,
+            radiance: Rgb::grey(1.0),
             two_sided: true,
         };
         assert!((d.energy() - 2.0 * PI * PI).abs() < 1e-4);
         let t = Light::Triangle {
             vertices: [Vec3::ZERO, Vec3::X, Vec3::X * 2.0],
-            radiance: 5.0,
+            radiance: Rgb::grey(5.0),
             two_sided: false,
         };
         assert_eq!(t.energy(), 0.0);

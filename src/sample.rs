@@ -364,7 +364,7 @@ impl LightTree {
     /// let lights: Vec<Light> = (0..500)
     ///     .map(|i| Light::Point {
     ///         position: Vec3::new((i % 25) as f32, (i / 25) as f32, 3.0),
-    ///         intensity: 1.0 + (i % 3) as f32,
+    ///         intensity: (1.0 + (i % 3) as f32).into(),
     ///     })
     ///     .collect();
     /// let tree = LightTree::build(&lights)?;
@@ -890,6 +890,7 @@ mod tests {
     /// width; the wide one is called directly).
     #[test]
     fn pmf_batch_widths_match_pmf() {
+        use crate::colour::Rgb;
         use crate::importance::TlImportance;
         use crate::light::Light;
         use alloc::vec;
@@ -904,25 +905,25 @@ mod tests {
             lights.push(match i % 3 {
                 0 => Light::Point {
                     position: p,
-                    intensity: 0.1 + 10.0 * rng.f32(),
+                    intensity: Rgb::grey(0.1 + 10.0 * rng.f32()),
                 },
                 1 => Light::Spot {
                     position: p,
                     direction: d,
-                    intensity: 0.1 + 10.0 * rng.f32(),
+                    intensity: Rgb::grey(0.1 + 10.0 * rng.f32()),
                     half_angle: 0.2 + 1.2 * rng.f32(),
                     falloff_start: 0.1,
                 },
                 _ => Light::Sphere {
                     center: p,
                     radius: 0.1 + rng.f32(),
-                    radiance: 0.1 + rng.f32(),
+                    radiance: Rgb::grey(0.1 + rng.f32()),
                 },
             });
         }
         lights[17] = Light::Point {
             position: Vec3::ZERO,
-            intensity: 0.0,
+            intensity: Rgb::grey(0.0),
         };
         let tree = LightTree::build(&lights).unwrap();
         let m = 700;

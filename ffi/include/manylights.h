@@ -330,7 +330,26 @@ typedef struct ml_vec3 {
 } ml_vec3;
 
 /**
- * A surface's reflectance: albedo and specular weight in [0, 1], GGX roughness α in (0, 1].
+ * A linear RGB triple (emission, albedo, radiance), per channel.
+ */
+typedef struct ml_rgb {
+    /**
+     * Red.
+     */
+    float r;
+    /**
+     * Green.
+     */
+    float g;
+    /**
+     * Blue.
+     */
+    float b;
+} ml_rgb;
+
+/**
+ * A surface's reflectance: albedo (every channel) and specular weight in [0, 1], GGX roughness
+ * α in (0, 1].
  */
 typedef struct ml_material {
     /**
@@ -338,9 +357,9 @@ typedef struct ml_material {
      */
     uint32_t kind;
     /**
-     * Diffuse albedo in [0, 1] (Lambert, plastic).
+     * Diffuse albedo, linear RGB, every channel in [0, 1] (Lambert, plastic).
      */
-    float albedo;
+    struct ml_rgb albedo;
     /**
      * Weight of the GGX lobe in [0, 1] (GGX, plastic).
      */
@@ -529,6 +548,24 @@ typedef struct ml_uniforms {
 } ml_uniforms;
 
 /**
+ * An estimate in linear RGB, summed in double precision.
+ */
+typedef struct ml_rgb64 {
+    /**
+     * Red.
+     */
+    double r;
+    /**
+     * Green.
+     */
+    double g;
+    /**
+     * Blue.
+     */
+    double b;
+} ml_rgb64;
+
+/**
  * A point on a light seen from a shading point x (sampled, or reached by a ray).
  * `pdf = 0` (and every other field 0) when there is none.
  */
@@ -554,10 +591,10 @@ typedef struct ml_light_point {
      */
     float pdf;
     /**
-     * What the estimate multiplies by (≥ 0): the radiance arriving at x for area lights,
-     * `I · falloff / d²` for point, spot and VPL lights.
+     * What the estimate multiplies by (every channel ≥ 0): the radiance arriving at x for
+     * area lights, `I · falloff / d²` for point, spot and VPL lights, linear RGB.
      */
-    float radiance;
+    struct ml_rgb radiance;
     /**
      * 1 for point, spot and VPL lights (`pdf` is a Dirac delta reported as 1), else 0.
      */
@@ -654,7 +691,7 @@ typedef struct ml_build_options {
 /**
  * One light, as given to `ml_tree_build`. Which fields a kind reads is listed at each
  * `ml_light_kind`; the others are ignored (zero them). Coordinates finite with magnitude at
- * most 1e15; `power` finite and ≥ 0 (0: accepted and never sampled).
+ * most 1e15; every channel of `power` finite and ≥ 0 (black: accepted and never sampled).
  */
 typedef struct ml_light {
     /**
@@ -678,9 +715,10 @@ typedef struct ml_light {
      */
     struct ml_vec3 vertex2;
     /**
-     * Intensity in W/sr (point, spot, VPL) or radiance in W/(m²·sr) (sphere, disk, triangle).
+     * Intensity in W/sr (point, spot, VPL) or radiance in W/(m²·sr) (sphere, disk,
+     * triangle), linear RGB; the tree ranks lights by its luminance.
      */
-    float power;
+    struct ml_rgb power;
     /**
      * Radius (sphere, disk).
      */
@@ -794,9 +832,10 @@ typedef struct ml_vpl {
      */
     struct ml_vec3 normal;
     /**
-     * Radiant intensity along the normal (finite, ≥ 0).
+     * Radiant intensity along the normal, linear RGB (every channel finite, ≥ 0; acceptance
+     * weighs its luminance).
      */
-    float intensity;
+    struct ml_rgb intensity;
 } ml_vpl;
 
 /**
@@ -1082,9 +1121,9 @@ ml_status ml_direct_params_default(struct ml_direct_params *out);
 /**
  * One estimate of the radiance reflected at `sp` towards `sp->wo` from the tree's lights,
  * with `technique` (an `ml_technique`), `params` (NULL: defaults), the host's `visibility`
- * (NULL: nothing occluded) and `uniforms`, with the core's material (`sp->material`). The
- * estimate is finite and ≥ 0; its expectation is the reflected radiance (every technique is
- * unbiased). For many estimates at one point, `ml_estimator_*` sets up once.
+ * (NULL: nothing occluded) and `uniforms`, with the core's material (`sp->material`), in
+ * linear RGB. Every channel of the estimate is finite and ≥ 0; its expectation is the
+ * reflected radiance (every technique is unbiased). For many estimates at one point, `ml_estimator_*` sets up once.
  *
  * Errors: `ML_ERR_NULL` (`tree`, `sp`, `uniforms`, `uniforms->next_f32`, `out`);
  * `ML_ERR_INVALID_ARGUMENT` (a bad shading point, technique or parameter; a uniform number
@@ -1096,7 +1135,7 @@ ml_status ml_direct_estimate(const struct ml_tree *tree,
                              const struct ml_direct_params *params_,
                              const struct ml_visibility *visibility,
                              const struct ml_uniforms *uniforms,
-                             double *out);
+                             struct ml_rgb64 *out);
 
 /**
  * Creates an estimator for the lights of `tree` (built by `ml_tree_build`). Set it up for a
@@ -1135,7 +1174,7 @@ ml_status ml_estimator_set_point(struct ml_estimator *est,
 ml_status ml_estimator_estimate(struct ml_estimator *est,
                                 const struct ml_visibility *visibility,
                                 const struct ml_uniforms *uniforms,
-                                double *out);
+                                struct ml_rgb64 *out);
 
 /**
  * Starts a new estimate of the lower level (forgetting the current one); then call

@@ -8,7 +8,7 @@ use crate::error::{ml_status, Error, Result};
 use crate::ffi_fn;
 use crate::tree::{ml_tree, tree_arg, TreeData};
 use crate::types::{
-    finite3, ml_light_point, ml_shading_point, ml_vec3, shading_error, shading_point,
+    finite3, ml_light_point, ml_rgb64, ml_shading_point, ml_vec3, shading_error, shading_point,
 };
 use core::ffi::c_void;
 use glam::Vec3;
@@ -366,7 +366,7 @@ fn estimate_with(
     est: &mut Estimator<'_>,
     vis: Option<&ml_visibility>,
     u: &ml_uniforms,
-) -> Result<f64> {
+) -> Result<ml_rgb64> {
     let mut u = HostUniforms::new(u)?;
     let occ = HostVisibility {
         vis: vis.copied(),
@@ -378,7 +378,7 @@ fn estimate_with(
             "visibility->first_hit returned {h} (must be non-negative or +infinity)"
         )));
     }
-    Ok(r)
+    Ok(r.into())
 }
 
 /// The shading point of a checked C one.
@@ -388,9 +388,9 @@ fn sp_arg(sp: *const ml_shading_point) -> Result<manylights::ShadingPoint> {
 
 /// One estimate of the radiance reflected at `sp` towards `sp->wo` from the tree's lights,
 /// with `technique` (an `ml_technique`), `params` (NULL: defaults), the host's `visibility`
-/// (NULL: nothing occluded) and `uniforms`, with the core's material (`sp->material`). The
-/// estimate is finite and ≥ 0; its expectation is the reflected radiance (every technique is
-/// unbiased). For many estimates at one point, `ml_estimator_*` sets up once.
+/// (NULL: nothing occluded) and `uniforms`, with the core's material (`sp->material`), in
+/// linear RGB. Every channel of the estimate is finite and ≥ 0; its expectation is the
+/// reflected radiance (every technique is unbiased). For many estimates at one point, `ml_estimator_*` sets up once.
 ///
 /// Errors: `ML_ERR_NULL` (`tree`, `sp`, `uniforms`, `uniforms->next_f32`, `out`);
 /// `ML_ERR_INVALID_ARGUMENT` (a bad shading point, technique or parameter; a uniform number
@@ -403,7 +403,7 @@ pub extern "C" fn ml_direct_estimate(
     params_: *const ml_direct_params,
     visibility: *const ml_visibility,
     uniforms: *const ml_uniforms,
-    out: *mut f64,
+    out: *mut ml_rgb64,
 ) -> ml_status {
     ffi_fn!("ml_direct_estimate", {
         let data = tree_arg(tree)?;
@@ -497,7 +497,7 @@ pub extern "C" fn ml_estimator_estimate(
     est: *mut ml_estimator,
     visibility: *const ml_visibility,
     uniforms: *const ml_uniforms,
-    out: *mut f64,
+    out: *mut ml_rgb64,
 ) -> ml_status {
     ffi_fn!("ml_estimator_estimate", {
         let h = arg::get_mut(est, "est")?;

@@ -6,7 +6,7 @@ use glam::Vec3;
 use manylights::error::{LightField, Problem};
 use manylights::material::ShadingField;
 use manylights::{
-    BuildError, Light, LightPoint, LightSample, Material, ShadingError, ShadingPoint,
+    BuildError, Light, LightPoint, LightSample, Material, Rgb, ShadingError, ShadingPoint,
 };
 
 /// A 3-vector (positions, directions, normals).
@@ -39,6 +39,59 @@ impl From<Vec3> for ml_vec3 {
     }
 }
 
+/// A linear RGB triple (emission, albedo, radiance), per channel.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct ml_rgb {
+    /// Red.
+    pub r: f32,
+    /// Green.
+    pub g: f32,
+    /// Blue.
+    pub b: f32,
+}
+
+impl From<ml_rgb> for Rgb {
+    #[inline]
+    fn from(c: ml_rgb) -> Rgb {
+        Rgb::new(c.r, c.g, c.b)
+    }
+}
+
+impl From<Rgb> for ml_rgb {
+    #[inline]
+    fn from(c: Rgb) -> ml_rgb {
+        ml_rgb {
+            r: c.r,
+            g: c.g,
+            b: c.b,
+        }
+    }
+}
+
+/// An estimate in linear RGB, summed in double precision.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct ml_rgb64 {
+    /// Red.
+    pub r: f64,
+    /// Green.
+    pub g: f64,
+    /// Blue.
+    pub b: f64,
+}
+
+impl From<[f64; 3]> for ml_rgb64 {
+    #[inline]
+    fn from(c: [f64; 3]) -> ml_rgb64 {
+        ml_rgb64 {
+            r: c[0],
+            g: c[1],
+            b: c[2],
+        }
+    }
+}
+
 /// The kind of an `ml_light` (the value of its `kind` field).
 #[repr(u32)]
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -64,7 +117,7 @@ pub enum ml_light_kind {
 
 /// One light, as given to `ml_tree_build`. Which fields a kind reads is listed at each
 /// `ml_light_kind`; the others are ignored (zero them). Coordinates finite with magnitude at
-/// most 1e15; `power` finite and ≥ 0 (0: accepted and never sampled).
+/// most 1e15; every channel of `power` finite and ≥ 0 (black: accepted and never sampled).
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct ml_light {
@@ -78,8 +131,9 @@ pub struct ml_light {
     pub direction: ml_vec3,
     /// Vertex 2 (triangle).
     pub vertex2: ml_vec3,
-    /// Intensity in W/sr (point, spot, VPL) or radiance in W/(m²·sr) (sphere, disk, triangle).
-    pub power: f32,
+    /// Intensity in W/sr (point, spot, VPL) or radiance in W/(m²·sr) (sphere, disk,
+    /// triangle), linear RGB; the tree ranks lights by its luminance.
+    pub power: ml_rgb,
     /// Radius (sphere, disk).
     pub radius: f32,
     /// Spot half-angle θs in radians, in (0, π].
@@ -100,7 +154,7 @@ impl From<&Light> for ml_light {
             } => {
                 d.kind = ml_light_kind::Point as u32;
                 d.position = position.into();
-                d.power = intensity;
+                d.power = intensity.into();
             }
             Light::Spot {
                 position,
@@ -112,7 +166,7 @@ impl From<&Light> for ml_light {
                 d.kind = ml_light_kind::Spot as u32;
                 d.position = position.into();
                 d.direction = direction.into();
-                d.power = intensity;
+                d.power = intensity.into();
                 d.half_angle = half_angle;
                 d.falloff_start = falloff_start;
             }
@@ -124,7 +178,7 @@ impl From<&Light> for ml_light {
                 d.kind = ml_light_kind::Sphere as u32;
                 d.position = center.into();
                 d.radius = radius;
-                d.power = radiance;
+                d.power = radiance.into();
             }
             Light::Disk {
                 center,
@@ -137,7 +191,7 @@ impl From<&Light> for ml_light {
                 d.position = center.into();
                 d.direction = normal.into();
                 d.radius = radius;
-                d.power = radiance;
+                d.power = radiance.into();
                 d.two_sided = u32::from(two_sided);
             }
             Light::Triangle {
@@ -149,7 +203,7 @@ impl From<&Light> for ml_light {
                 d.position = vertices[0].into();
                 d.direction = vertices[1].into();
                 d.vertex2 = vertices[2].into();
-                d.power = radiance;
+                d.power = radiance.into();
                 d.two_sided = u32::from(two_sided);
             }
             Light::Vpl {
@@ -160,7 +214,7 @@ impl From<&Light> for ml_light {
                 d.kind = ml_light_kind::Vpl as u32;
                 d.position = position.into();
                 d.direction = normal.into();
-                d.power = intensity;
+                d.power = intensity.into();
             }
         }
         d
@@ -179,14 +233,15 @@ pub enum ml_material_kind {
     Plastic = 2,
 }
 
-/// A surface's reflectance: albedo and specular weight in [0, 1], GGX roughness α in (0, 1].
+/// A surface's reflectance: albedo (every channel) and specular weight in [0, 1], GGX roughness
+/// α in (0, 1].
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct ml_material {
     /// An `ml_material_kind`.
     pub kind: u32,
-    /// Diffuse albedo in [0, 1] (Lambert, plastic).
-    pub albedo: f32,
+    /// Diffuse albedo, linear RGB, every channel in [0, 1] (Lambert, plastic).
+    pub albedo: ml_rgb,
     /// Weight of the GGX lobe in [0, 1] (GGX, plastic).
     pub specular: f32,
     /// GGX roughness α in (0, 1] (GGX, plastic).
@@ -271,9 +326,9 @@ pub struct ml_light_point {
     pub distance: f32,
     /// Solid-angle pdf of `direction` at x (> 0, finite); 1 for delta lights; 0: no point.
     pub pdf: f32,
-    /// What the estimate multiplies by (≥ 0): the radiance arriving at x for area lights,
-    /// `I · falloff / d²` for point, spot and VPL lights.
-    pub radiance: f32,
+    /// What the estimate multiplies by (every channel ≥ 0): the radiance arriving at x for
+    /// area lights, `I · falloff / d²` for point, spot and VPL lights, linear RGB.
+    pub radiance: ml_rgb,
     /// 1 for point, spot and VPL lights (`pdf` is a Dirac delta reported as 1), else 0.
     pub delta: u32,
 }
@@ -288,7 +343,7 @@ impl From<Option<LightPoint>> for ml_light_point {
                 direction: p.direction.into(),
                 distance: p.distance,
                 pdf: p.pdf,
-                radiance: p.radiance,
+                radiance: p.radiance.into(),
                 delta: u32::from(p.delta),
             },
             None => ml_light_point::default(),
@@ -357,36 +412,36 @@ pub(crate) fn light(l: &ml_light, index: usize, name: &str) -> Result<Light> {
     Ok(match l.kind {
         0 => Light::Point {
             position: p,
-            intensity: l.power,
+            intensity: l.power.into(),
         },
         1 => Light::Spot {
             position: p,
             direction: d,
-            intensity: l.power,
+            intensity: l.power.into(),
             half_angle: l.half_angle,
             falloff_start: l.falloff_start,
         },
         2 => Light::Sphere {
             center: p,
             radius: l.radius,
-            radiance: l.power,
+            radiance: l.power.into(),
         },
         3 => Light::Disk {
             center: p,
             normal: d,
             radius: l.radius,
-            radiance: l.power,
+            radiance: l.power.into(),
             two_sided,
         },
         4 => Light::Triangle {
             vertices: [p, d, v2],
-            radiance: l.power,
+            radiance: l.power.into(),
             two_sided,
         },
         5 => Light::Vpl {
             position: p,
             normal: d,
-            intensity: l.power,
+            intensity: l.power.into(),
         },
         k => {
             return Err(Error::invalid(format_args!(
@@ -425,13 +480,15 @@ pub(crate) fn build_error(e: BuildError, lights: &[ml_light], name: &str) -> Err
 /// The core material (kind checked; values are checked with the shading point).
 pub(crate) fn material(m: &ml_material, path: &dyn Fn() -> String) -> Result<Material> {
     Ok(match m.kind {
-        0 => Material::Lambert { albedo: m.albedo },
+        0 => Material::Lambert {
+            albedo: m.albedo.into(),
+        },
         1 => Material::Ggx {
             alpha: m.alpha,
             specular: m.specular,
         },
         2 => Material::Plastic {
-            albedo: m.albedo,
+            albedo: m.albedo.into(),
             specular: m.specular,
             alpha: m.alpha,
         },

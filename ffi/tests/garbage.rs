@@ -3,6 +3,7 @@
 //! outputs untouched and names the function, and a success never gives a NaN or a light of
 //! pmf 0. Seeded, so deterministic.
 
+use manylights::Rgb;
 use manylights_ffi::*;
 use std::ffi::CStr;
 use std::ptr;
@@ -121,7 +122,10 @@ fn arbitrary_lights_points_and_numbers() {
                     position: v3(&mut b),
                     direction: v3(&mut b),
                     vertex2: v3(&mut b),
-                    power: b.val(0.0, 2.0, wild),
+                    power: {
+                        let v = b.val(0.0, 2.0, wild);
+                        ml_rgb { r: v, g: v, b: v }
+                    },
                     radius: b.val(0.01, 1.0, wild),
                     half_angle: half,
                     falloff_start: half * b.val(0.0, 1.0, wild),
@@ -159,7 +163,7 @@ fn arbitrary_lights_points_and_numbers() {
                 wo: v3(&mut b),
                 material: ml_material {
                     kind: b.small(3),
-                    albedo: b.val(0.0, 1.0, w),
+                    albedo: Rgb::grey(b.val(0.0, 1.0, w)).into(),
                     specular: b.val(0.0, 1.0, w),
                     alpha: b.val(0.0, 1.0, w),
                 },
@@ -197,7 +201,11 @@ fn arbitrary_lights_points_and_numbers() {
                 "ml_light_sample_point",
             ) && lp.pdf > 0.0
             {
-                assert!(lp.pdf.is_finite() && lp.radiance.is_finite() && lp.distance > 0.0);
+                assert!(
+                    lp.pdf.is_finite()
+                        && manylights::Rgb::from(lp.radiance).is_finite()
+                        && lp.distance > 0.0
+                );
             }
             let mut d = ml_brdf_draw::default();
             if expect_ok_or_invalid(

@@ -4,6 +4,7 @@
 use super::sampler::{CutSampler, LightSampler, PowerSampler, TreeSampler, UniformSampler};
 use super::{DirectError, LambertMode, Occluder, Params, Technique, Uniforms};
 use crate::brdf::{Brdf, Frame};
+use crate::colour::Rgb;
 use crate::cut::{LightCut, CUT_CAPACITY};
 use crate::error::Problem;
 use crate::importance::{BlImportance, TlImportance};
@@ -65,6 +66,25 @@ impl Weighted {
     #[inline]
     pub fn pdf(&self) -> f32 {
         self.f.pdf
+    }
+
+    /// `weight / pdf`: what the host multiplies its own value (`f · L · cos θi`, in any
+    /// spectral representation) by; finite and ≥ 0. [`Weighted::contribution`] of a value is
+    /// `value · factor()` up to rounding (it multiplies before dividing).
+    #[inline]
+    pub fn factor(&self) -> f32 {
+        let v = self.f.num / self.f.den;
+        if v < f32::INFINITY {
+            v
+        } else {
+            0.0
+        }
+    }
+
+    /// [`Weighted::contribution`] of each channel of `value`.
+    #[inline]
+    pub fn contribution_rgb(&self, value: Rgb) -> Rgb {
+        value.map(|c| self.contribution(c))
     }
 
     /// What a sample of `value` (`f · L · cos θi`, or one channel of it) contributes:
@@ -818,7 +838,7 @@ impl<'a> Estimator<'a> {
         let set = self.set;
         let x = self.x;
         set.trace(x, dir, |light, lp| {
-            if lp.radiance <= 0.0 || !visible(lp) {
+            if lp.radiance.is_black() || !visible(lp) {
                 return;
             }
             hit = true;
@@ -870,34 +890,37 @@ impl<'a> Estimator<'a> {
         }
     }
 
-    /// `f · L · cos θi` of a light point with the core's material, and the local direction.
+    /// `f · L · cos θi` of a light point with the core's material (per channel), and the
+    /// local direction.
     #[inline]
-    fn value(&self, lp: &LightPoint) -> (f32, Vec3) {
+    fn value(&self, lp: &LightPoint) -> (Rgb, Vec3) {
         let wi = self.frame.to_local(lp.direction);
-        if lp.radiance <= 0.0 || wi.z <= 0.0 {
-            return (0.0, wi);
+        if lp.radiance.is_black() || wi.z <= 0.0 {
+            return (Rgb::ZERO, wi);
         }
-        (self.material.eval(self.wo, wi) * lp.radiance * wi.z, wi)
+        (self.material.eval_rgb(self.wo, wi) * lp.radiance * wi.z, wi)
     }
 
     /// One estimate of the reflected radiance with the core's material and the host's
     /// occluder: the lower level's loop ([`Estimator::start`], [`Estimator::next`],
-    /// [`Estimator::weigh`], [`Estimator::bsdf_hits_with`]), summed in f64. Finite and
-    /// non-negative.
+    /// [`Estimator::weigh`], [`Estimator::bsdf_hits_with`]), summed in f64 per channel
+    /// (red, green, blue). Finite and non-negative.
     pub fn estimate<O: Occluder + ?Sized>(
         &mut self,
         occluder: &O,
         u: &mut (impl Uniforms + ?Sized),
-    ) -> Result<f64, DirectError> {
+    ) -> Result<[f64; 3], DirectError> {
         self.start();
         let x = self.x;
-        let mut sum = 0.0f64;
+        let mut sum = [0.0f64; 3];
         loop {
             match self.next(u)? {
                 Step::Done => break,
                 Step::Light(d) => {
                     let (g, wi) = self.value(&d.point);
-                    if g <= 0.0 || occluder.occluded(x, d.point.direction, d.point.distance) {
+                    if g.max_channel() <= 0.0
+                        || occluder.occluded(x, d.point.direction, d.point.distance)
+                    {
                         continue;
                     }
                     let pdf_tb = if d.needs_bsdf_pdf {
@@ -905,15 +928,16 @@ impl<'a> Estimator<'a> {
                     } else {
                         0.0
                     };
-                    sum += f64::from(self.weigh(&d, pdf_tb)?.contribution(g));
+                    let w = self.weigh(&d, pdf_tb)?;
+                    add(&mut sum, w.contribution_rgb(g));
                 }
                 Step::Bsdf(b) => {
                     let Some((wi, pdf)) = self.material.sample(self.wo, b.u) else {
                         continue;
                     };
-                    let f = self.material.eval(self.wo, wi);
+                    let f = self.material.eval_rgb(self.wo, wi);
                     let dir = self.frame.to_world(wi).normalize();
-                    let mut value = 0.0f64;
+                    let mut value = [0.0f64; 3];
                     self.bsdf_hits_with(
                         &b,
                         dir,
@@ -921,15 +945,24 @@ impl<'a> Estimator<'a> {
                         |lp| !occluder.occluded(x, dir, lp.distance),
                         |h| {
                             let g = f * h.point.radiance * wi.z;
-                            if g > 0.0 {
-                                value += f64::from(h.weighted.contribution(g));
-                            }
+                            add(&mut value, h.weighted.contribution_rgb(g));
                         },
                     )?;
-                    sum += value;
+                    for c in 0..3 {
+                        sum[c] += value[c];
+                    }
                 }
             }
         }
         Ok(sum)
+    }
+}
+
+/// Adds a contribution's channels to an f64 sum (a channel that is not positive adds
+/// nothing: [`Weighted::contribution`] gives 0 for it).
+#[inline]
+fn add(sum: &mut [f64; 3], c: Rgb) {
+    for (s, v) in sum.iter_mut().zip(c.to_array()) {
+        *s += f64::from(v);
     }
 }

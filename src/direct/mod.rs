@@ -18,7 +18,7 @@
 //! ```
 //! use glam::Vec3;
 //! use manylights::direct::{Estimator, Params, Technique, Uniforms, Unoccluded};
-//! use manylights::{Light, LightSet, Material, ShadingPoint};
+//! use manylights::{Light, LightSet, Material, Rgb, ShadingPoint};
 //!
 //! /// The host's random numbers (any generator; here a 64-bit LCG).
 //! struct Lcg(u64);
@@ -33,18 +33,22 @@
 //! }
 //!
 //! let set = LightSet::build(vec![
-//!     Light::Sphere { center: Vec3::new(0.0, 0.0, 2.0), radius: 0.5, radiance: 3.0 },
-//!     Light::Point { position: Vec3::new(1.0, 0.0, 1.0), intensity: 2.0 },
+//!     Light::Sphere {
+//!         center: Vec3::new(0.0, 0.0, 2.0),
+//!         radius: 0.5,
+//!         radiance: Rgb::new(3.0, 2.5, 2.0),
+//!     },
+//!     Light::Point { position: Vec3::new(1.0, 0.0, 1.0), intensity: Rgb::grey(2.0) },
 //! ])?;
 //! let sp = ShadingPoint {
 //!     position: Vec3::ZERO,
 //!     normal: Vec3::Z,
 //!     wo: Vec3::new(0.0, 0.6, 0.8),
-//!     material: Material::Plastic { albedo: 0.5, specular: 0.5, alpha: 0.2 },
+//!     material: Material::Plastic { albedo: Rgb::new(0.6, 0.5, 0.4), specular: 0.5, alpha: 0.2 },
 //! };
 //! let mut est = Estimator::new(&set, &sp, Technique::DEFAULT, &Params::default())?;
-//! let radiance = est.estimate(&Unoccluded, &mut Lcg(7))?; // one estimate, host visibility
-//! assert!(radiance.is_finite() && radiance >= 0.0);
+//! let rgb = est.estimate(&Unoccluded, &mut Lcg(7))?; // one estimate, host visibility
+//! assert!(rgb.iter().all(|c| c.is_finite() && *c >= 0.0));
 //! # Ok::<(), Box<dyn std::error::Error>>(())
 //! ```
 //!

@@ -138,6 +138,7 @@ impl<I: Importance> Importance for Memo<'_, I> {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::colour::Rgb;
     use crate::importance::TlImportance;
     use crate::math;
     use crate::{BuildOptions, Light};
@@ -150,7 +151,7 @@ mod tests {
                 let t = i as f32 * 0.37;
                 Light::Point {
                     position: Vec3::new(math::sin(t) * 5.0, math::cos(t * 1.3) * 5.0, t * 0.1),
-                    intensity: 1.0 + (i % 7) as f32,
+                    intensity: Rgb::grey(1.0 + (i % 7) as f32),
                 }
             })
             .collect();

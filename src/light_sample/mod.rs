@@ -51,6 +51,7 @@ mod sphere;
 mod triangle;
 mod vec64;
 
+use crate::colour::Rgb;
 use crate::light::Light;
 use glam::Vec3;
 use vec64::V64;
@@ -78,7 +79,7 @@ pub struct LightPoint {
     /// `-direction` for area lights (0 if x is behind a one-sided emitter, or inside or on a
     /// sphere); `I · falloff / d²` for point, spot and virtual point lights (0 outside a spot's
     /// cone or behind a VPL).
-    pub radiance: f32,
+    pub radiance: Rgb,
 }
 
 impl LightPoint {
@@ -91,7 +92,7 @@ impl LightPoint {
         distance: f32,
         pdf: f32,
         delta: bool,
-        radiance: f32,
+        radiance: Rgb,
     ) -> Option<LightPoint> {
         let ok = position.is_finite()
             && normal.is_finite()
@@ -100,7 +101,10 @@ impl LightPoint {
             && distance < f32::INFINITY
             && pdf > 0.0
             && pdf < f32::INFINITY
-            && (0.0..f32::INFINITY).contains(&radiance);
+            && radiance
+                .to_array()
+                .iter()
+                .all(|c| (0.0..f32::INFINITY).contains(c));
         ok.then_some(LightPoint {
             position,
             normal,
@@ -129,13 +133,17 @@ fn unit_square(u: [f32; 2]) -> Option<[f64; 2]> {
 /// (see the [module documentation](self) for the pdf and the estimator).
 ///
 /// ```
-/// use manylights::{light_sample, Light};
+/// use manylights::{light_sample, Light, Rgb};
 /// use glam::Vec3;
 ///
-/// let sphere = Light::Sphere { center: Vec3::new(0.0, 0.0, 4.0), radius: 1.0, radiance: 2.0 };
+/// let sphere = Light::Sphere {
+///     center: Vec3::new(0.0, 0.0, 4.0),
+///     radius: 1.0,
+///     radiance: Rgb::grey(2.0),
+/// };
 /// let s = light_sample::sample_point(&sphere, Vec3::ZERO, [0.3, 0.7]).unwrap();
 /// assert_eq!(s.pdf, light_sample::pdf_point(&sphere, Vec3::ZERO, s.position));
-/// assert_eq!(s.radiance, 2.0);
+/// assert_eq!(s.radiance, Rgb::grey(2.0));
 /// ```
 pub fn sample_point(light: &Light, x: Vec3, u: [f32; 2]) -> Option<LightPoint> {
     let u = unit_square(u)?;
@@ -208,7 +216,7 @@ pub fn pdf_point(light: &Light, x: Vec3, point: Vec3) -> f32 {
             ..
         } => disk::pdf_point(center, normal, radius, x, point),
         Light::Triangle { vertices, .. } => triangle::view(&vertices, x, None)
-            .and_then(|view| view.at_point(0.0, true, x, point))
+            .and_then(|view| view.at_point(Rgb::ZERO, true, x, point))
             .map_or(0.0, |lp| f64::from(lp.pdf)),
     };
     // A density beyond f32 is "no finite density", as in `sample_point`.

@@ -24,6 +24,21 @@ use std::ffi::CStr;
 use std::fmt;
 use std::ptr;
 
+/// A grey colour.
+fn grey(v: f32) -> ml_rgb {
+    ml_rgb { r: v, g: v, b: v }
+}
+
+/// Every channel finite and ≥ 0.
+fn colour_ok(c: ml_rgb) -> bool {
+    [c.r, c.g, c.b].iter().all(|v| v.is_finite() && *v >= 0.0)
+}
+
+/// Every channel of an estimate finite and ≥ 0.
+fn estimate_ok(e: ml_rgb64) -> bool {
+    [e.r, e.g, e.b].iter().all(|v| v.is_finite() && *v >= 0.0)
+}
+
 /// The target's input: the operations, in order (the first [`MAX_OPS`]).
 #[derive(Arbitrary, Debug)]
 pub struct Input {
@@ -284,7 +299,7 @@ impl Light {
             position: v3(&self.position),
             direction: v3(&self.direction),
             vertex2: v3(&self.vertex2),
-            power: self.power.value(),
+            power: grey(self.power.value()),
             radius: self.radius.value(),
             half_angle: self.half_angle.value(),
             falloff_start: match self.falloff_start {
@@ -312,7 +327,7 @@ impl MaterialDesc {
     fn ml(&self) -> ml_material {
         ml_material {
             kind: self.kind.value(3),
-            albedo: self.albedo.value(),
+            albedo: grey(self.albedo.value()),
             specular: self.specular.value(),
             alpha: self.alpha.value(),
         }
@@ -505,7 +520,7 @@ impl VplDesc {
         ml_vpl {
             position: v3(&self.position),
             normal: v3(&self.normal),
-            intensity: self.intensity.value(),
+            intensity: grey(self.intensity.value()),
         }
     }
 }
@@ -1432,7 +1447,9 @@ impl Harness<'_> {
             p.direction.z,
             p.distance,
             p.pdf,
-            p.radiance,
+            p.radiance.r,
+            p.radiance.g,
+            p.radiance.b,
         ];
         self.ensure(!fields.iter().any(|&v| nan32(v)), || {
             format!("{name}: NaN in {p:?}")
@@ -1442,10 +1459,9 @@ impl Harness<'_> {
         });
         self.ensure(p.delta <= 1, || format!("{name}: delta of {p:?}"));
         if p.pdf > 0.0 {
-            self.ensure(
-                p.distance > 0.0 && p.radiance >= 0.0 && p.radiance.is_finite(),
-                || format!("{name}: {p:?}"),
-            );
+            self.ensure(p.distance > 0.0 && colour_ok(p.radiance), || {
+                format!("{name}: {p:?}")
+            });
         }
     }
 
@@ -1973,14 +1989,12 @@ impl Harness<'_> {
                         .map(|v| (visibility(&v.value, host(hp.cast())), v.ptr)),
                 );
                 let u = In::one(uniforms(&uni.value, hp), uni.ptr);
-                let mut o = Out::<f64>::one(*out);
+                let mut o = Out::<ml_rgb64>::one(*out);
                 let s =
                     ml_direct_estimate(t, p.p(), technique.value(9), prm.p(), v.p(), u.p(), o.p());
                 if self.status("ml_direct_estimate", s, &[&th, &p, &prm, &v, &u, &o]) {
                     let e = o.get(0);
-                    self.ensure(e >= 0.0 && e.is_finite(), || {
-                        format!("ml_direct_estimate: {e}")
-                    });
+                    self.ensure(estimate_ok(e), || format!("ml_direct_estimate: {e:?}"));
                 }
             }
             Op::EstimatorCreate { tree, out } => {
@@ -2037,13 +2051,11 @@ impl Harness<'_> {
                         .map(|v| (visibility(&v.value, host(hp.cast())), v.ptr)),
                 );
                 let u = In::one(uniforms(&uni.value, hp), uni.ptr);
-                let mut o = Out::<f64>::one(*out);
+                let mut o = Out::<ml_rgb64>::one(*out);
                 let s = ml_estimator_estimate(e, v.p(), u.p(), o.p());
                 if self.status("ml_estimator_estimate", s, &[&eh, &v, &u, &o]) {
                     let r = o.get(0);
-                    self.ensure(r >= 0.0 && r.is_finite(), || {
-                        format!("ml_estimator_estimate: {r}")
-                    });
+                    self.ensure(estimate_ok(r), || format!("ml_estimator_estimate: {r:?}"));
                 }
             }
             Op::Start(est) => {
@@ -2273,8 +2285,7 @@ impl Harness<'_> {
                                 d.probability > 0.0
                                     && d.probability <= 1.0
                                     && f.iter().all(|v| v.is_finite())
-                                    && d.vpl.intensity >= 0.0
-                                    && d.vpl.intensity.is_finite()
+                                    && colour_ok(d.vpl.intensity)
                             }
                             _ => false,
                         };
@@ -2326,7 +2337,7 @@ impl Harness<'_> {
             let hp: *mut Host = &mut h;
             let v = vis.map(|v| visibility(v, host(hp.cast())));
             let u = uniforms(uni, hp);
-            let mut o = Out::<f64>::one(Ptr::Valid);
+            let mut o = Out::<ml_rgb64>::one(Ptr::Valid);
             let s = ml_estimator_estimate(
                 e,
                 v.as_ref().map_or(ptr::null(), |v| v as *const _),
@@ -2335,9 +2346,7 @@ impl Harness<'_> {
             );
             if self.status("ml_estimator_estimate", s, &[&o]) {
                 let r = o.get(0);
-                self.ensure(r >= 0.0 && r.is_finite(), || {
-                    format!("ml_estimator_estimate: {r}")
-                });
+                self.ensure(estimate_ok(r), || format!("ml_estimator_estimate: {r:?}"));
             }
         }
         let s = ml_estimator_start(e);
