@@ -56,6 +56,7 @@ pub mod cut;
 pub mod direct;
 pub mod error;
 pub mod importance;
+pub mod infinite;
 mod lanes;
 pub mod light;
 pub mod light_sample;
@@ -81,6 +82,7 @@ pub use error::{
 };
 pub use importance::conty_kulla::Receiver;
 pub use importance::{BlImportance, Importance, Memo, MemoTable, TlImportance};
+pub use infinite::{InfiniteKind, InfiniteLight, RootChoice, MAX_INFINITE_LIGHTS};
 pub use light::{Light, MAX_COORDINATE, MAX_LIGHT_ENERGY, MAX_TOTAL_ENERGY};
 pub use light_sample::LightPoint;
 pub use light_set::{AliasTable, LightSet};

@@ -1,7 +1,24 @@
-//! The light model: point, spot, sphere, disk, triangle and virtual point lights (VPLs), their
-//! validation, and the
-//! bounds the tree is built from (Conty & Kulla, "Orientation bounds": box, orientation cone,
-//! energy).
+//! The light model: point, spot, sphere, disk, triangle and virtual point lights (VPLs), the
+//! distant lights and the host's environment, their validation, and the bounds the tree is
+//! built from (Conty & Kulla, "Orientation bounds": box, orientation cone, energy).
+//!
+//! Units, per kind (every emission linear RGB, per channel; the tree ranks by luminance):
+//!
+//! | kind | fields | emission | what the tree ranks by |
+//! |---|---|---|---|
+//! | point | position | intensity I, W/sr | flux 4πI |
+//! | spot | position, axis, θs, θf | intensity I on the axis, W/sr | 2π(1 − cos θs)·I (a bound of the flux) |
+//! | sphere | centre, radius R | radiance L, W/(m²·sr) | flux L·π·4πR² |
+//! | disk | centre, normal, radius R | radiance L, W/(m²·sr) | flux L·π·πR² per side |
+//! | triangle | vertices | radiance L, W/(m²·sr) | flux L·π·A per side |
+//! | VPL | position, normal | intensity I along the normal, W/sr | flux πI |
+//! | distant | direction towards the light, angular radius γ | irradiance E at normal incidence, W/m² | at a point, 4π·E·cos⁺(θ − γ) (not in the node tree) |
+//! | environment | — (the host's radiance) | the host's irradiance bounds on receivers facing ±x, ±y, ±z, W/m² | at a point, 4π × the bound for its normal (not in the node tree) |
+//!
+//! A distant light's radiance is uniform over its cone of directions: L = E / (π sin²γ), so
+//! that the irradiance at normal incidence is E; γ = 0 is a delta direction that delivers E.
+//! The importances of the node tree are `flux / d²` = 4π × an irradiance, so a distant
+//! light's and the environment's are in the same units (docs/formulas.md, section 16).
 //!
 //! What a light may hold, decided once:
 //! - coordinates finite with magnitude ≤ [`MAX_COORDINATE`];
@@ -11,7 +28,12 @@
 //! - a spot's `half_angle` θs in (0, π], its `falloff_start` θf in [0, θs];
 //! - a degenerate triangle (zero area) is accepted and never sampled;
 //! - a light's energy at most [`MAX_LIGHT_ENERGY`], all of them together at most
-//!   [`MAX_TOTAL_ENERGY`], so that importances cannot overflow f32.
+//!   [`MAX_TOTAL_ENERGY`], so that importances cannot overflow f32;
+//! - a distant light's direction finite and non-zero (normalised here), its angular radius γ
+//!   in [0, π/2], its irradiance's luminance at most [`MAX_LIGHT_ENERGY`]; an environment's
+//!   six bounds finite, ≥ 0 and at most [`MAX_LIGHT_ENERGY`]. At most
+//!   [`MAX_INFINITE_LIGHTS`](crate::infinite::MAX_INFINITE_LIGHTS) distant and environment
+//!   lights in all, at most one environment (checked by the build).
 
 use crate::bounds::{Aabb, Cone, LightBounds, Sphere};
 use crate::colour::Rgb;
@@ -84,6 +106,29 @@ pub enum Light {
         /// Emits on both sides.
         two_sided: bool,
     },
+    /// A light at infinity seen in the same cone of directions from every point (a sun): the
+    /// directions within `angular_radius` γ of `direction`, each of radiance
+    /// `irradiance / (π sin²γ)`, so that a surface facing it receives `irradiance`; γ = 0 is
+    /// a delta direction of irradiance `irradiance`. Not in the node tree: the light set
+    /// weighs it against the tree at every shading point.
+    Distant {
+        /// Direction towards the light (need not be unit length).
+        direction: Vec3,
+        /// Half-angle γ of the cone, radians, in [0, π/2] (0.27° ≈ 0.0047 for the sun).
+        angular_radius: f32,
+        /// Irradiance at normal incidence (W/m²).
+        irradiance: Rgb,
+    },
+    /// The host's environment (a sky or an environment map): its radiance, sampling and pdf
+    /// belong to the host (see [`crate::direct::Environment`]); the light carries what the
+    /// importance needs, bounds of the irradiance it delivers. At most one per light set.
+    Environment {
+        /// Upper bounds of the irradiance (luminance, W/m²) on a receiver facing +x, −x, +y,
+        /// −y, +z and −z: `∫ Y(L(ω)) max(0, a·ω) dω` for each axis direction a. The bound at a
+        /// normal n is `Σ |n_i| · E(sign(n_i) e_i)`, which is at least the irradiance for any
+        /// n. A uniform environment of radiance L has πY(L) in all six.
+        irradiance: [f32; 6],
+    },
     /// Virtual point light (Keller 1997, "Instant Radiosity"): a point that emits with a cosine
     /// lobe about its normal, radiant intensity `intensity · max(0, cos θ)` with θ the angle to
     /// `normal` (a one-sided Lambertian point emitter). What a diffuse surface point that
@@ -153,6 +198,19 @@ fn check_direction(index: usize, field: LightField, d: Vec3) -> Result<Vec3, Bui
     }
     math::unit_f64([f64::from(d.x), f64::from(d.y), f64::from(d.z)])
         .ok_or_else(|| invalid(index, field, Problem::ZeroLength, 0.0))
+}
+
+/// An irradiance of at most [`MAX_LIGHT_ENERGY`].
+fn check_magnitude(index: usize, e: f32) -> Result<(), BuildError> {
+    if e > MAX_LIGHT_ENERGY {
+        return Err(invalid(
+            index,
+            LightField::Irradiance,
+            Problem::EnergyTooLarge,
+            e,
+        ));
+    }
+    Ok(())
 }
 
 /// `(v1 − v0) × (v2 − v0)` in f64.
@@ -347,6 +405,37 @@ impl Light {
                 check_direction(index, LightField::Normal, normal)?;
                 check_power(index, LightField::Intensity, intensity)?;
             }
+            Light::Distant {
+                direction,
+                angular_radius,
+                irradiance,
+            } => {
+                check_direction(index, LightField::Direction, direction)?;
+                let field = LightField::AngularRadius;
+                if !angular_radius.is_finite() {
+                    return Err(invalid(index, field, Problem::NotFinite, angular_radius));
+                }
+                if !(0.0..=FRAC_PI_2).contains(&angular_radius) {
+                    return Err(invalid(index, field, Problem::OutOfRange, angular_radius));
+                }
+                check_power(index, LightField::Irradiance, irradiance)?;
+                check_magnitude(index, irradiance.luminance())?;
+            }
+            Light::Environment { irradiance } => {
+                check_power(
+                    index,
+                    LightField::Irradiance,
+                    Rgb::new(irradiance[0], irradiance[1], irradiance[2]),
+                )?;
+                check_power(
+                    index,
+                    LightField::Irradiance,
+                    Rgb::new(irradiance[3], irradiance[4], irradiance[5]),
+                )?;
+                for e in irradiance {
+                    check_magnitude(index, e)?;
+                }
+            }
         }
         let e = self.energy_f64();
         if e > f64::from(MAX_LIGHT_ENERGY) {
@@ -354,6 +443,7 @@ impl Light {
                 Light::Point { .. } | Light::Spot { .. } | Light::Vpl { .. } => {
                     LightField::Intensity
                 }
+                Light::Distant { .. } | Light::Environment { .. } => LightField::Irradiance,
                 _ => LightField::Radiance,
             };
             return Err(invalid(index, field, Problem::EnergyTooLarge, e as f32));
@@ -361,14 +451,25 @@ impl Light {
         Ok(e as f32)
     }
 
-    /// Emitting area (0 for point, spot and virtual point lights).
+    /// Emitting area (0 for point, spot, virtual point, distant and environment lights).
     pub fn area(&self) -> f32 {
         self.area_f64() as f32
     }
 
+    /// Whether the light is at infinity (distant or environment): it has no position, is not
+    /// in the node tree and is weighed against it at the root (see [`crate::infinite`]).
+    #[inline]
+    pub fn is_infinite(&self) -> bool {
+        matches!(self, Light::Distant { .. } | Light::Environment { .. })
+    }
+
     fn area_f64(&self) -> f64 {
         match *self {
-            Light::Point { .. } | Light::Spot { .. } | Light::Vpl { .. } => 0.0,
+            Light::Point { .. }
+            | Light::Spot { .. }
+            | Light::Vpl { .. }
+            | Light::Distant { .. }
+            | Light::Environment { .. } => 0.0,
             Light::Sphere { radius, .. } => {
                 4.0 * core::f64::consts::PI * math::sq(f64::from(radius))
             }
@@ -392,6 +493,8 @@ impl Light {
                 ..
             } => 2.0 * pi * math::one_minus_cos64(f64::from(half_angle)) * lum(intensity),
             Light::Sphere { radiance, .. } => lum(radiance) * pi * self.area_f64(),
+            // At infinity: no finite flux, and not in the node tree.
+            Light::Distant { .. } | Light::Environment { .. } => 0.0,
             Light::Disk {
                 radiance,
                 two_sided,
@@ -412,7 +515,9 @@ impl Light {
     /// "Orientation bounds"), with I and L the luminance of the light's colour: 4πI
     /// for points, 2π(1 − cos θs)·I for spots (an upper bound of the flux with falloff;
     /// `1 − cos θs` is computed without cancellation, so a narrow cone keeps its energy), πI
-    /// for virtual point lights, L·π·A per emitting side for area lights.
+    /// for virtual point lights, L·π·A per emitting side for area lights; 0 for distant and
+    /// environment lights (no finite flux: they are weighed at each shading point by their
+    /// irradiance instead, see [`crate::infinite`]).
     /// Valid only for a light that passed [`Light::validate`].
     pub fn energy(&self) -> f32 {
         self.energy_f64() as f32
@@ -466,6 +571,15 @@ impl Light {
                     cone,
                 )
             }
+            // Not bounded by the tree: a point at the origin, any orientation.
+            Light::Distant { .. } | Light::Environment { .. } => (
+                Aabb::point(Vec3::ZERO),
+                Sphere {
+                    center: Vec3::ZERO,
+                    radius: 0.0,
+                },
+                Cone::SPHERE,
+            ),
             Light::Vpl {
                 position, normal, ..
             } => (

@@ -307,6 +307,10 @@ impl LightTree {
     /// (clamped into it). `None` when no light can contribute (the root's importance is 0).
     #[inline]
     pub fn sample<I: Importance + ?Sized>(&self, imp: &I, u: f32) -> Option<LightSample> {
+        if !self.infinite.is_empty() {
+            // The root choice among the nodes and the lights at infinity first.
+            return self.sample_with_infinite(imp, u);
+        }
         self.descend_from(imp, 0, true, u, MIN_PMF)
     }
 
@@ -391,6 +395,13 @@ impl LightTree {
     ) -> Result<(), LengthMismatch> {
         LengthMismatch::check("us", imps.len(), us.len())?;
         LengthMismatch::check("out", imps.len(), out.len())?;
+        if !self.infinite.is_empty() {
+            // With lights at infinity, the single calls (their root choice first).
+            for ((o, imp), &u) in out.iter_mut().zip(imps).zip(us) {
+                *o = self.sample(imp, u);
+            }
+            return Ok(());
+        }
         self.descend_many::<I, BATCH_LANES>(
             imps.len(),
             |j| &imps[j],
@@ -419,6 +430,12 @@ impl LightTree {
     ) -> Result<(), LengthMismatch> {
         LengthMismatch::check("lights", imps.len(), lights.len())?;
         LengthMismatch::check("out", imps.len(), out.len())?;
+        if !self.infinite.is_empty() {
+            for ((o, imp), &light) in out.iter_mut().zip(imps).zip(lights) {
+                *o = self.pmf(imp, light);
+            }
+            return Ok(());
+        }
         if self.nodes.len() >= PMF_WIDE_NODES {
             self.pmf_batch_with::<I, PMF_BATCH_LANES_WIDE>(imps, lights, out);
         } else {
@@ -683,6 +700,9 @@ impl LightTree {
     /// The probability that [`LightTree::sample`] returns `light` at the shading point of
     /// `imp`: exactly the pmf it reports. 0 for lights not in the tree or out of range.
     pub fn pmf<I: Importance + ?Sized>(&self, imp: &I, light: u32) -> f32 {
+        if !self.infinite.is_empty() {
+            return self.pmf_with_infinite(imp, light);
+        }
         let path = self.path(light);
         self.pmf_from(
             imp,

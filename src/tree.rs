@@ -1,9 +1,12 @@
 //! The light tree as flat, `bytemuck::Pod` arrays: [`Node4`] (four child clusters quantised
 //! into one 64-byte cache line), the lights of the leaf slots in tree order, and per-light
-//! paths, both bit-packed; its self-check ([`LightTree::validate`]) and its byte serialisation.
+//! paths, both bit-packed, and beside the nodes the distant and environment lights
+//! ([`InfiniteLight`], weighed against the nodes at the root: [`crate::infinite`]); its
+//! self-check ([`LightTree::validate`]) and its byte serialisation.
 
 use crate::bounds::{Cone, Sphere};
 use crate::error::{FormatError, ValidationError};
+use crate::infinite::{InfiniteLight, MAX_INFINITE_LIGHTS};
 use crate::light::Light;
 use crate::packed::{index_bits, path_bits, Packed};
 use crate::quantize;
@@ -291,6 +294,9 @@ pub struct LightTree {
     /// Per light, its path (see [`LightTree::path`]), in [`path_bits`] of the depth.
     pub(crate) paths: Packed,
     pub(crate) depth: u32,
+    /// The distant and environment lights, in input order (not in the nodes; their paths are
+    /// 0).
+    pub(crate) infinite: Vec<InfiniteLight>,
 }
 
 /// The number of levels a path encodes (0 for the "not in tree" path 0).
@@ -303,9 +309,10 @@ pub(crate) fn path_len(path: u64) -> u32 {
     }
 }
 
-/// Format version 3: 64-byte quantised nodes, a leaf array and paths bit-packed into 64-bit
-/// words (version 2 stored 32-bit leaf entries and 32- or 64-bit paths).
-const VERSION: u8 = 3;
+/// Format version 4: 64-byte quantised nodes, a leaf array and paths bit-packed into 64-bit
+/// words, then the section of the distant and environment lights (version 3 had no such
+/// section; version 2 stored 32-bit leaf entries and 32- or 64-bit paths).
+const VERSION: u8 = 4;
 const MAGIC: [u8; 7] = *b"MLTREE\x00";
 const HEADER: usize = 40;
 
@@ -358,6 +365,7 @@ impl LightTree {
             leaves,
             paths,
             depth,
+            infinite: Vec::new(),
         }
     }
 
@@ -405,9 +413,10 @@ impl LightTree {
         self.depth
     }
 
-    /// Whether the tree samples nothing (no light has positive energy).
+    /// Whether the tree samples nothing: no light of the node tree has positive energy and
+    /// there is no distant or environment light.
     pub fn is_empty(&self) -> bool {
-        self.nodes.is_empty()
+        self.nodes.is_empty() && self.infinite.is_empty()
     }
 
     /// Total energy of the sampled lights (as the root's slots store it, rounded up).
@@ -430,12 +439,14 @@ impl LightTree {
         }
     }
 
-    /// Bytes of the nodes, the node variances, the leaf array and the paths.
+    /// Bytes of the nodes, the node variances, the leaf array, the paths and the entries of
+    /// the lights at infinity.
     fn array_bytes(&self) -> usize {
         core::mem::size_of_val(self.nodes.as_slice())
             + core::mem::size_of_val(self.variances.as_slice())
             + self.leaves.byte_len()
             + self.paths.byte_len()
+            + core::mem::size_of_val(self.infinite.as_slice())
     }
 
     /// Size and shape.
@@ -475,6 +486,12 @@ impl LightTree {
     /// after every build in debug builds and in tests; [`LightTree::validate_lights`] also
     /// checks the leaves against the lights' own bounds.
     pub fn validate(&self) -> Result<(), ValidationError> {
+        self.validate_nodes()?;
+        self.validate_infinite()
+    }
+
+    /// [`LightTree::validate`] of the nodes, leaf array and paths.
+    fn validate_nodes(&self) -> Result<(), ValidationError> {
         let n_nodes = self.nodes.len();
         let n_lights = self.paths.len();
         if n_nodes > MAX_LIGHTS as usize
@@ -536,6 +553,7 @@ impl LightTree {
         if lights.len() != self.paths.len() {
             return Err(ValidationError::BadStats);
         }
+        self.validate_infinite_lights(lights)?;
         for (l, light) in lights.iter().enumerate() {
             let b = light.bounds();
             let path = self.path(l as u32);
@@ -565,16 +583,18 @@ impl LightTree {
     }
 
     /// The tree as bytes, for a host to cache or send to another process; read back with
-    /// [`LightTree::from_bytes`]. Format version 3: a 40-byte header (magic `MLTREE\0`, the
+    /// [`LightTree::from_bytes`]. Format version 4: a 40-byte header (magic `MLTREE\0`, the
     /// version byte, then as little-endian integers the node, light and leaf counts (u64 each)
     /// and the depth (u32), then a byte-order mark), followed in the host's byte order by the
     /// nodes, the node variances (u16 each), the leaf array and the paths. The leaf array holds
     /// each light slot's light index in as many bits as the largest index needs (at least 1),
     /// the paths each light's path in `2·depth + 1` bits, each array packed back to back into
     /// 64-bit words (value `i` in bits `i·w` to `(i + 1)·w − 1` of the words read as one
-    /// little-endian bit stream), with one word of padding after the last.
+    /// little-endian bit stream), with one word of padding after the last. Then the section of
+    /// the distant and environment lights: their count as a little-endian u64, then the
+    /// 64-byte [`InfiniteLight`] entries (in the host's byte order).
     pub fn as_bytes(&self) -> Vec<u8> {
-        let mut out = Vec::with_capacity(HEADER + self.array_bytes());
+        let mut out = Vec::with_capacity(HEADER + self.array_bytes() + 8);
         out.extend_from_slice(&MAGIC);
         out.push(VERSION);
         out.extend_from_slice(&(self.nodes.len() as u64).to_le_bytes());
@@ -586,6 +606,8 @@ impl LightTree {
         out.extend_from_slice(bytemuck::cast_slice(&self.variances));
         out.extend_from_slice(bytemuck::cast_slice(self.leaves.words()));
         out.extend_from_slice(bytemuck::cast_slice(self.paths.words()));
+        out.extend_from_slice(&(self.infinite.len() as u64).to_le_bytes());
+        out.extend_from_slice(bytemuck::cast_slice(&self.infinite));
         out
     }
 
@@ -630,7 +652,16 @@ impl LightTree {
         let variance_bytes = n_nodes * 2;
         let leaf_bytes = Packed::word_count(n_leaves, leaf_bits) * 8;
         let path_bytes = Packed::word_count(n_lights, path_bits) * 8;
-        let need = HEADER + node_bytes + variance_bytes + leaf_bytes + path_bytes;
+        let arrays = HEADER + node_bytes + variance_bytes + leaf_bytes + path_bytes;
+        if bytes.len() < arrays + 8 {
+            return Err(FormatError::Truncated);
+        }
+        let n_infinite = u64_at(arrays);
+        if n_infinite > MAX_INFINITE_LIGHTS as u64 {
+            return Err(FormatError::Invalid(ValidationError::BadStats));
+        }
+        let infinite_bytes = n_infinite as usize * core::mem::size_of::<InfiniteLight>();
+        let need = arrays + 8 + infinite_bytes;
         if bytes.len() < need {
             return Err(FormatError::Truncated);
         }
@@ -649,12 +680,16 @@ impl LightTree {
         let (Some(leaves), Some(paths)) = (leaves, paths) else {
             return Err(FormatError::Truncated);
         };
+        o = arrays + 8;
+        let infinite: Vec<InfiniteLight> =
+            bytemuck::pod_collect_to_vec(&bytes[o..o + infinite_bytes]);
         let tree = LightTree {
             nodes,
             variances,
             leaves,
             paths,
             depth,
+            infinite,
         };
         tree.validate().map_err(FormatError::Invalid)?;
         Ok(tree)

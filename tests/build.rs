@@ -832,15 +832,16 @@ fn truncated_extended_and_bad_header_bytes_are_rejected() {
             );
         }
         // The format version (byte 7): another version (1: 128-byte nodes; 2: 32-bit leaf
-        // entries and 32- or 64-bit paths) is named as such.
-        for found in [1, 2, 4] {
+        // entries and 32- or 64-bit paths; 3: no section of lights at infinity) is named as
+        // such.
+        for found in [1, 2, 3, 5] {
             let mut other = bytes.clone();
             other[7] = found;
             assert_eq!(
                 LightTree::from_bytes(&other),
                 Err(FormatError::UnsupportedVersion {
                     found,
-                    supported: 3
+                    supported: 4
                 })
             );
         }

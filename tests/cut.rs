@@ -104,6 +104,9 @@ fn light_point(l: &Light) -> Vec3 {
         | Light::Vpl { position, .. } => position,
         Light::Sphere { center, .. } | Light::Disk { center, .. } => center,
         Light::Triangle { vertices, .. } => (vertices[0] + vertices[1] + vertices[2]) / 3.0,
+        Light::Distant { .. } | Light::Environment { .. } => {
+            unreachable!("lights at infinity are tested in tests/infinite.rs")
+        }
     }
 }
 

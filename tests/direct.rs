@@ -623,6 +623,7 @@ fn host_estimate(est: &mut Estimator, host: &HostLambert, u: &mut U) -> [f64; 3]
                 })
                 .unwrap();
             }
+            Step::Environment(_) => unreachable!("no environment light here"),
         }
     }
 }
@@ -746,6 +747,7 @@ fn one_call_is_the_lower_level_loop() {
                             sum[c] += v[c];
                         }
                     }
+                    Step::Environment(_) => unreachable!("no environment light here"),
                 }
             }
             assert_eq!(one.map(f64::to_bits), sum.map(f64::to_bits), "{t}");
@@ -1008,6 +1010,7 @@ fn bad_input_is_an_error_naming_it() {
                 })
                 .unwrap();
             }
+            Step::Environment(_) => unreachable!("no environment light here"),
         }
     }
     assert!(saw_light);

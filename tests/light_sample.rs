@@ -77,6 +77,9 @@ fn radiance_of(l: &Light) -> f32 {
         Light::Point { intensity, .. }
         | Light::Spot { intensity, .. }
         | Light::Vpl { intensity, .. } => intensity.r,
+        Light::Distant { .. } | Light::Environment { .. } => {
+            unreachable!("lights at infinity are tested in tests/infinite.rs")
+        }
     }
 }
 
@@ -192,6 +195,9 @@ fn centre_and_size(l: &Light) -> (Vec3, f32) {
         Light::Point { position, .. }
         | Light::Spot { position, .. }
         | Light::Vpl { position, .. } => (position, 0.0),
+        Light::Distant { .. } | Light::Environment { .. } => {
+            unreachable!("lights at infinity are tested in tests/infinite.rs")
+        }
     }
 }
 

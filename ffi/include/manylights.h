@@ -96,6 +96,20 @@ enum ml_light_kind
      * `power · max(0, cos θ)`).
      */
     ML_LIGHT_KIND_VPL = 5,
+    /**
+     * Distant light (a sun): `direction` towards the light (any non-zero length),
+     * `half_angle` its angular radius γ in [0, π/2] radians (0: a delta direction), `power`
+     * its irradiance at normal incidence (W/m²); the radiance of its cone is
+     * `power / (π sin²γ)`.
+     */
+    ML_LIGHT_KIND_DISTANT = 6,
+    /**
+     * The host's environment: `irradiance_bounds`, upper bounds of the irradiance
+     * (luminance, W/m²) it delivers on receivers facing +x, −x, +y, −y, +z, −z (π × the
+     * luminance of the radiance for a uniform environment); its radiance and sampling are
+     * the host's (`ml_environment`). At most one per tree.
+     */
+    ML_LIGHT_KIND_ENVIRONMENT = 7,
 };
 #ifndef __cplusplus
 #if __STDC_VERSION__ >= 202311L
@@ -179,6 +193,11 @@ enum ml_technique
      * One `bl` light sample plus one BSDF sample, power heuristic: the default.
      */
     ML_TECHNIQUE_BL_MIS = 8,
+    /**
+     * `tl-mis` with pbrt-v4's handling of distant and environment lights: each picked with
+     * the fixed probability 1 / (n + 1) whatever the point, the node tree otherwise.
+     */
+    ML_TECHNIQUE_TL_MIS_PINF = 9,
 };
 #ifndef __cplusplus
 #if __STDC_VERSION__ >= 202311L
@@ -263,13 +282,22 @@ enum ml_step_kind
     ML_STEP_KIND_LIGHT = 0,
     /**
      * A BSDF sample to take with `u0`, `u1`: sample the BSDF, cast the ray and report the
-     * direction, its pdf and the first surface's distance to `ml_estimator_bsdf_hits`.
+     * direction, its pdf and the first surface's distance to `ml_estimator_bsdf_hits` (or
+     * `ml_estimator_bsdf_hits_env`, with the environment's pdf of the direction, for a tree
+     * with an environment light).
      */
     ML_STEP_KIND_BSDF = 1,
     /**
      * The estimate is complete.
      */
     ML_STEP_KIND_DONE = 2,
+    /**
+     * A sample of the host's environment to take with `u0`, `u1` (light `light`, chosen with
+     * probability `pmf`): sample the map, then pass the direction, its radiance and pdf to
+     * `ml_estimator_environment_point`, which gives the light step to shade, test (to +∞)
+     * and weigh.
+     */
+    ML_STEP_KIND_ENVIRONMENT = 3,
 };
 #ifndef __cplusplus
 #if __STDC_VERSION__ >= 202311L
@@ -566,6 +594,34 @@ typedef struct ml_rgb64 {
 } ml_rgb64;
 
 /**
+ * The host's environment (radiance, sampling and pdf of its map or sky), for the one call on
+ * a tree with an environment light. `sample(user_data, u0, u1, direction, radiance, pdf)`
+ * writes a unit direction towards the environment, the radiance along it and its
+ * solid-angle pdf (> 0) and returns non-zero, or returns 0 for no sample;
+ * `eval(user_data, direction, radiance, pdf)` writes the radiance along the unit `direction`
+ * and the pdf with which `sample` returns it (≥ 0). Callbacks must return normally.
+ */
+typedef struct ml_environment {
+    /**
+     * Samples a direction.
+     */
+    int32_t (*sample)(void *user_data,
+                      float u0,
+                      float u1,
+                      struct ml_vec3 *direction,
+                      struct ml_rgb *radiance,
+                      float *pdf);
+    /**
+     * Radiance and pdf of a direction.
+     */
+    void (*eval)(void *user_data, struct ml_vec3 direction, struct ml_rgb *radiance, float *pdf);
+    /**
+     * Passed to both.
+     */
+    void *user_data;
+} ml_environment;
+
+/**
  * A point on a light seen from a shading point x (sampled, or reached by a ray).
  * `pdf = 0` (and every other field 0) when there is none.
  */
@@ -626,11 +682,11 @@ typedef struct ml_step {
      */
     struct ml_light_point point;
     /**
-     * BSDF step: the first uniform number for sampling the BSDF.
+     * BSDF and environment steps: the first uniform number for sampling the BSDF or the map.
      */
     float u0;
     /**
-     * BSDF step: the second uniform number.
+     * BSDF and environment steps: the second uniform number.
      */
     float u1;
 } ml_step;
@@ -731,6 +787,11 @@ typedef struct ml_light {
      * Spot falloff start θf in radians, in [0, θs].
      */
     float falloff_start;
+    /**
+     * Environment: irradiance bounds on receivers facing +x, −x, +y, −y, +z, −z (W/m²,
+     * luminance; finite, ≥ 0).
+     */
+    float irradiance_bounds[6];
 } ml_light;
 
 /**
@@ -1127,7 +1188,8 @@ ml_status ml_direct_params_default(struct ml_direct_params *out);
  *
  * Errors: `ML_ERR_NULL` (`tree`, `sp`, `uniforms`, `uniforms->next_f32`, `out`);
  * `ML_ERR_INVALID_ARGUMENT` (a bad shading point, technique or parameter; a uniform number
- * outside [0, 1); a NaN or negative `first_hit`); `ML_ERR_STATE` (a tree loaded from bytes).
+ * outside [0, 1); a NaN or negative `first_hit`); `ML_ERR_STATE` (a tree loaded from bytes;
+ * a tree with an environment light: `ml_direct_estimate_env`).
  */
 ml_status ml_direct_estimate(const struct ml_tree *tree,
                              const struct ml_shading_point *sp,
@@ -1136,6 +1198,23 @@ ml_status ml_direct_estimate(const struct ml_tree *tree,
                              const struct ml_visibility *visibility,
                              const struct ml_uniforms *uniforms,
                              struct ml_rgb64 *out);
+
+/**
+ * `ml_direct_estimate` with the host's `environment` (its radiance, sampling and pdf), for a
+ * tree with an environment light (on a tree without one it is never called).
+ *
+ * Errors: those of `ml_direct_estimate`, and `ML_ERR_NULL` (`environment`,
+ * `environment->sample`, `environment->eval`); `ML_ERR_INVALID_ARGUMENT` (a NaN, negative or
+ * infinite pdf or radiance from the callbacks, a zero direction from `sample`).
+ */
+ml_status ml_direct_estimate_env(const struct ml_tree *tree,
+                                 const struct ml_shading_point *sp,
+                                 uint32_t technique_,
+                                 const struct ml_direct_params *params_,
+                                 const struct ml_visibility *visibility,
+                                 const struct ml_environment *environment,
+                                 const struct ml_uniforms *uniforms,
+                                 struct ml_rgb64 *out);
 
 /**
  * Creates an estimator for the lights of `tree` (built by `ml_tree_build`). Set it up for a
@@ -1177,6 +1256,19 @@ ml_status ml_estimator_estimate(struct ml_estimator *est,
                                 struct ml_rgb64 *out);
 
 /**
+ * `ml_estimator_estimate` with the host's `environment` (see `ml_direct_estimate_env`).
+ *
+ * Errors: those of `ml_estimator_estimate`, and `ML_ERR_NULL` (`environment`,
+ * `environment->sample`, `environment->eval`); `ML_ERR_INVALID_ARGUMENT` (bad values from
+ * the callbacks).
+ */
+ml_status ml_estimator_estimate_env(struct ml_estimator *est,
+                                    const struct ml_visibility *visibility,
+                                    const struct ml_environment *environment,
+                                    const struct ml_uniforms *uniforms,
+                                    struct ml_rgb64 *out);
+
+/**
  * Starts a new estimate of the lower level (forgetting the current one); then call
  * `ml_estimator_next` until it gives `ML_STEP_KIND_DONE`, adding up the contributions.
  *
@@ -1206,16 +1298,35 @@ ml_status ml_estimator_next(struct ml_estimator *est,
 ml_status ml_estimator_weigh(struct ml_estimator *est, float bsdf_pdf, struct ml_weighted *out);
 
 /**
+ * Turns the last environment step into its light step: the host sampled its map with the
+ * step's `u0`, `u1` and got `direction` (any positive length), the `radiance` along it and
+ * its solid-angle `pdf` (> 0). Writes the light step (`ML_STEP_KIND_LIGHT`, its point at
+ * `distance` +∞) to `*out`; shade and test it, and weigh it with `ml_estimator_weigh`.
+ *
+ * Errors: `ML_ERR_NULL` (`est`, `out`); `ML_ERR_INVALID_ARGUMENT` (a zero or non-finite
+ * `direction`, a `pdf` not positive and finite, a negative or non-finite channel of
+ * `radiance`); `ML_ERR_STATE` (not set up, or no environment step yielded since the last
+ * start).
+ */
+ml_status ml_estimator_environment_point(struct ml_estimator *est,
+                                         struct ml_vec3 direction,
+                                         struct ml_rgb radiance,
+                                         float pdf,
+                                         struct ml_step *out);
+
+/**
  * Reports the last BSDF step's sample: the host sampled `direction` (world space, any
  * positive length) with density `bsdf_pdf` (solid angle), and its ray's first surface is at
  * `hit_distance` (+infinity for none). Calls `each(user_data, hit)` for every light reached in
  * front of it with non-zero radiance, with its weight (the host adds `value ·
- * hit->weighted.scale`); `*any_hit` gets 1 if any was reached (what the adaptive allocation
+ * hit->weighted.scale`) — a ray that escapes also reaches the distant lights whose cones
+ * hold its direction; `*any_hit` gets 1 if any was reached (what the adaptive allocation
  * learns), else 0.
  *
  * Errors: `ML_ERR_NULL` (`est`, `each`, `any_hit`); `ML_ERR_INVALID_ARGUMENT` (a zero or
  * non-finite `direction`, a bad `bsdf_pdf`, a NaN or negative `hit_distance`);
- * `ML_ERR_STATE` (not set up, or no BSDF step yielded since the last start).
+ * `ML_ERR_STATE` (not set up, or no BSDF step yielded since the last start; a tree with an
+ * environment light: `ml_estimator_bsdf_hits_env`).
  */
 ml_status ml_estimator_bsdf_hits(struct ml_estimator *est,
                                  struct ml_vec3 direction,
@@ -1224,6 +1335,25 @@ ml_status ml_estimator_bsdf_hits(struct ml_estimator *est,
                                  ml_hit_fn each,
                                  void *user_data,
                                  uint32_t *any_hit);
+
+/**
+ * `ml_estimator_bsdf_hits` for any tree: a ray that escapes (`hit_distance` = +infinity) also
+ * reaches the environment, weighed with `environment_pdf`, the host's pdf of sampling
+ * `direction` from its map (finite, ≥ 0; ignored when the tree has no environment light or
+ * the ray does not escape). The environment's hit has a black `point.radiance`: the host
+ * shades it with its own radiance along the direction.
+ *
+ * Errors: those of `ml_estimator_bsdf_hits` (but for the environment's), and
+ * `ML_ERR_INVALID_ARGUMENT` for a NaN, negative or infinite `environment_pdf`.
+ */
+ml_status ml_estimator_bsdf_hits_env(struct ml_estimator *est,
+                                     struct ml_vec3 direction,
+                                     float bsdf_pdf,
+                                     float hit_distance,
+                                     float environment_pdf,
+                                     ml_hit_fn each,
+                                     void *user_data,
+                                     uint32_t *any_hit);
 
 /**
  * The message of the last call on this thread that failed (`""` if none failed): the

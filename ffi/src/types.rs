@@ -113,6 +113,16 @@ pub enum ml_light_kind {
     /// intensity along the normal (a one-sided Lambertian point emitter, intensity
     /// `power · max(0, cos θ)`).
     Vpl = 5,
+    /// Distant light (a sun): `direction` towards the light (any non-zero length),
+    /// `half_angle` its angular radius γ in [0, π/2] radians (0: a delta direction), `power`
+    /// its irradiance at normal incidence (W/m²); the radiance of its cone is
+    /// `power / (π sin²γ)`.
+    Distant = 6,
+    /// The host's environment: `irradiance_bounds`, upper bounds of the irradiance
+    /// (luminance, W/m²) it delivers on receivers facing +x, −x, +y, −y, +z, −z (π × the
+    /// luminance of the radiance for a uniform environment); its radiance and sampling are
+    /// the host's (`ml_environment`). At most one per tree.
+    Environment = 7,
 }
 
 /// One light, as given to `ml_tree_build`. Which fields a kind reads is listed at each
@@ -140,6 +150,9 @@ pub struct ml_light {
     pub half_angle: f32,
     /// Spot falloff start θf in radians, in [0, θs].
     pub falloff_start: f32,
+    /// Environment: irradiance bounds on receivers facing +x, −x, +y, −y, +z, −z (W/m²,
+    /// luminance; finite, ≥ 0).
+    pub irradiance_bounds: [f32; 6],
 }
 
 /// The descriptor of a core light, field for field (what a Rust host that also calls the
@@ -215,6 +228,20 @@ impl From<&Light> for ml_light {
                 d.position = position.into();
                 d.direction = normal.into();
                 d.power = intensity.into();
+            }
+            Light::Distant {
+                direction,
+                angular_radius,
+                irradiance,
+            } => {
+                d.kind = ml_light_kind::Distant as u32;
+                d.direction = direction.into();
+                d.half_angle = angular_radius;
+                d.power = irradiance.into();
+            }
+            Light::Environment { irradiance } => {
+                d.kind = ml_light_kind::Environment as u32;
+                d.irradiance_bounds = irradiance;
             }
         }
         d
@@ -370,6 +397,8 @@ fn kind_name(kind: u32) -> &'static str {
         2 => "sphere",
         3 => "disk",
         4 => "triangle",
+        6 => "distant",
+        7 => "environment",
         _ => "VPL",
     }
 }
@@ -389,6 +418,11 @@ fn light_field(kind: u32, f: LightField) -> String {
         LightField::Radiance => ("power", Some("radiance")),
         LightField::HalfAngle => ("half_angle", None),
         LightField::FalloffStart => ("falloff_start", None),
+        LightField::AngularRadius => ("half_angle", Some("angular radius")),
+        LightField::Irradiance if kind == ml_light_kind::Environment as u32 => {
+            ("irradiance_bounds", None)
+        }
+        LightField::Irradiance => ("power", Some("irradiance")),
     };
     match core {
         Some(core) => format!("{c} (the {} light's {core})", kind_name(kind)),
@@ -443,9 +477,17 @@ pub(crate) fn light(l: &ml_light, index: usize, name: &str) -> Result<Light> {
             normal: d,
             intensity: l.power.into(),
         },
+        6 => Light::Distant {
+            direction: d,
+            angular_radius: l.half_angle,
+            irradiance: l.power.into(),
+        },
+        7 => Light::Environment {
+            irradiance: l.irradiance_bounds,
+        },
         k => {
             return Err(Error::invalid(format_args!(
-                "{name}[{index}].kind: {k} is not an ml_light_kind (0 to 5)"
+                "{name}[{index}].kind: {k} is not an ml_light_kind (0 to 7)"
             )))
         }
     })
@@ -472,6 +514,13 @@ pub(crate) fn build_error(e: BuildError, lights: &[ml_light], name: &str) -> Err
         )),
         BuildError::TotalEnergyTooLarge => Error::invalid(format_args!(
             "{name}: the lights' total energy exceeds MAX_TOTAL_ENERGY (1e26)"
+        )),
+        BuildError::SecondEnvironment { index } => Error::invalid(format_args!(
+            "{name}[{index}]: a second environment light (at most one per tree)"
+        )),
+        BuildError::TooManyInfiniteLights { count } => Error::invalid(format_args!(
+            "{name}: {count} distant and environment lights (at most {})",
+            manylights::MAX_INFINITE_LIGHTS
         )),
         other => Error::invalid(format_args!("{name}: {other}")),
     }

@@ -113,10 +113,17 @@ fn arbitrary_lights_points_and_numbers() {
                 };
                 let half = b.val(0.1, 3.0, wild);
                 ml_light {
-                    kind: if wild > 0 {
-                        b.small(6)
+                    // Distant and environment lights one in 128 each (a set holds at most
+                    // one environment and 16 lights at infinity).
+                    // In the wild rounds one kind in ten is any number.
+                    kind: if wild > 0 && b.next() % 10 == 0 {
+                        b.next() as u32
                     } else {
-                        (b.next() % 6) as u32
+                        match (b.next() % 128) as u32 {
+                            126 => 6,
+                            127 => 7,
+                            k => k % 6,
+                        }
                     },
                     two_sided: (b.next() % 2) as u32,
                     position: v3(&mut b),
@@ -129,6 +136,7 @@ fn arbitrary_lights_points_and_numbers() {
                     radius: b.val(0.01, 1.0, wild),
                     half_angle: half,
                     falloff_start: half * b.val(0.0, 1.0, wild),
+                    irradiance_bounds: [b.val(0.0, 2.0, wild); 6],
                 }
             })
             .collect();

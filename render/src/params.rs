@@ -96,6 +96,7 @@ value_enum!(
         Technique::Full,
         Technique::TlMis,
         Technique::BlMis,
+        Technique::TlMisPinf,
     ]
 );
 

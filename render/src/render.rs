@@ -181,6 +181,17 @@ fn moments(spp: usize, mut estimate: impl FnMut() -> [f64; 3]) -> (Pixel, Pixel)
 /// No light: black with no variance.
 const BLACK: (Pixel, Pixel) = ([0.0; 3], [0.0; 3]);
 
+/// One estimate at the estimator's point, with the scene's sky if it has one.
+#[inline]
+fn estimate(scene: &RenderScene, est: &mut Estimator<'_>, rng: &mut Pcg64Mcg) -> [f64; 3] {
+    let mut u = RngUniforms(rng);
+    match &scene.sky {
+        Some(sky) => est.estimate_env(&scene.geometry, sky, &mut u),
+        None => est.estimate(&scene.geometry, &mut u),
+    }
+    .unwrap_or([0.0; 3])
+}
+
 /// One pixel's mean and variance under `cfg`'s protocol, with its own generator.
 fn pixel(
     scene: &RenderScene,
@@ -198,10 +209,7 @@ fn pixel(
             let Ok(mut est) = Estimator::new(&scene.lights, &sp, cfg.technique, params) else {
                 return BLACK;
             };
-            moments(cfg.spp, || {
-                est.estimate(&scene.geometry, &mut RngUniforms(rng))
-                    .unwrap_or([0.0; 3])
-            })
+            moments(cfg.spp, || estimate(scene, &mut est, rng))
         }
         Protocol::Jittered => moments(cfg.spp, || {
             let offset = [rng.random::<f32>(), rng.random::<f32>()];
@@ -209,9 +217,7 @@ fn pixel(
                 return [0.0; 3];
             };
             match Estimator::new(&scene.lights, &sp, cfg.technique, params) {
-                Ok(mut est) => est
-                    .estimate(&scene.geometry, &mut RngUniforms(rng))
-                    .unwrap_or([0.0; 3]),
+                Ok(mut est) => estimate(scene, &mut est, rng),
                 Err(_) => [0.0; 3],
             }
         }),

@@ -17,7 +17,7 @@ use std::process::Command;
 
 const W: usize = 12;
 const H: usize = 8;
-const NAMES: [&str; 9] = [
+const NAMES: [&str; 10] = [
     "uniform",
     "power",
     "tl",
@@ -27,6 +27,7 @@ const NAMES: [&str; 9] = [
     "full",
     "tl-mis",
     "bl-mis",
+    "tl-mis-pinf",
 ];
 
 /// A fresh, empty temporary folder for one test.

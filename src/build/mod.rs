@@ -86,7 +86,8 @@ impl LightTree {
     /// Builds the tree with `opts`.
     pub fn build_with(lights: &[Light], opts: &BuildOptions) -> Result<LightTree, BuildError> {
         let bin = binary(lights, opts)?;
-        let tree = collapse::collapse(&bin, lights.len(), opts.compact)?;
+        let mut tree = collapse::collapse(&bin, lights.len(), opts.compact)?;
+        tree.infinite = crate::infinite::collect(lights)?;
         #[cfg(debug_assertions)]
         if let Err(e) = tree.validate() {
             panic!("manylights: internal error, built tree fails validation: {e}");

@@ -114,9 +114,13 @@
 
 mod estimator;
 mod sampler;
+mod sky;
 
-pub use estimator::{BsdfDraw, Estimator, LightDraw, LightHit, Step, Weighted};
-pub use sampler::{CutSampler, LightSampler, PowerSampler, TreeSampler, UniformSampler};
+pub use estimator::{BsdfDraw, EnvironmentDraw, Estimator, LightDraw, LightHit, Step, Weighted};
+pub use sampler::{
+    CutSampler, LightSampler, PinfSampler, PowerSampler, TreeSampler, UniformSampler,
+};
+pub use sky::{Environment, EnvironmentSample, GradientSky, UniformSky};
 
 pub use crate::error::DirectError;
 
@@ -146,11 +150,15 @@ pub enum Technique {
     TlMis,
     /// One sample of the BRDF-oriented cut + one BSDF sample, power heuristic.
     BlMis,
+    /// `tl-mis` with pbrt-v4's handling of distant and environment lights: each picked with
+    /// the fixed probability `1 / (n + 1)` whatever the point, the node tree otherwise
+    /// ([`PinfSampler`]): the yardstick of weighing them per shading point.
+    TlMisPinf,
 }
 
 impl Technique {
     /// Every technique.
-    pub const ALL: [Technique; 9] = [
+    pub const ALL: [Technique; 10] = [
         Technique::Uniform,
         Technique::Power,
         Technique::Tl,
@@ -160,6 +168,7 @@ impl Technique {
         Technique::Full,
         Technique::TlMis,
         Technique::BlMis,
+        Technique::TlMisPinf,
     ];
 
     /// The technique a renderer should use when it has no reason to choose another: `bl-mis`,
@@ -184,6 +193,7 @@ impl Technique {
             Technique::Full => "full",
             Technique::TlMis => "tl-mis",
             Technique::BlMis => "bl-mis",
+            Technique::TlMisPinf => "tl-mis-pinf",
         }
     }
 
@@ -191,7 +201,11 @@ impl Technique {
     pub fn samples_bsdf(self) -> bool {
         matches!(
             self,
-            Technique::MisEqual | Technique::Full | Technique::TlMis | Technique::BlMis
+            Technique::MisEqual
+                | Technique::Full
+                | Technique::TlMis
+                | Technique::BlMis
+                | Technique::TlMisPinf
         )
     }
 }

@@ -15,6 +15,7 @@
 //! in `Cell`s).
 
 use super::Importance;
+use crate::infinite::InfiniteLight;
 use crate::tree::{LightTree, Node4, SlotBounds};
 use core::cell::Cell;
 use wide::f32x4;
@@ -132,6 +133,12 @@ impl<I: Importance> Importance for Memo<'_, I> {
     #[inline]
     fn eval_lane(&self, node: &Node4, k: usize) -> f32 {
         self.imp.eval_lane(node, k)
+    }
+
+    /// The inner importance's, not memoised.
+    #[inline]
+    fn eval_infinite(&self, light: &InfiniteLight) -> f32 {
+        self.imp.eval_infinite(light)
     }
 }
 

@@ -12,6 +12,9 @@
 //! | disk | uniform by area (concentric map) | `d² / (A · abs(cos θy))` |
 //! | triangle, Ω ≥ [`MIN_SPHERICAL_SOLID_ANGLE`] | uniform in solid angle (Arvo 1995) | `1 / Ω` |
 //! | triangle, smaller | uniform by area | `d² / (A · abs(cos θy))` |
+//! | distant, γ > 0 | uniform in its cone of directions | `1 / (2π(1 − cos γ))` |
+//! | distant, γ = 0 | its direction | delta: reported as `pdf = 1`, `delta = true` |
+//! | environment | the host's (see [`crate::direct::Environment`]) | the host's |
 //!
 //! # The estimator
 //!
@@ -27,7 +30,10 @@
 //! `radiance` is `I · falloff / d²` (the irradiance at normal incidence; for a virtual point
 //! light the falloff is `max(0, cos θ)` about its normal), so the same formula
 //! holds. A delta light can never be hit by a BRDF ray: [`pdf_point`] and [`pdf_direction`]
-//! return 0 for it, and MIS must give its light samples the full weight.
+//! return 0 for it, and MIS must give its light samples the full weight. A distant light's
+//! point is at infinity (`distance` = +∞, `position` its unit direction) with radiance
+//! `E / (π sin²γ)`, or `E` for γ = 0 (a delta); an environment's points are the host's:
+//! [`sample_point`] and [`intersect`] return `None` for it and [`pdf_point`] 0.
 //!
 //! # Conventions
 //!
@@ -47,6 +53,7 @@
 
 mod delta;
 pub(crate) mod disk;
+mod distant;
 mod sphere;
 mod triangle;
 mod vec64;
@@ -69,7 +76,7 @@ pub struct LightPoint {
     pub normal: Vec3,
     /// Unit direction from x to `position`.
     pub direction: Vec3,
-    /// Distance from x to `position` (> 0).
+    /// Distance from x to `position` (> 0; +∞ for a distant or environment light).
     pub distance: f32,
     /// Solid-angle pdf at x of having sampled `direction` (> 0, finite); 1 for a delta light.
     pub pdf: f32,
@@ -98,7 +105,7 @@ impl LightPoint {
             && normal.is_finite()
             && direction.is_finite()
             && distance > 0.0
-            && distance < f32::INFINITY
+            && !distance.is_nan()
             && pdf > 0.0
             && pdf < f32::INFINITY
             && radiance
@@ -175,6 +182,12 @@ pub fn sample_point(light: &Light, x: Vec3, u: [f32; 2]) -> Option<LightPoint> {
             let n = V64::from_f32(normal).normalize()?;
             delta::sample(position, intensity, x, |w| n.dot(w).max(0.0))
         }
+        Light::Distant {
+            direction,
+            angular_radius,
+            irradiance,
+        } => distant::sample(direction, angular_radius, irradiance, u),
+        Light::Environment { .. } => None,
         Light::Sphere {
             center,
             radius,
@@ -200,14 +213,20 @@ pub fn sample_point(light: &Light, x: Vec3, u: [f32; 2]) -> Option<LightPoint> {
 }
 
 /// The solid-angle pdf at `x` with which [`sample_point`] returns the point `point` of `light`
-/// (taken as the first point of the light on the ray from x through it). 0 for point, spot and virtual point
-/// lights (a delta that no ray hits) and wherever `sample_point` gives `None`.
+/// (taken as the first point of the light on the ray from x through it; for a distant light,
+/// `point` is the direction, as its points' `position` is). 0 for point, spot and virtual
+/// point lights and distant ones of angular radius 0 (a delta that no ray hits), for the
+/// environment (the host's) and wherever `sample_point` gives `None`.
 pub fn pdf_point(light: &Light, x: Vec3, point: Vec3) -> f32 {
     if !(x.is_finite() && point.is_finite()) {
         return 0.0;
     }
     let pdf = match *light {
         Light::Point { .. } | Light::Spot { .. } | Light::Vpl { .. } => 0.0,
+        Light::Distant { .. } => {
+            return intersect(light, x, point).map_or(0.0, |lp| lp.pdf);
+        }
+        Light::Environment { .. } => 0.0,
         Light::Sphere { center, radius, .. } => sphere::pdf_point(center, radius, x, point),
         Light::Disk {
             center,
@@ -239,6 +258,12 @@ pub fn intersect(light: &Light, x: Vec3, direction: Vec3) -> Option<LightPoint> 
     let w = V64::from_f32(direction).normalize()?;
     match *light {
         Light::Point { .. } | Light::Spot { .. } | Light::Vpl { .. } => None,
+        Light::Distant {
+            direction,
+            angular_radius,
+            irradiance,
+        } => distant::intersect(direction, angular_radius, irradiance, w),
+        Light::Environment { .. } => None,
         Light::Sphere {
             center,
             radius,

@@ -173,6 +173,9 @@ pub fn zero_energy(l: &Light) -> bool {
         Light::Triangle {
             vertices, radiance, ..
         } => radiance == 0.0.into() || vertices_area(&vertices) == 0.0,
+        Light::Distant { .. } | Light::Environment { .. } => {
+            unreachable!("lights at infinity are tested in tests/infinite.rs")
+        }
     }
 }
 
@@ -213,6 +216,9 @@ pub fn push_emitter_points(rng: &mut Rng, lights: &[Light], half: f32, xs: &mut 
             | Light::Sphere {
                 center: position, ..
             } => (position, rng.unit()),
+            Light::Distant { .. } | Light::Environment { .. } => {
+                unreachable!("lights at infinity are tested in tests/infinite.rs")
+            }
         };
         let t = half * rng.log_range(1e-4, 10.0);
         xs.push(c - m * t);
@@ -246,6 +252,9 @@ pub fn point_on_light(rng: &mut Rng, l: &Light) -> Vec3 {
                 b = 1.0 - b;
             }
             vertices[0] + (vertices[1] - vertices[0]) * a + (vertices[2] - vertices[0]) * b
+        }
+        Light::Distant { .. } | Light::Environment { .. } => {
+            unreachable!("lights at infinity are tested in tests/infinite.rs")
         }
     }
 }
@@ -588,6 +597,9 @@ pub fn contributes(light: &Light, x: Vec3, n: Vec3, receiver: Receiver, margin: 
             };
             side_ok && v.iter().any(|&p| (p - x).length() > 0.0 && rec(p - x))
         }
+        Light::Distant { .. } | Light::Environment { .. } => {
+            unreachable!("lights at infinity are tested in tests/infinite.rs")
+        }
     }
 }
 
@@ -713,6 +725,9 @@ pub fn move_to(l: &mut Light, c: Vec3) {
             for v in vertices.iter_mut() {
                 *v += t;
             }
+        }
+        Light::Distant { .. } | Light::Environment { .. } => {
+            unreachable!("lights at infinity are tested in tests/infinite.rs")
         }
     }
 }

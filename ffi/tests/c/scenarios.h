@@ -643,8 +643,10 @@ static int running3_check(const running3 *s, const double exact[3], const char *
     return ok;
 }
 
-static const char *const technique_names[9] = {"uniform",  "power", "tl",     "tl-split", "bl",
-                                               "mis-equal", "full", "tl-mis", "bl-mis"};
+#define N_TECHNIQUES 10
+static const char *const technique_names[N_TECHNIQUES] = {
+    "uniform", "power", "tl", "tl-split", "bl", "mis-equal", "full", "tl-mis", "bl-mis",
+    "tl-mis-pinf"};
 
 static float never_hit(void *user, ml_vec3 x, ml_vec3 d) {
     (void)user;
@@ -676,7 +678,7 @@ static void scenario_direct(void) {
     tree = build_tree(ls, DIRECT_LIGHTS);
     r.s = 31337;
     OK(ml_estimator_create(tree, &est));
-    for (t = 0; t < 9; t++) {
+    for (t = 0; t < N_TECHNIQUES; t++) {
         running3 s;
         long k, n = (t == ML_TECHNIQUE_FULL || t == ML_TECHNIQUE_MIS_EQUAL ||
                      t == ML_TECHNIQUE_TL_SPLIT) ? 1500 : 6000;
@@ -802,7 +804,7 @@ static void scenario_lower_level(void) {
     OK(ml_estimator_create(tree, &est));
     /* The tree may go first: the estimator keeps what it needs. */
     OK(ml_tree_free(tree));
-    for (t = 0; t < 9; t++) {
+    for (t = 0; t < N_TECHNIQUES; t++) {
         running3 s;
         long k, n = (t == ML_TECHNIQUE_FULL || t == ML_TECHNIQUE_MIS_EQUAL ||
                      t == ML_TECHNIQUE_TL_SPLIT) ? 1500 : 6000;
@@ -814,6 +816,258 @@ static void scenario_lower_level(void) {
         running3_check(&s, exact, technique_names[t], __LINE__);
     }
     OK(ml_estimator_free(est));
+}
+
+/* ---- a sun and a host environment ------------------------------------------------------ */
+
+/* The host's uniform environment of radiance SKY_L, sampled uniformly over the sphere. */
+static const float SKY_L[3] = {0.2f, 0.3f, 0.45f};
+
+static int32_t sky_sample(void *user, float u0, float u1, ml_vec3 *d, ml_rgb *radiance,
+                          float *pdf) {
+    float z = 1 - 2 * u0, r = sqrtf(1 - z * z > 0 ? 1 - z * z : 0), phi = 2 * (float)ML_PI * u1;
+    ++*(long *)user;
+    *d = v3(r * cosf(phi), r * sinf(phi), z);
+    *radiance = rgb(SKY_L[0], SKY_L[1], SKY_L[2]);
+    *pdf = 1 / (4 * (float)ML_PI);
+    return 1;
+}
+
+static void sky_eval(void *user, ml_vec3 d, ml_rgb *radiance, float *pdf) {
+    (void)user;
+    (void)d;
+    *radiance = rgb(SKY_L[0], SKY_L[1], SKY_L[2]);
+    *pdf = 1 / (4 * (float)ML_PI);
+}
+
+#define INFINITE_LIGHTS (DIRECT_LIGHTS + 2)
+#define SKY_INDEX (DIRECT_LIGHTS + 1)
+
+/* direct_scene's lights, a sun of irradiance E (its cap entirely above the horizon, at θ from
+ * the normal: it reflects ρ/π · E cos θ) and the uniform sky (it reflects ρ L). */
+static void infinite_scene(ml_light *ls, float rho, double exact[3]) {
+    ml_light sun, sky;
+    const float e[3] = {1.5f, 1.1f, 0.7f};
+    double len, cos_t, y;
+    int c;
+    direct_scene(ls, rho, exact);
+    memset(&sun, 0, sizeof sun);
+    sun.kind = ML_LIGHT_KIND_DISTANT;
+    sun.direction = v3(0.4f, -0.3f, 1);
+    sun.half_angle = 0.05f;
+    sun.power = rgb(e[0], e[1], e[2]);
+    len = sqrt(0.16 + 0.09 + 1.0);
+    cos_t = 1.0 / len;
+    for (c = 0; c < 3; c++) exact[c] += rho / ML_PI * e[c] * cos_t + rho * SKY_L[c];
+    memset(&sky, 0, sizeof sky);
+    sky.kind = ML_LIGHT_KIND_ENVIRONMENT;
+    y = ML_PI * (0.2126 * SKY_L[0] + 0.7152 * SKY_L[1] + 0.0722 * SKY_L[2]) * 1.0001;
+    for (c = 0; c < 6; c++) sky.irradiance_bounds[c] = (float)y;
+    ls[DIRECT_LIGHTS] = sun;
+    ls[SKY_INDEX] = sky;
+}
+
+/* The sky's hits are shaded with the host's radiance. */
+static void on_hit_sky(void *user, const ml_light_hit *hit) {
+    host_hit *h = (host_hit *)user;
+    ml_rgb l = hit->point.radiance;
+    if (hit->light == SKY_INDEX) {
+        CHECK(l.r == 0 && l.g == 0 && l.b == 0);
+        l = rgb(SKY_L[0], SKY_L[1], SKY_L[2]);
+    }
+    add_scaled(&h->sum, l, (double)h->f * h->cos_theta * hit->weighted.scale);
+}
+
+/* host_estimate with the environment: its steps sampled by the host, escaping rays weighed
+ * with its pdf. */
+static ml_rgb64 host_estimate_env(ml_estimator *est, ml_uniforms *u, float rho, long *env_steps) {
+    ml_rgb64 sum = {0, 0, 0};
+    float f = rho / (float)ML_PI;
+    long calls = 0;
+    OK(ml_estimator_start(est));
+    for (;;) {
+        ml_step s;
+        if (ml_estimator_next(est, u, &s) != ML_OK) {
+            g_failures++;
+            fprintf(stderr, "ml_estimator_next: %s\n", ml_last_error_message());
+            break;
+        }
+        if (s.kind == ML_STEP_KIND_DONE) break;
+        if (s.kind == ML_STEP_KIND_ENVIRONMENT) {
+            ml_vec3 d;
+            ml_rgb l;
+            float pdf;
+            CHECK(s.light == SKY_INDEX && s.pmf > 0 && s.pmf <= 1);
+            ++*env_steps;
+            if (!sky_sample(&calls, s.u0, s.u1, &d, &l, &pdf)) continue;
+            OK(ml_estimator_environment_point(est, d, l, pdf, &s));
+            CHECK(s.kind == ML_STEP_KIND_LIGHT && s.point.distance == (float)INFINITY);
+        }
+        if (s.kind == ML_STEP_KIND_LIGHT) {
+            float c = s.point.direction.z;
+            ml_weighted w;
+            if (c <= 0) continue;
+            OK(ml_estimator_weigh(est, s.needs_bsdf_pdf ? c / (float)ML_PI : 0, &w));
+            CHECK(w.weight >= 0 && w.weight <= 1 && w.scale >= 0);
+            add_scaled(&sum, s.point.radiance, (double)f * c * w.scale);
+        } else {
+            float r = sqrtf(s.u0), phi = 2 * (float)ML_PI * s.u1;
+            float z = sqrtf(1 - s.u0 > 0 ? 1 - s.u0 : 0);
+            ml_vec3 wi = v3(r * cosf(phi), r * sinf(phi), z);
+            host_hit h;
+            uint32_t any = 7;
+            if (z <= 0) continue;
+            h.sum.r = h.sum.g = h.sum.b = 0;
+            h.f = f;
+            h.cos_theta = z;
+            OK(ml_estimator_bsdf_hits_env(est, wi, z / (float)ML_PI, (float)INFINITY,
+                                          1 / (4 * (float)ML_PI), on_hit_sky, &h, &any));
+            CHECK(any == 1);
+            sum.r += h.sum.r;
+            sum.g += h.sum.g;
+            sum.b += h.sum.b;
+        }
+    }
+    return sum;
+}
+
+/* The lights of direct_scene with a sun and a host sky, in colour: every technique through
+ * the one call with the host's environment and through the step loop, against the closed
+ * form. */
+static void scenario_infinite(void) {
+    ml_light ls[INFINITE_LIGHTS];
+    const float rho = 0.7f;
+    double exact[3];
+    ml_tree *tree;
+    ml_shading_point sp = direct_point(rho);
+    ml_estimator *est = NULL;
+    ml_environment env;
+    uint32_t t;
+    long calls = 0, env_steps = 0;
+    rng r;
+    ml_uniforms u = uniforms_of(&r);
+    infinite_scene(ls, rho, exact);
+    tree = build_tree(ls, INFINITE_LIGHTS);
+    r.s = 8080;
+    env.sample = sky_sample;
+    env.eval = sky_eval;
+    env.user_data = &calls;
+    OK(ml_estimator_create(tree, &est));
+    for (t = 0; t < N_TECHNIQUES; t++) {
+        running3 s, s2;
+        long k, n = (t == ML_TECHNIQUE_FULL || t == ML_TECHNIQUE_MIS_EQUAL ||
+                     t == ML_TECHNIQUE_TL_SPLIT) ? 1500 : 6000;
+        memset(&s, 0, sizeof s);
+        memset(&s2, 0, sizeof s2);
+        OK(ml_estimator_set_point(est, &sp, t, NULL));
+        for (k = 0; k < n; k++) {
+            ml_rgb64 e = {-1, -1, -1};
+            OK(ml_estimator_estimate_env(est, NULL, &env, &u, &e));
+            CHECK(estimate_ok(e));
+            running3_add(&s, e);
+            running3_add(&s2, host_estimate_env(est, &u, rho, &env_steps));
+        }
+        running3_check(&s, exact, technique_names[t], __LINE__);
+        running3_check(&s2, exact, technique_names[t], __LINE__);
+        {
+            ml_rgb64 e = {-1, -1, -1};
+            OK(ml_direct_estimate_env(tree, &sp, t, NULL, NULL, &env, &u, &e));
+            CHECK(estimate_ok(e));
+        }
+    }
+    CHECK(calls > 0 && env_steps > 0);
+    OK(ml_estimator_free(est));
+    OK(ml_tree_free(tree));
+}
+
+/* Bad input to the calls of the environment. */
+static void bad_input_infinite(void) {
+    ml_light ls[INFINITE_LIGHTS];
+    double exact[3];
+    ml_tree *tree;
+    ml_shading_point sp = direct_point(0.5f);
+    ml_estimator *est = NULL;
+    ml_environment env, noeval;
+    ml_rgb64 e = {0, 0, 0};
+    ml_step step;
+    uint32_t any;
+    long calls = 0;
+    int i, env_step = 0, bsdf_step = 0;
+    rng r;
+    ml_uniforms u = uniforms_of(&r);
+    r.s = 99;
+    infinite_scene(ls, 0.5f, exact);
+    tree = build_tree(ls, INFINITE_LIGHTS);
+    env.sample = sky_sample;
+    env.eval = sky_eval;
+    env.user_data = &calls;
+    noeval = env;
+    noeval.eval = NULL;
+    BAD_VALUE(ml_direct_estimate, ml_direct_estimate(tree, &sp, 0, NULL, NULL, &u, &e), ML_ERR_STATE,
+              "environment");
+    BAD_NULL(ml_direct_estimate_env, ml_direct_estimate_env(tree, &sp, 0, NULL, NULL, NULL, &u, &e),
+             "`environment` is NULL");
+    BAD_NULL(ml_direct_estimate_env, ml_direct_estimate_env(tree, &sp, 0, NULL, NULL, &noeval, &u, &e),
+             "environment->eval");
+    BAD_VALUE(ml_direct_estimate_env, ml_direct_estimate_env(tree, &sp, 10, NULL, NULL, &env, &u, &e),
+              ML_ERR_INVALID_ARGUMENT, "technique: 10 is not an ml_technique");
+    OK(ml_estimator_create(tree, &est));
+    BAD_VALUE(ml_estimator_estimate_env, ml_estimator_estimate_env(est, NULL, &env, &u, &e),
+              ML_ERR_STATE, "est: not set up");
+    OK(ml_estimator_set_point(est, &sp, ML_TECHNIQUE_BL_MIS, NULL));
+    BAD_NULL(ml_estimator_estimate_env, ml_estimator_estimate_env(est, NULL, NULL, &u, &e),
+             "`environment` is NULL");
+    BAD_VALUE(ml_estimator_estimate, ml_estimator_estimate(est, NULL, &u, &e), ML_ERR_STATE,
+              "environment");
+    OK(ml_estimator_start(est));
+    BAD_NULL(ml_estimator_environment_point,
+             ml_estimator_environment_point(est, v3(0, 0, 1), rgb(1, 1, 1), 1, NULL), "`out` is NULL");
+    BAD_VALUE(ml_estimator_environment_point,
+              ml_estimator_environment_point(est, v3(0, 0, 1), rgb(1, 1, 1), 1, &step), ML_ERR_STATE,
+              "no environment step");
+    BAD_NULL(ml_estimator_bsdf_hits_env,
+             ml_estimator_bsdf_hits_env(est, v3(0, 0, 1), 1, (float)INFINITY, 0, NULL, NULL, &any),
+             "`each` is NULL");
+    /* Walk bl-mis until both an environment step and a BSDF step were given bad values. */
+    for (i = 0; i < 4000 && !(env_step && bsdf_step); i++) {
+        OK(ml_estimator_next(est, &u, &step));
+        if (step.kind == ML_STEP_KIND_DONE) {
+            OK(ml_estimator_start(est));
+        } else if (step.kind == ML_STEP_KIND_ENVIRONMENT && !env_step) {
+            env_step = 1;
+            BAD_VALUE(ml_estimator_environment_point,
+                      ml_estimator_environment_point(est, v3(0, 0, 1), rgb(1, 1, 1), -1, &step),
+                      ML_ERR_INVALID_ARGUMENT, "environment pdf");
+            BAD_VALUE(ml_estimator_environment_point,
+                      ml_estimator_environment_point(est, v3(0, 0, 0), rgb(1, 1, 1), 1, &step),
+                      ML_ERR_INVALID_ARGUMENT, "direction");
+            BAD_VALUE(ml_estimator_environment_point,
+                      ml_estimator_environment_point(est, v3(0, 0, 1), rgb(1, (float)NAN, 1), 1, &step),
+                      ML_ERR_INVALID_ARGUMENT, "environment radiance");
+        } else if (step.kind == ML_STEP_KIND_BSDF && !bsdf_step) {
+            host_hit h;
+            memset(&h, 0, sizeof h);
+            bsdf_step = 1;
+            BAD_VALUE(ml_estimator_bsdf_hits,
+                      ml_estimator_bsdf_hits(est, v3(0, 0, 1), 1, (float)INFINITY, on_hit_sky, &h, &any),
+                      ML_ERR_STATE, "environment");
+            BAD_VALUE(ml_estimator_bsdf_hits_env,
+                      ml_estimator_bsdf_hits_env(est, v3(0, 0, 1), 1, (float)INFINITY, (float)NAN,
+                                                 on_hit_sky, &h, &any),
+                      ML_ERR_INVALID_ARGUMENT, "environment pdf");
+        }
+    }
+    CHECK(env_step && bsdf_step);
+    /* A second environment light is refused, naming it. */
+    ls[DIRECT_LIGHTS] = ls[SKY_INDEX];
+    {
+        ml_tree *t2 = NULL;
+        BAD_VALUE(ml_tree_build, ml_tree_build(ls, INFINITE_LIGHTS, NULL, &t2), ML_ERR_INVALID_ARGUMENT,
+                  "lights[51]");
+        CHECK(t2 == NULL);
+    }
+    OK(ml_estimator_free(est));
+    OK(ml_tree_free(tree));
 }
 
 /* ---- VPL acceptance -------------------------------------------------------------------- */
@@ -1241,8 +1495,8 @@ static void scenario_bad_input(const ml_tree *tree, size_t n) {
              "`uniforms` is NULL");
     BAD_NULL(ml_direct_estimate, ml_direct_estimate(tree, &sp, 0, NULL, NULL, &nullu, &e),
              "`uniforms->next_f32` is NULL");
-    BAD_VALUE(ml_direct_estimate, ml_direct_estimate(tree, &sp, 9, NULL, NULL, &u, &e),
-              ML_ERR_INVALID_ARGUMENT, "technique: 9 is not an ml_technique");
+    BAD_VALUE(ml_direct_estimate, ml_direct_estimate(tree, &sp, 10, NULL, NULL, &u, &e),
+              ML_ERR_INVALID_ARGUMENT, "technique: 10 is not an ml_technique (0 to 9)");
     e.r = e.g = e.b = -7;
     BAD_VALUE(ml_direct_estimate, ml_direct_estimate(tree, &sp, ML_TECHNIQUE_TL, NULL, NULL, &badu, &e),
               ML_ERR_INVALID_ARGUMENT, "uniforms: a number from next_f32 or next_f64 is outside [0, 1) (got 1.5)");
@@ -1309,6 +1563,8 @@ static void scenario_bad_input(const ml_tree *tree, size_t n) {
         }
     }
     OK(ml_estimator_free(est));
+
+    bad_input_infinite();
 
     /* VPL acceptance */
     OK(ml_acceptor_options_default(&ao));

@@ -51,6 +51,7 @@ int main(int argc, char **argv) {
     scenario_points(tree, lights, n);
     scenario_direct();
     scenario_lower_level();
+    scenario_infinite();
     scenario_vpl();
     scenario_bad_input(tree, n);
 

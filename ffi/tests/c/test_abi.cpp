@@ -67,6 +67,7 @@ int main(int argc, char **argv) {
     scenario_points(tree.get(), lights.get(), n);
     scenario_direct();
     scenario_lower_level();
+    scenario_infinite();
     scenario_vpl();
     scenario_bad_input(tree.get(), n);
 

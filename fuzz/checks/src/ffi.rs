@@ -294,7 +294,7 @@ pub struct Light {
 impl Light {
     fn ml(&self) -> ml_light {
         ml_light {
-            kind: self.kind.value(6),
+            kind: self.kind.value(8),
             two_sided: self.two_sided.value(2),
             position: v3(&self.position),
             direction: v3(&self.direction),
@@ -302,6 +302,7 @@ impl Light {
             power: grey(self.power.value()),
             radius: self.radius.value(),
             half_angle: self.half_angle.value(),
+            irradiance_bounds: [self.power.value(); 6],
             falloff_start: match self.falloff_start {
                 F::Unit(_) => self.falloff_start.value() * self.half_angle.value(),
                 f => f.value(),
@@ -1991,7 +1992,7 @@ impl Harness<'_> {
                 let u = In::one(uniforms(&uni.value, hp), uni.ptr);
                 let mut o = Out::<ml_rgb64>::one(*out);
                 let s =
-                    ml_direct_estimate(t, p.p(), technique.value(9), prm.p(), v.p(), u.p(), o.p());
+                    ml_direct_estimate(t, p.p(), technique.value(10), prm.p(), v.p(), u.p(), o.p());
                 if self.status("ml_direct_estimate", s, &[&th, &p, &prm, &v, &u, &o]) {
                     let e = o.get(0);
                     self.ensure(estimate_ok(e), || format!("ml_direct_estimate: {e:?}"));
@@ -2030,7 +2031,7 @@ impl Harness<'_> {
                 let spv = sp.value.ml();
                 let p = In::one(spv, sp.ptr);
                 let prm = In::opt(params.as_ref().map(|o| (o.value.ml(), o.ptr)));
-                let s = ml_estimator_set_point(e, p.p(), technique.value(9), prm.p());
+                let s = ml_estimator_set_point(e, p.p(), technique.value(10), prm.p());
                 if self.status("ml_estimator_set_point", s, &[&eh, &p, &prm]) {
                     if let Some(i) = ei {
                         self.ests[i].sp = Some(spv);
@@ -2136,7 +2137,7 @@ impl Harness<'_> {
                 let s = ml_estimator_set_point(
                     e,
                     &sp,
-                    technique.value(9),
+                    technique.value(10),
                     prm.as_ref().map_or(ptr::null(), |p| p as *const _),
                 );
                 let ok = self.status("ml_estimator_set_point", s, &[]);
@@ -2381,6 +2382,29 @@ impl Harness<'_> {
                 if self.status("ml_estimator_weigh", s, &[&o]) {
                     self.weighted("ml_estimator_weigh", &o.get(0));
                 }
+            } else if step.kind == 3 {
+                // The host's environment: a direction about the normal, radiance 1, pdf 1/4π.
+                let mut o = Out::<ml_step>::one(Ptr::Valid);
+                let s = ml_estimator_environment_point(
+                    e,
+                    sp.normal,
+                    grey(1.0),
+                    0.25 * core::f32::consts::FRAC_1_PI,
+                    o.p(),
+                );
+                if !self.status("ml_estimator_environment_point", s, &[&o]) {
+                    return;
+                }
+                let step = o.get(0);
+                self.ensure(step.kind == 0, || {
+                    format!("ml_estimator_environment_point: {step:?}")
+                });
+                self.step(&step, n);
+                let mut o = Out::<ml_weighted>::one(Ptr::Valid);
+                let s = ml_estimator_weigh(e, 0.0, o.p());
+                if self.status("ml_estimator_weigh", s, &[&o]) {
+                    self.weighted("ml_estimator_weigh", &o.get(0));
+                }
             } else if step.kind == 1 {
                 let mut o = Out::<ml_brdf_draw>::one(Ptr::Valid);
                 let s = ml_brdf_sample(spp, step.u0, step.u1, o.p());
@@ -2462,6 +2486,14 @@ impl Harness<'_> {
                 || format!("ml_estimator_next: {s:?}"),
             ),
             2 => {}
+            3 => self.ensure(
+                (s.light as usize) < n
+                    && s.pmf > 0.0
+                    && s.pmf <= 1.0
+                    && (0.0..1.0).contains(&s.u0)
+                    && (0.0..1.0).contains(&s.u1),
+                || format!("ml_estimator_next: {s:?}"),
+            ),
             k => self.fail(format_args!("ml_estimator_next: step kind {k}")),
         }
     }

@@ -4,6 +4,7 @@
 use super::geometry::{cuboid, disk_light, quad, sphere_light, Geometry, Triangle};
 use super::{hash, Camera, LightSet, Palette, RenderScene};
 use glam::Vec3;
+use manylights::direct::GradientSky;
 use manylights::Rgb;
 use manylights::{Light, Material};
 use rand::{Rng, SeedableRng};
@@ -305,11 +306,55 @@ pub fn city_with(palette: Palette) -> RenderScene {
         name: "city".into(),
         geometry: Geometry::new(t),
         lights: LightSet::build(lights).expect("the built-in lights are valid"),
+        sky: None,
         camera: Camera {
             eye: v(4.0, 24.0, block_centre(BLOCKS - 1) + 30.0),
             target: v(0.0, 2.0, block_centre(BLOCKS / 2)),
             up: v(0.0, 1.0, 0.0),
             fov_y: 50.0,
         },
+    }
+}
+
+/// The direction towards the sun of `city-sun`: 12° above the horizon (+y up), from the
+/// west-south-west of the grid, so that the sunlit façades, the long shadows of the
+/// buildings and the streets in their shade are all in view.
+pub const CITY_SUN_DIRECTION: Vec3 = Vec3::new(-0.8, 0.208, -0.42);
+/// The sun's angular radius: 0.27°.
+const SUN_RADIUS: f32 = 0.27 * std::f32::consts::PI / 180.0;
+/// The sun's irradiance at normal incidence: a low, reddened sun of luminance 4.2 W/m².
+const SUN_IRRADIANCE: Rgb = Rgb::new(6.0, 3.8, 2.1);
+
+/// `city` at dusk in `palette`: the 8,000 lamps, a low sun ([`CITY_SUN_DIRECTION`], angular
+/// radius 0.27°, irradiance [`SUN_IRRADIANCE`]) and a dusk sky ([`GradientSky`] about +y:
+/// deep blue at the zenith, warm at the horizon, black below), the sky an environment light
+/// of the light set. At this sun the lamps under their poles and the lit windows are as
+/// bright as the sun on the streets, and the shaded streets are lit by the lamps and the sky
+/// alone: lights at infinity and thousands of local lights in one scene. In grey the sun and
+/// sky have the luminance of their colours.
+pub fn city_sun(palette: Palette) -> RenderScene {
+    let city = city_with(palette);
+    let tint = |c: Rgb| match palette {
+        Palette::Colour => c,
+        Palette::Grey => Rgb::grey(c.luminance()),
+    };
+    let sky = GradientSky {
+        up: Vec3::Y,
+        zenith: tint(Rgb::new(0.08, 0.14, 0.36)),
+        horizon: tint(Rgb::new(0.44, 0.32, 0.26)),
+        ground: Rgb::ZERO,
+    };
+    let mut lights = city.lights.lights().to_vec();
+    lights.push(Light::Distant {
+        direction: CITY_SUN_DIRECTION,
+        angular_radius: SUN_RADIUS,
+        irradiance: tint(SUN_IRRADIANCE),
+    });
+    lights.push(sky.light());
+    RenderScene {
+        name: "city-sun".into(),
+        lights: LightSet::build(lights).expect("the built-in lights are valid"),
+        sky: Some(sky),
+        ..city
     }
 }

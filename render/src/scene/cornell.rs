@@ -110,6 +110,7 @@ pub fn cornell_with(n_lights: usize, seed: u64, palette: Palette) -> RenderScene
         name: "cornell".into(),
         geometry: Geometry::new(t),
         lights: LightSet::build(lights).expect("the built-in lights are valid"),
+        sky: None,
         camera: Camera {
             eye: v(0.5, 0.5, 2.3),
             target: v(0.5, 0.5, 0.0),

@@ -230,6 +230,7 @@ pub fn exhibition() -> RenderScene {
         name: "exhibition".into(),
         geometry: Geometry::new(t),
         lights: LightSet::build(lights).expect("the built-in lights are valid"),
+        sky: None,
         camera: Camera {
             eye: v(2.6, 1.5, 4.2),
             target: v(0.0, 0.55, 0.0),

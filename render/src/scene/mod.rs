@@ -16,6 +16,9 @@
 //!   glossy glass façades) along wet glossy streets with cars, lit by [`CITY_LIGHTS`] small
 //!   lights: street lamps (spheres), car lights and lit windows (one-sided disks facing away
 //!   from the car or façade they sit on).
+//! - `city-sun` ([`city_sun()`]): the same city at dusk — a low sun of 0.27° angular radius
+//!   ([`manylights::Light::Distant`]), a sky ([`GradientSky`], an environment light) and the
+//!   8,000 lamps: light at infinity in the same scene as thousands of local lights.
 //! - `stairs` ([`stairs()`]): a staircase between two walls with 18 small sphere lights along
 //!   the walls and two large disk lights under the ceiling (20 lights).
 //! - a path ending in `.obj` ([`obj::load`]): the meshes of the file, with Lambert, plastic or
@@ -39,7 +42,7 @@ mod geometry;
 pub mod obj;
 mod stairs;
 
-pub use city::{city, city_with, CITY_LIGHTS};
+pub use city::{city, city_sun, city_with, CITY_LIGHTS, CITY_SUN_DIRECTION};
 pub use cornell::{
     cornell, cornell_light_radius, cornell_with, CORNELL_DEFAULT_LIGHTS, CORNELL_LIGHT_RADIUS,
     CORNELL_WALL_GAP,
@@ -50,11 +53,12 @@ pub use geometry::{Geometry, Hit, Triangle};
 pub use stairs::stairs;
 
 use glam::Vec3;
+use manylights::direct::GradientSky;
 use manylights::{LightSet, Rgb};
 use std::path::Path;
 
 /// The built-in scene names, in help order (`by_name` also takes a path to an `.obj` file).
-pub const SCENES: [&str; 4] = ["cornell", "exhibition", "city", "stairs"];
+pub const SCENES: [&str; 5] = ["cornell", "exhibition", "city", "city-sun", "stairs"];
 
 /// Colour or grey (see the module documentation).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Default)]
@@ -135,6 +139,9 @@ pub struct RenderScene {
     pub geometry: Geometry,
     /// Lights, light tree and the power distribution.
     pub lights: LightSet,
+    /// The sky, for a scene whose lights include an environment (its radiance and sampling;
+    /// the light set holds its irradiance bounds).
+    pub sky: Option<GradientSky>,
     /// Camera.
     pub camera: Camera,
 }
@@ -164,6 +171,7 @@ impl RenderScene {
         for l in self.lights.lights() {
             let _ = write!(h, "{l:?}");
         }
+        let _ = write!(h, "{:?}", self.sky);
         h.0
     }
 }
@@ -196,6 +204,7 @@ pub fn by_name_with(
         },
         "exhibition" => Ok(exhibition()),
         "city" => Ok(city_with(palette)),
+        "city-sun" => Ok(city_sun(palette)),
         "stairs" => Ok(stairs()),
         _ if is_obj_path(name) => obj::load(Path::new(name)),
         _ => Err(format!(

@@ -236,6 +236,7 @@ pub fn load(path: &Path) -> Result<RenderScene, String> {
         name: scene_name(path),
         geometry: Geometry::new(triangles),
         lights: LightSet::build(lights).map_err(|e| format!("{}: {e}", path.display()))?,
+        sky: None,
         camera: Camera {
             eye: centre + Vec3::Z * distance,
             target: centre,

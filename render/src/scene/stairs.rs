@@ -108,6 +108,7 @@ pub fn stairs() -> RenderScene {
         name: "stairs".into(),
         geometry: Geometry::new(t),
         lights: LightSet::build(lights).expect("the built-in lights are valid"),
+        sky: None,
         camera: Camera {
             eye: v(w * 0.5, 1.5, len + 1.2),
             target: v(w * 0.5, 1.2, 0.0),

@@ -91,6 +91,7 @@ fn with_light(
             name: name.into(),
             geometry: Geometry::new(t),
             lights: LightSet::build(vec![point]).expect("the scene's light is valid"),
+            sky: None,
             camera,
         },
         light,
