@@ -8,6 +8,7 @@
 
 use criterion::{criterion_group, criterion_main, Criterion, Throughput};
 use manylights::direct::{Estimator, Params, Technique, Uniforms, Unoccluded};
+use manylights::Rgb;
 use manylights::{LightSet, Material};
 use manylights_testkit as random_scene;
 use std::hint::black_box;
@@ -34,7 +35,7 @@ impl Uniforms for Lcg {
 fn direct(c: &mut Criterion) {
     let set = LightSet::build(random_scene::lights(100_000, 13)).unwrap();
     let plastic = Material::Plastic {
-        albedo: 0.5,
+        albedo: Rgb::grey(0.5),
         specular: 0.5,
         alpha: 0.2,
     };
@@ -50,7 +51,7 @@ fn direct(c: &mut Criterion) {
                 let mut acc = 0.0f64;
                 for sp in &sps {
                     let mut est = Estimator::new(&set, black_box(sp), technique, &params).unwrap();
-                    acc += est.estimate(&Unoccluded, &mut u).unwrap();
+                    acc += est.estimate(&Unoccluded, &mut u).unwrap()[0];
                 }
                 acc
             })
@@ -68,7 +69,7 @@ fn wavefront(c: &mut Criterion) {
     use manylights::wavefront::{estimate_each, sample_points};
     let set = LightSet::build(random_scene::lights(100_000, 13)).unwrap();
     let plastic = Material::Plastic {
-        albedo: 0.5,
+        albedo: Rgb::grey(0.5),
         specular: 0.5,
         alpha: 0.2,
     };
@@ -84,13 +85,13 @@ fn wavefront(c: &mut Criterion) {
                 let mut acc = 0.0f64;
                 for sp in &sps {
                     let mut est = Estimator::new(&set, black_box(sp), technique, &params).unwrap();
-                    acc += est.estimate(&Unoccluded, &mut u).unwrap();
+                    acc += est.estimate(&Unoccluded, &mut u).unwrap()[1];
                 }
                 acc
             })
         });
         group.bench_function(format!("estimate_each, {technique}"), |b| {
-            let mut out = vec![0.0f64; sps.len()];
+            let mut out = vec![[0.0f64; 3]; sps.len()];
             b.iter(|| {
                 let mut u = Lcg(13);
                 estimate_each(
@@ -104,7 +105,7 @@ fn wavefront(c: &mut Criterion) {
                     &mut out,
                 )
                 .unwrap();
-                out.iter().sum::<f64>()
+                out.iter().map(|e| e[1]).sum::<f64>()
             })
         });
     }

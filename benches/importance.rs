@@ -6,6 +6,7 @@
 //! at one shading point.
 
 use criterion::{criterion_group, criterion_main, Criterion, Throughput};
+use manylights::Rgb;
 use manylights::{BlImportance, Child, Importance, LightTree, Material, Node4, TlImportance};
 use manylights_testkit as random_scene;
 use std::hint::black_box;
@@ -65,7 +66,7 @@ fn importance(c: &mut Criterion) {
         .map(|p| TlImportance::new(p.position, p.normal))
         .collect();
     let plastic = Material::Plastic {
-        albedo: 0.5,
+        albedo: Rgb::grey(0.5),
         specular: 0.5,
         alpha: 0.2,
     };

@@ -9,6 +9,7 @@
 
 use criterion::{criterion_group, criterion_main, BenchmarkId, Criterion, Throughput};
 use manylights::baseline::BinaryLightTree;
+use manylights::Rgb;
 use manylights::{
     BlCutOptions, BlImportance, LightCut, LightSample, LightTree, Material, Memo, MemoTable,
     SplitCutOptions, TlImportance, CUT_CAPACITY,
@@ -21,7 +22,7 @@ const POINTS: usize = 4096;
 const BATCH: usize = 256;
 /// The material of the BRDF-aware benches: both lobes, a glossy one of α = 0.2.
 const PLASTIC: Material = Material::Plastic {
-    albedo: 0.5,
+    albedo: Rgb::grey(0.5),
     specular: 0.5,
     alpha: 0.2,
 };
@@ -240,7 +241,12 @@ fn cuts(c: &mut Criterion) {
     });
     let cut_opts = BlCutOptions::default();
     for (name, material) in [
-        ("Lambert", Material::Lambert { albedo: 0.5 }),
+        (
+            "Lambert",
+            Material::Lambert {
+                albedo: Rgb::grey(0.5),
+            },
+        ),
         (
             "GGX 0.2",
             Material::Ggx {

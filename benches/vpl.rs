@@ -8,6 +8,7 @@
 //! uniform in [0.1, 10]).
 
 use criterion::{criterion_group, criterion_main, Criterion, Throughput};
+use manylights::Rgb;
 use manylights::{Vpl, VplAcceptor};
 use manylights_testkit as random_scene;
 use std::hint::black_box;
@@ -31,7 +32,7 @@ fn vpl(c: &mut Criterion) {
         .map(|(p, &u)| Vpl {
             position: p.position,
             normal: p.normal,
-            intensity: 0.1 + 9.9 * u,
+            intensity: Rgb::grey(0.1 + 9.9 * u),
         })
         .collect();
     let xis = &us[CANDIDATES..];
@@ -46,7 +47,8 @@ fn vpl(c: &mut Criterion) {
                 let m = black_box(v).validate().unwrap();
                 let mut phi = 0.0f32;
                 for j in 0..n {
-                    phi += imp.contribution(j, v.position, m, v.intensity, f32::INFINITY);
+                    phi +=
+                        imp.contribution(j, v.position, m, v.intensity.luminance(), f32::INFINITY);
                 }
                 sum += phi / n as f32;
             }

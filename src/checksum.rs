@@ -10,6 +10,7 @@
 //!
 //! Computed eight bytes at a time ("slicing by 8") from tables built at compile time.
 
+use crate::colour::Rgb;
 use crate::light::Light;
 
 /// The reflected polynomial.
@@ -106,8 +107,8 @@ pub fn crc64(bytes: &[u8]) -> u64 {
 pub const LIGHT_BLOCK: usize = 64;
 
 /// The canonical bytes of a light, as [`light_checks`] hashes them: a kind byte (0 point, 1
-/// spot, 2 sphere, 3 disk, 4 triangle, 5 VPL), then every field in declaration order, each
-/// `f32` as its little-endian bits (so `-0.0` and `0.0` differ), each `bool` as one byte.
+/// spot, 2 sphere, 3 disk, 4 triangle, 5 VPL, 6 distant, 7 environment), then every field in
+/// declaration order (a colour as its red, green and blue), each `f32` as its little-endian bits (so `-0.0` and `0.0` differ), each `bool` as one byte.
 /// Returns the number of bytes written to `out`.
 fn light_bytes(light: &Light, out: &mut [u8; 64]) -> usize {
     let mut n = 0;
@@ -116,6 +117,13 @@ fn light_bytes(light: &Light, out: &mut [u8; 64]) -> usize {
         n += bytes.len();
     };
     let f = |x: f32| x.to_bits().to_le_bytes();
+    let rgb = |c: Rgb| {
+        let mut b = [0u8; 12];
+        for (k, x) in [c.r, c.g, c.b].into_iter().enumerate() {
+            b[4 * k..4 * k + 4].copy_from_slice(&f(x));
+        }
+        b
+    };
     match *light {
         Light::Point {
             position,
@@ -125,7 +133,7 @@ fn light_bytes(light: &Light, out: &mut [u8; 64]) -> usize {
             for x in position.to_array() {
                 put(&f(x));
             }
-            put(&f(intensity));
+            put(&rgb(intensity));
         }
         Light::Spot {
             position,
@@ -138,7 +146,8 @@ fn light_bytes(light: &Light, out: &mut [u8; 64]) -> usize {
             for x in position.to_array().into_iter().chain(direction.to_array()) {
                 put(&f(x));
             }
-            for x in [intensity, half_angle, falloff_start] {
+            put(&rgb(intensity));
+            for x in [half_angle, falloff_start] {
                 put(&f(x));
             }
         }
@@ -152,7 +161,7 @@ fn light_bytes(light: &Light, out: &mut [u8; 64]) -> usize {
                 put(&f(x));
             }
             put(&f(radius));
-            put(&f(radiance));
+            put(&rgb(radiance));
         }
         Light::Disk {
             center,
@@ -166,7 +175,7 @@ fn light_bytes(light: &Light, out: &mut [u8; 64]) -> usize {
                 put(&f(x));
             }
             put(&f(radius));
-            put(&f(radiance));
+            put(&rgb(radiance));
             put(&[u8::from(two_sided)]);
         }
         Light::Triangle {
@@ -180,7 +189,7 @@ fn light_bytes(light: &Light, out: &mut [u8; 64]) -> usize {
                     put(&f(x));
                 }
             }
-            put(&f(radiance));
+            put(&rgb(radiance));
             put(&[u8::from(two_sided)]);
         }
         Light::Vpl {
@@ -192,7 +201,25 @@ fn light_bytes(light: &Light, out: &mut [u8; 64]) -> usize {
             for x in position.to_array().into_iter().chain(normal.to_array()) {
                 put(&f(x));
             }
-            put(&f(intensity));
+            put(&rgb(intensity));
+        }
+        Light::Distant {
+            direction,
+            angular_radius,
+            irradiance,
+        } => {
+            put(&[6]);
+            for x in direction.to_array() {
+                put(&f(x));
+            }
+            put(&f(angular_radius));
+            put(&rgb(irradiance));
+        }
+        Light::Environment { irradiance } => {
+            put(&[7]);
+            for x in irradiance {
+                put(&f(x));
+            }
         }
     }
     n
@@ -201,8 +228,8 @@ fn light_bytes(light: &Light, out: &mut [u8; 64]) -> usize {
 /// The CRC-64/XZ of the canonical bytes of each block of [`LIGHT_BLOCK`] consecutive lights
 /// (the last block may be shorter): what the tree's bytes store to tell whether the lights a
 /// tree is loaded with are the ones it was built from. A light's canonical bytes: a kind byte
-/// (0 point, 1 spot, 2 sphere, 3 disk, 4 triangle, 5 VPL), then every field in declaration
-/// order, each `f32` as its little-endian bits (so `-0.0` and `0.0` differ), each `bool` as one
+/// (0 point, 1 spot, 2 sphere, 3 disk, 4 triangle, 5 VPL, 6 distant, 7 environment), then
+/// every field in declaration order (a colour as its red, green and blue), each `f32` as its little-endian bits (so `-0.0` and `0.0` differ), each `bool` as one
 /// byte.
 pub fn light_checks(lights: &[Light]) -> alloc::vec::Vec<u64> {
     lights
@@ -294,7 +321,7 @@ mod tests {
             Light::Spot {
                 position: Vec3::new(1.0, 2.0, 3.0),
                 direction: Vec3::Z,
-                intensity: 1.0,
+                intensity: Rgb::grey(1.0),
                 half_angle: 0.5,
                 falloff_start: 0.25,
             },
@@ -302,7 +329,7 @@ mod tests {
                 center: Vec3::ZERO,
                 normal: Vec3::Z,
                 radius: 1.0,
-                radiance: 1.0,
+                radiance: Rgb::grey(1.0),
                 two_sided: false,
             },
         ];

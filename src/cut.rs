@@ -480,7 +480,7 @@ impl LightCut {
     /// let lights: Vec<Light> = (0..200)
     ///     .map(|i| Light::Point {
     ///         position: Vec3::new((i % 20) as f32, (i / 20) as f32, 2.0),
-    ///         intensity: 1.0,
+    ///         intensity: 1.0.into(),
     ///     })
     ///     .collect();
     /// let tree = LightTree::build(&lights)?;

@@ -25,6 +25,10 @@ pub enum LightField {
     HalfAngle,
     /// `falloff_start` of a spot light.
     FalloffStart,
+    /// `angular_radius` of a distant light.
+    AngularRadius,
+    /// `irradiance` of a distant or environment light.
+    Irradiance,
 }
 
 impl LightField {
@@ -43,6 +47,8 @@ impl LightField {
             LightField::Radiance => "radiance",
             LightField::HalfAngle => "half_angle",
             LightField::FalloffStart => "falloff_start",
+            LightField::AngularRadius => "angular_radius",
+            LightField::Irradiance => "irradiance",
         }
     }
 }
@@ -136,6 +142,17 @@ pub enum BuildError {
         /// The depth reached.
         depth: u32,
     },
+    /// More distant and environment lights than
+    /// [`MAX_INFINITE_LIGHTS`](crate::infinite::MAX_INFINITE_LIGHTS).
+    TooManyInfiniteLights {
+        /// The number passed.
+        count: usize,
+    },
+    /// Light `index` is a second environment light (a light set holds at most one).
+    SecondEnvironment {
+        /// Index of the second environment light.
+        index: usize,
+    },
 }
 
 impl fmt::Display for BuildError {
@@ -164,6 +181,15 @@ impl fmt::Display for BuildError {
             BuildError::TooDeep { depth } => write!(
                 f,
                 "tree depth {depth} exceeds MAX_DEPTH (31), the levels a path can encode"
+            ),
+            BuildError::TooManyInfiniteLights { count } => write!(
+                f,
+                "{count} distant and environment lights: at most {} are supported",
+                crate::infinite::MAX_INFINITE_LIGHTS
+            ),
+            BuildError::SecondEnvironment { index } => write!(
+                f,
+                "light {index}: a second environment light (at most one is supported)"
             ),
         }
     }
@@ -347,6 +373,13 @@ pub enum ValidationError {
     TooDeep,
     /// The recorded statistics (depth, counts) disagree with the arrays.
     BadStats,
+    /// An entry of the distant and environment lights is malformed (kind, light index,
+    /// numbers), names a light twice or a light of the node tree, or disagrees with the
+    /// light it names.
+    BadInfinite {
+        /// The entry.
+        entry: u32,
+    },
 }
 
 impl fmt::Display for ValidationError {
@@ -379,6 +412,9 @@ impl fmt::Display for ValidationError {
             }
             ValidationError::TooDeep => write!(f, "tree deeper than 31 levels"),
             ValidationError::BadStats => write!(f, "statistics disagree with the arrays"),
+            ValidationError::BadInfinite { entry } => {
+                write!(f, "distant or environment entry {entry} is malformed")
+            }
         }
     }
 }
@@ -526,6 +562,21 @@ pub enum DirectError {
         /// The distance.
         value: f32,
     },
+    /// The light set has an environment light and the call takes none: use the calls that
+    /// take the host's environment ([`crate::Estimator::estimate_env`],
+    /// [`crate::Estimator::bsdf_hits_env`], [`crate::Estimator::bsdf_hits_with_env`]).
+    NeedsEnvironment,
+    /// The host's environment pdf is NaN, negative or infinite (or not positive for a sample
+    /// of its map).
+    EnvironmentPdf {
+        /// The pdf.
+        value: f32,
+    },
+    /// A channel of the host's environment radiance is NaN, negative or infinite.
+    EnvironmentRadiance {
+        /// The channel's value.
+        value: f32,
+    },
 }
 
 impl From<ShadingError> for DirectError {
@@ -554,6 +605,18 @@ impl fmt::Display for DirectError {
                     "hit_distance: must be non-negative or +inf (got {value})"
                 )
             }
+            DirectError::NeedsEnvironment => write!(
+                f,
+                "the lights include an environment: pass the host's environment (its pdf of a BSDF direction that escapes)"
+            ),
+            DirectError::EnvironmentPdf { value } => write!(
+                f,
+                "environment pdf: must be finite and non-negative, and positive for a sample (got {value})"
+            ),
+            DirectError::EnvironmentRadiance { value } => write!(
+                f,
+                "environment radiance: every channel must be finite and non-negative (got {value})"
+            ),
         }
     }
 }

@@ -10,12 +10,16 @@
 //! light's probability; [`LightTree::pmf`] gives that same probability for any light.
 //!
 //! ```
-//! use manylights::{Light, LightTree, TlImportance};
+//! use manylights::{Light, LightTree, Rgb, TlImportance};
 //! use glam::Vec3;
 //!
 //! let lights = [
-//!     Light::Point { position: Vec3::new(0.0, 0.0, 2.0), intensity: 1.0 },
-//!     Light::Sphere { center: Vec3::new(3.0, 0.0, 1.0), radius: 0.5, radiance: 2.0 },
+//!     Light::Point { position: Vec3::new(0.0, 0.0, 2.0), intensity: Rgb::grey(1.0) },
+//!     Light::Sphere {
+//!         center: Vec3::new(3.0, 0.0, 1.0),
+//!         radius: 0.5,
+//!         radiance: Rgb::new(2.0, 1.5, 1.0),
+//!     },
 //! ];
 //! let tree = LightTree::build(&lights)?;
 //! let at = TlImportance::new(Vec3::ZERO, Vec3::Z);
@@ -97,10 +101,12 @@ pub mod bounds;
 pub mod brdf;
 pub mod build;
 pub mod checksum;
+pub mod colour;
 pub mod cut;
 pub mod direct;
 pub mod error;
 pub mod importance;
+pub mod infinite;
 mod lanes;
 pub mod light;
 pub mod light_sample;
@@ -118,6 +124,7 @@ pub mod wavefront;
 
 pub use brdf::{Brdf, Frame, Ggx, Lambert};
 pub use build::BuildOptions;
+pub use colour::Rgb;
 pub use cut::{BlCutOptions, Cluster, LightCut, SplitCutOptions, CUT_CAPACITY};
 pub use direct::{Estimator, LightSampler, Occluder, Params, Technique, Uniforms};
 pub use error::{
@@ -126,6 +133,7 @@ pub use error::{
 };
 pub use importance::conty_kulla::Receiver;
 pub use importance::{BlImportance, Importance, Memo, MemoTable, TlImportance};
+pub use infinite::{InfiniteKind, InfiniteLight, RootChoice, MAX_INFINITE_LIGHTS};
 pub use light::{Light, MAX_COORDINATE, MAX_LIGHT_ENERGY, MAX_TOTAL_ENERGY};
 pub use light_sample::LightPoint;
 pub use light_set::{AliasTable, LightSet};

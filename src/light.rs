@@ -1,7 +1,24 @@
-//! The light model: point, spot, sphere, disk, triangle and virtual point lights (VPLs), their
-//! validation, and the
-//! bounds the tree is built from (Conty & Kulla, "Orientation bounds": box, orientation cone,
-//! energy).
+//! The light model: point, spot, sphere, disk, triangle and virtual point lights (VPLs), the
+//! distant lights and the host's environment, their validation, and the bounds the tree is
+//! built from (Conty & Kulla, "Orientation bounds": box, orientation cone, energy).
+//!
+//! Units, per kind (every emission linear RGB, per channel; the tree ranks by luminance):
+//!
+//! | kind | fields | emission | what the tree ranks by |
+//! |---|---|---|---|
+//! | point | position | intensity I, W/sr | flux 4πI |
+//! | spot | position, axis, θs, θf | intensity I on the axis, W/sr | 2π(1 − cos θs)·I (a bound of the flux) |
+//! | sphere | centre, radius R | radiance L, W/(m²·sr) | flux L·π·4πR² |
+//! | disk | centre, normal, radius R | radiance L, W/(m²·sr) | flux L·π·πR² per side |
+//! | triangle | vertices | radiance L, W/(m²·sr) | flux L·π·A per side |
+//! | VPL | position, normal | intensity I along the normal, W/sr | flux πI |
+//! | distant | direction towards the light, angular radius γ | irradiance E at normal incidence, W/m² | at a point, 4π·E·cos⁺(θ − γ) (not in the node tree) |
+//! | environment | — (the host's radiance) | the host's irradiance bounds on receivers facing ±x, ±y, ±z, W/m² | at a point, 4π × the bound for its normal (not in the node tree) |
+//!
+//! A distant light's radiance is uniform over its cone of directions: L = E / (π sin²γ), so
+//! that the irradiance at normal incidence is E; γ = 0 is a delta direction that delivers E.
+//! The importances of the node tree are `flux / d²` = 4π × an irradiance, so a distant
+//! light's and the environment's are in the same units (docs/formulas.md, section 16).
 //!
 //! What a light may hold, decided once:
 //! - coordinates finite with magnitude ≤ [`MAX_COORDINATE`];
@@ -11,9 +28,15 @@
 //! - a spot's `half_angle` θs in (0, π], its `falloff_start` θf in [0, θs];
 //! - a degenerate triangle (zero area) is accepted and never sampled;
 //! - a light's energy at most [`MAX_LIGHT_ENERGY`], all of them together at most
-//!   [`MAX_TOTAL_ENERGY`], so that importances cannot overflow f32.
+//!   [`MAX_TOTAL_ENERGY`], so that importances cannot overflow f32;
+//! - a distant light's direction finite and non-zero (normalised here), its angular radius γ
+//!   in [0, π/2], its irradiance's luminance at most [`MAX_LIGHT_ENERGY`]; an environment's
+//!   six bounds finite, ≥ 0 and at most [`MAX_LIGHT_ENERGY`]. At most
+//!   [`MAX_INFINITE_LIGHTS`](crate::infinite::MAX_INFINITE_LIGHTS) distant and environment
+//!   lights in all, at most one environment (checked by the build).
 
 use crate::bounds::{Aabb, Cone, LightBounds, Sphere};
+use crate::colour::Rgb;
 use crate::error::{BuildError, LightField, Problem};
 use crate::math;
 use core::f32::consts::{FRAC_PI_2, PI};
@@ -26,17 +49,19 @@ pub const MAX_LIGHT_ENERGY: f32 = 1e24;
 /// Largest accepted sum of all lights' energies.
 pub const MAX_TOTAL_ENERGY: f32 = 1e26;
 
-/// One light. Powers are radiometric: `intensity` in W/sr, `radiance` in W/(m²·sr) (lengths
-/// in the scene's unit, m say); [`Light::energy`] is the flux in W (the crate documentation's
-/// "Units and limits" has the table).
+/// One light. Powers are radiometric and linear RGB ([`Rgb`]): `intensity` in W/sr,
+/// `radiance` in W/(m²·sr), `irradiance` in W/m², per channel (lengths in the scene's unit, m
+/// say); [`Light::energy`] is the flux in W (the crate documentation's "Units and limits" has
+/// the table). The tree ranks lights by the luminance of these ([`Rgb::luminance`]), so a grey
+/// light samples as a scalar one of the same value.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum Light {
     /// Isotropic point light.
     Point {
         /// Position.
         position: Vec3,
-        /// Radiant intensity.
-        intensity: f32,
+        /// Radiant intensity (W/sr).
+        intensity: Rgb,
     },
     /// Spot light: intensity `intensity` inside `falloff_start`, falling to 0 at `half_angle`:
     /// towards angle θ from the axis it sends `intensity · s(θ)`, with s = 1 for θ ≤ θf, 0 for
@@ -47,8 +72,8 @@ pub enum Light {
         position: Vec3,
         /// Direction of the cone's axis (need not be unit length).
         direction: Vec3,
-        /// Radiant intensity on the axis.
-        intensity: f32,
+        /// Radiant intensity on the axis (W/sr).
+        intensity: Rgb,
         /// Cone half-angle θs in radians, in (0, π].
         half_angle: f32,
         /// Angle θf where the falloff starts, in [0, θs].
@@ -60,8 +85,8 @@ pub enum Light {
         center: Vec3,
         /// Radius (> 0).
         radius: f32,
-        /// Emitted radiance.
-        radiance: f32,
+        /// Emitted radiance (W/(m²·sr)).
+        radiance: Rgb,
     },
     /// Disk area light of uniform radiance.
     Disk {
@@ -71,8 +96,8 @@ pub enum Light {
         normal: Vec3,
         /// Radius (> 0).
         radius: f32,
-        /// Emitted radiance.
-        radiance: f32,
+        /// Emitted radiance (W/(m²·sr)).
+        radiance: Rgb,
         /// Emits on both sides.
         two_sided: bool,
     },
@@ -81,10 +106,33 @@ pub enum Light {
     Triangle {
         /// Vertices.
         vertices: [Vec3; 3],
-        /// Emitted radiance.
-        radiance: f32,
+        /// Emitted radiance (W/(m²·sr)).
+        radiance: Rgb,
         /// Emits on both sides.
         two_sided: bool,
+    },
+    /// A light at infinity seen in the same cone of directions from every point (a sun): the
+    /// directions within `angular_radius` γ of `direction`, each of radiance
+    /// `irradiance / (π sin²γ)`, so that a surface facing it receives `irradiance`; γ = 0 is
+    /// a delta direction of irradiance `irradiance`. Not in the node tree: the light set
+    /// weighs it against the tree at every shading point.
+    Distant {
+        /// Direction towards the light (need not be unit length).
+        direction: Vec3,
+        /// Half-angle γ of the cone, radians, in [0, π/2] (0.27° ≈ 0.0047 for the sun).
+        angular_radius: f32,
+        /// Irradiance at normal incidence (W/m²).
+        irradiance: Rgb,
+    },
+    /// The host's environment (a sky or an environment map): its radiance, sampling and pdf
+    /// belong to the host (see [`crate::direct::Environment`]); the light carries what the
+    /// importance needs, bounds of the irradiance it delivers. At most one per light set.
+    Environment {
+        /// Upper bounds of the irradiance (luminance, W/m²) on a receiver facing +x, −x, +y,
+        /// −y, +z and −z: `∫ Y(L(ω)) max(0, a·ω) dω` for each axis direction a. The bound at a
+        /// normal n is `Σ |n_i| · E(sign(n_i) e_i)`, which is at least the irradiance for any
+        /// n. A uniform environment of radiance L has πY(L) in all six.
+        irradiance: [f32; 6],
     },
     /// Virtual point light (Keller 1997, "Instant Radiosity"): a point that emits with a cosine
     /// lobe about its normal, radiant intensity `intensity · max(0, cos θ)` with θ the angle to
@@ -95,8 +143,8 @@ pub enum Light {
         position: Vec3,
         /// Normal: the emitting side (need not be unit length).
         normal: Vec3,
-        /// Radiant intensity along the normal.
-        intensity: f32,
+        /// Radiant intensity along the normal (W/sr).
+        intensity: Rgb,
     },
 }
 
@@ -121,12 +169,15 @@ fn check_point(index: usize, field: LightField, p: Vec3) -> Result<(), BuildErro
     Ok(())
 }
 
-fn check_power(index: usize, field: LightField, v: f32) -> Result<(), BuildError> {
-    if !v.is_finite() {
-        return Err(invalid(index, field, Problem::NotFinite, v));
-    }
-    if v < 0.0 {
-        return Err(invalid(index, field, Problem::Negative, v));
+/// Every channel finite and ≥ 0; the error carries the first channel that is not.
+fn check_power(index: usize, field: LightField, c: Rgb) -> Result<(), BuildError> {
+    for v in c.to_array() {
+        if !v.is_finite() {
+            return Err(invalid(index, field, Problem::NotFinite, v));
+        }
+        if v < 0.0 {
+            return Err(invalid(index, field, Problem::Negative, v));
+        }
     }
     Ok(())
 }
@@ -152,6 +203,19 @@ fn check_direction(index: usize, field: LightField, d: Vec3) -> Result<Vec3, Bui
     }
     math::unit_f64([f64::from(d.x), f64::from(d.y), f64::from(d.z)])
         .ok_or_else(|| invalid(index, field, Problem::ZeroLength, 0.0))
+}
+
+/// An irradiance of at most [`MAX_LIGHT_ENERGY`].
+fn check_magnitude(index: usize, e: f32) -> Result<(), BuildError> {
+    if e > MAX_LIGHT_ENERGY {
+        return Err(invalid(
+            index,
+            LightField::Irradiance,
+            Problem::EnergyTooLarge,
+            e,
+        ));
+    }
+    Ok(())
 }
 
 /// `(v1 − v0) × (v2 − v0)` in f64.
@@ -240,6 +304,12 @@ fn energy_f32(e: f64) -> f32 {
     } else {
         f
     }
+}
+
+/// The luminance of a colour, as the energies use it (exactly `c` for a grey `c`).
+#[inline]
+fn lum(c: Rgb) -> f64 {
+    f64::from(c.luminance())
 }
 
 /// Round a non-negative f64 length up to an f32 with a little relative slack.
@@ -352,31 +422,80 @@ impl Light {
                 check_direction(index, LightField::Normal, normal)?;
                 check_power(index, LightField::Intensity, intensity)?;
             }
+            Light::Distant {
+                direction,
+                angular_radius,
+                irradiance,
+            } => {
+                check_direction(index, LightField::Direction, direction)?;
+                let field = LightField::AngularRadius;
+                if !angular_radius.is_finite() {
+                    return Err(invalid(index, field, Problem::NotFinite, angular_radius));
+                }
+                if !(0.0..=FRAC_PI_2).contains(&angular_radius) {
+                    return Err(invalid(index, field, Problem::OutOfRange, angular_radius));
+                }
+                check_power(index, LightField::Irradiance, irradiance)?;
+                check_magnitude(index, irradiance.luminance())?;
+            }
+            Light::Environment { irradiance } => {
+                check_power(
+                    index,
+                    LightField::Irradiance,
+                    Rgb::new(irradiance[0], irradiance[1], irradiance[2]),
+                )?;
+                check_power(
+                    index,
+                    LightField::Irradiance,
+                    Rgb::new(irradiance[3], irradiance[4], irradiance[5]),
+                )?;
+                for e in irradiance {
+                    check_magnitude(index, e)?;
+                }
+            }
         }
         let e = self.energy_f64();
         if e > f64::from(MAX_LIGHT_ENERGY) {
-            // The error names the field that sets the power, with its own value.
+            // The error names the field that sets the power, with its own value (luminance).
             let (field, value) = match *self {
                 Light::Point { intensity, .. }
                 | Light::Spot { intensity, .. }
-                | Light::Vpl { intensity, .. } => (LightField::Intensity, intensity),
+                | Light::Vpl { intensity, .. } => (LightField::Intensity, intensity.luminance()),
                 Light::Sphere { radiance, .. }
                 | Light::Disk { radiance, .. }
-                | Light::Triangle { radiance, .. } => (LightField::Radiance, radiance),
+                | Light::Triangle { radiance, .. } => (LightField::Radiance, radiance.luminance()),
+                Light::Distant { irradiance, .. } => {
+                    (LightField::Irradiance, irradiance.luminance())
+                }
+                Light::Environment { irradiance } => (
+                    LightField::Irradiance,
+                    irradiance.iter().fold(0.0f32, |a, &b| a.max(b)),
+                ),
             };
             return Err(invalid(index, field, Problem::EnergyTooLarge, value));
         }
         Ok(energy_f32(e))
     }
 
-    /// Emitting area (0 for point, spot and virtual point lights).
+    /// Emitting area (0 for point, spot, virtual point, distant and environment lights).
     pub fn area(&self) -> f32 {
         self.area_f64() as f32
     }
 
+    /// Whether the light is at infinity (distant or environment): it has no position, is not
+    /// in the node tree and is weighed against it at the root (see [`crate::infinite`]).
+    #[inline]
+    pub fn is_infinite(&self) -> bool {
+        matches!(self, Light::Distant { .. } | Light::Environment { .. })
+    }
+
     fn area_f64(&self) -> f64 {
         match *self {
-            Light::Point { .. } | Light::Spot { .. } | Light::Vpl { .. } => 0.0,
+            Light::Point { .. }
+            | Light::Spot { .. }
+            | Light::Vpl { .. }
+            | Light::Distant { .. }
+            | Light::Environment { .. } => 0.0,
             Light::Sphere { radius, .. } => {
                 4.0 * core::f64::consts::PI * math::sq(f64::from(radius))
             }
@@ -391,15 +510,17 @@ impl Light {
     fn energy_f64(&self) -> f64 {
         let pi = core::f64::consts::PI;
         match *self {
-            Light::Point { intensity, .. } => 4.0 * pi * f64::from(intensity),
+            Light::Point { intensity, .. } => 4.0 * pi * lum(intensity),
             // ∫ I·max(0, cos θ) dω over the sphere = πI.
-            Light::Vpl { intensity, .. } => pi * f64::from(intensity),
+            Light::Vpl { intensity, .. } => pi * lum(intensity),
             Light::Spot {
                 intensity,
                 half_angle,
                 ..
-            } => 2.0 * pi * math::one_minus_cos64(f64::from(half_angle)) * f64::from(intensity),
-            Light::Sphere { radiance, .. } => f64::from(radiance) * pi * self.area_f64(),
+            } => 2.0 * pi * math::one_minus_cos64(f64::from(half_angle)) * lum(intensity),
+            Light::Sphere { radiance, .. } => lum(radiance) * pi * self.area_f64(),
+            // At infinity: no finite flux, and not in the node tree.
+            Light::Distant { .. } | Light::Environment { .. } => 0.0,
             Light::Disk {
                 radiance,
                 two_sided,
@@ -411,19 +532,22 @@ impl Light {
                 ..
             } => {
                 let sides = if two_sided { 2.0 } else { 1.0 };
-                sides * f64::from(radiance) * pi * self.area_f64()
+                sides * lum(radiance) * pi * self.area_f64()
             }
         }
     }
 
-    /// Emitted power (docs/formulas.md, section 1; Conty & Kulla, "Orientation bounds"): 4πI
+    /// Emitted power as luminance (docs/formulas.md, sections 1 and 15; Conty & Kulla,
+    /// "Orientation bounds"), with I and L the luminance of the light's colour: 4πI
     /// for points, 2π(1 − cos θs)·I for spots (an upper bound of the flux with falloff;
     /// `1 − cos θs` is computed without cancellation, so a narrow cone keeps its energy), πI
     /// for virtual point lights, L·π·A per emitting side for area lights, in W when
-    /// intensity is in W/sr and radiance in W/(m²·sr). Computed in f64 and rounded to the
-    /// nearest f32, but never to 0 for a light that emits: a positive energy below f32's
-    /// range is the smallest positive f32, 2⁻¹⁴⁹, so that every light that can light a point
-    /// is in the tree. Valid only for a light that passed [`Light::validate`].
+    /// intensity is in W/sr and radiance in W/(m²·sr); 0 for distant and environment lights
+    /// (no finite flux: they are weighed at each shading point by their irradiance instead, see
+    /// [`crate::infinite`]). Computed in f64 and rounded to the nearest f32, but never to 0 for
+    /// a light that emits: a positive energy below f32's range is the smallest positive f32,
+    /// 2⁻¹⁴⁹, so that every light that can light a point is in the tree. Valid only for a light
+    /// that passed [`Light::validate`].
     pub fn energy(&self) -> f32 {
         energy_f32(self.energy_f64())
     }
@@ -476,6 +600,15 @@ impl Light {
                     cone,
                 )
             }
+            // Not bounded by the tree: a point at the origin, any orientation.
+            Light::Distant { .. } | Light::Environment { .. } => (
+                Aabb::point(Vec3::ZERO),
+                Sphere {
+                    center: Vec3::ZERO,
+                    radius: 0.0,
+                },
+                Cone::SPHERE,
+            ),
             Light::Vpl {
                 position, normal, ..
             } => (
@@ -587,7 +720,7 @@ mod tests {
         let l = Light::Sphere {
             center: Vec3::ZERO,
             radius: -1.0,
-            radiance: 1.0,
+            radiance: Rgb::grey(1.0),
         };
         let e = l.validate(7).unwrap_err();
         assert_eq!(
@@ -607,20 +740,34 @@ mod tests {
     fn energies() {
         let p = Light::Point {
             position: Vec3::ZERO,
-            intensity: 2.0,
+            intensity: Rgb::grey(2.0),
         };
         assert!((p.energy() - 8.0 * PI).abs() < 1e-4);
+        // The luminance of a colour: Y(1, 2, 4) = 0.2126 + 1.4304 + 0.2888 = 1.9318.
+        let c = Light::Point {
+            position: Vec3::ZERO,
+            intensity: Rgb::new(1.0, 2.0, 4.0),
+        };
+        assert!((c.energy() - 4.0 * PI * 1.9318).abs() < 1e-4);
+        let bad = Light::Point {
+            position: Vec3::ZERO,
+            intensity: Rgb::new(1.0, -2.0, 1.0),
+        };
+        assert_eq!(
+            bad.validate(3),
+            Err(invalid(3, LightField::Intensity, Problem::Negative, -2.0))
+        );
         let d = Light::Disk {
             center: Vec3::ZERO,
             normal: Vec3::Z,
             radius: 1.0,
-            radiance: 1.0,
+            radiance: Rgb::grey(1.0),
             two_sided: true,
         };
         assert!((d.energy() - 2.0 * PI * PI).abs() < 1e-4);
         let t = Light::Triangle {
             vertices: [Vec3::ZERO, Vec3::X, Vec3::X * 2.0],
-            radiance: 5.0,
+            radiance: Rgb::grey(5.0),
             two_sided: false,
         };
         assert_eq!(t.energy(), 0.0);

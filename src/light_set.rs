@@ -1,5 +1,13 @@
 //! A renderer's lights as the direct-lighting estimators use them: the lights themselves (for
-//! points on them and ray hits), their [`LightTree`], and an alias table for sampling ∝ power.
+//! points on them and ray hits), their [`LightTree`] (the node tree and, beside it, the distant
+//! and environment lights it weighs against the nodes at the root: [`crate::infinite`]), and
+//! an alias table for sampling ∝ power.
+//!
+//! The power of a light at infinity, for the alias table (pbrt-v4's `Phi` of its infinite
+//! lights, with the scene's bounding sphere taken as that of the local lights' boxes, radius
+//! R, or R = 1 without local lights): `π R² Y(E)` for a distant light of irradiance E, and for
+//! the environment `(2/3) π R² Σ` of its six irradiance bounds (`4π · πR² · Y(L)` for a
+//! uniform environment of radiance L, whose six bounds are `π Y(L)`).
 //!
 //! One [`LightSet`] is built per scene (it allocates); it is immutable afterwards,
 //! `Send + Sync`, and shared by every thread and every shading point.
@@ -31,7 +39,8 @@ impl LightSet {
     /// [`LightSet::build`] with the tree built with `opts`.
     pub fn build_with(lights: Vec<Light>, opts: &BuildOptions) -> Result<LightSet, BuildError> {
         let tree = LightTree::build_with(&lights, opts)?;
-        let power = AliasTable::new(lights.iter().map(|l| f64::from(l.energy())));
+        let r2 = scene_radius2(&lights);
+        let power = AliasTable::new(lights.iter().map(|l| power(l, r2)));
         Ok(LightSet {
             lights,
             tree,
@@ -72,6 +81,12 @@ impl LightSet {
         &self.power
     }
 
+    /// The environment light's index, if the set has one.
+    #[inline]
+    pub fn environment(&self) -> Option<u32> {
+        self.tree.environment()
+    }
+
     /// Number of lights.
     #[inline]
     pub fn len(&self) -> usize {
@@ -89,6 +104,39 @@ impl LightSet {
     #[inline]
     pub fn trace(&self, x: Vec3, d: Vec3, hit: impl FnMut(u32, &LightPoint)) {
         self.tree.trace(&self.lights, x, d, hit);
+    }
+}
+
+/// The squared radius of the bounding sphere of the boxes of the lights of positive energy
+/// (1 without any).
+fn scene_radius2(lights: &[Light]) -> f64 {
+    let mut lo = [f64::INFINITY; 3];
+    let mut hi = [f64::NEG_INFINITY; 3];
+    for l in lights.iter().filter(|l| l.energy() > 0.0) {
+        let b = l.bounds().aabb;
+        for k in 0..3 {
+            lo[k] = lo[k].min(f64::from(b.min[k]));
+            hi[k] = hi[k].max(f64::from(b.max[k]));
+        }
+    }
+    let d2: f64 = (0..3).map(|k| (hi[k] - lo[k]) * (hi[k] - lo[k])).sum();
+    if d2 > 0.0 && d2.is_finite() {
+        d2 / 4.0
+    } else {
+        1.0
+    }
+}
+
+/// A light's weight in the alias table: its energy, or for a light at infinity the power of
+/// the module documentation.
+fn power(l: &Light, r2: f64) -> f64 {
+    let disk = core::f64::consts::PI * r2;
+    match *l {
+        Light::Distant { irradiance, .. } => disk * f64::from(irradiance.luminance()),
+        Light::Environment { irradiance } => {
+            disk * (2.0 / 3.0) * irradiance.iter().map(|&e| f64::from(e)).sum::<f64>()
+        }
+        _ => f64::from(l.energy()),
     }
 }
 

@@ -1,11 +1,13 @@
 //! What the BRDF-oriented importance knows of a surface: the material and the view.
 //!
-//! Materials: Lambert (albedo), GGX (isotropic roughness α, height-correlated Smith masking, no
+//! Materials: Lambert (an RGB albedo), GGX (isotropic roughness α, height-correlated Smith masking, no
 //! Fresnel in the importance, scaled by a specular weight) and plastic (a Lambert base plus a
-//! GGX layer, each with its weight). Values a host may pass, decided once: albedo and weights
-//! finite in [0, 1]; α finite in (0, 1] (it is clamped below at [`MIN_ALPHA`] where it is used);
+//! GGX layer, each with its weight). The albedo is linear RGB; importances, cuts and BSDF
+//! sampling use its luminance ([`Rgb::luminance`]), the estimate every channel. Values a host
+//! may pass, decided once: every albedo channel and the weights finite in [0, 1]; α finite in (0, 1] (it is clamped below at [`MIN_ALPHA`] where it is used);
 //! position, normal and ωo finite, normal and ωo non-zero (they are normalised).
 
+use crate::colour::Rgb;
 use crate::error::Problem;
 use glam::Vec3;
 
@@ -19,8 +21,8 @@ pub const MIN_ALPHA: f32 = 5e-3;
 pub enum Material {
     /// Diffuse: f = albedo/π.
     Lambert {
-        /// Diffuse albedo in [0, 1].
-        albedo: f32,
+        /// Diffuse albedo, every channel in [0, 1].
+        albedo: Rgb,
     },
     /// Glossy: f = specular · GGX(α).
     Ggx {
@@ -31,8 +33,8 @@ pub enum Material {
     },
     /// Plastic: f = albedo/π + specular · GGX(α).
     Plastic {
-        /// Diffuse albedo in [0, 1].
-        albedo: f32,
+        /// Diffuse albedo, every channel in [0, 1].
+        albedo: Rgb,
         /// Weight of the GGX layer in [0, 1].
         specular: f32,
         /// Roughness α in (0, 1].
@@ -41,11 +43,19 @@ pub enum Material {
 }
 
 impl Material {
-    /// `(diffuse albedo, specular weight, α)`; zero weights for absent lobes.
+    /// `(luminance of the diffuse albedo, specular weight, α)`; zero weights for absent
+    /// lobes. What the importances, cuts and BSDF sampling use.
     pub fn lobes(&self) -> (f32, f32, f32) {
+        let (albedo, specular, alpha) = self.colour_lobes();
+        (albedo.luminance(), specular, alpha)
+    }
+
+    /// `(diffuse albedo, specular weight, α)`, the albedo in colour; zero weights for absent
+    /// lobes.
+    pub fn colour_lobes(&self) -> (Rgb, f32, f32) {
         match *self {
             Material::Lambert { albedo } => (albedo, 0.0, 1.0),
-            Material::Ggx { alpha, specular } => (0.0, specular, alpha),
+            Material::Ggx { alpha, specular } => (Rgb::ZERO, specular, alpha),
             Material::Plastic {
                 albedo,
                 specular,
@@ -118,8 +128,10 @@ impl ShadingPoint {
         }
         direction(ShadingField::Normal, self.normal)?;
         direction(ShadingField::Wo, self.wo)?;
-        let (albedo, specular, alpha) = self.material.lobes();
-        unit_range(ShadingField::Albedo, albedo)?;
+        let (albedo, specular, alpha) = self.material.colour_lobes();
+        for c in albedo.to_array() {
+            unit_range(ShadingField::Albedo, c)?;
+        }
         unit_range(ShadingField::Specular, specular)?;
         if !alpha.is_finite() {
             return Err(err(ShadingField::Alpha, Problem::NotFinite, alpha));
@@ -142,12 +154,20 @@ mod tests {
             normal: Vec3::Z,
             wo: Vec3::new(0.3, 0.0, 1.0),
             material: Material::Plastic {
-                albedo: 0.5,
+                albedo: Rgb::new(0.5, 0.2, 0.9),
                 specular: 0.5,
                 alpha: 0.2,
             },
         };
         assert!(good.validate().is_ok());
+        let bad = ShadingPoint {
+            material: Material::Lambert {
+                albedo: Rgb::new(0.5, 1.5, 0.1),
+            },
+            ..good
+        };
+        let e = bad.validate().unwrap_err();
+        assert_eq!((e.field, e.value), (ShadingField::Albedo, 1.5));
         let bad = ShadingPoint {
             material: Material::Ggx {
                 alpha: 0.0,

@@ -309,6 +309,10 @@ impl LightTree {
     /// (clamped into it). `None` when no light can contribute (the root's importance is 0).
     #[inline]
     pub fn sample<I: Importance + ?Sized>(&self, imp: &I, u: f32) -> Option<LightSample> {
+        if !self.infinite.is_empty() {
+            // The root choice among the nodes and the lights at infinity first.
+            return self.sample_with_infinite(imp, u);
+        }
         self.descend_from(imp, 0, true, u, MIN_PMF)
     }
 
@@ -366,7 +370,7 @@ impl LightTree {
     /// let lights: Vec<Light> = (0..500)
     ///     .map(|i| Light::Point {
     ///         position: Vec3::new((i % 25) as f32, (i / 25) as f32, 3.0),
-    ///         intensity: 1.0 + (i % 3) as f32,
+    ///         intensity: (1.0 + (i % 3) as f32).into(),
     ///     })
     ///     .collect();
     /// let tree = LightTree::build(&lights)?;
@@ -393,6 +397,13 @@ impl LightTree {
     ) -> Result<(), LengthMismatch> {
         LengthMismatch::check("us", imps.len(), us.len())?;
         LengthMismatch::check("out", imps.len(), out.len())?;
+        if !self.infinite.is_empty() {
+            // With lights at infinity, the single calls (their root choice first).
+            for ((o, imp), &u) in out.iter_mut().zip(imps).zip(us) {
+                *o = self.sample(imp, u);
+            }
+            return Ok(());
+        }
         self.descend_many::<I, BATCH_LANES>(
             imps.len(),
             |j| &imps[j],
@@ -421,6 +432,12 @@ impl LightTree {
     ) -> Result<(), LengthMismatch> {
         LengthMismatch::check("lights", imps.len(), lights.len())?;
         LengthMismatch::check("out", imps.len(), out.len())?;
+        if !self.infinite.is_empty() {
+            for ((o, imp), &light) in out.iter_mut().zip(imps).zip(lights) {
+                *o = self.pmf(imp, light);
+            }
+            return Ok(());
+        }
         if self.nodes.len() >= PMF_WIDE_NODES {
             self.pmf_batch_with::<I, PMF_BATCH_LANES_WIDE>(imps, lights, out);
         } else {
@@ -685,6 +702,9 @@ impl LightTree {
     /// The probability that [`LightTree::sample`] returns `light` at the shading point of
     /// `imp`: exactly the pmf it reports. 0 for lights not in the tree or out of range.
     pub fn pmf<I: Importance + ?Sized>(&self, imp: &I, light: u32) -> f32 {
+        if !self.infinite.is_empty() {
+            return self.pmf_with_infinite(imp, light);
+        }
         let path = self.path(light);
         self.pmf_from(
             imp,
@@ -892,6 +912,7 @@ mod tests {
     /// width; the wide one is called directly).
     #[test]
     fn pmf_batch_widths_match_pmf() {
+        use crate::colour::Rgb;
         use crate::importance::TlImportance;
         use crate::light::Light;
         use alloc::vec;
@@ -906,25 +927,25 @@ mod tests {
             lights.push(match i % 3 {
                 0 => Light::Point {
                     position: p,
-                    intensity: 0.1 + 10.0 * rng.f32(),
+                    intensity: Rgb::grey(0.1 + 10.0 * rng.f32()),
                 },
                 1 => Light::Spot {
                     position: p,
                     direction: d,
-                    intensity: 0.1 + 10.0 * rng.f32(),
+                    intensity: Rgb::grey(0.1 + 10.0 * rng.f32()),
                     half_angle: 0.2 + 1.2 * rng.f32(),
                     falloff_start: 0.1,
                 },
                 _ => Light::Sphere {
                     center: p,
                     radius: 0.1 + rng.f32(),
-                    radiance: 0.1 + rng.f32(),
+                    radiance: Rgb::grey(0.1 + rng.f32()),
                 },
             });
         }
         lights[17] = Light::Point {
             position: Vec3::ZERO,
-            intensity: 0.0,
+            intensity: Rgb::grey(0.0),
         };
         let tree = LightTree::build(&lights).unwrap();
         let m = 700;

@@ -1,6 +1,8 @@
 //! The light tree as flat, `bytemuck::Pod` arrays: [`Node4`] (four child clusters quantised
 //! into one 64-byte cache line), the lights of the leaf slots in tree order, and per-light
-//! paths, both bit-packed; its self-check ([`LightTree::validate`]) and its byte serialisation.
+//! paths, both bit-packed, and beside the nodes the distant and environment lights
+//! ([`InfiniteLight`], weighed against the nodes at the root: [`crate::infinite`]); its
+//! self-check ([`LightTree::validate`]) and its byte serialisation.
 //!
 //! This file holds the [`LightTree`] type and the part of its API that reads the finished
 //! tree: the accessors ([`LightTree::nodes`], [`LightTree::slot`], [`LightTree::path`],
@@ -13,6 +15,7 @@
 use crate::bounds::{Cone, Sphere};
 use crate::checksum::{self, light_check_count, LIGHT_BLOCK};
 use crate::error::{FormatError, LightMismatch, ValidationError};
+use crate::infinite::{InfiniteLight, MAX_INFINITE_LIGHTS};
 use crate::light::Light;
 use crate::packed::{index_bits, path_bits, Packed};
 use crate::quantize;
@@ -303,6 +306,9 @@ pub struct LightTree {
     /// Per block of [`LIGHT_BLOCK`] lights, the CRC-64 of their descriptors
     /// ([`checksum::light_checks`]): what a load with lights checks them against.
     pub(crate) light_checks: Vec<u64>,
+    /// The distant and environment lights, in input order (not in the nodes; their paths are
+    /// 0).
+    pub(crate) infinite: Vec<InfiniteLight>,
 }
 
 /// The number of levels a path encodes (0 for the "not in tree" path 0).
@@ -318,7 +324,7 @@ pub(crate) fn path_len(path: u64) -> u32 {
 /// The byte format's version, the only one [`LightTree::from_bytes`] reads: a 24-byte header
 /// (magic, version, payload length, CRC-64 of the payload) before the payload (counts, 64-byte
 /// quantised nodes, variances, the leaf array and paths bit-packed into 64-bit words, the
-/// lights' checksums), laid out on [`LightTree::as_bytes`].
+/// lights' checksums, the section of the distant and environment lights), laid out on [`LightTree::as_bytes`].
 pub const FORMAT_VERSION: u8 = 4;
 const MAGIC: [u8; 7] = *b"MLTREE\x00";
 /// Bytes of the header: magic (7), version (1), payload length (8), checksum (8).
@@ -429,6 +435,7 @@ impl LightTree {
             paths,
             depth,
             light_checks: vec![0; light_check_count(n_lights)],
+            infinite: Vec::new(),
         }
     }
 
@@ -476,9 +483,10 @@ impl LightTree {
         self.depth
     }
 
-    /// Whether the tree samples nothing (no light has positive energy).
+    /// Whether the tree samples nothing: no light of the node tree has positive energy and
+    /// there is no distant or environment light.
     pub fn is_empty(&self) -> bool {
-        self.nodes.is_empty()
+        self.nodes.is_empty() && self.infinite.is_empty()
     }
 
     /// Total energy of the sampled lights (as the root's slots store it, rounded up).
@@ -501,14 +509,15 @@ impl LightTree {
         }
     }
 
-    /// Bytes of the nodes, the node variances, the leaf array, the paths and the lights'
-    /// checksums.
+    /// Bytes of the nodes, the node variances, the leaf array, the paths, the lights'
+    /// checksums and the entries of the lights at infinity.
     fn array_bytes(&self) -> usize {
         core::mem::size_of_val(self.nodes.as_slice())
             + core::mem::size_of_val(self.variances.as_slice())
             + self.leaves.byte_len()
             + self.paths.byte_len()
             + core::mem::size_of_val(self.light_checks.as_slice())
+            + core::mem::size_of_val(self.infinite.as_slice())
     }
 
     /// Size and shape.
@@ -548,6 +557,12 @@ impl LightTree {
     /// after every build in debug builds and in tests; [`LightTree::validate_lights`] also
     /// checks the leaves against the lights' own bounds.
     pub fn validate(&self) -> Result<(), ValidationError> {
+        self.validate_nodes()?;
+        self.validate_infinite()
+    }
+
+    /// [`LightTree::validate`] of the nodes, leaf array and paths.
+    fn validate_nodes(&self) -> Result<(), ValidationError> {
         let n_nodes = self.nodes.len();
         let n_lights = self.paths.len();
         if n_nodes > MAX_LIGHTS as usize
@@ -610,6 +625,7 @@ impl LightTree {
         if lights.len() != self.paths.len() {
             return Err(ValidationError::BadStats);
         }
+        self.validate_infinite_lights(lights)?;
         for (l, light) in lights.iter().enumerate() {
             let b = light.bounds();
             let path = self.path(l as u32);
@@ -704,7 +720,9 @@ impl LightTree {
     /// and leaf counts (u64 each) and the depth (u32), then a byte-order mark (the u32
     /// `0x01020304` in the host's byte order), followed in the host's byte order by the nodes,
     /// the node variances (u16 each), the leaf array, the paths and the lights' checksums
-    /// (one u64 per block of [`LIGHT_BLOCK`] lights, [`checksum::light_checks`]). The leaf
+    /// (one u64 per block of [`LIGHT_BLOCK`] lights, [`checksum::light_checks`]), then the section
+    /// of the distant and environment lights: their count as a little-endian u64, then the
+    /// 64-byte [`InfiniteLight`] entries (in the host's byte order). The leaf
     /// array holds each light slot's light index in as many bits as the largest index needs
     /// (at least 1), the paths each light's path in `2·depth + 1` bits, each array packed back
     /// to back into 64-bit words (value `i` in bits `i·w` to `(i + 1)·w − 1` of the words read
@@ -721,6 +739,8 @@ impl LightTree {
         out.extend_from_slice(bytemuck::cast_slice(self.leaves.words()));
         out.extend_from_slice(bytemuck::cast_slice(self.paths.words()));
         out.extend_from_slice(bytemuck::cast_slice(&self.light_checks));
+        out.extend_from_slice(&(self.infinite.len() as u64).to_le_bytes());
+        out.extend_from_slice(bytemuck::cast_slice(&self.infinite));
         seal(&out)
     }
 
@@ -766,7 +786,16 @@ impl LightTree {
         let leaf_bytes = Packed::word_count(n_leaves, leaf_bits) * 8;
         let path_bytes = Packed::word_count(n_lights, path_bits) * 8;
         let check_bytes = light_check_count(n_lights) * 8;
-        let need = COUNTS + node_bytes + variance_bytes + leaf_bytes + path_bytes + check_bytes;
+        let arrays = COUNTS + node_bytes + variance_bytes + leaf_bytes + path_bytes + check_bytes;
+        if payload.len() < arrays + 8 {
+            return Err(FormatError::Truncated);
+        }
+        let n_infinite = u64_at(arrays);
+        if n_infinite > MAX_INFINITE_LIGHTS as u64 {
+            return Err(FormatError::Invalid(ValidationError::BadStats));
+        }
+        let infinite_bytes = n_infinite as usize * core::mem::size_of::<InfiniteLight>();
+        let need = arrays + 8 + infinite_bytes;
         if payload.len() < need {
             return Err(FormatError::Truncated);
         }
@@ -787,6 +816,9 @@ impl LightTree {
         let (Some(leaves), Some(paths)) = (leaves, paths) else {
             return Err(FormatError::Truncated);
         };
+        o = arrays + 8;
+        let infinite: Vec<InfiniteLight> =
+            bytemuck::pod_collect_to_vec(&payload[o..o + infinite_bytes]);
         let tree = LightTree {
             nodes,
             variances,
@@ -794,6 +826,7 @@ impl LightTree {
             paths,
             depth,
             light_checks,
+            infinite,
         };
         tree.validate().map_err(FormatError::Invalid)?;
         Ok(tree)

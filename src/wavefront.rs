@@ -70,7 +70,7 @@ impl From<LengthMismatch> for BatchError {
 
 /// `per_point` estimates at each of `points` with `technique` and `params`: for each point in
 /// order, [`Estimator::new`] there (the per-point set-up) and `per_point` calls of
-/// [`Estimator::estimate`] with `occluder` and the uniform numbers of `u`, written to
+/// [`Estimator::estimate`] with `occluder` and the uniform numbers of `u` (RGB), written to
 /// `out[j · per_point ..][..per_point]` — bit for bit, and drawing exactly the uniform
 /// numbers, of those single calls made one after the other. Every shading point is checked
 /// before the first estimate.
@@ -88,7 +88,7 @@ pub fn estimate_each<O: Occluder + ?Sized>(
     params: &Params,
     occluder: &O,
     u: &mut (impl Uniforms + ?Sized),
-    out: &mut [f64],
+    out: &mut [[f64; 3]],
 ) -> Result<(), BatchError> {
     let want = points
         .len()

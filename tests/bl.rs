@@ -45,6 +45,7 @@ use manylights::cut::MIN_CUT_SIZE;
 use manylights::importance::brdf_oriented::DEFENSIVE;
 use manylights::importance::sptd::SptdGgx;
 use manylights::material::ShadingField;
+use manylights::Rgb;
 use manylights::{
     f32x4, BlCutOptions, BlImportance, Child, Importance, Light, LightCut, LightTree, Material,
     Node4, Receiver, ShadingPoint, Slot, SlotBounds, CUT_CAPACITY,
@@ -85,14 +86,14 @@ fn random_material(rng: &mut Rng) -> Material {
     };
     match rng.below(3) {
         0 => Material::Lambert {
-            albedo: weight(rng),
+            albedo: Rgb::grey(weight(rng)),
         },
         1 => Material::Ggx {
             alpha: ALPHAS[rng.below(ALPHAS.len())],
             specular: weight(rng),
         },
         _ => Material::Plastic {
-            albedo: weight(rng),
+            albedo: Rgb::grey(weight(rng)),
             specular: weight(rng),
             alpha: ALPHAS[rng.below(ALPHAS.len())],
         },
@@ -179,6 +180,9 @@ fn light_center(l: &Light) -> Vec3 {
         | Light::Vpl { position, .. } => position,
         Light::Sphere { center, .. } | Light::Disk { center, .. } => center,
         Light::Triangle { vertices, .. } => (vertices[0] + vertices[1] + vertices[2]) / 3.0,
+        Light::Distant { .. } | Light::Environment { .. } => {
+            unreachable!("lights at infinity are tested in tests/infinite.rs")
+        }
     }
 }
 
@@ -604,23 +608,23 @@ fn glossy_tiny_caps_far_from_the_mirror_keep_a_positive_pmf() {
                 0 => Light::Sphere {
                     center: p,
                     radius: rng.log_range(1e-4, 1e-2),
-                    radiance: rng.log_range(0.1, 10.0),
+                    radiance: Rgb::grey(rng.log_range(0.1, 10.0)),
                 },
                 1 => Light::Disk {
                     center: p,
                     normal: -p, // facing x
                     radius: rng.log_range(1e-4, 1e-2),
-                    radiance: rng.log_range(0.1, 10.0),
+                    radiance: Rgb::grey(rng.log_range(0.1, 10.0)),
                     two_sided: false,
                 },
                 2 => Light::Point {
                     position: p,
-                    intensity: rng.log_range(0.1, 10.0),
+                    intensity: Rgb::grey(rng.log_range(0.1, 10.0)),
                 },
                 _ => Light::Spot {
                     position: p,
                     direction: -p + rng.unit() * p.length() * 0.1,
-                    intensity: rng.log_range(0.1, 10.0),
+                    intensity: Rgb::grey(rng.log_range(0.1, 10.0)),
                     half_angle: 0.5,
                     falloff_start: 0.2,
                 },
@@ -825,7 +829,7 @@ fn bl_cut_chi_square_against_pmf() {
                 Vec3::X,
                 Vec3::new(-1.0, 0.1, 0.05), // below the normal: turned over
                 Material::Plastic {
-                    albedo: 0.5,
+                    albedo: Rgb::grey(0.5),
                     specular: 0.5,
                     alpha: 0.05,
                 },
@@ -840,7 +844,9 @@ fn bl_cut_chi_square_against_pmf() {
                 Vec3::ZERO,
                 Vec3::Y,
                 Vec3::Y,
-                Material::Lambert { albedo: 0.8 },
+                Material::Lambert {
+                    albedo: Rgb::grey(0.8),
+                },
             ),
             BlCutOptions {
                 delta: 0.0,
@@ -1240,7 +1246,9 @@ fn bl_cut_delta_zero_and_infinite() {
                     position: x,
                     normal: -x,
                     wo: -x,
-                    material: Material::Lambert { albedo: 1.0 },
+                    material: Material::Lambert {
+                        albedo: Rgb::grey(1.0),
+                    },
                 })
                 .unwrap()
             } else {
@@ -1327,12 +1335,14 @@ fn bl_cut_edges() {
         position: Vec3::ZERO,
         normal: Vec3::Z,
         wo: Vec3::Z,
-        material: Material::Lambert { albedo: 0.5 },
+        material: Material::Lambert {
+            albedo: Rgb::grey(0.5),
+        },
     })
     .unwrap();
     let zero = vec![Light::Point {
         position: Vec3::ONE,
-        intensity: 0.0,
+        intensity: Rgb::grey(0.0),
     }];
     for lights in [Vec::new(), zero] {
         let tree = LightTree::build(&lights).unwrap();
@@ -1605,7 +1615,7 @@ fn single_sphere(
     let lights = [Light::Sphere {
         center,
         radius: r,
-        radiance: 1.0,
+        radiance: Rgb::grey(1.0),
     }];
     let tree = LightTree::build(&lights).unwrap();
     let node = &tree.nodes()[0];
@@ -1639,7 +1649,9 @@ fn single_sphere(
 fn lambert_cap_integral_matches_ground_truth() {
     let mut rng = Rng::new(0x1A3B);
     let albedo = 0.7f32;
-    let material = Material::Lambert { albedo };
+    let material = Material::Lambert {
+        albedo: albedo.into(),
+    };
     let rho = f64::from(albedo);
     let (mut worst_q, mut worst_mc, mut worst_mc_se) = (0.0f64, 0.0f64, 0.0f64);
     let mut cases = 0;
@@ -1731,12 +1743,19 @@ fn ggx_case(
         "SC scalar {sc} vs 4-wide {wide}"
     );
     let plastic = Material::Plastic {
-        albedo: 0.25,
+        albedo: Rgb::grey(0.25),
         specular: 0.5,
         alpha,
     };
     let (ip, bp, _, _) = single_sphere(center, r, wo32, plastic);
-    let (il, bl, _, _) = single_sphere(center, r, wo32, Material::Lambert { albedo: 1.0 });
+    let (il, bl, _, _) = single_sphere(
+        center,
+        r,
+        wo32,
+        Material::Lambert {
+            albedo: Rgb::grey(1.0),
+        },
+    );
     let sum = 0.25 * f64::from(il.eval(&bl).cap_integral) + 0.5 * sc;
     let got = f64::from(ip.eval(&bp).cap_integral);
     assert!(
@@ -2003,7 +2022,7 @@ fn bad_shading_points_are_rejected_with_the_field() {
         normal: Vec3::Z,
         wo: Vec3::new(0.3, 0.0, 1.0),
         material: Material::Plastic {
-            albedo: 0.5,
+            albedo: Rgb::grey(0.5),
             specular: 0.5,
             alpha: 0.2,
         },
@@ -2071,7 +2090,7 @@ fn bad_shading_points_are_rejected_with_the_field() {
         ));
         cases.push((
             with_material(Material::Plastic {
-                albedo: 0.5,
+                albedo: Rgb::grey(0.5),
                 specular: 0.5,
                 alpha,
             }),
@@ -2080,12 +2099,14 @@ fn bad_shading_points_are_rejected_with_the_field() {
     }
     for v in [-1e-6, -1.0, 1.0 + f32::EPSILON, 1.5, nan, inf, -inf] {
         cases.push((
-            with_material(Material::Lambert { albedo: v }),
+            with_material(Material::Lambert {
+                albedo: Rgb::grey(v),
+            }),
             ShadingField::Albedo,
         ));
         cases.push((
             with_material(Material::Plastic {
-                albedo: v,
+                albedo: Rgb::grey(v),
                 specular: 0.5,
                 alpha: 0.5,
             }),
@@ -2100,7 +2121,7 @@ fn bad_shading_points_are_rejected_with_the_field() {
         ));
         cases.push((
             with_material(Material::Plastic {
-                albedo: 0.5,
+                albedo: Rgb::grey(0.5),
                 specular: v,
                 alpha: 0.5,
             }),
@@ -2141,12 +2162,16 @@ fn bad_shading_points_are_rejected_with_the_field() {
             specular: 0.0,
         }),
         with_material(Material::Plastic {
-            albedo: 0.0,
+            albedo: Rgb::grey(0.0),
             specular: 0.0,
             alpha: 0.5,
         }),
-        with_material(Material::Lambert { albedo: 1.0 }),
-        with_material(Material::Lambert { albedo: 0.0 }),
+        with_material(Material::Lambert {
+            albedo: Rgb::grey(1.0),
+        }),
+        with_material(Material::Lambert {
+            albedo: Rgb::grey(0.0),
+        }),
     ];
     for wo in [
         Vec3::X,
@@ -2211,13 +2236,15 @@ fn bad_shading_points_are_rejected_with_the_field() {
 fn bl_of_a_point_light_is_the_limit_of_a_shrinking_sphere() {
     let mut failures = Vec::new();
     for material in [
-        Material::Lambert { albedo: 0.8 },
+        Material::Lambert {
+            albedo: Rgb::grey(0.8),
+        },
         Material::Ggx {
             alpha: 0.2,
             specular: 1.0,
         },
         Material::Plastic {
-            albedo: 0.3,
+            albedo: Rgb::grey(0.3),
             specular: 0.7,
             alpha: 0.05,
         },
@@ -2239,13 +2266,13 @@ fn bl_of_a_point_light_is_the_limit_of_a_shrinking_sphere() {
             let r = 1e-3f32;
             let point = LightTree::build(&[Light::Point {
                 position: c,
-                intensity: 1.0,
+                intensity: Rgb::grey(1.0),
             }])
             .unwrap();
             let sphere = LightTree::build(&[Light::Sphere {
                 center: c,
                 radius: r,
-                radiance: 1.0 / (std::f32::consts::PI * r * r),
+                radiance: Rgb::grey(1.0 / (std::f32::consts::PI * r * r)),
             }])
             .unwrap();
             let a = imp.eval(&point.nodes()[0].bounds(0));
@@ -2300,7 +2327,7 @@ fn bl_importance_stays_finite_where_tl_is() {
         let lights = [Light::Sphere {
             center: mirror * 1e-6,
             radius: r,
-            radiance,
+            radiance: radiance.into(),
         }];
         let tree = LightTree::build(&lights).unwrap();
         assert!(reaches(&lights[0], &imp));
@@ -2337,7 +2364,7 @@ fn glossy_part_of_the_cap_integrals() {
             Light::Sphere {
                 center: Vec3::new(3.0 * t.cos(), 3.0 * t.sin(), 0.5 + (i % 7) as f32 * 0.4),
                 radius: 0.05 + 0.01 * (i % 5) as f32,
-                radiance: 1.0 + (i % 3) as f32,
+                radiance: Rgb::grey(1.0 + (i % 3) as f32),
             }
         })
         .collect();
@@ -2352,13 +2379,15 @@ fn glossy_part_of_the_cap_integrals() {
         .unwrap()
     };
     let (rho, ks, alpha) = (0.5, 0.4, 0.15);
-    let lambert = at(Material::Lambert { albedo: rho });
+    let lambert = at(Material::Lambert {
+        albedo: Rgb::grey(rho),
+    });
     let ggx = at(Material::Ggx {
         alpha,
         specular: ks,
     });
     let plastic = at(Material::Plastic {
-        albedo: rho,
+        albedo: Rgb::grey(rho),
         specular: ks,
         alpha,
     });
@@ -2419,21 +2448,21 @@ fn huge_normal_and_wo_keep_their_direction() {
     let lights = [
         Light::Point {
             position: Vec3::new(0.5, 0.0, -2.0),
-            intensity: 1.0,
+            intensity: Rgb::grey(1.0),
         },
         Light::Sphere {
             center: Vec3::new(-1.0, 1.0, -1.5),
             radius: 0.3,
-            radiance: 2.0,
+            radiance: Rgb::grey(2.0),
         },
         Light::Point {
             position: Vec3::new(0.0, 0.5, 2.0),
-            intensity: 3.0,
+            intensity: Rgb::grey(3.0),
         },
     ];
     let tree = LightTree::build(&lights).unwrap();
     let material = Material::Plastic {
-        albedo: 0.5,
+        albedo: Rgb::grey(0.5),
         specular: 0.5,
         alpha: 0.3,
     };
@@ -2485,7 +2514,9 @@ fn tiny_normal_and_wo_are_accepted() {
         position: Vec3::ZERO,
         normal,
         wo,
-        material: Material::Lambert { albedo: 0.8 },
+        material: Material::Lambert {
+            albedo: Rgb::grey(0.8),
+        },
     };
     for (normal, wo) in [
         (Vec3::new(0.0, 0.0, 1e-30), Vec3::new(0.3, 0.0, 1.0)),
@@ -2608,7 +2639,7 @@ fn a_cluster_a_femtometre_away_keeps_its_cap() {
     let lights = [Light::Sphere {
         center: bounds.center,
         radius: bounds.radius,
-        radiance: 1.0,
+        radiance: Rgb::grey(1.0),
     }];
     let tree = LightTree::build(&lights).unwrap();
     let node = &tree.nodes()[0];

@@ -13,6 +13,7 @@ use common::{Rng, Stats};
 use glam::{DVec3, Vec3};
 use manylights::brdf::schlick;
 use manylights::material::MIN_ALPHA;
+use manylights::Rgb;
 use manylights::{Brdf, Frame, Ggx, Lambert, Material};
 use std::f64::consts::PI;
 
@@ -71,7 +72,7 @@ fn materials() -> Vec<(String, Box<dyn Brdf>)> {
     v.push((
         "plastic".into(),
         Box::new(Material::Plastic {
-            albedo: 0.5,
+            albedo: Rgb::grey(0.5),
             specular: 0.3,
             alpha: 0.1,
         }),
@@ -381,7 +382,7 @@ fn degenerate_inputs_give_none_or_zero() {
     brdfs.push((
         "black".into(),
         Box::new(Material::Plastic {
-            albedo: 0.0,
+            albedo: Rgb::grey(0.0),
             specular: 0.0,
             alpha: 0.5,
         }),
@@ -389,7 +390,7 @@ fn degenerate_inputs_give_none_or_zero() {
     brdfs.push((
         "nan material".into(),
         Box::new(Material::Plastic {
-            albedo: f32::NAN,
+            albedo: Rgb::grey(f32::NAN),
             specular: f32::NAN,
             alpha: f32::NAN,
         }),

@@ -7,6 +7,7 @@ mod common;
 use common::{random_importance, reseal, styled_scene, u_values, Rng};
 use glam::Vec3;
 use manylights::baseline::BinaryLightTree;
+use manylights::Rgb;
 use manylights::{
     BuildError, BuildOptions, FormatError, Light, LightField, LightTree, Problem, Slot,
     TlImportance, MAX_COORDINATE,
@@ -21,7 +22,7 @@ use std::f32::consts::{FRAC_PI_2, PI};
 fn point(x: f32) -> Light {
     Light::Point {
         position: Vec3::new(x, 0.0, 0.0),
-        intensity: 1.0,
+        intensity: Rgb::grey(1.0),
     }
 }
 
@@ -29,7 +30,7 @@ fn spot(half_angle: f32, falloff_start: f32) -> Light {
     Light::Spot {
         position: Vec3::ZERO,
         direction: Vec3::Z,
-        intensity: 1.0,
+        intensity: Rgb::grey(1.0),
         half_angle,
         falloff_start,
     }
@@ -39,7 +40,7 @@ fn sphere(radius: f32, radiance: f32) -> Light {
     Light::Sphere {
         center: Vec3::ONE,
         radius,
-        radiance,
+        radiance: radiance.into(),
     }
 }
 
@@ -48,7 +49,7 @@ fn disk(normal: Vec3, radius: f32, radiance: f32) -> Light {
         center: Vec3::ONE,
         normal,
         radius,
-        radiance,
+        radiance: radiance.into(),
         two_sided: false,
     }
 }
@@ -56,7 +57,7 @@ fn disk(normal: Vec3, radius: f32, radiance: f32) -> Light {
 fn triangle(vertices: [Vec3; 3], radiance: f32) -> Light {
     Light::Triangle {
         vertices,
-        radiance,
+        radiance: radiance.into(),
         two_sided: true,
     }
 }
@@ -216,7 +217,7 @@ fn invalid_coordinates_are_reported() {
         expect_invalid(
             Light::Point {
                 position: p,
-                intensity: 1.0,
+                intensity: Rgb::grey(1.0),
             },
             Position,
             problem,
@@ -226,7 +227,7 @@ fn invalid_coordinates_are_reported() {
             Light::Spot {
                 position: p,
                 direction: Vec3::Z,
-                intensity: 1.0,
+                intensity: Rgb::grey(1.0),
                 half_angle: 1.0,
                 falloff_start: 0.5,
             },
@@ -238,7 +239,7 @@ fn invalid_coordinates_are_reported() {
             Light::Sphere {
                 center: p,
                 radius: 1.0,
-                radiance: 1.0,
+                radiance: Rgb::grey(1.0),
             },
             Center,
             problem,
@@ -249,7 +250,7 @@ fn invalid_coordinates_are_reported() {
                 center: p,
                 normal: Vec3::Z,
                 radius: 1.0,
-                radiance: 1.0,
+                radiance: Rgb::grey(1.0),
                 two_sided: true,
             },
             Center,
@@ -265,7 +266,7 @@ fn invalid_coordinates_are_reported() {
     // The largest accepted coordinate is accepted.
     let edge = [Light::Point {
         position: Vec3::new(MAX_COORDINATE, -MAX_COORDINATE, 0.0),
-        intensity: 1.0,
+        intensity: Rgb::grey(1.0),
     }];
     check_tree(&LightTree::build(&edge).unwrap(), &edge);
 }
@@ -286,7 +287,7 @@ fn invalid_powers_are_reported() {
         expect_invalid(
             Light::Point {
                 position: Vec3::ZERO,
-                intensity: v,
+                intensity: Rgb::grey(v),
             },
             Intensity,
             problem,
@@ -296,7 +297,7 @@ fn invalid_powers_are_reported() {
             Light::Spot {
                 position: Vec3::ZERO,
                 direction: Vec3::Z,
-                intensity: v,
+                intensity: Rgb::grey(v),
                 half_angle: 1.0,
                 falloff_start: 0.5,
             },
@@ -317,7 +318,7 @@ fn invalid_powers_are_reported() {
     for l in [
         Light::Point {
             position: Vec3::ZERO,
-            intensity: 1e24,
+            intensity: Rgb::grey(1e24),
         },
         spot_with_intensity(1e25),
     ] {
@@ -354,7 +355,7 @@ fn invalid_powers_are_reported() {
     let many: Vec<Light> = (0..101)
         .map(|i| Light::Point {
             position: Vec3::new(i as f32, 0.0, 0.0),
-            intensity: each,
+            intensity: Rgb::grey(each),
         })
         .collect();
     assert_eq!(
@@ -380,7 +381,7 @@ fn spot_with_intensity(intensity: f32) -> Light {
     Light::Spot {
         position: Vec3::ZERO,
         direction: Vec3::Z,
-        intensity,
+        intensity: intensity.into(),
         half_angle: PI,
         falloff_start: 0.0,
     }
@@ -414,7 +415,7 @@ fn invalid_radii_and_directions_are_reported() {
             Light::Spot {
                 position: Vec3::ZERO,
                 direction: d,
-                intensity: 1.0,
+                intensity: Rgb::grey(1.0),
                 half_angle: 1.0,
                 falloff_start: 0.0,
             },
@@ -434,7 +435,7 @@ fn invalid_radii_and_directions_are_reported() {
             Light::Spot {
                 position: Vec3::ZERO,
                 direction: d,
-                intensity: 1.0,
+                intensity: Rgb::grey(1.0),
                 half_angle: 0.5,
                 falloff_start: 0.1,
             },
@@ -514,7 +515,7 @@ fn wild_light() -> impl Strategy<Value = Light> {
     prop_oneof![
         (coord(), field(0.0..100.0)).prop_map(|(position, intensity)| Light::Point {
             position,
-            intensity
+            intensity: intensity.into()
         }),
         (
             coord(),
@@ -527,7 +528,7 @@ fn wild_light() -> impl Strategy<Value = Light> {
                 |(position, direction, intensity, half_angle, falloff_start)| Light::Spot {
                     position,
                     direction,
-                    intensity,
+                    intensity: intensity.into(),
                     half_angle,
                     falloff_start: falloff_start.min(half_angle),
                 }
@@ -536,7 +537,7 @@ fn wild_light() -> impl Strategy<Value = Light> {
             Light::Sphere {
                 center,
                 radius,
-                radiance,
+                radiance: radiance.into(),
             }
         }),
         (
@@ -551,14 +552,14 @@ fn wild_light() -> impl Strategy<Value = Light> {
                     center,
                     normal,
                     radius,
-                    radiance,
+                    radiance: radiance.into(),
                     two_sided
                 }
             ),
         (coord(), coord(), coord(), field(0.0..100.0), any::<bool>()).prop_map(
             |(a, b, c, radiance, two_sided)| Light::Triangle {
                 vertices: [a, b, c],
-                radiance,
+                radiance: radiance.into(),
                 two_sided
             }
         ),
@@ -706,7 +707,7 @@ fn validate_coincident_lights() {
         let lights: Vec<Light> = (0..n)
             .map(|i| Light::Point {
                 position: Vec3::new(1.0, 2.0, 3.0),
-                intensity: 1.0 + (i % 7) as f32,
+                intensity: Rgb::grey(1.0 + (i % 7) as f32),
             })
             .collect();
         let tree = LightTree::build(&lights).unwrap();
@@ -736,7 +737,7 @@ fn depth_stays_within_31_on_chains() {
                 let x = ratio.powi(i as i32);
                 Light::Point {
                     position: Vec3::new(x as f32, 0.0, 0.0),
-                    intensity: (x.min(1e20)) as f32,
+                    intensity: Rgb::grey((x.min(1e20)) as f32),
                 }
             })
             .collect();
@@ -765,7 +766,7 @@ fn sample_trees() -> Vec<(Vec<Light>, LightTree)> {
     let mut out = Vec::new();
     let zero = vec![Light::Point {
         position: Vec3::ZERO,
-        intensity: 0.0,
+        intensity: Rgb::grey(0.0),
     }];
     out.push((zero.clone(), LightTree::build(&zero).unwrap()));
     for (seed, n) in [(1u64, 1usize), (2, 2), (3, 5), (4, 37), (5, 300)] {
@@ -978,11 +979,11 @@ fn energy_variance_of_wide_energy_ranges_stays_finite() {
     let lights = [
         Light::Point {
             position: Vec3::ZERO,
-            intensity: 1e19,
+            intensity: Rgb::grey(1e19),
         },
         Light::Point {
             position: Vec3::X,
-            intensity: 1.0,
+            intensity: Rgb::grey(1.0),
         },
     ];
     for (i, l) in lights.iter().enumerate() {
@@ -1054,7 +1055,7 @@ fn light_bounds_of_huge_or_tiny_directions() {
                 Light::Spot {
                     position: Vec3::ZERO,
                     direction: d,
-                    intensity: 1.0,
+                    intensity: Rgb::grey(1.0),
                     half_angle: 0.3,
                     falloff_start: 0.1,
                 },
@@ -1062,7 +1063,7 @@ fn light_bounds_of_huge_or_tiny_directions() {
                     center: Vec3::ZERO,
                     normal: d,
                     radius: 0.1,
-                    radiance: 1.0,
+                    radiance: Rgb::grey(1.0),
                     two_sided: false,
                 },
             ];
@@ -1080,7 +1081,7 @@ fn light_bounds_of_huge_or_tiny_directions() {
             Vec3::new(0.0, 1e10, 0.0),
             Vec3::new(0.0, 0.0, 1e10),
         ],
-        radiance: 1e-5,
+        radiance: Rgb::grey(1e-5),
         two_sided: false,
     };
     big.validate(0).unwrap();
@@ -1115,7 +1116,7 @@ fn huge_directions_stay_conservative() {
             Light::Spot {
                 position: Vec3::ZERO,
                 direction: Vec3::new(0.0, -1e20, 0.0),
-                intensity: 1.0,
+                intensity: Rgb::grey(1.0),
                 half_angle: 0.3,
                 falloff_start: 0.1,
             },
@@ -1126,7 +1127,7 @@ fn huge_directions_stay_conservative() {
                 center: Vec3::ZERO,
                 normal: Vec3::new(-1e20, 0.0, 0.0),
                 radius: 0.1,
-                radiance: 1.0,
+                radiance: Rgb::grey(1.0),
                 two_sided: false,
             },
             Vec3::new(-1.0, 0.0, -1.0),
@@ -1138,7 +1139,7 @@ fn huge_directions_stay_conservative() {
                     Vec3::new(0.0, 1e10, 0.0),
                     Vec3::new(0.0, 0.0, 1e10),
                 ],
-                radiance: 1e-5,
+                radiance: Rgb::grey(1e-5),
                 two_sided: false,
             },
             Vec3::new(2e10, 3e9, -2e10),
@@ -1150,7 +1151,7 @@ fn huge_directions_stay_conservative() {
             light,
             Light::Point {
                 position: Vec3::new(0.0, 0.0, -50.0),
-                intensity: 1.0,
+                intensity: Rgb::grey(1.0),
             },
         ];
         let imp = omni(x);
@@ -1188,16 +1189,16 @@ fn corrupt_but_valid_tiny_energy_is_never_sampled_with_pmf_zero() {
     let lights = [
         Light::Point {
             position: Vec3::new(1.0, 1.0, 1.0),
-            intensity: 2.0,
+            intensity: Rgb::grey(2.0),
         },
         Light::Point {
             position: Vec3::new(0.0, 0.0, 2.0),
-            intensity: 1.0,
+            intensity: Rgb::grey(1.0),
         },
         Light::Sphere {
             center: Vec3::new(-1.0, 0.5, 1.5),
             radius: 0.25,
-            radiance: 3.0,
+            radiance: Rgb::grey(3.0),
         },
     ];
     let tree = LightTree::build(&lights).unwrap();
@@ -1246,7 +1247,7 @@ fn narrow_spot_energy_does_not_cancel() {
     let spot = |half_angle: f32, intensity: f32| Light::Spot {
         position: Vec3::new(0.0, 0.0, 2.0),
         direction: -Vec3::Z,
-        intensity,
+        intensity: intensity.into(),
         half_angle,
         falloff_start: 0.5 * half_angle,
     };
@@ -1277,7 +1278,7 @@ fn narrow_spot_energy_does_not_cancel() {
         spot(1e-8, 1e16),
         Light::Point {
             position: Vec3::new(1.0, 0.0, 1.0),
-            intensity: 1.0,
+            intensity: Rgb::grey(1.0),
         },
     ];
     assert!(lights[0].energy() > 3.0, "{}", lights[0].energy());
@@ -1305,103 +1306,103 @@ fn nearly_opposite_cones_stay_in_their_union() {
         Light::Spot {
             position: Vec3::new(4.172325e-8_f32, 4.172325e-8_f32, 3.3494143e-8_f32),
             direction: Vec3::new(3.291384e-38_f32, 4.172308e-8_f32, 4.172325e-8_f32),
-            intensity: 4.172325e-8_f32,
+            intensity: Rgb::grey(4.172325e-8_f32),
             half_angle: 4.172325e-8_f32,
             falloff_start: 4.172325e-8_f32,
         },
         Light::Spot {
             position: Vec3::new(4.172325e-8_f32, 4.172325e-8_f32, 4.4537227e-8_f32),
             direction: Vec3::new(4.172325e-8_f32, 4.172325e-8_f32, 4.172325e-8_f32),
-            intensity: 4.172325e-8_f32,
+            intensity: Rgb::grey(4.172325e-8_f32),
             half_angle: 4.172325e-8_f32,
             falloff_start: 2.1614789e-29_f32,
         },
         Light::Spot {
             position: Vec3::new(4.172325e-8_f32, 4.172325e-8_f32, 4.172325e-8_f32),
             direction: Vec3::new(4.172325e-8_f32, 4.172325e-8_f32, 4.172325e-8_f32),
-            intensity: 4.172325e-8_f32,
+            intensity: Rgb::grey(4.172325e-8_f32),
             half_angle: 4.172325e-8_f32,
             falloff_start: 4.172325e-8_f32,
         },
         Light::Spot {
             position: Vec3::new(4.17087e-8_f32, 4.172325e-8_f32, 4.172325e-8_f32),
             direction: Vec3::new(4.172325e-8_f32, 4.172325e-8_f32, 49258120000000.0_f32),
-            intensity: 4.172325e-8_f32,
+            intensity: Rgb::grey(4.172325e-8_f32),
             half_angle: 4.172325e-8_f32,
             falloff_start: 4.172325e-8_f32,
         },
         Light::Spot {
             position: Vec3::new(4.172325e-8_f32, 4.172325e-8_f32, 2.1614789e-29_f32),
             direction: Vec3::new(4.1734243e-8_f32, 4.172325e-8_f32, 4.172325e-8_f32),
-            intensity: 4.172325e-8_f32,
+            intensity: Rgb::grey(4.172325e-8_f32),
             half_angle: 4.172325e-8_f32,
             falloff_start: 4.172325e-8_f32,
         },
         Light::Spot {
             position: Vec3::new(4.172325e-8_f32, 4.172325e-8_f32, 6.4101185e-10_f32),
             direction: Vec3::new(6.4096906e-10_f32, 6.4096906e-10_f32, 6.4096906e-10_f32),
-            intensity: 6.4096906e-10_f32,
+            intensity: Rgb::grey(6.4096906e-10_f32),
             half_angle: 0.00016802619_f32,
             falloff_start: 4.2007494e-5_f32,
         },
         Light::Sphere {
             center: Vec3::new(4.172325e-8_f32, 4.172325e-8_f32, 1e-45_f32),
             radius: 1.5046328e-36_f32,
-            radiance: 4.172325e-8_f32,
+            radiance: Rgb::grey(4.172325e-8_f32),
         },
         Light::Spot {
             position: Vec3::new(4.172325e-8_f32, 4.172325e-8_f32, 4.172325e-8_f32),
             direction: Vec3::new(-5.0440315e16_f32, 3.8e-43_f32, 0.0_f32),
-            intensity: 4.1723084e-8_f32,
+            intensity: Rgb::grey(4.1723084e-8_f32),
             half_angle: 4.172325e-8_f32,
             falloff_start: 4.172325e-8_f32,
         },
         Light::Spot {
             position: Vec3::new(4.172325e-8_f32, 4.172325e-8_f32, 0.7853982_f32),
             direction: Vec3::new(4.172325e-8_f32, 4.172325e-8_f32, 4.172325e-8_f32),
-            intensity: 4.172325e-8_f32,
+            intensity: Rgb::grey(4.172325e-8_f32),
             half_angle: 4.172325e-8_f32,
             falloff_start: 4.172325e-8_f32,
         },
         Light::Spot {
             position: Vec3::new(4.172325e-8_f32, 4.172325e-8_f32, 4.172325e-8_f32),
             direction: Vec3::new(4.172325e-8_f32, 4.1723194e-8_f32, 4.172325e-8_f32),
-            intensity: 8.0704504e17_f32,
+            intensity: Rgb::grey(8.0704504e17_f32),
             half_angle: 4.172325e-8_f32,
             falloff_start: 4.172325e-8_f32,
         },
         Light::Spot {
             position: Vec3::new(4.172325e-8_f32, 4.373469e-8_f32, 4.172325e-8_f32),
             direction: Vec3::new(4.172325e-8_f32, 4.172325e-8_f32, -110729624.0_f32),
-            intensity: 4.185567e-8_f32,
+            intensity: Rgb::grey(4.185567e-8_f32),
             half_angle: 4.172325e-8_f32,
             falloff_start: 4.172325e-8_f32,
         },
         Light::Spot {
             position: Vec3::new(4.172325e-8_f32, 4.9872323e-8_f32, 4.172325e-8_f32),
             direction: Vec3::new(4.172325e-8_f32, 4.172325e-8_f32, 4.172325e-8_f32),
-            intensity: 4.172325e-8_f32,
+            intensity: Rgb::grey(4.172325e-8_f32),
             half_angle: 4.172325e-8_f32,
             falloff_start: 2.1614789e-29_f32,
         },
         Light::Spot {
             position: Vec3::new(4.172325e-8_f32, 4.172325e-8_f32, 4.172325e-8_f32),
             direction: Vec3::new(4.172325e-8_f32, 4.172325e-8_f32, 4.172325e-8_f32),
-            intensity: 4.172325e-8_f32,
+            intensity: Rgb::grey(4.172325e-8_f32),
             half_angle: 4.172325e-8_f32,
             falloff_start: 4.172325e-8_f32,
         },
         Light::Spot {
             position: Vec3::new(2.1614789e-29_f32, 1e-45_f32, 2.9802322e-8_f32),
             direction: Vec3::new(4.172325e-8_f32, -107374184.0_f32, -107374180.0_f32),
-            intensity: 4.172325e-8_f32,
+            intensity: Rgb::grey(4.172325e-8_f32),
             half_angle: 4.172325e-8_f32,
             falloff_start: 4.172325e-8_f32,
         },
         Light::Spot {
             position: Vec3::new(4.1755083e-8_f32, 4.172325e-8_f32, 4.1723265e-8_f32),
             direction: Vec3::new(4.172325e-8_f32, 4.172325e-8_f32, 4.172325e-8_f32),
-            intensity: 4.172325e-8_f32,
+            intensity: Rgb::grey(4.172325e-8_f32),
             half_angle: 4.172325e-8_f32,
             falloff_start: 4.172325e-8_f32,
         },
@@ -1411,12 +1412,12 @@ fn nearly_opposite_cones_stay_in_their_union() {
                 Vec3::new(4.172325e-8_f32, -107387290.0_f32, 4.1723766e-8_f32),
                 Vec3::new(4.172325e-8_f32, 3.2875686e-8_f32, 4.3486356e-31_f32),
             ],
-            radiance: 1.3136396e-7_f32,
+            radiance: Rgb::grey(1.3136396e-7_f32),
             two_sided: true,
         },
         Light::Point {
             position: Vec3::new(0.0_f32, 0.0_f32, 0.0_f32),
-            intensity: 0.0_f32,
+            intensity: Rgb::grey(0.0_f32),
         },
     ];
     let tree = LightTree::build(&lights).expect("valid lights");

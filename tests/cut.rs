@@ -35,6 +35,7 @@ use common::{
 use glam::Vec3;
 use manylights::cut::MIN_CUT_SIZE;
 use manylights::sample::MIN_PMF;
+use manylights::Rgb;
 use manylights::{
     Child, Importance, Light, LightCut, LightTree, Node4, Receiver, Slot, SplitCutOptions,
     TlImportance, CUT_CAPACITY,
@@ -103,6 +104,9 @@ fn light_point(l: &Light) -> Vec3 {
         | Light::Vpl { position, .. } => position,
         Light::Sphere { center, .. } | Light::Disk { center, .. } => center,
         Light::Triangle { vertices, .. } => (vertices[0] + vertices[1] + vertices[2]) / 3.0,
+        Light::Distant { .. } | Light::Environment { .. } => {
+            unreachable!("lights at infinity are tested in tests/infinite.rs")
+        }
     }
 }
 
@@ -898,12 +902,12 @@ fn empty_tree_gives_empty_cut() {
     let zero = vec![
         Light::Point {
             position: Vec3::ONE,
-            intensity: 0.0,
+            intensity: Rgb::grey(0.0),
         },
         Light::Sphere {
             center: Vec3::ZERO,
             radius: 1.0,
-            radiance: 0.0,
+            radiance: Rgb::grey(0.0),
         },
     ];
     let imp = TlImportance::new(Vec3::ZERO, Vec3::Z);
@@ -1022,7 +1026,7 @@ fn max_size_one_four_point_lights() {
         .iter()
         .map(|&p| Light::Point {
             position: p * 10.0,
-            intensity: 1.0,
+            intensity: Rgb::grey(1.0),
         })
         .collect();
     let tree = LightTree::build(&lights).unwrap();
@@ -1179,31 +1183,31 @@ fn vanishing_scenes() -> Vec<(Vec<Light>, TlImportance)> {
     let example = vec![
         Light::Point {
             position: Vec3::new(1.0, 1.0, 1.0),
-            intensity: 2.0,
+            intensity: Rgb::grey(2.0),
         },
         Light::Point {
             position: Vec3::new(0.0, 0.0, 2.0),
-            intensity: 1e-40,
+            intensity: Rgb::grey(1e-40),
         },
         Light::Sphere {
             center: Vec3::new(-1.0, 0.5, 1.5),
             radius: 0.25,
-            radiance: 3.0,
+            radiance: Rgb::grey(3.0),
         },
     ];
     let at = Vec3::new(1e15, 0.0, 0.0);
     let mut far = vec![Light::Point {
         position: at,
-        intensity: 1.0,
+        intensity: Rgb::grey(1.0),
     }];
     for i in 0..12 {
         far.push(Light::Point {
             position: Vec3::new(0.0, i as f32 * 1e13, 0.0),
-            intensity: 1.0 + i as f32,
+            intensity: Rgb::grey(1.0 + i as f32),
         });
         far.push(Light::Point {
             position: Vec3::new(1e15, 1e15, i as f32 * 1e13),
-            intensity: 2.0,
+            intensity: Rgb::grey(2.0),
         });
     }
     let mut chain = Vec::new();
@@ -1212,7 +1216,7 @@ fn vanishing_scenes() -> Vec<(Vec<Light>, TlImportance)> {
         for j in 0..3 {
             chain.push(Light::Point {
                 position: Vec3::new(i as f32 * 10.0 + j as f32, 0.0, 1.0),
-                intensity: intensity as f32,
+                intensity: Rgb::grey(intensity as f32),
             });
         }
         intensity *= 1e-3;

@@ -22,7 +22,18 @@ use manylights::direct::{
 };
 use manylights::mis::{AdaptiveAllocator, CombinedWeights, Heuristic, SequentialWeights};
 use manylights::trace::trace_all;
+use manylights::Rgb;
 use manylights::{AliasTable, Brdf, Frame, Light, LightSet, Material, ShadingPoint};
+
+/// The one channel of an estimate of a grey scene (every channel must be the same, bit for
+/// bit: grey inputs weigh and shade each channel as the scalar estimate was).
+fn grey(v: [f64; 3]) -> f64 {
+    assert!(
+        v[0].to_bits() == v[1].to_bits() && v[1].to_bits() == v[2].to_bits(),
+        "a grey scene's channels differ: {v:?}"
+    );
+    v[0]
+}
 
 /// The test's uniform numbers.
 struct U(Rng);
@@ -96,7 +107,7 @@ fn lambert_scene() -> (Vec<Light>, f64) {
         lights.push(Light::Sphere {
             center: c,
             radius: r,
-            radiance: l,
+            radiance: Rgb::grey(l),
         });
         exact += sphere_exact(albedo, c, r, l);
         if i == 1 {
@@ -107,7 +118,7 @@ fn lambert_scene() -> (Vec<Light>, f64) {
                     center: Vec3::new(0.0, 0.0, h),
                     normal,
                     radius: rd,
-                    radiance: ld,
+                    radiance: Rgb::grey(ld),
                     two_sided: false,
                 });
             }
@@ -118,7 +129,7 @@ fn lambert_scene() -> (Vec<Light>, f64) {
     lights.push(Light::Sphere {
         center: Vec3::new(0.0, 1.0, -2.0),
         radius: 0.5,
-        radiance: 4.0,
+        radiance: Rgb::grey(4.0),
     });
     (lights, exact)
 }
@@ -183,7 +194,7 @@ fn check_unbiased(set: &LightSet, sp: &ShadingPoint, exact: f64, k: usize, seed:
         let mut u = U(Rng::new(seed + i as u64));
         let mut st = Stats::default();
         for _ in 0..k {
-            let v = est.estimate(&Unoccluded, &mut u).unwrap();
+            let v = grey(est.estimate(&Unoccluded, &mut u).unwrap());
             assert!(v.is_finite() && v >= 0.0, "{t}: {v}");
             st.add(v);
         }
@@ -208,7 +219,9 @@ fn every_technique_is_unbiased_for_lambert_against_closed_forms() {
         position: Vec3::ZERO,
         normal: Vec3::Z,
         wo: Vec3::new(0.3, 0.1, 1.0),
-        material: Material::Lambert { albedo: 0.8 },
+        material: Material::Lambert {
+            albedo: Rgb::grey(0.8),
+        },
     };
     let worst = check_unbiased(&set, &sp, exact, 40_000, 11);
     eprintln!("lambert: largest deviation {worst:.2} SE");
@@ -222,13 +235,13 @@ fn every_technique_is_unbiased_for_glossy_materials_against_quadrature() {
         Light::Sphere {
             center: c,
             radius: r,
-            radiance: l,
+            radiance: Rgb::grey(l),
         },
         // Behind the receiver: never contributes, but the techniques see it.
         Light::Sphere {
             center: Vec3::new(0.0, 0.0, -2.0),
             radius: 0.3,
-            radiance: 1.0,
+            radiance: Rgb::grey(1.0),
         },
     ])
     .unwrap();
@@ -242,7 +255,7 @@ fn every_technique_is_unbiased_for_glossy_materials_against_quadrature() {
             specular: 1.0,
         },
         Material::Plastic {
-            albedo: 0.5,
+            albedo: Rgb::grey(0.5),
             specular: 0.5,
             alpha: 0.1,
         },
@@ -588,12 +601,13 @@ fn host_estimate(est: &mut Estimator, host: &HostLambert, u: &mut U) -> [f64; 3]
             Step::Done => return sum,
             Step::Light(d) => {
                 let cos = host.cos(d.point.direction);
-                if cos <= 0.0 || d.point.radiance <= 0.0 {
+                if cos <= 0.0 || d.point.radiance.is_black() {
                     continue;
                 }
                 let w = est.weigh(&d, host.pdf(d.point.direction)).unwrap();
+                let radiance = d.point.radiance.to_array();
                 for (c, s) in sum.iter_mut().enumerate() {
-                    let value = host.albedo[c] / std::f32::consts::PI * d.point.radiance * cos;
+                    let value = host.albedo[c] / std::f32::consts::PI * radiance[c] * cos;
                     *s += f64::from(w.contribution(value));
                 }
             }
@@ -601,13 +615,15 @@ fn host_estimate(est: &mut Estimator, host: &HostLambert, u: &mut U) -> [f64; 3]
                 let (dir, pdf) = host.sample(b.u);
                 let cos = host.cos(dir);
                 est.bsdf_hits(&b, dir, pdf, f32::INFINITY, |h| {
+                    let radiance = h.point.radiance.to_array();
                     for (c, s) in sum.iter_mut().enumerate() {
-                        let value = host.albedo[c] / std::f32::consts::PI * h.point.radiance * cos;
+                        let value = host.albedo[c] / std::f32::consts::PI * radiance[c] * cos;
                         *s += f64::from(h.weighted.contribution(value));
                     }
                 })
                 .unwrap();
             }
+            Step::Environment(_) => unreachable!("no environment light here"),
         }
     }
 }
@@ -622,7 +638,9 @@ fn lower_level_with_a_host_bsdf_is_unbiased_per_channel() {
         position: Vec3::ZERO,
         normal: Vec3::Z,
         wo: Vec3::new(0.3, 0.1, 1.0),
-        material: Material::Lambert { albedo: 0.8 },
+        material: Material::Lambert {
+            albedo: Rgb::grey(0.8),
+        },
     };
     let host = HostLambert {
         albedo,
@@ -672,7 +690,7 @@ fn one_call_is_the_lower_level_loop() {
     let (lights, _) = lambert_scene();
     let set = LightSet::build(lights).unwrap();
     let material = Material::Plastic {
-        albedo: 0.5,
+        albedo: Rgb::grey(0.5),
         specular: 0.5,
         alpha: 0.1,
     };
@@ -690,26 +708,28 @@ fn one_call_is_the_lower_level_loop() {
         let (mut ua, mut ub) = (U(Rng::new(9)), U(Rng::new(9)));
         for _ in 0..200 {
             let one = a.estimate(&Unoccluded, &mut ua).unwrap();
-            let mut sum = 0.0f64;
+            let mut sum = [0.0f64; 3];
             b.start();
             loop {
                 match b.next(&mut ub).unwrap() {
                     Step::Done => break,
                     Step::Light(d) => {
                         let wi = frame.to_local(d.point.direction);
-                        let g = material.eval(wo, wi) * d.point.radiance * wi.z;
-                        if wi.z <= 0.0 || g <= 0.0 {
+                        let g = material.eval_rgb(wo, wi) * d.point.radiance * wi.z;
+                        if wi.z <= 0.0 || g.max_channel() <= 0.0 {
                             continue;
                         }
                         let w = b.weigh(&d, material.pdf(wo, wi)).unwrap();
-                        sum += f64::from(w.contribution(g));
+                        for (s, c) in sum.iter_mut().zip(g.to_array()) {
+                            *s += f64::from(w.contribution(c));
+                        }
                     }
                     Step::Bsdf(s) => {
                         let Some((wi, pdf)) = material.sample(wo, s.u) else {
                             continue;
                         };
-                        let f = material.eval(wo, wi);
-                        let mut v = 0.0f64;
+                        let f = material.eval_rgb(wo, wi);
+                        let mut v = [0.0f64; 3];
                         b.bsdf_hits(
                             &s,
                             frame.to_world(wi).normalize(),
@@ -717,15 +737,20 @@ fn one_call_is_the_lower_level_loop() {
                             f32::INFINITY,
                             |h| {
                                 let g = f * h.point.radiance * wi.z;
-                                v += f64::from(h.weighted.contribution(g));
+                                for (s, c) in v.iter_mut().zip(g.to_array()) {
+                                    *s += f64::from(h.weighted.contribution(c));
+                                }
                             },
                         )
                         .unwrap();
-                        sum += v;
+                        for c in 0..3 {
+                            sum[c] += v[c];
+                        }
                     }
+                    Step::Environment(_) => unreachable!("no environment light here"),
                 }
             }
-            assert_eq!(one.to_bits(), sum.to_bits(), "{t}");
+            assert_eq!(one.map(f64::to_bits), sum.map(f64::to_bits), "{t}");
         }
     }
 }
@@ -756,7 +781,7 @@ fn occluded_lights_contribute_nothing() {
         let mut est = Estimator::new(&set, &sp, t, &Params::default()).unwrap();
         let mut u = U(Rng::new(3));
         for _ in 0..500 {
-            assert_eq!(est.estimate(&Wall(0.01), &mut u).unwrap(), 0.0, "{t}");
+            assert_eq!(est.estimate(&Wall(0.01), &mut u).unwrap(), [0.0; 3], "{t}");
         }
     }
 }
@@ -860,8 +885,8 @@ fn trace_finds_what_testing_every_light_finds() {
         let mut brute = Vec::new();
         trace_all(&lights, x, d, |l, lp| brute.push((l, *lp)));
         // Lights without energy are in no cluster's bounds: only emitting points must agree.
-        walked.retain(|h| h.1.radiance > 0.0);
-        brute.retain(|h| h.1.radiance > 0.0);
+        walked.retain(|h| !h.1.radiance.is_black());
+        brute.retain(|h| !h.1.radiance.is_black());
         walked.sort_by_key(|h| h.0);
         brute.sort_by_key(|h| h.0);
         assert_eq!(walked, brute);
@@ -937,7 +962,7 @@ fn bad_input_is_an_error_naming_it() {
         ] {
             match est.estimate(&Unoccluded, &mut Constant(f, d)) {
                 Err(DirectError::Uniform { .. }) => {}
-                Ok(v) => assert!(v.is_finite() && v >= 0.0, "{t}: {v}"),
+                Ok(v) => assert!(v.iter().all(|c| c.is_finite() && *c >= 0.0), "{t}: {v:?}"),
                 Err(e) => panic!("{t}: {e}"),
             }
         }
@@ -985,6 +1010,7 @@ fn bad_input_is_an_error_naming_it() {
                 })
                 .unwrap();
             }
+            Step::Environment(_) => unreachable!("no environment light here"),
         }
     }
     assert!(saw_light);

@@ -11,6 +11,7 @@ use common::{
 };
 use glam::{DVec3, Vec3};
 use manylights::baseline::BinaryLightTree;
+use manylights::Rgb;
 use manylights::{Importance, Light, LightTree, Node4, Receiver, SlotBounds, TlImportance};
 use proptest::prelude::{any, prop_oneof, Strategy};
 use proptest::test_runner::TestCaseError;
@@ -110,7 +111,7 @@ fn eval4_matches_scalar_on_degenerate_clusters() {
     let points: Vec<Light> = (0..40)
         .map(|i| Light::Point {
             position: c,
-            intensity: 1.0 + i as f32,
+            intensity: Rgb::grey(1.0 + i as f32),
         })
         .collect();
     let disks: Vec<Light> = (0..64)
@@ -118,14 +119,14 @@ fn eval4_matches_scalar_on_degenerate_clusters() {
             center: Vec3::new((i % 8) as f32, (i / 8) as f32, 0.0),
             normal: Vec3::Z,
             radius: 0.3,
-            radiance: 1.0,
+            radiance: Rgb::grey(1.0),
             two_sided: false,
         })
         .collect();
     let triangles: Vec<Light> = (0..16)
         .map(|_| Light::Triangle {
             vertices: [c, c + Vec3::X, c + Vec3::Y],
-            radiance: 2.0,
+            radiance: Rgb::grey(2.0),
             two_sided: false,
         })
         .collect();
@@ -454,7 +455,7 @@ fn contribution_predicate_sanity() {
         center: Vec3::ZERO,
         normal: Vec3::Z,
         radius: 1.0,
-        radiance: 1.0,
+        radiance: Rgb::grey(1.0),
         two_sided,
     };
     let up = Vec3::Z;
@@ -475,7 +476,7 @@ fn contribution_predicate_sanity() {
     let s = Light::Sphere {
         center: Vec3::new(0.0, 0.0, -0.5),
         radius: 1.0,
-        radiance: 1.0,
+        radiance: Rgb::grey(1.0),
     };
     assert!(contributes(&s, Vec3::new(5.0, 0.0, 0.0), up, R, 1e-4));
     assert!(!contributes(&s, Vec3::new(5.0, 0.0, 0.6), up, R, 1e-4));
@@ -484,7 +485,7 @@ fn contribution_predicate_sanity() {
     let spot = Light::Spot {
         position: Vec3::ZERO,
         direction: Vec3::Z,
-        intensity: 1.0,
+        intensity: Rgb::grey(1.0),
         half_angle: 100f32.to_radians(),
         falloff_start: 0.0,
     };
@@ -505,13 +506,13 @@ fn contribution_predicate_sanity() {
     // A point light exactly at the shading point does not count.
     let p = Light::Point {
         position: Vec3::ONE,
-        intensity: 1.0,
+        intensity: Rgb::grey(1.0),
     };
     assert!(!contributes(&p, Vec3::ONE, up, O, 1e-4));
     // A triangle facing +z, seen from above by a receiver looking down.
     let t = Light::Triangle {
         vertices: [Vec3::ZERO, Vec3::X, Vec3::Y],
-        radiance: 1.0,
+        radiance: Rgb::grey(1.0),
         two_sided: false,
     };
     assert!(contributes(&t, Vec3::new(0.2, 0.2, 1.0), -up, R, 1e-4));
@@ -528,11 +529,11 @@ fn tiny_and_huge_normals_keep_the_surface() {
     let lights = [
         Light::Point {
             position: Vec3::new(0.3, 0.0, 2.0),
-            intensity: 1.0,
+            intensity: Rgb::grey(1.0),
         },
         Light::Point {
             position: Vec3::new(-0.3, 0.0, -2.0),
-            intensity: 1.0,
+            intensity: Rgb::grey(1.0),
         },
     ];
     let tree = LightTree::build(&lights).unwrap();
@@ -591,7 +592,7 @@ fn a_spot_a_tenth_of_a_micrometre_away_is_sampled() {
         let lights = [Light::Spot {
             position: Vec3::new(0.0, 0.0, d),
             direction: -Vec3::Z,
-            intensity: 1.0,
+            intensity: Rgb::grey(1.0),
             half_angle: 0.1,
             falloff_start: 0.05,
         }];

@@ -11,6 +11,7 @@ mod common;
 use common::{Rng, Stats};
 use glam::{DVec3, Vec3};
 use manylights::light_sample::{intersect, pdf_direction, pdf_point, sample_point};
+use manylights::Rgb;
 use manylights::{Light, LightPoint};
 use std::f64::consts::PI;
 
@@ -45,7 +46,7 @@ fn sphere(c: [f32; 3], r: f32, l: f32) -> Light {
     Light::Sphere {
         center: Vec3::from(c),
         radius: r,
-        radiance: l,
+        radiance: Rgb::grey(l),
     }
 }
 
@@ -54,7 +55,7 @@ fn disk(c: [f32; 3], n: [f32; 3], r: f32, two_sided: bool) -> Light {
         center: Vec3::from(c),
         normal: Vec3::from(n),
         radius: r,
-        radiance: 1.5,
+        radiance: Rgb::grey(1.5),
         two_sided,
     }
 }
@@ -62,19 +63,23 @@ fn disk(c: [f32; 3], n: [f32; 3], r: f32, two_sided: bool) -> Light {
 fn tri(v: [[f32; 3]; 3], two_sided: bool) -> Light {
     Light::Triangle {
         vertices: v.map(Vec3::from),
-        radiance: 2.0,
+        radiance: Rgb::grey(2.0),
         two_sided,
     }
 }
 
+/// The red channel of a light's emission (the lights of these tests are grey).
 fn radiance_of(l: &Light) -> f32 {
     match *l {
         Light::Sphere { radiance, .. }
         | Light::Disk { radiance, .. }
-        | Light::Triangle { radiance, .. } => radiance,
+        | Light::Triangle { radiance, .. } => radiance.r,
         Light::Point { intensity, .. }
         | Light::Spot { intensity, .. }
-        | Light::Vpl { intensity, .. } => intensity,
+        | Light::Vpl { intensity, .. } => intensity.r,
+        Light::Distant { .. } | Light::Environment { .. } => {
+            unreachable!("lights at infinity are tested in tests/infinite.rs")
+        }
     }
 }
 
@@ -190,6 +195,9 @@ fn centre_and_size(l: &Light) -> (Vec3, f32) {
         Light::Point { position, .. }
         | Light::Spot { position, .. }
         | Light::Vpl { position, .. } => (position, 0.0),
+        Light::Distant { .. } | Light::Environment { .. } => {
+            unreachable!("lights at infinity are tested in tests/infinite.rs")
+        }
     }
 }
 
@@ -206,7 +214,7 @@ fn assert_valid(lp: &LightPoint, x: Vec3, what: &str) {
     );
     assert!(lp.pdf > 0.0 && lp.pdf.is_finite(), "{what}: {lp:?}");
     assert!(
-        lp.radiance >= 0.0 && lp.radiance.is_finite(),
+        lp.radiance.r >= 0.0 && lp.radiance.is_finite(),
         "{what}: {lp:?}"
     );
     // position = x + distance·direction, up to f32 rounding of the coordinates.
@@ -317,7 +325,7 @@ fn radiance_and_normals_follow_sidedness() {
                 }
                 _ => unreachable!(),
             };
-            assert_eq!(s.radiance, expected, "{name}: {s:?}");
+            assert_eq!(s.radiance, expected.into(), "{name}: {s:?}");
             assert!((s.normal.length() - 1.0).abs() < 1e-5, "{name}: {s:?}");
         }
     }
@@ -332,7 +340,7 @@ fn radiance_and_normals_follow_sidedness() {
     ] {
         let (_, light, x) = find(n);
         let s = sample_point(light, *x, [0.4, 0.6]).unwrap();
-        assert_eq!(s.radiance > 0.0, lit, "{n}");
+        assert_eq!(s.radiance.r > 0.0, lit, "{n}");
     }
 }
 
@@ -575,7 +583,7 @@ fn estimate(light: &Light, x: Vec3, n: DVec3, samples: usize, rng: &mut Rng) -> 
     let mut st = Stats::default();
     for _ in 0..samples {
         let v = sample_point(light, x, rng.u2()).map_or(0.0, |s| {
-            f64::from(s.radiance) * n.dot(d(s.direction)).max(0.0) / f64::from(s.pdf)
+            f64::from(s.radiance.r) * n.dot(d(s.direction)).max(0.0) / f64::from(s.pdf)
         });
         st.add(v);
     }
@@ -726,13 +734,13 @@ fn point_and_spot_lights_are_deltas() {
     let x = Vec3::new(0.1, 0.2, 0.3);
     let p = Light::Point {
         position: Vec3::new(1.0, 2.0, 3.0),
-        intensity: 5.0,
+        intensity: Rgb::grey(5.0),
     };
     let s = sample_point(&p, x, [0.3, 0.9]).unwrap();
     assert_valid(&s, x, "point");
     let dist2 = d(Vec3::new(1.0, 2.0, 3.0) - x).length_squared();
     assert!(s.delta && s.pdf == 1.0 && s.normal == Vec3::ZERO);
-    assert!(rel(f64::from(s.radiance), 5.0 / dist2) < 1e-6, "{s:?}");
+    assert!(rel(f64::from(s.radiance.r), 5.0 / dist2) < 1e-6, "{s:?}");
     // One convention: the delta's weight, reported as 1 at the light's position, 0 elsewhere.
     assert_eq!(pdf_point(&p, x, s.position), 1.0);
     assert_eq!(pdf_point(&p, x, s.position + Vec3::X), 0.0);
@@ -749,7 +757,7 @@ fn point_and_spot_lights_are_deltas() {
     let spot = Light::Spot {
         position: Vec3::new(0.0, 0.0, 2.0),
         direction: Vec3::new(0.0, 0.0, -3.0),
-        intensity: 4.0,
+        intensity: Rgb::grey(4.0),
         half_angle: ts as f32,
         falloff_start: tf as f32,
     };
@@ -766,9 +774,9 @@ fn point_and_spot_lights_are_deltas() {
         };
         let expected = 4.0 * profile / (xs - DVec3::new(0.0, 0.0, 2.0)).length_squared();
         assert!(
-            (f64::from(s.radiance) - expected).abs() <= 1e-5 * expected.max(1e-3),
+            (f64::from(s.radiance.r) - expected).abs() <= 1e-5 * expected.max(1e-3),
             "θ = {th}: {} vs {expected}",
-            s.radiance
+            s.radiance.r
         );
         assert!(s.delta && s.pdf == 1.0);
     }
@@ -788,12 +796,12 @@ fn point_and_spot_lights_are_deltas() {
         let spot = Light::Spot {
             position: Vec3::new(0.0, 0.0, 2.0),
             direction: -Vec3::Z,
-            intensity: 1.0,
+            intensity: Rgb::grey(1.0),
             half_angle,
             falloff_start,
         };
         let s = sample_point(&spot, Vec3::from(at), [0.0, 0.0]).unwrap();
-        assert_eq!(s.radiance > 0.0, lit, "{half_angle} {at:?}: {s:?}");
+        assert_eq!(s.radiance.r > 0.0, lit, "{half_angle} {at:?}: {s:?}");
     }
 }
 
@@ -821,12 +829,12 @@ fn degenerate_inputs_give_none_or_finite_values() {
         ),
         Light::Point {
             position: Vec3::ZERO,
-            intensity: 1.0,
+            intensity: Rgb::grey(1.0),
         },
         Light::Spot {
             position: Vec3::ZERO,
             direction: Vec3::X,
-            intensity: 1.0,
+            intensity: Rgb::grey(1.0),
             half_angle: 0.1,
             falloff_start: 0.0,
         },
@@ -901,7 +909,7 @@ fn degenerate_inputs_give_none_or_finite_values() {
     assert!(sample_point(&dk, Vec3::new(3.0, 0.0, 0.0), [0.5, 0.5]).is_none());
     let pt = Light::Point {
         position: Vec3::ONE,
-        intensity: 1.0,
+        intensity: Rgb::grey(1.0),
     };
     assert!(sample_point(&pt, Vec3::ONE, [0.5, 0.5]).is_none());
     assert!(sample_point(&t, Vec3::Z, [f32::NAN, 0.5]).is_none());
@@ -911,7 +919,7 @@ fn degenerate_inputs_give_none_or_finite_values() {
     for _ in 0..10_000 {
         if let Some(p) = sample_point(&s, Vec3::ZERO, rng.u2()) {
             assert_valid(&p, Vec3::ZERO, "on sphere");
-            assert_eq!(p.radiance, 0.0, "{p:?}");
+            assert_eq!(p.radiance, 0.0.into(), "{p:?}");
         }
     }
 }
@@ -928,7 +936,7 @@ fn narrow_spot_profile_keeps_its_falloff() {
     let spot = Light::Spot {
         position: Vec3::new(0.0, 0.0, 2.0),
         direction: -Vec3::Z,
-        intensity: 4.0,
+        intensity: Rgb::grey(4.0),
         half_angle: ts as f32,
         falloff_start: tf as f32,
     };
@@ -945,20 +953,20 @@ fn narrow_spot_profile_keeps_its_falloff() {
         };
         let expected = 4.0 * profile / (xs - DVec3::new(0.0, 0.0, 2.0)).length_squared();
         assert!(
-            (f64::from(s.radiance) - expected).abs() <= 1e-5 * expected.max(1e-3),
+            (f64::from(s.radiance.r) - expected).abs() <= 1e-5 * expected.max(1e-3),
             "θ = {th}: {} vs {expected}",
-            s.radiance
+            s.radiance.r
         );
     }
     let hard = Light::Spot {
         position: Vec3::new(0.0, 0.0, 2.0),
         direction: -Vec3::Z,
-        intensity: 1.0,
+        intensity: Rgb::grey(1.0),
         half_angle: 1e-9,
         falloff_start: 1e-9,
     };
     let on_axis = sample_point(&hard, Vec3::ZERO, [0.0, 0.0]).unwrap();
-    assert!((on_axis.radiance - 0.25).abs() < 1e-7, "{on_axis:?}");
+    assert!((on_axis.radiance.r - 0.25).abs() < 1e-7, "{on_axis:?}");
     let off = sample_point(&hard, Vec3::new(4e-9, 0.0, 0.0), [0.0, 0.0]).unwrap();
-    assert_eq!(off.radiance, 0.0, "{off:?}");
+    assert_eq!(off.radiance, 0.0.into(), "{off:?}");
 }

@@ -15,6 +15,7 @@ use common::Rng;
 use glam::Vec3;
 use manylights::light_sample::sample_point;
 use manylights::sample::MIN_PMF;
+use manylights::Rgb;
 use manylights::{
     BlImportance, BuildError, Importance, Light, LightField, LightTree, Material, Problem,
     Receiver, ShadingPoint, TlImportance, MAX_COORDINATE, MAX_LIGHT_ENERGY, MAX_TOTAL_ENERGY,
@@ -27,7 +28,7 @@ fn limits_are_named_with_their_value_and_the_fields_own_value() {
     let intensity = 5e25 / (4.0 * PI);
     let e = LightTree::build(&[Light::Point {
         position: Vec3::ZERO,
-        intensity,
+        intensity: Rgb::grey(intensity),
     }])
     .unwrap_err();
     assert_eq!(
@@ -50,7 +51,7 @@ fn limits_are_named_with_their_value_and_the_fields_own_value() {
     let e = LightTree::build(&[Light::Sphere {
         center: Vec3::ZERO,
         radius: 1e6,
-        radiance: 1e12,
+        radiance: Rgb::grey(1e12),
     }])
     .unwrap_err();
     assert!(
@@ -60,7 +61,7 @@ fn limits_are_named_with_their_value_and_the_fields_own_value() {
     // Coordinates.
     let e = LightTree::build(&[Light::Point {
         position: Vec3::new(0.0, 2e15, 0.0),
-        intensity: 1.0,
+        intensity: Rgb::grey(1.0),
     }])
     .unwrap_err();
     let msg = e.to_string();
@@ -74,7 +75,7 @@ fn limits_are_named_with_their_value_and_the_fields_own_value() {
     let many: Vec<Light> = (0..101)
         .map(|i| Light::Point {
             position: Vec3::new(i as f32, 0.0, 0.0),
-            intensity: each,
+            intensity: Rgb::grey(each),
         })
         .collect();
     let msg = LightTree::build(&many).unwrap_err().to_string();
@@ -87,7 +88,7 @@ fn narrow_spot(a: f32) -> Light {
     Light::Spot {
         position: Vec3::Z,
         direction: -Vec3::Z,
-        intensity: 1.0,
+        intensity: Rgb::grey(1.0),
         half_angle: a,
         falloff_start: 0.0,
     }
@@ -100,7 +101,7 @@ fn a_spot_whose_energy_underflows_f32_is_in_the_tree() {
         let spot = narrow_spot(a);
         // It lights the origin (radiance I/d² on its axis) ...
         let p = sample_point(&spot, x, [0.5, 0.5]).unwrap();
-        assert!(p.radiance > 0.0, "{a}: {p:?}");
+        assert!(p.radiance.r > 0.0, "{a}: {p:?}");
         // ... its energy 2π(1 − cos θs)·I is far below f32's range, and kept representable ...
         assert!(spot.energy() > 0.0, "{a}");
         let tree = LightTree::build(&[spot]).unwrap();
@@ -114,7 +115,9 @@ fn a_spot_whose_energy_underflows_f32_is_in_the_tree() {
             position: x,
             normal: Vec3::Z,
             wo: Vec3::new(0.2, 0.0, 1.0),
-            material: Material::Lambert { albedo: 0.5 },
+            material: Material::Lambert {
+                albedo: Rgb::grey(0.5),
+            },
         };
         let bl = BlImportance::new(&sp).unwrap();
         assert_eq!(tree.pmf(&bl, 0), 1.0, "{a}");
@@ -136,11 +139,11 @@ fn a_contributing_light_has_pmf_0_exactly_when_its_share_is_below_min_pmf() {
     let lights = [
         Light::Point {
             position: Vec3::new(1e10, 0.0, 1.0),
-            intensity: 1e-20,
+            intensity: Rgb::grey(1e-20),
         },
         Light::Point {
             position: Vec3::new(0.0, 0.0, 1e-6),
-            intensity: 1e22,
+            intensity: Rgb::grey(1e22),
         },
     ];
     let x = Vec3::ZERO;
@@ -153,6 +156,7 @@ fn a_contributing_light_has_pmf_0_exactly_when_its_share_is_below_min_pmf() {
             sample_point(&ls[dim as usize], x, [0.5; 2])
                 .unwrap()
                 .radiance
+                .r
                 > 0.0
         );
         assert_eq!(tree.pmf(&imp, dim), 0.0);
@@ -170,11 +174,11 @@ fn a_contributing_light_has_pmf_0_exactly_when_its_share_is_below_min_pmf() {
         let ls = [
             Light::Point {
                 position: rng.unit() + Vec3::new(0.0, 0.0, 2.0),
-                intensity: (1e10 * ratio) as f32,
+                intensity: Rgb::grey((1e10 * ratio) as f32),
             },
             Light::Point {
                 position: rng.unit() * d + Vec3::new(0.0, 0.0, 2.0),
-                intensity: 1e10,
+                intensity: Rgb::grey(1e10),
             },
         ];
         let tree = LightTree::build(&ls).unwrap();

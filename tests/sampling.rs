@@ -12,6 +12,7 @@ use common::{
 use glam::Vec3;
 use manylights::baseline::BinaryLightTree;
 use manylights::sample::MIN_PMF;
+use manylights::Rgb;
 use manylights::{
     Importance, Light, LightSample, LightTree, Receiver, Slot, SlotBounds, TlImportance,
 };
@@ -229,17 +230,17 @@ fn only_zero_energy_lights_sample_nothing() {
     let lights = [
         Light::Point {
             position: Vec3::ZERO,
-            intensity: 0.0,
+            intensity: Rgb::grey(0.0),
         },
         Light::Triangle {
             vertices: [Vec3::ZERO, Vec3::X, Vec3::X * 2.0],
-            radiance: 3.0,
+            radiance: Rgb::grey(3.0),
             two_sided: true,
         },
         Light::Sphere {
             center: Vec3::ONE,
             radius: 1.0,
-            radiance: 0.0,
+            radiance: Rgb::grey(0.0),
         },
     ];
     let tree = LightTree::build(&lights).unwrap();
@@ -420,14 +421,14 @@ fn far_field_scene() -> Vec<Light> {
             if i % 2 == 0 {
                 Light::Point {
                     position: p,
-                    intensity: energy / (4.0 * pi),
+                    intensity: Rgb::grey(energy / (4.0 * pi)),
                 }
             } else {
                 let radius = rng.range(0.5, 5.0);
                 Light::Sphere {
                     center: p,
                     radius,
-                    radiance: energy / (4.0 * pi * pi * radius * radius),
+                    radiance: Rgb::grey(energy / (4.0 * pi * pi * radius * radius)),
                 }
             }
         })
@@ -776,16 +777,16 @@ fn vanishing_share_is_never_sampled() {
     let lights = [
         Light::Point {
             position: Vec3::new(1.0, 1.0, 1.0),
-            intensity: 2.0,
+            intensity: Rgb::grey(2.0),
         },
         Light::Point {
             position: Vec3::new(0.0, 0.0, 2.0),
-            intensity: 1e-40,
+            intensity: Rgb::grey(1e-40),
         },
         Light::Sphere {
             center: Vec3::new(-1.0, 0.5, 1.5),
             radius: 0.25,
-            radiance: 3.0,
+            radiance: Rgb::grey(3.0),
         },
     ];
     let imp = TlImportance::new(Vec3::new(0.0, 0.0, 1.0), Vec3::X);
@@ -815,14 +816,14 @@ fn subnormal_intensities_never_give_pmf_zero() {
         mixed.push(Light::Point {
             position,
             intensity: if i % 3 == 0 {
-                1.0 + rng.f32()
+                (1.0 + rng.f32()).into()
             } else {
-                intensity
+                intensity.into()
             },
         });
         only_tiny.push(Light::Point {
             position,
-            intensity,
+            intensity: intensity.into(),
         });
     }
     let imp = TlImportance::new(Vec3::ZERO, Vec3::Z);
@@ -841,7 +842,7 @@ fn tiny_triangle_never_gives_pmf_zero() {
                 Vec3::new(1e-45, 0.0, 2.0),
                 Vec3::new(0.0, 1.0, 2.0),
             ],
-            radiance: 1.0,
+            radiance: Rgb::grey(1.0),
             two_sided: false,
         },
         Light::Triangle {
@@ -850,7 +851,7 @@ fn tiny_triangle_never_gives_pmf_zero() {
                 Vec3::new(1.0, 0.0, 1.0),
                 Vec3::new(0.0, 1e-45, 1.0),
             ],
-            radiance: 5.0,
+            radiance: Rgb::grey(5.0),
             two_sided: true,
         },
     ];
@@ -858,7 +859,7 @@ fn tiny_triangle_never_gives_pmf_zero() {
         lights.push(Light::Sphere {
             center: Vec3::new(i as f32 - 2.5, 1.0, 3.0),
             radius: 0.2,
-            radiance: 1.0,
+            radiance: Rgb::grey(1.0),
         });
     }
     let imp = TlImportance::new(Vec3::new(0.0, 0.0, 0.0), Vec3::Z);
@@ -872,16 +873,16 @@ fn far_shading_point_on_a_light_never_gives_pmf_zero() {
     let at = Vec3::new(1e15, 0.0, 0.0);
     let mut lights = vec![Light::Point {
         position: at,
-        intensity: 1.0,
+        intensity: Rgb::grey(1.0),
     }];
     for i in 0..12 {
         lights.push(Light::Point {
             position: Vec3::new(0.0, i as f32 * 1e13, 0.0),
-            intensity: 1.0 + i as f32,
+            intensity: Rgb::grey(1.0 + i as f32),
         });
         lights.push(Light::Point {
             position: Vec3::new(1e15, 1e15, i as f32 * 1e13),
-            intensity: 2.0,
+            intensity: Rgb::grey(2.0),
         });
     }
     for receiver in [
@@ -904,7 +905,7 @@ fn vanishing_path_products_are_never_sampled() {
         for j in 0..3 {
             lights.push(Light::Point {
                 position: Vec3::new(i as f32 * 10.0 + j as f32, 0.0, 1.0),
-                intensity: libm_free_pow10(-3 * i),
+                intensity: Rgb::grey(libm_free_pow10(-3 * i)),
             });
         }
     }
@@ -955,13 +956,15 @@ fn batch_calls_equal_single_calls() {
             .iter()
             .map(|t| {
                 let material = match rng.below(3) {
-                    0 => Material::Lambert { albedo: 0.8 },
+                    0 => Material::Lambert {
+                        albedo: Rgb::grey(0.8),
+                    },
                     1 => Material::Ggx {
                         alpha: rng.log_range(0.01, 1.0),
                         specular: 1.0,
                     },
                     _ => Material::Plastic {
-                        albedo: 0.5,
+                        albedo: Rgb::grey(0.5),
                         specular: 0.5,
                         alpha: rng.log_range(0.01, 1.0),
                     },

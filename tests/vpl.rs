@@ -14,6 +14,7 @@ use common::{Rng, Stats};
 use glam::{DVec3, Vec3};
 use manylights::light_sample::{intersect, pdf_direction, pdf_point, sample_point};
 use manylights::vpl::{Unoccluded, DEFAULT_EPSILON};
+use manylights::Rgb;
 use manylights::{
     Importons, Light, LightField, LightTree, Material, Problem, TlImportance, Vpl, VplAcceptor,
     VplError, VplField,
@@ -33,7 +34,7 @@ fn floor_importons(rng: &mut Rng, n: usize, glossy: bool) -> Importons {
         if glossy && j % 5 == 0 {
             let wo = Vec3::new(rng.range(-1.0, 1.0), rng.range(-1.0, 1.0), 1.0);
             let m = Material::Plastic {
-                albedo: 0.4,
+                albedo: Rgb::grey(0.4),
                 specular: 0.6,
                 alpha: rng.range(0.05, 1.0),
             };
@@ -61,7 +62,7 @@ fn candidate(rng: &mut Rng, dead: bool) -> Vpl {
     Vpl {
         position,
         normal,
-        intensity: rng.log_range(1e-2, 10.0),
+        intensity: Rgb::grey(rng.log_range(1e-2, 10.0)),
     }
 }
 
@@ -83,7 +84,7 @@ fn reference_contribution(x: Vec3, n: Vec3, f: f64, v: &Vpl) -> f64 {
     let m = v.normal.as_dvec3().normalize();
     let cx = n.as_dvec3().dot(d).max(0.0) / d2.sqrt();
     let cy = (-m.dot(d)).max(0.0) / d2.sqrt();
-    f * cx * cy / d2 * f64::from(v.intensity)
+    f * cx * cy / d2 * f64::from(v.intensity.luminance())
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -109,10 +110,11 @@ fn contribution4_equals_scalar_lane_by_lane() {
             };
             for b in 0..imp.blocks() {
                 let lanes = imp
-                    .contribution4(b, v.position, m, v.intensity, g_max)
+                    .contribution4(b, v.position, m, v.intensity.luminance(), g_max)
                     .to_array();
                 for (l, &c4) in lanes.iter().enumerate() {
-                    let c = imp.contribution(4 * b + l, v.position, m, v.intensity, g_max);
+                    let c =
+                        imp.contribution(4 * b + l, v.position, m, v.intensity.luminance(), g_max);
                     assert!(
                         c4.to_bits() == c.to_bits(),
                         "case {case}, importon {}: 4-wide {c4} vs scalar {c} ({v:?})",
@@ -136,13 +138,15 @@ fn contribution_matches_the_formula() {
         imp.push_diffuse(x, Vec3::Z * 3.0, albedo).unwrap();
         let v = candidate(&mut rng, false);
         let m = v.validate().unwrap();
-        let c = f64::from(imp.contribution(0, v.position, m, v.intensity, f32::INFINITY));
+        let c =
+            f64::from(imp.contribution(0, v.position, m, v.intensity.luminance(), f32::INFINITY));
         let r = reference_contribution(x, Vec3::Z, f64::from(albedo) / std::f64::consts::PI, &v);
         assert!((c - r).abs() <= 1e-5 * r + 1e-12, "{c} vs {r}");
         // Clamped: G ≤ g_max.
         let g_max = 0.05;
-        let cc = f64::from(imp.contribution(0, v.position, m, v.intensity, g_max));
-        let bound = f64::from(albedo) / std::f64::consts::PI * 0.05 * f64::from(v.intensity);
+        let cc = f64::from(imp.contribution(0, v.position, m, v.intensity.luminance(), g_max));
+        let bound =
+            f64::from(albedo) / std::f64::consts::PI * 0.05 * f64::from(v.intensity.luminance());
         assert!(
             cc <= bound * (1.0 + 1e-6) && cc <= c * (1.0 + 1e-6),
             "{cc} {bound} {c}"
@@ -291,7 +295,7 @@ fn no_contribution_is_accepted_with_probability_epsilon() {
     let live = Vpl {
         position: Vec3::new(0.0, 0.0, 1.0),
         normal: -Vec3::Z,
-        intensity: 1.0,
+        intensity: Rgb::grey(1.0),
     };
     let mut never = |_: Vec3, _: Vec3| false;
     assert_eq!(
@@ -400,7 +404,7 @@ fn visibility_is_asked_for_reached_importons_only() {
     let c = Vpl {
         position: Vec3::new(1.0, 0.0, 1.0),
         normal: -Vec3::Z,
-        intensity: 1.0,
+        intensity: Rgb::grey(1.0),
     };
     let mut asked = Vec::new();
     let mut vis = |x: Vec3, y: Vec3| {
@@ -453,7 +457,7 @@ fn bad_input_is_an_error_naming_the_field() {
     let good = Vpl {
         position: Vec3::ONE,
         normal: Vec3::Z,
-        intensity: 1.0,
+        intensity: Rgb::grey(1.0),
     };
     let cases = [
         (
@@ -490,7 +494,7 @@ fn bad_input_is_an_error_naming_the_field() {
         ),
         (
             Vpl {
-                intensity: -1.0,
+                intensity: Rgb::grey(-1.0),
                 ..good
             },
             VplField::Intensity,
@@ -498,7 +502,7 @@ fn bad_input_is_an_error_naming_the_field() {
         ),
         (
             Vpl {
-                intensity: f32::INFINITY,
+                intensity: Rgb::grey(f32::INFINITY),
                 ..good
             },
             VplField::Intensity,
@@ -530,7 +534,9 @@ fn bad_input_is_an_error_naming_the_field() {
     };
     let err = im.push(Vec3::ZERO, Vec3::Z, Vec3::Z, m).unwrap_err();
     assert_eq!(err.field, VplField::ImportonMaterial);
-    let m = Material::Lambert { albedo: 0.5 };
+    let m = Material::Lambert {
+        albedo: Rgb::grey(0.5),
+    };
     let err = im.push(Vec3::ZERO, Vec3::Z, Vec3::ZERO, m).unwrap_err();
     assert_eq!(err.field, VplField::ImportonWo);
     assert!(im.is_empty(), "rejected importons are not stored");
@@ -545,7 +551,7 @@ fn vpl_light_bounds_energy_and_validation() {
     let l = Light::Vpl {
         position: Vec3::new(1.0, 2.0, 3.0),
         normal: Vec3::new(0.0, 0.0, -2.0),
-        intensity: 3.0,
+        intensity: Rgb::grey(3.0),
     };
     assert!(l.validate(0).is_ok());
     assert!((l.energy() - 3.0 * PI).abs() < 1e-5);
@@ -563,7 +569,7 @@ fn vpl_light_bounds_energy_and_validation() {
             Light::Vpl {
                 position: Vec3::new(f32::NAN, 0.0, 0.0),
                 normal: Vec3::Z,
-                intensity: 1.0,
+                intensity: Rgb::grey(1.0),
             },
             LightField::Position,
         ),
@@ -571,7 +577,7 @@ fn vpl_light_bounds_energy_and_validation() {
             Light::Vpl {
                 position: Vec3::ZERO,
                 normal: Vec3::ZERO,
-                intensity: 1.0,
+                intensity: Rgb::grey(1.0),
             },
             LightField::Normal,
         ),
@@ -579,7 +585,7 @@ fn vpl_light_bounds_energy_and_validation() {
             Light::Vpl {
                 position: Vec3::ZERO,
                 normal: Vec3::Z,
-                intensity: -1.0,
+                intensity: Rgb::grey(-1.0),
             },
             LightField::Intensity,
         ),
@@ -587,7 +593,7 @@ fn vpl_light_bounds_energy_and_validation() {
             Light::Vpl {
                 position: Vec3::ZERO,
                 normal: Vec3::Z,
-                intensity: 1e30,
+                intensity: Rgb::grey(1e30),
             },
             LightField::Intensity,
         ),
@@ -612,7 +618,7 @@ fn vpl_light_point_sampling() {
     let l = Light::Vpl {
         position: y,
         normal: Vec3::new(0.3, 0.0, -1.0),
-        intensity: 4.0,
+        intensity: Rgb::grey(4.0),
     };
     let m = DVec3::new(0.3, 0.0, -1.0).normalize();
     let mut rng = Rng::new(0x5A);
@@ -625,9 +631,9 @@ fn vpl_light_point_sampling() {
         let d = y.as_dvec3() - x.as_dvec3();
         let expected = 4.0 * m.dot(-d / d.length()).max(0.0) / d.length_squared();
         assert!(
-            (f64::from(s.radiance) - expected).abs() <= 1e-5 * expected + 1e-9,
+            (f64::from(s.radiance.r) - expected).abs() <= 1e-5 * expected + 1e-9,
             "{} vs {expected}",
-            s.radiance
+            s.radiance.r
         );
         assert_eq!(pdf_point(&l, x, y), 1.0);
         assert_eq!(pdf_direction(&l, x, s.direction), 0.0);
@@ -648,7 +654,7 @@ fn accepted_vpls_build_into_a_tree() {
         let c = Vpl {
             position: Vec3::new(rng.range(-3.0, 3.0), rng.range(-3.0, 3.0), 2.0),
             normal: Vec3::new(rng.range(-0.2, 0.2), rng.range(-0.2, 0.2), -1.0),
-            intensity: rng.log_range(0.1, 10.0),
+            intensity: Rgb::grey(rng.log_range(0.1, 10.0)),
         };
         if let Some(a) = acc.accept(&c, rng.f32()).unwrap() {
             lights.push(a.vpl.light());
@@ -685,7 +691,7 @@ fn tiny_epsilon_keeps_vpls_valid_lights() {
     let unseen = |intensity: f32| Vpl {
         position: Vec3::new(-0.0625, -0.0625, -0.0625),
         normal: -Vec3::Z,
-        intensity,
+        intensity: intensity.into(),
     };
     let limit = manylights::MAX_LIGHT_ENERGY / PI;
     for epsilon in [
@@ -749,7 +755,7 @@ fn a_candidate_on_an_importon_has_no_nan_estimate() {
         let c = Vpl {
             position: Vec3::new(0.0, 0.0, 3.3e-10),
             normal: -Vec3::Z,
-            intensity,
+            intensity: intensity.into(),
         };
         let phi = acc.estimate(&c).unwrap();
         assert!(phi == f32::INFINITY, "I {intensity}: Φ̃_i = {phi}");

@@ -114,7 +114,7 @@ fn wavefront(c: &mut Criterion) {
     let status = ffi::ml_tree_build(descs.as_ptr(), descs.len(), std::ptr::null(), &mut handle);
     assert_eq!(status, ffi::ML_OK, "the bench scene is valid");
     let plastic = manylights::Material::Plastic {
-        albedo: 0.5,
+        albedo: manylights::Rgb::grey(0.5),
         specular: 0.5,
         alpha: 0.2,
     };
@@ -126,7 +126,11 @@ fn wavefront(c: &mut Criterion) {
             wo: p.wo.into(),
             material: ffi::ml_material {
                 kind: ffi::ml_material_kind::Plastic as u32,
-                albedo: 0.5,
+                albedo: ffi::ml_rgb {
+                    r: 0.5,
+                    g: 0.5,
+                    b: 0.5,
+                },
                 specular: 0.5,
                 alpha: 0.2,
             },
@@ -149,7 +153,7 @@ fn wavefront(c: &mut Criterion) {
                 };
                 let mut acc = 0.0;
                 for sp in &sps {
-                    let mut e = 0.0;
+                    let mut e = ffi::ml_rgb64::default();
                     let s = ffi::ml_direct_estimate(
                         black_box(handle),
                         sp,
@@ -160,13 +164,13 @@ fn wavefront(c: &mut Criterion) {
                         &mut e,
                     );
                     assert_eq!(s, ffi::ML_OK);
-                    acc += e;
+                    acc += e.g;
                 }
                 acc
             })
         });
         group.bench_function(format!("C ml_direct_estimate_batch, {name}"), |b| {
-            let mut out = vec![0.0f64; sps.len()];
+            let mut out = vec![ffi::ml_rgb64::default(); sps.len()];
             b.iter(|| {
                 let mut state = 13u64;
                 let u = ffi::ml_uniforms {
@@ -186,7 +190,7 @@ fn wavefront(c: &mut Criterion) {
                     out.as_mut_ptr(),
                 );
                 assert_eq!(s, ffi::ML_OK);
-                out.iter().sum::<f64>()
+                out.iter().map(|e| e.g).sum::<f64>()
             })
         });
     }

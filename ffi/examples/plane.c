@@ -72,7 +72,13 @@ static ml_light *make_lights(size_t *count) {
         ls[i].position.y = r * sinf(a);
         ls[i].position.z = 0.15f + 1.5f * (float)next_f64(&g);
         ls[i].radius = 0.02f;
-        ls[i].power = 20.0f * (0.2f + (float)next_f64(&g));
+        {
+            /* Radiance 20 × (0.2 to 1.2), alternately warm and cool white (linear RGB). */
+            float p = 20.0f * (0.2f + (float)next_f64(&g));
+            ls[i].power.r = p * (i % 2 ? 0.8f : 1.2f);
+            ls[i].power.g = p;
+            ls[i].power.b = p * (i % 2 ? 1.25f : 0.7f);
+        }
     }
     for (; i < n; i++) {
         float a = (float)(i - 2000) * 1.0471976f;
@@ -83,7 +89,7 @@ static ml_light *make_lights(size_t *count) {
         ls[i].direction.x = -ls[i].position.x;
         ls[i].direction.y = -ls[i].position.y;
         ls[i].direction.z = -ls[i].position.z;
-        ls[i].power = 4.0f;
+        ls[i].power.r = ls[i].power.g = ls[i].power.b = 4.0f;
         ls[i].half_angle = 0.35f;
         ls[i].falloff_start = 0.25f;
     }
@@ -128,7 +134,7 @@ int main(int argc, char **argv) {
 
     for (y = 0; y < height && ok; y++) {
         for (x = 0; x < width && ok; x++) {
-            double sum = 0;
+            double sum[3] = {0, 0, 0};
             for (k = 0; k < spp && ok; k++) {
                 /* A pinhole camera looking at the origin (jittered within the pixel). */
                 float px = ((float)x + next_f32(&g)) / (float)width * 2 - 1;
@@ -136,7 +142,7 @@ int main(int argc, char **argv) {
                 ml_vec3 d = {px * 0.6f * (float)width / (float)height, 0.83f, -0.55f + py * 0.6f};
                 float len = sqrtf(d.x * d.x + d.y * d.y + d.z * d.z), tb, tp;
                 ml_shading_point sp;
-                double e = 0;
+                ml_rgb64 e = {0, 0, 0};
                 d.x /= len;
                 d.y /= len;
                 d.z /= len;
@@ -152,7 +158,9 @@ int main(int argc, char **argv) {
                     sp.normal.y = (sp.position.y - ball.y) / ball_r;
                     sp.normal.z = (sp.position.z - ball.z) / ball_r;
                     sp.material.kind = ML_MATERIAL_KIND_LAMBERT;
-                    sp.material.albedo = 0.8f;
+                    sp.material.albedo.r = 0.8f;
+                    sp.material.albedo.g = 0.35f;
+                    sp.material.albedo.b = 0.2f;
                     sp.material.specular = 0;
                     sp.material.alpha = 1;
                 } else {
@@ -162,21 +170,24 @@ int main(int argc, char **argv) {
                     sp.normal.y = 0;
                     sp.normal.z = 1;
                     sp.material.kind = ML_MATERIAL_KIND_PLASTIC;
-                    sp.material.albedo = 0.5f;
+                    sp.material.albedo.r = sp.material.albedo.g = sp.material.albedo.b = 0.5f;
                     sp.material.specular = 0.5f;
                     sp.material.alpha = 0.15f;
                 }
                 ok = check(ml_estimator_set_point(est, &sp, ML_TECHNIQUE_DEFAULT, NULL),
                            "ml_estimator_set_point") &&
                      check(ml_estimator_estimate(est, &vis, &uniforms, &e), "ml_estimator_estimate");
-                sum += e;
+                sum[0] += e.r;
+                sum[1] += e.g;
+                sum[2] += e.b;
             }
             {
-                /* Reinhard tone mapping, then sRGB-like gamma. */
-                double v = sum / spp * 0.5;
-                unsigned char c = (unsigned char)(255.0 * pow(v / (1.0 + v), 1.0 / 2.2) + 0.5);
-                size_t o = ((size_t)y * (size_t)width + (size_t)x) * 3;
-                image[o] = image[o + 1] = image[o + 2] = c;
+                /* Reinhard tone mapping per channel, then sRGB-like gamma. */
+                size_t o = ((size_t)y * (size_t)width + (size_t)x) * 3, c;
+                for (c = 0; c < 3; c++) {
+                    double v = sum[c] / spp * 0.5;
+                    image[o + c] = (unsigned char)(255.0 * pow(v / (1.0 + v), 1.0 / 2.2) + 0.5);
+                }
             }
         }
     }

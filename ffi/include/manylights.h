@@ -126,9 +126,10 @@
 
 /**
  * The kind of an `ml_light` (the value of its `kind` field). Units: positions in any length
- * unit m (the same as the scene's), intensity in W/sr, radiance in W/(m²·sr); a light's energy
- * (its flux, W, what the tree's importance and `ml_tree_statistics.total_energy` add up) is
- * given at each kind and is at most `ML_MAX_LIGHT_ENERGY`.
+ * unit m (the same as the scene's), intensity in W/sr, radiance in W/(m²·sr), irradiance in
+ * W/m², each per channel of linear RGB; a light's energy (its flux, W, of the luminance:
+ * what the tree's importance and `ml_tree_statistics.total_energy` add up) is given at each
+ * kind and is at most `ML_MAX_LIGHT_ENERGY` (0 for distant and environment lights).
  */
 enum ml_light_kind
 #if defined(__cplusplus) || __STDC_VERSION__ >= 202311L
@@ -172,6 +173,20 @@ enum ml_light_kind
      * is I = ρΦ/π). Energy πI.
      */
     ML_LIGHT_KIND_VPL = 5,
+    /**
+     * Distant light (a sun): `direction` towards the light (any non-zero length),
+     * `half_angle` its angular radius γ in [0, π/2] radians (0: a delta direction), `power`
+     * its irradiance at normal incidence (W/m²); the radiance of its cone is
+     * `power / (π sin²γ)`.
+     */
+    ML_LIGHT_KIND_DISTANT = 6,
+    /**
+     * The host's environment: `irradiance_bounds`, upper bounds of the irradiance
+     * (luminance, W/m²) it delivers on receivers facing +x, −x, +y, −y, +z, −z (π × the
+     * luminance of the radiance for a uniform environment); its radiance and sampling are
+     * the host's (`ml_environment`). At most one per tree.
+     */
+    ML_LIGHT_KIND_ENVIRONMENT = 7,
 };
 #ifndef __cplusplus
 #if __STDC_VERSION__ >= 202311L
@@ -255,6 +270,11 @@ enum ml_technique
      * One `bl` light sample plus one BSDF sample, power heuristic: the default.
      */
     ML_TECHNIQUE_BL_MIS = 8,
+    /**
+     * `tl-mis` with pbrt-v4's handling of distant and environment lights: each picked with
+     * the fixed probability 1 / (n + 1) whatever the point, the node tree otherwise.
+     */
+    ML_TECHNIQUE_TL_MIS_PINF = 9,
 };
 #ifndef __cplusplus
 #if __STDC_VERSION__ >= 202311L
@@ -339,15 +359,24 @@ enum ml_step_kind
     ML_STEP_KIND_LIGHT = 0,
     /**
      * A BSDF sample to take with `u0`, `u1`: sample the BSDF, cast the ray and report the
-     * direction, its pdf and the first surface's distance to `ml_estimator_bsdf_hits`. When
-     * the host's BSDF gives no direction for them, skip the report (as the one call does):
-     * the sample contributes nothing, and `full` counts it as a ray that reached no light.
+     * direction, its pdf and the first surface's distance to `ml_estimator_bsdf_hits` (or
+     * `ml_estimator_bsdf_hits_env`, with the environment's pdf of the direction, for a tree
+     * with an environment light). When the host's BSDF gives no direction for them, skip the
+     * report (as the one call does): the sample contributes nothing, and `full` counts it as a
+     * ray that reached no light.
      */
     ML_STEP_KIND_BSDF = 1,
     /**
      * The estimate is complete.
      */
     ML_STEP_KIND_DONE = 2,
+    /**
+     * A sample of the host's environment to take with `u0`, `u1` (light `light`, chosen with
+     * probability `pmf`): sample the map, then pass the direction, its radiance and pdf to
+     * `ml_estimator_environment_point`, which gives the light step to shade, test (to +∞)
+     * and weigh.
+     */
+    ML_STEP_KIND_ENVIRONMENT = 3,
 };
 #ifndef __cplusplus
 #if __STDC_VERSION__ >= 202311L
@@ -408,7 +437,26 @@ typedef struct ml_vec3 {
 } ml_vec3;
 
 /**
- * A surface's reflectance: albedo and specular weight in [0, 1], GGX roughness α in (0, 1].
+ * A linear RGB triple (emission, albedo, radiance), per channel.
+ */
+typedef struct ml_rgb {
+    /**
+     * Red.
+     */
+    float r;
+    /**
+     * Green.
+     */
+    float g;
+    /**
+     * Blue.
+     */
+    float b;
+} ml_rgb;
+
+/**
+ * A surface's reflectance: albedo (every channel) and specular weight in [0, 1], GGX roughness
+ * α in (0, 1].
  */
 typedef struct ml_material {
     /**
@@ -416,9 +464,9 @@ typedef struct ml_material {
      */
     uint32_t kind;
     /**
-     * Diffuse albedo in [0, 1] (Lambert, plastic).
+     * Diffuse albedo, linear RGB, every channel in [0, 1] (Lambert, plastic).
      */
-    float albedo;
+    struct ml_rgb albedo;
     /**
      * Weight of the GGX lobe in [0, 1] (GGX, plastic).
      */
@@ -604,6 +652,52 @@ typedef struct ml_uniforms {
 } ml_uniforms;
 
 /**
+ * An estimate in linear RGB, summed in double precision.
+ */
+typedef struct ml_rgb64 {
+    /**
+     * Red.
+     */
+    double r;
+    /**
+     * Green.
+     */
+    double g;
+    /**
+     * Blue.
+     */
+    double b;
+} ml_rgb64;
+
+/**
+ * The host's environment (radiance, sampling and pdf of its map or sky), for the one call on
+ * a tree with an environment light. `sample(user_data, u0, u1, direction, radiance, pdf)`
+ * writes a unit direction towards the environment, the radiance along it and its
+ * solid-angle pdf (> 0) and returns non-zero, or returns 0 for no sample;
+ * `eval(user_data, direction, radiance, pdf)` writes the radiance along the unit `direction`
+ * and the pdf with which `sample` returns it (≥ 0). Callbacks must return normally.
+ */
+typedef struct ml_environment {
+    /**
+     * Samples a direction.
+     */
+    int32_t (*sample)(void *user_data,
+                      float u0,
+                      float u1,
+                      struct ml_vec3 *direction,
+                      struct ml_rgb *radiance,
+                      float *pdf);
+    /**
+     * Radiance and pdf of a direction.
+     */
+    void (*eval)(void *user_data, struct ml_vec3 direction, struct ml_rgb *radiance, float *pdf);
+    /**
+     * Passed to both.
+     */
+    void *user_data;
+} ml_environment;
+
+/**
  * A point on a light seen from a shading point x (sampled, or reached by a ray).
  * `pdf = 0` (and every other field 0) when there is none.
  */
@@ -630,12 +724,12 @@ typedef struct ml_light_point {
      */
     float pdf;
     /**
-     * What the estimate multiplies by (≥ 0): the radiance arriving at x for area lights
-     * (W/(m²·sr)); for point, spot and VPL lights `I · falloff / d²` (W/m²), already divided
-     * by the squared distance: do not divide again (the contribution is `f · radiance ·
-     * cos θi / pdf`, `pdf` = 1).
+     * What the estimate multiplies by (every channel ≥ 0), linear RGB: the radiance arriving
+     * at x for area lights (W/(m²·sr)); for point, spot and VPL lights `I · falloff / d²`
+     * (W/m²), already divided by the squared distance: do not divide again (the contribution
+     * is `f · radiance · cos θi / pdf`, `pdf` = 1).
      */
-    float radiance;
+    struct ml_rgb radiance;
     /**
      * 1 for point, spot and VPL lights (`pdf` is a Dirac delta reported as 1), else 0.
      */
@@ -667,11 +761,11 @@ typedef struct ml_step {
      */
     struct ml_light_point point;
     /**
-     * BSDF step: the first uniform number for sampling the BSDF.
+     * BSDF and environment steps: the first uniform number for sampling the BSDF or the map.
      */
     float u0;
     /**
-     * BSDF step: the second uniform number.
+     * BSDF and environment steps: the second uniform number.
      */
     float u1;
 } ml_step;
@@ -736,9 +830,9 @@ typedef struct ml_build_options {
 /**
  * One light, as given to `ml_tree_build`. Which fields a kind reads is listed at each
  * `ml_light_kind`; the others are ignored (zero them). Coordinates finite with magnitude at
- * most `ML_MAX_COORDINATE`; `power` finite and ≥ 0 (0: accepted and never sampled), the
- * light's energy at most `ML_MAX_LIGHT_ENERGY` and all of them together at most
- * `ML_MAX_TOTAL_ENERGY`.
+ * most `ML_MAX_COORDINATE`; every channel of `power` finite and ≥ 0 (black: accepted and
+ * never sampled), the light's energy at most `ML_MAX_LIGHT_ENERGY` and all of them together
+ * at most `ML_MAX_TOTAL_ENERGY`.
  */
 typedef struct ml_light {
     /**
@@ -762,9 +856,10 @@ typedef struct ml_light {
      */
     struct ml_vec3 vertex2;
     /**
-     * Intensity in W/sr (point, spot, VPL) or radiance in W/(m²·sr) (sphere, disk, triangle).
+     * Intensity in W/sr (point, spot, VPL) or radiance in W/(m²·sr) (sphere, disk,
+     * triangle), linear RGB; the tree ranks lights by its luminance.
      */
-    float power;
+    struct ml_rgb power;
     /**
      * Radius (sphere, disk).
      */
@@ -777,6 +872,11 @@ typedef struct ml_light {
      * Spot falloff start θf in radians, in [0, θs].
      */
     float falloff_start;
+    /**
+     * Environment: irradiance bounds on receivers facing +x, −x, +y, −y, +z, −z (W/m²,
+     * luminance; finite, ≥ 0).
+     */
+    float irradiance_bounds[6];
 } ml_light;
 
 /**
@@ -880,9 +980,10 @@ typedef struct ml_vpl {
      */
     struct ml_vec3 normal;
     /**
-     * Radiant intensity along the normal (finite, ≥ 0).
+     * Radiant intensity along the normal, linear RGB (every channel finite, ≥ 0; acceptance
+     * weighs its luminance).
      */
-    float intensity;
+    struct ml_rgb intensity;
 } ml_vpl;
 
 /**
@@ -1182,14 +1283,15 @@ ml_status ml_direct_params_default(struct ml_direct_params *out);
 /**
  * One estimate of the radiance reflected at `sp` towards `sp->wo` from the tree's lights,
  * with `technique` (an `ml_technique`), `params` (NULL: defaults), the host's `visibility`
- * (NULL: nothing occluded) and `uniforms`, with the core's material (`sp->material`). The
- * estimate is finite and ≥ 0; its expectation is the reflected radiance (every technique is
- * unbiased). For many estimates at one point, `ml_estimator_*` sets up once.
+ * (NULL: nothing occluded) and `uniforms`, with the core's material (`sp->material`), in
+ * linear RGB. Every channel of the estimate is finite and ≥ 0; its expectation is the
+ * reflected radiance (every technique is unbiased). For many estimates at one point, `ml_estimator_*` sets up once.
  *
  * Errors: `ML_ERR_NULL` (`tree`, `sp`, `uniforms`, `uniforms->next_f32`, `out`);
  * `ML_ERR_INVALID_ARGUMENT` (a bad shading point, technique or parameter; a uniform number
  * outside [0, 1); a NaN or negative `first_hit`); `ML_ERR_STATE` (a tree loaded by
- * `ml_tree_load`, without its lights).
+ * `ml_tree_load`, without its lights; a tree with an environment light:
+ * `ml_direct_estimate_env`).
  */
 ml_status ml_direct_estimate(const struct ml_tree *tree,
                              const struct ml_shading_point *sp,
@@ -1197,7 +1299,24 @@ ml_status ml_direct_estimate(const struct ml_tree *tree,
                              const struct ml_direct_params *params,
                              const struct ml_visibility *visibility,
                              const struct ml_uniforms *uniforms,
-                             double *out);
+                             struct ml_rgb64 *out);
+
+/**
+ * `ml_direct_estimate` with the host's `environment` (its radiance, sampling and pdf), for a
+ * tree with an environment light (on a tree without one it is never called).
+ *
+ * Errors: those of `ml_direct_estimate`, and `ML_ERR_NULL` (`environment`,
+ * `environment->sample`, `environment->eval`); `ML_ERR_INVALID_ARGUMENT` (a NaN, negative or
+ * infinite pdf or radiance from the callbacks, a zero direction from `sample`).
+ */
+ml_status ml_direct_estimate_env(const struct ml_tree *tree,
+                                 const struct ml_shading_point *sp,
+                                 uint32_t technique,
+                                 const struct ml_direct_params *params,
+                                 const struct ml_visibility *visibility,
+                                 const struct ml_environment *environment,
+                                 const struct ml_uniforms *uniforms,
+                                 struct ml_rgb64 *out);
 
 /**
  * Estimates at `count` shading points at once, for wavefront hosts: for each `points[j]` in
@@ -1206,13 +1325,13 @@ ml_status ml_direct_estimate(const struct ml_tree *tree,
  * written to `out[j · per_point + i]` — bit for bit, and drawing exactly the uniform numbers,
  * of those calls made one after the other (with `per_point` = 1, of `count` calls of
  * `ml_direct_estimate`). Every shading point is checked before the first estimate; `out`
- * (`count · per_point` doubles) is written only on success.
+ * (`count · per_point` RGB estimates) is written only on success.
  *
  * Errors: `ML_ERR_NULL` (`tree`, `uniforms`, `uniforms->next_f32`; `points`, `out` when
  * `count` > 0); `ML_ERR_INVALID_ARGUMENT` (`per_point` 0, a count that overflows, a bad
  * technique or parameter, a bad shading point named `points[j]`, a uniform number outside
  * [0, 1) or a bad `first_hit` named with the point it was drawn for); `ML_ERR_STATE` (a
- * tree loaded without its lights).
+ * tree loaded without its lights; a tree with an environment light).
  */
 ml_status ml_direct_estimate_batch(const struct ml_tree *tree,
                                    const struct ml_shading_point *points,
@@ -1222,7 +1341,7 @@ ml_status ml_direct_estimate_batch(const struct ml_tree *tree,
                                    const struct ml_direct_params *params,
                                    const struct ml_visibility *visibility,
                                    const struct ml_uniforms *uniforms,
-                                   double *out);
+                                   struct ml_rgb64 *out);
 
 /**
  * Creates an estimator for the lights of `tree` (built by `ml_tree_build` or loaded by
@@ -1263,7 +1382,20 @@ ml_status ml_estimator_set_point(struct ml_estimator *est,
 ml_status ml_estimator_estimate(struct ml_estimator *est,
                                 const struct ml_visibility *visibility,
                                 const struct ml_uniforms *uniforms,
-                                double *out);
+                                struct ml_rgb64 *out);
+
+/**
+ * `ml_estimator_estimate` with the host's `environment` (see `ml_direct_estimate_env`).
+ *
+ * Errors: those of `ml_estimator_estimate`, and `ML_ERR_NULL` (`environment`,
+ * `environment->sample`, `environment->eval`); `ML_ERR_INVALID_ARGUMENT` (bad values from
+ * the callbacks).
+ */
+ml_status ml_estimator_estimate_env(struct ml_estimator *est,
+                                    const struct ml_visibility *visibility,
+                                    const struct ml_environment *environment,
+                                    const struct ml_uniforms *uniforms,
+                                    struct ml_rgb64 *out);
 
 /**
  * Starts a new estimate of the lower level (forgetting the current one); then call
@@ -1295,16 +1427,35 @@ ml_status ml_estimator_next(struct ml_estimator *est,
 ml_status ml_estimator_weigh(struct ml_estimator *est, float bsdf_pdf, struct ml_weighted *out);
 
 /**
+ * Turns the last environment step into its light step: the host sampled its map with the
+ * step's `u0`, `u1` and got `direction` (any positive length), the `radiance` along it and
+ * its solid-angle `pdf` (> 0). Writes the light step (`ML_STEP_KIND_LIGHT`, its point at
+ * `distance` +∞) to `*out`; shade and test it, and weigh it with `ml_estimator_weigh`.
+ *
+ * Errors: `ML_ERR_NULL` (`est`, `out`); `ML_ERR_INVALID_ARGUMENT` (a zero or non-finite
+ * `direction`, a `pdf` not positive and finite, a negative or non-finite channel of
+ * `radiance`); `ML_ERR_STATE` (not set up, or no environment step yielded since the last
+ * start).
+ */
+ml_status ml_estimator_environment_point(struct ml_estimator *est,
+                                         struct ml_vec3 direction,
+                                         struct ml_rgb radiance,
+                                         float pdf,
+                                         struct ml_step *out);
+
+/**
  * Reports the last BSDF step's sample: the host sampled `direction` (world space, any
  * positive length) with density `bsdf_pdf` (solid angle), and its ray's first surface is at
  * `hit_distance` (+infinity for none). Calls `each(user_data, hit)` for every light reached in
  * front of it with non-zero radiance, with its weight (the host adds `value ·
- * hit->weighted.scale`); `*any_hit` gets 1 if any was reached (what the adaptive allocation
+ * hit->weighted.scale`) — a ray that escapes also reaches the distant lights whose cones
+ * hold its direction; `*any_hit` gets 1 if any was reached (what the adaptive allocation
  * learns), else 0.
  *
  * Errors: `ML_ERR_NULL` (`est`, `each`, `any_hit`); `ML_ERR_INVALID_ARGUMENT` (a zero or
  * non-finite `direction`, a bad `bsdf_pdf`, a NaN or negative `hit_distance`);
- * `ML_ERR_STATE` (not set up, or no BSDF step yielded since the last start).
+ * `ML_ERR_STATE` (not set up, or no BSDF step yielded since the last start; a tree with an
+ * environment light: `ml_estimator_bsdf_hits_env`).
  */
 ml_status ml_estimator_bsdf_hits(struct ml_estimator *est,
                                  struct ml_vec3 direction,
@@ -1313,6 +1464,25 @@ ml_status ml_estimator_bsdf_hits(struct ml_estimator *est,
                                  ml_hit_fn each,
                                  void *user_data,
                                  uint32_t *any_hit);
+
+/**
+ * `ml_estimator_bsdf_hits` for any tree: a ray that escapes (`hit_distance` = +infinity) also
+ * reaches the environment, weighed with `environment_pdf`, the host's pdf of sampling
+ * `direction` from its map (finite, ≥ 0; ignored when the tree has no environment light or
+ * the ray does not escape). The environment's hit has a black `point.radiance`: the host
+ * shades it with its own radiance along the direction.
+ *
+ * Errors: those of `ml_estimator_bsdf_hits` (but for the environment's), and
+ * `ML_ERR_INVALID_ARGUMENT` for a NaN, negative or infinite `environment_pdf`.
+ */
+ml_status ml_estimator_bsdf_hits_env(struct ml_estimator *est,
+                                     struct ml_vec3 direction,
+                                     float bsdf_pdf,
+                                     float hit_distance,
+                                     float environment_pdf,
+                                     ml_hit_fn each,
+                                     void *user_data,
+                                     uint32_t *any_hit);
 
 /**
  * The message of the last call on this thread that failed (`""` if none failed): the

@@ -8,12 +8,14 @@ use crate::error::{ml_status, Error, Result};
 use crate::ffi_fn;
 use crate::tree::{ml_tree, tree_arg, TreeData};
 use crate::types::{
-    finite3, ml_light_point, ml_shading_point, ml_vec3, shading_error, shading_point,
+    finite3, ml_light_point, ml_rgb, ml_rgb64, ml_shading_point, ml_vec3, shading_error,
+    shading_point,
 };
 use core::ffi::c_void;
 use glam::Vec3;
 use manylights::direct::{
-    BsdfDraw, DirectError, LambertMode, LightDraw, Occluder, Params, Step, Technique, Uniforms,
+    BsdfDraw, DirectError, Environment, EnvironmentDraw, EnvironmentSample, LambertMode, LightDraw,
+    Occluder, Params, Step, Technique, Uniforms,
 };
 use manylights::mis::MAX_BUDGET;
 use manylights::{Estimator, Heuristic, LightSet};
@@ -43,6 +45,9 @@ pub enum ml_technique {
     TlMis = 7,
     /// One `bl` light sample plus one BSDF sample, power heuristic: the default.
     BlMis = 8,
+    /// `tl-mis` with pbrt-v4's handling of distant and environment lights: each picked with
+    /// the fixed probability 1 / (n + 1) whatever the point, the node tree otherwise.
+    TlMisPinf = 9,
 }
 
 /// The technique a renderer should use without a reason to choose another (`bl-mis`).
@@ -134,12 +139,19 @@ pub enum ml_step_kind {
     /// `needs_bsdf_pdf`) and add `value · scale`.
     Light = 0,
     /// A BSDF sample to take with `u0`, `u1`: sample the BSDF, cast the ray and report the
-    /// direction, its pdf and the first surface's distance to `ml_estimator_bsdf_hits`. When
-    /// the host's BSDF gives no direction for them, skip the report (as the one call does):
-    /// the sample contributes nothing, and `full` counts it as a ray that reached no light.
+    /// direction, its pdf and the first surface's distance to `ml_estimator_bsdf_hits` (or
+    /// `ml_estimator_bsdf_hits_env`, with the environment's pdf of the direction, for a tree
+    /// with an environment light). When the host's BSDF gives no direction for them, skip the
+    /// report (as the one call does): the sample contributes nothing, and `full` counts it as a
+    /// ray that reached no light.
     Bsdf = 1,
     /// The estimate is complete.
     Done = 2,
+    /// A sample of the host's environment to take with `u0`, `u1` (light `light`, chosen with
+    /// probability `pmf`): sample the map, then pass the direction, its radiance and pdf to
+    /// `ml_estimator_environment_point`, which gives the light step to shade, test (to +∞)
+    /// and weigh.
+    Environment = 3,
 }
 
 /// One step of an estimate (see `ml_step_kind`).
@@ -156,9 +168,9 @@ pub struct ml_step {
     pub needs_bsdf_pdf: u32,
     /// Light step: the point on the light.
     pub point: ml_light_point,
-    /// BSDF step: the first uniform number for sampling the BSDF.
+    /// BSDF and environment steps: the first uniform number for sampling the BSDF or the map.
     pub u0: f32,
-    /// BSDF step: the second uniform number.
+    /// BSDF and environment steps: the second uniform number.
     pub u1: f32,
 }
 
@@ -191,6 +203,76 @@ pub struct ml_light_hit {
     pub weighted: ml_weighted,
 }
 
+/// The host's environment (radiance, sampling and pdf of its map or sky), for the one call on
+/// a tree with an environment light. `sample(user_data, u0, u1, direction, radiance, pdf)`
+/// writes a unit direction towards the environment, the radiance along it and its
+/// solid-angle pdf (> 0) and returns non-zero, or returns 0 for no sample;
+/// `eval(user_data, direction, radiance, pdf)` writes the radiance along the unit `direction`
+/// and the pdf with which `sample` returns it (≥ 0). Callbacks must return normally.
+#[repr(C)]
+#[derive(Clone, Copy, Debug)]
+pub struct ml_environment {
+    /// Samples a direction.
+    pub sample: Option<
+        unsafe extern "C" fn(
+            user_data: *mut c_void,
+            u0: f32,
+            u1: f32,
+            direction: *mut ml_vec3,
+            radiance: *mut ml_rgb,
+            pdf: *mut f32,
+        ) -> i32,
+    >,
+    /// Radiance and pdf of a direction.
+    pub eval: Option<
+        unsafe extern "C" fn(
+            user_data: *mut c_void,
+            direction: ml_vec3,
+            radiance: *mut ml_rgb,
+            pdf: *mut f32,
+        ),
+    >,
+    /// Passed to both.
+    pub user_data: *mut c_void,
+}
+
+/// The host's environment as the core's.
+struct HostEnvironment {
+    sample: unsafe extern "C" fn(*mut c_void, f32, f32, *mut ml_vec3, *mut ml_rgb, *mut f32) -> i32,
+    eval: unsafe extern "C" fn(*mut c_void, ml_vec3, *mut ml_rgb, *mut f32),
+    user: *mut c_void,
+}
+
+impl HostEnvironment {
+    fn new(e: &ml_environment) -> Result<HostEnvironment> {
+        Ok(HostEnvironment {
+            sample: e.sample.ok_or_else(|| Error::null("environment->sample"))?,
+            eval: e.eval.ok_or_else(|| Error::null("environment->eval"))?,
+            user: e.user_data,
+        })
+    }
+}
+
+impl Environment for HostEnvironment {
+    fn sample(&self, u: [f32; 2]) -> Option<EnvironmentSample> {
+        let (mut d, mut r, mut pdf) = (ml_vec3::default(), ml_rgb::default(), 0.0f32);
+        // SAFETY: a host callback with its own user data; the out-pointers are to locals.
+        let ok = unsafe { (self.sample)(self.user, u[0], u[1], &mut d, &mut r, &mut pdf) };
+        (ok != 0).then(|| EnvironmentSample {
+            direction: d.into(),
+            radiance: r.into(),
+            pdf,
+        })
+    }
+
+    fn eval(&self, direction: Vec3) -> (manylights::Rgb, f32) {
+        let (mut r, mut pdf) = (ml_rgb::default(), 0.0f32);
+        // SAFETY: as above.
+        unsafe { (self.eval)(self.user, direction.into(), &mut r, &mut pdf) };
+        (r.into(), pdf)
+    }
+}
+
 /// Called by `ml_estimator_bsdf_hits` for each light reached.
 pub type ml_hit_fn = Option<unsafe extern "C" fn(user_data: *mut c_void, hit: *const ml_light_hit)>;
 
@@ -202,6 +284,7 @@ pub struct ml_estimator {
     est: Option<Estimator<'static>>,
     last_light: Option<LightDraw>,
     last_bsdf: Option<BsdfDraw>,
+    last_environment: Option<EnvironmentDraw>,
     tree: Arc<TreeData>,
 }
 
@@ -219,7 +302,7 @@ impl From<manylights::direct::Weighted> for ml_weighted {
 fn technique_of(t: u32) -> Result<Technique> {
     Technique::ALL.get(t as usize).copied().ok_or_else(|| {
         Error::invalid(format_args!(
-            "technique: {t} is not an ml_technique (0 to 8)"
+            "technique: {t} is not an ml_technique (0 to 9)"
         ))
     })
 }
@@ -364,6 +447,16 @@ fn direct_error(e: DirectError) -> Error {
         DirectError::HitDistance { value } => Error::invalid(format_args!(
             "hit_distance must be non-negative or +infinity (got {value})"
         )),
+        DirectError::NeedsEnvironment => Error::state(
+            "the tree has an environment light: use the calls that take the host's environment \
+             (ml_direct_estimate_env, ml_estimator_estimate_env, ml_estimator_bsdf_hits_env)",
+        ),
+        DirectError::EnvironmentPdf { value } => Error::invalid(format_args!(
+            "environment pdf must be finite and non-negative, and positive for a sample (got {value})"
+        )),
+        DirectError::EnvironmentRadiance { value } => Error::invalid(format_args!(
+            "environment radiance: every channel must be finite and non-negative (got {value})"
+        )),
     }
 }
 
@@ -371,20 +464,28 @@ fn direct_error(e: DirectError) -> Error {
 fn estimate_with(
     est: &mut Estimator<'_>,
     vis: Option<&ml_visibility>,
+    env: Option<&ml_environment>,
     u: &ml_uniforms,
-) -> Result<f64> {
+) -> Result<ml_rgb64> {
     let mut u = HostUniforms::new(u)?;
     let occ = HostVisibility {
         vis: vis.copied(),
         bad: Cell::new(None),
     };
-    let r = est.estimate(&occ, &mut u).map_err(direct_error)?;
+    let r = match env {
+        Some(e) => {
+            let env = HostEnvironment::new(e)?;
+            est.estimate_env(&occ, &env, &mut u)
+        }
+        None => est.estimate(&occ, &mut u),
+    }
+    .map_err(direct_error)?;
     if let Some(h) = occ.bad.get() {
         return Err(Error::invalid(format_args!(
             "visibility->first_hit returned {h} (must be non-negative or +infinity)"
         )));
     }
-    Ok(r)
+    Ok(r.into())
 }
 
 /// The shading point of a checked C one.
@@ -394,14 +495,15 @@ fn sp_arg(sp: *const ml_shading_point) -> Result<manylights::ShadingPoint> {
 
 /// One estimate of the radiance reflected at `sp` towards `sp->wo` from the tree's lights,
 /// with `technique` (an `ml_technique`), `params` (NULL: defaults), the host's `visibility`
-/// (NULL: nothing occluded) and `uniforms`, with the core's material (`sp->material`). The
-/// estimate is finite and ≥ 0; its expectation is the reflected radiance (every technique is
-/// unbiased). For many estimates at one point, `ml_estimator_*` sets up once.
+/// (NULL: nothing occluded) and `uniforms`, with the core's material (`sp->material`), in
+/// linear RGB. Every channel of the estimate is finite and ≥ 0; its expectation is the
+/// reflected radiance (every technique is unbiased). For many estimates at one point, `ml_estimator_*` sets up once.
 ///
 /// Errors: `ML_ERR_NULL` (`tree`, `sp`, `uniforms`, `uniforms->next_f32`, `out`);
 /// `ML_ERR_INVALID_ARGUMENT` (a bad shading point, technique or parameter; a uniform number
 /// outside [0, 1); a NaN or negative `first_hit`); `ML_ERR_STATE` (a tree loaded by
-/// `ml_tree_load`, without its lights).
+/// `ml_tree_load`, without its lights; a tree with an environment light:
+/// `ml_direct_estimate_env`).
 #[no_mangle]
 pub extern "C" fn ml_direct_estimate(
     tree: *const ml_tree,
@@ -410,7 +512,7 @@ pub extern "C" fn ml_direct_estimate(
     params: *const ml_direct_params,
     visibility: *const ml_visibility,
     uniforms: *const ml_uniforms,
-    out: *mut f64,
+    out: *mut ml_rgb64,
 ) -> ml_status {
     ffi_fn!("ml_direct_estimate", {
         let data = tree_arg(tree)?;
@@ -422,7 +524,41 @@ pub extern "C" fn ml_direct_estimate(
         let out = arg::out(out, "out")?;
         let set = data.set()?;
         let mut est = Estimator::new(set, &sp, t, &p).map_err(direct_error)?;
-        out.write(estimate_with(&mut est, vis, u)?);
+        out.write(estimate_with(&mut est, vis, None, u)?);
+        Ok(())
+    })
+}
+
+/// `ml_direct_estimate` with the host's `environment` (its radiance, sampling and pdf), for a
+/// tree with an environment light (on a tree without one it is never called).
+///
+/// Errors: those of `ml_direct_estimate`, and `ML_ERR_NULL` (`environment`,
+/// `environment->sample`, `environment->eval`); `ML_ERR_INVALID_ARGUMENT` (a NaN, negative or
+/// infinite pdf or radiance from the callbacks, a zero direction from `sample`).
+#[no_mangle]
+#[allow(clippy::too_many_arguments)] // the arguments of ml_direct_estimate and the environment
+pub extern "C" fn ml_direct_estimate_env(
+    tree: *const ml_tree,
+    sp: *const ml_shading_point,
+    technique: u32,
+    params: *const ml_direct_params,
+    visibility: *const ml_visibility,
+    environment: *const ml_environment,
+    uniforms: *const ml_uniforms,
+    out: *mut ml_rgb64,
+) -> ml_status {
+    ffi_fn!("ml_direct_estimate_env", {
+        let data = tree_arg(tree)?;
+        let sp = sp_arg(sp)?;
+        let t = technique_of(technique)?;
+        let p = params_of(arg::opt(params, "params")?)?;
+        let vis = arg::opt(visibility, "visibility")?;
+        let env = arg::get(environment, "environment")?;
+        let u = arg::get(uniforms, "uniforms")?;
+        let out = arg::out(out, "out")?;
+        let set = data.set()?;
+        let mut est = Estimator::new(set, &sp, t, &p).map_err(direct_error)?;
+        out.write(estimate_with(&mut est, vis, Some(env), u)?);
         Ok(())
     })
 }
@@ -433,13 +569,13 @@ pub extern "C" fn ml_direct_estimate(
 /// written to `out[j · per_point + i]` — bit for bit, and drawing exactly the uniform numbers,
 /// of those calls made one after the other (with `per_point` = 1, of `count` calls of
 /// `ml_direct_estimate`). Every shading point is checked before the first estimate; `out`
-/// (`count · per_point` doubles) is written only on success.
+/// (`count · per_point` RGB estimates) is written only on success.
 ///
 /// Errors: `ML_ERR_NULL` (`tree`, `uniforms`, `uniforms->next_f32`; `points`, `out` when
 /// `count` > 0); `ML_ERR_INVALID_ARGUMENT` (`per_point` 0, a count that overflows, a bad
 /// technique or parameter, a bad shading point named `points[j]`, a uniform number outside
 /// [0, 1) or a bad `first_hit` named with the point it was drawn for); `ML_ERR_STATE` (a
-/// tree loaded without its lights).
+/// tree loaded without its lights; a tree with an environment light).
 #[no_mangle]
 pub extern "C" fn ml_direct_estimate_batch(
     tree: *const ml_tree,
@@ -450,7 +586,7 @@ pub extern "C" fn ml_direct_estimate_batch(
     params: *const ml_direct_params,
     visibility: *const ml_visibility,
     uniforms: *const ml_uniforms,
-    out: *mut f64,
+    out: *mut ml_rgb64,
 ) -> ml_status {
     ffi_fn!("ml_direct_estimate_batch", {
         let data = tree_arg(tree)?;
@@ -474,14 +610,14 @@ pub extern "C" fn ml_direct_estimate_batch(
         for (j, sp) in pts.iter().enumerate() {
             sps.push(shading_point(sp, &|| format!("points[{j}]"))?);
         }
-        let mut res = vec![0.0f64; total];
+        let mut res = vec![ml_rgb64::default(); total];
         let per = per_point as usize;
         for (j, (sp, r)) in sps.iter().zip(res.chunks_exact_mut(per)).enumerate() {
             let name = || format!("points[{j}]");
             let mut est =
                 Estimator::new(set, sp, t, &p).map_err(|e| direct_error_at(e, &name()))?;
             for v in r {
-                *v = estimate_with(&mut est, vis, u).map_err(|e| e.within(&name()))?;
+                *v = estimate_with(&mut est, vis, None, u).map_err(|e| e.within(&name()))?;
             }
         }
         for (i, v) in res.into_iter().enumerate() {
@@ -518,6 +654,7 @@ pub extern "C" fn ml_estimator_create(
             est: None,
             last_light: None,
             last_bsdf: None,
+            last_environment: None,
             tree: Arc::clone(data),
         }));
         Ok(())
@@ -557,6 +694,7 @@ pub extern "C" fn ml_estimator_set_point(
         h.est = Some(e);
         h.last_light = None;
         h.last_bsdf = None;
+        h.last_environment = None;
         Ok(())
     })
 }
@@ -578,7 +716,7 @@ pub extern "C" fn ml_estimator_estimate(
     est: *mut ml_estimator,
     visibility: *const ml_visibility,
     uniforms: *const ml_uniforms,
-    out: *mut f64,
+    out: *mut ml_rgb64,
 ) -> ml_status {
     ffi_fn!("ml_estimator_estimate", {
         let h = arg::get_mut(est, "est")?;
@@ -586,9 +724,38 @@ pub extern "C" fn ml_estimator_estimate(
         let u = arg::get(uniforms, "uniforms")?;
         let out = arg::out(out, "out")?;
         let e = set_up(h)?;
-        out.write(estimate_with(e, vis, u)?);
+        out.write(estimate_with(e, vis, None, u)?);
         h.last_light = None;
         h.last_bsdf = None;
+        h.last_environment = None;
+        Ok(())
+    })
+}
+
+/// `ml_estimator_estimate` with the host's `environment` (see `ml_direct_estimate_env`).
+///
+/// Errors: those of `ml_estimator_estimate`, and `ML_ERR_NULL` (`environment`,
+/// `environment->sample`, `environment->eval`); `ML_ERR_INVALID_ARGUMENT` (bad values from
+/// the callbacks).
+#[no_mangle]
+pub extern "C" fn ml_estimator_estimate_env(
+    est: *mut ml_estimator,
+    visibility: *const ml_visibility,
+    environment: *const ml_environment,
+    uniforms: *const ml_uniforms,
+    out: *mut ml_rgb64,
+) -> ml_status {
+    ffi_fn!("ml_estimator_estimate_env", {
+        let h = arg::get_mut(est, "est")?;
+        let vis = arg::opt(visibility, "visibility")?;
+        let env = arg::get(environment, "environment")?;
+        let u = arg::get(uniforms, "uniforms")?;
+        let out = arg::out(out, "out")?;
+        let e = set_up(h)?;
+        out.write(estimate_with(e, vis, Some(env), u)?);
+        h.last_light = None;
+        h.last_bsdf = None;
+        h.last_environment = None;
         Ok(())
     })
 }
@@ -604,6 +771,7 @@ pub extern "C" fn ml_estimator_start(est: *mut ml_estimator) -> ml_status {
         set_up(h)?.start();
         h.last_light = None;
         h.last_bsdf = None;
+        h.last_environment = None;
         Ok(())
     })
 }
@@ -646,6 +814,17 @@ pub extern "C" fn ml_estimator_next(
                     ..ml_step::default()
                 }
             }
+            Step::Environment(e) => {
+                h.last_environment = Some(e);
+                ml_step {
+                    kind: ml_step_kind::Environment as u32,
+                    light: e.light,
+                    pmf: e.pmf,
+                    u0: e.u[0],
+                    u1: e.u[1],
+                    ..ml_step::default()
+                }
+            }
             Step::Done => ml_step {
                 kind: ml_step_kind::Done as u32,
                 ..ml_step::default()
@@ -679,16 +858,97 @@ pub extern "C" fn ml_estimator_weigh(
     })
 }
 
+/// Turns the last environment step into its light step: the host sampled its map with the
+/// step's `u0`, `u1` and got `direction` (any positive length), the `radiance` along it and
+/// its solid-angle `pdf` (> 0). Writes the light step (`ML_STEP_KIND_LIGHT`, its point at
+/// `distance` +∞) to `*out`; shade and test it, and weigh it with `ml_estimator_weigh`.
+///
+/// Errors: `ML_ERR_NULL` (`est`, `out`); `ML_ERR_INVALID_ARGUMENT` (a zero or non-finite
+/// `direction`, a `pdf` not positive and finite, a negative or non-finite channel of
+/// `radiance`); `ML_ERR_STATE` (not set up, or no environment step yielded since the last
+/// start).
+#[no_mangle]
+pub extern "C" fn ml_estimator_environment_point(
+    est: *mut ml_estimator,
+    direction: ml_vec3,
+    radiance: ml_rgb,
+    pdf: f32,
+    out: *mut ml_step,
+) -> ml_status {
+    ffi_fn!("ml_estimator_environment_point", {
+        let h = arg::get_mut(est, "est")?;
+        let out = arg::out(out, "out")?;
+        let draw = h.last_environment;
+        let e = set_up(h)?;
+        let draw = draw.ok_or_else(|| Error::state("est: no environment step to take"))?;
+        let d = finite3(direction, &|| "direction".into())?;
+        let ld = e
+            .environment_point(&draw, d, radiance.into(), pdf)
+            .map_err(direct_error)?;
+        h.last_environment = None;
+        h.last_light = Some(ld);
+        out.write(ml_step {
+            kind: ml_step_kind::Light as u32,
+            light: ld.light,
+            pmf: ld.pmf,
+            needs_bsdf_pdf: u32::from(ld.needs_bsdf_pdf),
+            point: Some(ld.point).into(),
+            ..ml_step::default()
+        });
+        Ok(())
+    })
+}
+
+/// The lights the last BSDF step's ray reached (see `ml_estimator_bsdf_hits`).
+#[allow(clippy::too_many_arguments)] // the arguments of both exports
+fn bsdf_hits(
+    est: *mut ml_estimator,
+    direction: ml_vec3,
+    bsdf_pdf: f32,
+    hit_distance: f32,
+    environment_pdf: Option<f32>,
+    each: ml_hit_fn,
+    user_data: *mut c_void,
+    any_hit: *mut u32,
+) -> Result<()> {
+    let h = arg::get_mut(est, "est")?;
+    let each = each.ok_or_else(|| Error::null("each"))?;
+    let any_hit = arg::out(any_hit, "any_hit")?;
+    let draw = h.last_bsdf;
+    let e = set_up(h)?;
+    let draw = draw.ok_or_else(|| Error::state("est: no BSDF step to report"))?;
+    let d = finite3(direction, &|| "direction".into())?;
+    let call = |lh: manylights::direct::LightHit| {
+        let c = ml_light_hit {
+            light: lh.light,
+            point: Some(lh.point).into(),
+            weighted: lh.weighted.into(),
+        };
+        // SAFETY: a host callback with its own user data; `c` outlives the call.
+        unsafe { each(user_data, &c) };
+    };
+    let hit = match environment_pdf {
+        Some(pdf) => e.bsdf_hits_env(&draw, d, bsdf_pdf, hit_distance, pdf, call),
+        None => e.bsdf_hits(&draw, d, bsdf_pdf, hit_distance, call),
+    }
+    .map_err(direct_error)?;
+    h.last_bsdf = None;
+    any_hit.write(u32::from(hit));
+    Ok(())
+}
+
 /// Reports the last BSDF step's sample: the host sampled `direction` (world space, any
 /// positive length) with density `bsdf_pdf` (solid angle), and its ray's first surface is at
 /// `hit_distance` (+infinity for none). Calls `each(user_data, hit)` for every light reached in
 /// front of it with non-zero radiance, with its weight (the host adds `value ·
-/// hit->weighted.scale`); `*any_hit` gets 1 if any was reached (what the adaptive allocation
+/// hit->weighted.scale`) — a ray that escapes also reaches the distant lights whose cones
+/// hold its direction; `*any_hit` gets 1 if any was reached (what the adaptive allocation
 /// learns), else 0.
 ///
 /// Errors: `ML_ERR_NULL` (`est`, `each`, `any_hit`); `ML_ERR_INVALID_ARGUMENT` (a zero or
 /// non-finite `direction`, a bad `bsdf_pdf`, a NaN or negative `hit_distance`);
-/// `ML_ERR_STATE` (not set up, or no BSDF step yielded since the last start).
+/// `ML_ERR_STATE` (not set up, or no BSDF step yielded since the last start; a tree with an
+/// environment light: `ml_estimator_bsdf_hits_env`).
 #[no_mangle]
 pub extern "C" fn ml_estimator_bsdf_hits(
     est: *mut ml_estimator,
@@ -700,26 +960,49 @@ pub extern "C" fn ml_estimator_bsdf_hits(
     any_hit: *mut u32,
 ) -> ml_status {
     ffi_fn!("ml_estimator_bsdf_hits", {
-        let h = arg::get_mut(est, "est")?;
-        let each = each.ok_or_else(|| Error::null("each"))?;
-        let any_hit = arg::out(any_hit, "any_hit")?;
-        let draw = h.last_bsdf;
-        let e = set_up(h)?;
-        let draw = draw.ok_or_else(|| Error::state("est: no BSDF step to report"))?;
-        let d = finite3(direction, &|| "direction".into())?;
-        let hit = e
-            .bsdf_hits(&draw, d, bsdf_pdf, hit_distance, |lh| {
-                let c = ml_light_hit {
-                    light: lh.light,
-                    point: Some(lh.point).into(),
-                    weighted: lh.weighted.into(),
-                };
-                // SAFETY: a host callback with its own user data; `c` outlives the call.
-                unsafe { each(user_data, &c) };
-            })
-            .map_err(direct_error)?;
-        h.last_bsdf = None;
-        any_hit.write(u32::from(hit));
-        Ok(())
+        bsdf_hits(
+            est,
+            direction,
+            bsdf_pdf,
+            hit_distance,
+            None,
+            each,
+            user_data,
+            any_hit,
+        )
+    })
+}
+
+/// `ml_estimator_bsdf_hits` for any tree: a ray that escapes (`hit_distance` = +infinity) also
+/// reaches the environment, weighed with `environment_pdf`, the host's pdf of sampling
+/// `direction` from its map (finite, ≥ 0; ignored when the tree has no environment light or
+/// the ray does not escape). The environment's hit has a black `point.radiance`: the host
+/// shades it with its own radiance along the direction.
+///
+/// Errors: those of `ml_estimator_bsdf_hits` (but for the environment's), and
+/// `ML_ERR_INVALID_ARGUMENT` for a NaN, negative or infinite `environment_pdf`.
+#[no_mangle]
+#[allow(clippy::too_many_arguments)] // ml_estimator_bsdf_hits' arguments and the pdf
+pub extern "C" fn ml_estimator_bsdf_hits_env(
+    est: *mut ml_estimator,
+    direction: ml_vec3,
+    bsdf_pdf: f32,
+    hit_distance: f32,
+    environment_pdf: f32,
+    each: ml_hit_fn,
+    user_data: *mut c_void,
+    any_hit: *mut u32,
+) -> ml_status {
+    ffi_fn!("ml_estimator_bsdf_hits_env", {
+        bsdf_hits(
+            est,
+            direction,
+            bsdf_pdf,
+            hit_distance,
+            Some(environment_pdf),
+            each,
+            user_data,
+            any_hit,
+        )
     })
 }

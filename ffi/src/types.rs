@@ -6,7 +6,7 @@ use glam::Vec3;
 use manylights::error::{LightField, Num, Problem};
 use manylights::material::ShadingField;
 use manylights::{
-    BuildError, Light, LightPoint, LightSample, Material, ShadingError, ShadingPoint,
+    BuildError, Light, LightPoint, LightSample, Material, Rgb, ShadingError, ShadingPoint,
 };
 
 /// A 3-vector (positions, directions, normals).
@@ -39,10 +39,64 @@ impl From<Vec3> for ml_vec3 {
     }
 }
 
+/// A linear RGB triple (emission, albedo, radiance), per channel.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct ml_rgb {
+    /// Red.
+    pub r: f32,
+    /// Green.
+    pub g: f32,
+    /// Blue.
+    pub b: f32,
+}
+
+impl From<ml_rgb> for Rgb {
+    #[inline]
+    fn from(c: ml_rgb) -> Rgb {
+        Rgb::new(c.r, c.g, c.b)
+    }
+}
+
+impl From<Rgb> for ml_rgb {
+    #[inline]
+    fn from(c: Rgb) -> ml_rgb {
+        ml_rgb {
+            r: c.r,
+            g: c.g,
+            b: c.b,
+        }
+    }
+}
+
+/// An estimate in linear RGB, summed in double precision.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct ml_rgb64 {
+    /// Red.
+    pub r: f64,
+    /// Green.
+    pub g: f64,
+    /// Blue.
+    pub b: f64,
+}
+
+impl From<[f64; 3]> for ml_rgb64 {
+    #[inline]
+    fn from(c: [f64; 3]) -> ml_rgb64 {
+        ml_rgb64 {
+            r: c[0],
+            g: c[1],
+            b: c[2],
+        }
+    }
+}
+
 /// The kind of an `ml_light` (the value of its `kind` field). Units: positions in any length
-/// unit m (the same as the scene's), intensity in W/sr, radiance in W/(m²·sr); a light's energy
-/// (its flux, W, what the tree's importance and `ml_tree_statistics.total_energy` add up) is
-/// given at each kind and is at most `ML_MAX_LIGHT_ENERGY`.
+/// unit m (the same as the scene's), intensity in W/sr, radiance in W/(m²·sr), irradiance in
+/// W/m², each per channel of linear RGB; a light's energy (its flux, W, of the luminance:
+/// what the tree's importance and `ml_tree_statistics.total_energy` add up) is given at each
+/// kind and is at most `ML_MAX_LIGHT_ENERGY` (0 for distant and environment lights).
 #[repr(u32)]
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum ml_light_kind {
@@ -71,13 +125,23 @@ pub enum ml_light_kind {
     /// `I · max(0, cos θ)`; what a diffuse point that received flux Φ with albedo ρ re-emits
     /// is I = ρΦ/π). Energy πI.
     Vpl = 5,
+    /// Distant light (a sun): `direction` towards the light (any non-zero length),
+    /// `half_angle` its angular radius γ in [0, π/2] radians (0: a delta direction), `power`
+    /// its irradiance at normal incidence (W/m²); the radiance of its cone is
+    /// `power / (π sin²γ)`.
+    Distant = 6,
+    /// The host's environment: `irradiance_bounds`, upper bounds of the irradiance
+    /// (luminance, W/m²) it delivers on receivers facing +x, −x, +y, −y, +z, −z (π × the
+    /// luminance of the radiance for a uniform environment); its radiance and sampling are
+    /// the host's (`ml_environment`). At most one per tree.
+    Environment = 7,
 }
 
 /// One light, as given to `ml_tree_build`. Which fields a kind reads is listed at each
 /// `ml_light_kind`; the others are ignored (zero them). Coordinates finite with magnitude at
-/// most `ML_MAX_COORDINATE`; `power` finite and ≥ 0 (0: accepted and never sampled), the
-/// light's energy at most `ML_MAX_LIGHT_ENERGY` and all of them together at most
-/// `ML_MAX_TOTAL_ENERGY`.
+/// most `ML_MAX_COORDINATE`; every channel of `power` finite and ≥ 0 (black: accepted and
+/// never sampled), the light's energy at most `ML_MAX_LIGHT_ENERGY` and all of them together
+/// at most `ML_MAX_TOTAL_ENERGY`.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct ml_light {
@@ -91,14 +155,18 @@ pub struct ml_light {
     pub direction: ml_vec3,
     /// Vertex 2 (triangle).
     pub vertex2: ml_vec3,
-    /// Intensity in W/sr (point, spot, VPL) or radiance in W/(m²·sr) (sphere, disk, triangle).
-    pub power: f32,
+    /// Intensity in W/sr (point, spot, VPL) or radiance in W/(m²·sr) (sphere, disk,
+    /// triangle), linear RGB; the tree ranks lights by its luminance.
+    pub power: ml_rgb,
     /// Radius (sphere, disk).
     pub radius: f32,
     /// Spot half-angle θs in radians, in (0, π].
     pub half_angle: f32,
     /// Spot falloff start θf in radians, in [0, θs].
     pub falloff_start: f32,
+    /// Environment: irradiance bounds on receivers facing +x, −x, +y, −y, +z, −z (W/m²,
+    /// luminance; finite, ≥ 0).
+    pub irradiance_bounds: [f32; 6],
 }
 
 /// The descriptor of a core light, field for field (what a Rust host that also calls the
@@ -113,7 +181,7 @@ impl From<&Light> for ml_light {
             } => {
                 d.kind = ml_light_kind::Point as u32;
                 d.position = position.into();
-                d.power = intensity;
+                d.power = intensity.into();
             }
             Light::Spot {
                 position,
@@ -125,7 +193,7 @@ impl From<&Light> for ml_light {
                 d.kind = ml_light_kind::Spot as u32;
                 d.position = position.into();
                 d.direction = direction.into();
-                d.power = intensity;
+                d.power = intensity.into();
                 d.half_angle = half_angle;
                 d.falloff_start = falloff_start;
             }
@@ -137,7 +205,7 @@ impl From<&Light> for ml_light {
                 d.kind = ml_light_kind::Sphere as u32;
                 d.position = center.into();
                 d.radius = radius;
-                d.power = radiance;
+                d.power = radiance.into();
             }
             Light::Disk {
                 center,
@@ -150,7 +218,7 @@ impl From<&Light> for ml_light {
                 d.position = center.into();
                 d.direction = normal.into();
                 d.radius = radius;
-                d.power = radiance;
+                d.power = radiance.into();
                 d.two_sided = u32::from(two_sided);
             }
             Light::Triangle {
@@ -162,7 +230,7 @@ impl From<&Light> for ml_light {
                 d.position = vertices[0].into();
                 d.direction = vertices[1].into();
                 d.vertex2 = vertices[2].into();
-                d.power = radiance;
+                d.power = radiance.into();
                 d.two_sided = u32::from(two_sided);
             }
             Light::Vpl {
@@ -173,7 +241,21 @@ impl From<&Light> for ml_light {
                 d.kind = ml_light_kind::Vpl as u32;
                 d.position = position.into();
                 d.direction = normal.into();
-                d.power = intensity;
+                d.power = intensity.into();
+            }
+            Light::Distant {
+                direction,
+                angular_radius,
+                irradiance,
+            } => {
+                d.kind = ml_light_kind::Distant as u32;
+                d.direction = direction.into();
+                d.half_angle = angular_radius;
+                d.power = irradiance.into();
+            }
+            Light::Environment { irradiance } => {
+                d.kind = ml_light_kind::Environment as u32;
+                d.irradiance_bounds = irradiance;
             }
         }
         d
@@ -192,14 +274,15 @@ pub enum ml_material_kind {
     Plastic = 2,
 }
 
-/// A surface's reflectance: albedo and specular weight in [0, 1], GGX roughness α in (0, 1].
+/// A surface's reflectance: albedo (every channel) and specular weight in [0, 1], GGX roughness
+/// α in (0, 1].
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct ml_material {
     /// An `ml_material_kind`.
     pub kind: u32,
-    /// Diffuse albedo in [0, 1] (Lambert, plastic).
-    pub albedo: f32,
+    /// Diffuse albedo, linear RGB, every channel in [0, 1] (Lambert, plastic).
+    pub albedo: ml_rgb,
     /// Weight of the GGX lobe in [0, 1] (GGX, plastic).
     pub specular: f32,
     /// GGX roughness α in (0, 1] (GGX, plastic).
@@ -286,11 +369,11 @@ pub struct ml_light_point {
     /// Solid-angle pdf of `direction` at x (> 0, finite); 1 for delta lights (as
     /// `ml_light_pdf_point` reports it at their position); 0: no point.
     pub pdf: f32,
-    /// What the estimate multiplies by (≥ 0): the radiance arriving at x for area lights
-    /// (W/(m²·sr)); for point, spot and VPL lights `I · falloff / d²` (W/m²), already divided
-    /// by the squared distance: do not divide again (the contribution is `f · radiance ·
-    /// cos θi / pdf`, `pdf` = 1).
-    pub radiance: f32,
+    /// What the estimate multiplies by (every channel ≥ 0), linear RGB: the radiance arriving
+    /// at x for area lights (W/(m²·sr)); for point, spot and VPL lights `I · falloff / d²`
+    /// (W/m²), already divided by the squared distance: do not divide again (the contribution
+    /// is `f · radiance · cos θi / pdf`, `pdf` = 1).
+    pub radiance: ml_rgb,
     /// 1 for point, spot and VPL lights (`pdf` is a Dirac delta reported as 1), else 0.
     pub delta: u32,
 }
@@ -305,7 +388,7 @@ impl From<Option<LightPoint>> for ml_light_point {
                 direction: p.direction.into(),
                 distance: p.distance,
                 pdf: p.pdf,
-                radiance: p.radiance,
+                radiance: p.radiance.into(),
                 delta: u32::from(p.delta),
             },
             None => ml_light_point::default(),
@@ -332,6 +415,8 @@ fn kind_name(kind: u32) -> &'static str {
         2 => "sphere",
         3 => "disk",
         4 => "triangle",
+        6 => "distant",
+        7 => "environment",
         _ => "VPL",
     }
 }
@@ -351,6 +436,11 @@ fn light_field(kind: u32, f: LightField) -> String {
         LightField::Radiance => ("power", Some("radiance")),
         LightField::HalfAngle => ("half_angle", None),
         LightField::FalloffStart => ("falloff_start", None),
+        LightField::AngularRadius => ("half_angle", Some("angular radius")),
+        LightField::Irradiance if kind == ml_light_kind::Environment as u32 => {
+            ("irradiance_bounds", None)
+        }
+        LightField::Irradiance => ("power", Some("irradiance")),
     };
     match core {
         Some(core) => format!("{c} (the {} light's {core})", kind_name(kind)),
@@ -374,40 +464,48 @@ pub(crate) fn light(l: &ml_light, index: usize, name: &str) -> Result<Light> {
     Ok(match l.kind {
         0 => Light::Point {
             position: p,
-            intensity: l.power,
+            intensity: l.power.into(),
         },
         1 => Light::Spot {
             position: p,
             direction: d,
-            intensity: l.power,
+            intensity: l.power.into(),
             half_angle: l.half_angle,
             falloff_start: l.falloff_start,
         },
         2 => Light::Sphere {
             center: p,
             radius: l.radius,
-            radiance: l.power,
+            radiance: l.power.into(),
         },
         3 => Light::Disk {
             center: p,
             normal: d,
             radius: l.radius,
-            radiance: l.power,
+            radiance: l.power.into(),
             two_sided,
         },
         4 => Light::Triangle {
             vertices: [p, d, v2],
-            radiance: l.power,
+            radiance: l.power.into(),
             two_sided,
         },
         5 => Light::Vpl {
             position: p,
             normal: d,
-            intensity: l.power,
+            intensity: l.power.into(),
+        },
+        6 => Light::Distant {
+            direction: d,
+            angular_radius: l.half_angle,
+            irradiance: l.power.into(),
+        },
+        7 => Light::Environment {
+            irradiance: l.irradiance_bounds,
         },
         k => {
             return Err(Error::invalid(format_args!(
-                "{name}[{index}].kind: {k} is not an ml_light_kind (0 to 5)"
+                "{name}[{index}].kind: {k} is not an ml_light_kind (0 to 7)"
             )))
         }
     })
@@ -463,19 +561,28 @@ pub(crate) fn build_error(e: BuildError, lights: &[ml_light], name: &str) -> Err
         BuildError::TooDeep { depth } => Error::invalid(format_args!(
             "{name}: the tree would be {depth} levels deep, above ML_MAX_DEPTH (31)"
         )),
+        BuildError::SecondEnvironment { index } => Error::invalid(format_args!(
+            "{name}[{index}]: a second environment light (at most one per tree)"
+        )),
+        BuildError::TooManyInfiniteLights { count } => Error::invalid(format_args!(
+            "{name}: {count} distant and environment lights (at most {})",
+            manylights::MAX_INFINITE_LIGHTS
+        )),
     }
 }
 
 /// The core material (kind checked; values are checked with the shading point).
 pub(crate) fn material(m: &ml_material, path: &dyn Fn() -> String) -> Result<Material> {
     Ok(match m.kind {
-        0 => Material::Lambert { albedo: m.albedo },
+        0 => Material::Lambert {
+            albedo: m.albedo.into(),
+        },
         1 => Material::Ggx {
             alpha: m.alpha,
             specular: m.specular,
         },
         2 => Material::Plastic {
-            albedo: m.albedo,
+            albedo: m.albedo.into(),
             specular: m.specular,
             alpha: m.alpha,
         },

@@ -5,7 +5,7 @@
 use crate::arg;
 use crate::error::{ml_status, Error};
 use crate::ffi_fn;
-use crate::types::{describe, material, ml_material, ml_vec3};
+use crate::types::{describe, material, ml_material, ml_rgb, ml_vec3};
 use core::ffi::c_void;
 use glam::Vec3;
 use manylights::error::{VplError, VplField};
@@ -21,8 +21,9 @@ pub struct ml_vpl {
     pub position: ml_vec3,
     /// Normal: the emitting side.
     pub normal: ml_vec3,
-    /// Radiant intensity along the normal (finite, ≥ 0).
-    pub intensity: f32,
+    /// Radiant intensity along the normal, linear RGB (every channel finite, ≥ 0; acceptance
+    /// weighs its luminance).
+    pub intensity: ml_rgb,
 }
 
 /// An importon: where a camera ray hit (`hit` = 1), with the surface's normal (the side facing
@@ -145,7 +146,7 @@ fn vpl_of(v: &ml_vpl) -> Vpl {
     Vpl {
         position: v.position.into(),
         normal: v.normal.into(),
-        intensity: v.intensity,
+        intensity: v.intensity.into(),
     }
 }
 
@@ -220,7 +221,7 @@ pub extern "C" fn ml_acceptor_set_importons(
                     let m = material(&im.material, &|| format!("{}.material", at()))?;
                     let (p, n): (Vec3, Vec3) = (im.position.into(), im.normal.into());
                     let r = match m {
-                        Material::Lambert { albedo } => imps.push_diffuse(p, n, albedo),
+                        Material::Lambert { albedo } => imps.push_diffuse(p, n, albedo.luminance()),
                         m => imps.push(p, n, im.wo.into(), m),
                     };
                     r.map_err(|e| vpl_error(e, &at()))?;
@@ -306,7 +307,7 @@ pub extern "C" fn ml_acceptor_accept(
                 vpl: ml_vpl {
                     position: d.vpl.position.into(),
                     normal: d.vpl.normal.into(),
-                    intensity: d.vpl.intensity,
+                    intensity: d.vpl.intensity.into(),
                 },
             },
             None => ml_vpl_decision::default(),

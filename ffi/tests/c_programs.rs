@@ -11,6 +11,7 @@
 //! The compilers are `$CC` / `$CXX` (default `cc` / `c++`).
 
 use glam::Vec3;
+use manylights::Rgb;
 use manylights::{BlImportance, Light, LightTree, Material, ShadingPoint, TlImportance};
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
@@ -112,13 +113,14 @@ fn v(t: &[&str]) -> Vec3 {
     Vec3::new(f(t[0]), f(t[1]), f(t[2]))
 }
 
-/// The Rust light of a dumped `ml_light` (kind, two_sided, 13 numbers), written out here
-/// independently of the ABI's own conversion.
+/// The Rust light of a dumped `ml_light` (kind, two_sided, 15 numbers: the power's three
+/// channels among them), written out here independently of the ABI's own conversion.
 fn light(t: &[&str]) -> Light {
     let kind: u32 = t[0].parse().unwrap();
     let two_sided = t[1] == "1";
     let (p, d, v2) = (v(&t[2..5]), v(&t[5..8]), v(&t[8..11]));
-    let (power, radius, half, falloff) = (f(t[11]), f(t[12]), f(t[13]), f(t[14]));
+    let power = Rgb::new(f(t[11]), f(t[12]), f(t[13]));
+    let (radius, half, falloff) = (f(t[14]), f(t[15]), f(t[16]));
     match kind {
         0 => Light::Point {
             position: p,
@@ -157,7 +159,8 @@ fn light(t: &[&str]) -> Light {
 }
 
 fn shading_point(t: &[&str]) -> ShadingPoint {
-    let (albedo, specular, alpha) = (f(t[10]), f(t[11]), f(t[12]));
+    let albedo = Rgb::new(f(t[10]), f(t[11]), f(t[12]));
+    let (specular, alpha) = (f(t[13]), f(t[14]));
     let material = match t[9] {
         "0" => Material::Lambert { albedo },
         "1" => Material::Ggx { alpha, specular },
@@ -208,9 +211,9 @@ fn replay(dump: &Path) -> usize {
                 }
             }
             "B" | "P" => {
-                let imp = BlImportance::new(&shading_point(&t[1..14])).expect("a valid point");
+                let imp = BlImportance::new(&shading_point(&t[1..16])).expect("a valid point");
                 if t[0] == "B" {
-                    let s = tree.sample(&imp, f(t[14]));
+                    let s = tree.sample(&imp, f(t[16]));
                     let (l, p) = s.map_or((none, 0), |s| (s.light, s.pmf.to_bits()));
                     assert_eq!((l, p), (light, pmf), "BL sample: {t:?}");
                 } else {

@@ -58,6 +58,11 @@ fn v3(x: f32, y: f32, z: f32) -> ml_vec3 {
     ml_vec3 { x, y, z }
 }
 
+/// A grey colour.
+fn grey(v: f32) -> ml_rgb {
+    ml_rgb { r: v, g: v, b: v }
+}
+
 fn dot(a: ml_vec3, b: ml_vec3) -> f32 {
     a.x * b.x + a.y * b.y + a.z * b.z
 }
@@ -67,7 +72,7 @@ fn lights(r: &mut Rng) -> Vec<ml_light> {
         .map(|i| {
             let mut l = ml_light {
                 position: v3(r.range(-4.0, 4.0), r.range(-4.0, 4.0), r.range(0.5, 4.0)),
-                power: r.range(0.5, 3.0),
+                power: grey(r.range(0.5, 3.0)),
                 ..ml_light::default()
             };
             match i % 3 {
@@ -96,7 +101,7 @@ fn shading_point(r: &mut Rng) -> ml_shading_point {
         wo: v3(r.range(-0.8, 0.8), r.range(-0.8, 0.8), 1.0),
         material: ml_material {
             kind: ml_material_kind::Plastic as u32,
-            albedo: 0.4,
+            albedo: grey(0.4),
             specular: 0.6,
             alpha,
         },
@@ -113,7 +118,7 @@ struct Hits {
 unsafe extern "C" fn on_hit(user: *mut c_void, hit: *const ml_light_hit) {
     let h = &mut *(user as *mut Hits);
     let hit = &*hit;
-    let value = h.f * hit.point.radiance * h.cos;
+    let value = h.f * hit.point.radiance.g * h.cos;
     if value > 0.0 {
         h.sum += f64::from(value * hit.weighted.scale);
     }
@@ -145,7 +150,7 @@ fn host_estimate(
         if s.kind == ml_step_kind::Light as u32 {
             let d = s.point.direction;
             let c = dot(n, d);
-            if c <= 0.0 || s.point.radiance <= 0.0 {
+            if c <= 0.0 || s.point.radiance.g <= 0.0 {
                 continue;
             }
             let mut f = 0.0;
@@ -162,7 +167,7 @@ fn host_estimate(
                 pdf = 0.0;
             }
             light_checks.1 += 1;
-            let value = f * s.point.radiance * c;
+            let value = f * s.point.radiance.g * c;
             if value <= 0.0 {
                 continue;
             }
@@ -204,7 +209,7 @@ fn core_value(sp: &ml_shading_point, d: ml_vec3) -> (f32, f32) {
     let v = |v: ml_vec3| glam::Vec3::new(v.x, v.y, v.z);
     let m = &sp.material;
     let material = Material::Plastic {
-        albedo: m.albedo,
+        albedo: m.albedo.into(),
         specular: m.specular,
         alpha: m.alpha,
     };
@@ -239,8 +244,11 @@ fn the_lower_level_with_the_librarys_brdf_is_the_one_call_up_to_the_hosts_roundi
             let seed = r.next();
             let (mut a, mut b) = (Rng(seed), Rng(seed));
             let (ua, ub) = (uniforms(&mut a), uniforms(&mut b));
-            let mut one = 0.0;
+            let mut one = ml_rgb64::default();
             ok(ml_estimator_estimate(est, ptr::null(), &ua, &mut one));
+            // Grey lights and albedo: every channel is the same estimate.
+            assert!(one.r == one.g && one.g == one.b, "{one:?}");
+            let one = one.g;
             let host = host_estimate(est, &sp, n, &ub, &mut counts);
             // The same uniform numbers were drawn.
             assert_eq!(a.0, b.0, "technique {technique}");

@@ -3,6 +3,7 @@
 //! outputs untouched and names the function, and a success never gives a NaN or a light of
 //! pmf 0. Seeded, so deterministic.
 
+use manylights::Rgb;
 use manylights_ffi::*;
 use std::ffi::CStr;
 use std::ptr;
@@ -112,19 +113,30 @@ fn arbitrary_lights_points_and_numbers() {
                 };
                 let half = b.val(0.1, 3.0, wild);
                 ml_light {
-                    kind: if wild > 0 {
-                        b.small(6)
+                    // Distant and environment lights one in 128 each (a set holds at most
+                    // one environment and 16 lights at infinity).
+                    // In the wild rounds one kind in ten is any number.
+                    kind: if wild > 0 && b.next() % 10 == 0 {
+                        b.next() as u32
                     } else {
-                        (b.next() % 6) as u32
+                        match (b.next() % 128) as u32 {
+                            126 => 6,
+                            127 => 7,
+                            k => k % 6,
+                        }
                     },
                     two_sided: (b.next() % 2) as u32,
                     position: v3(&mut b),
                     direction: v3(&mut b),
                     vertex2: v3(&mut b),
-                    power: b.val(0.0, 2.0, wild),
+                    power: {
+                        let v = b.val(0.0, 2.0, wild);
+                        ml_rgb { r: v, g: v, b: v }
+                    },
                     radius: b.val(0.01, 1.0, wild),
                     half_angle: half,
                     falloff_start: half * b.val(0.0, 1.0, wild),
+                    irradiance_bounds: [b.val(0.0, 2.0, wild); 6],
                 }
             })
             .collect();
@@ -159,7 +171,7 @@ fn arbitrary_lights_points_and_numbers() {
                 wo: v3(&mut b),
                 material: ml_material {
                     kind: b.small(3),
-                    albedo: b.val(0.0, 1.0, w),
+                    albedo: Rgb::grey(b.val(0.0, 1.0, w)).into(),
                     specular: b.val(0.0, 1.0, w),
                     alpha: b.val(0.0, 1.0, w),
                 },
@@ -197,7 +209,11 @@ fn arbitrary_lights_points_and_numbers() {
                 "ml_light_sample_point",
             ) && lp.pdf > 0.0
             {
-                assert!(lp.pdf.is_finite() && lp.radiance.is_finite() && lp.distance > 0.0);
+                assert!(
+                    lp.pdf.is_finite()
+                        && manylights::Rgb::from(lp.radiance).is_finite()
+                        && lp.distance > 0.0
+                );
             }
             let mut d = ml_brdf_draw::default();
             if expect_ok_or_invalid(

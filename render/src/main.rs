@@ -112,14 +112,17 @@ enum Command {
         /// Seed of the estimates.
         #[arg(long, default_value_t = 1)]
         seed: u64,
-        /// Output image: linear 32-bit float OpenEXR (R = G = B) if the name ends in .exr,
-        /// otherwise PNG (8-bit sRGB, values clamped to [0, 1]).
+        /// Output image: linear 32-bit float RGB OpenEXR if the name ends in .exr, otherwise
+        /// PNG (8-bit sRGB, values clamped to [0, 1]).
         #[arg(short, long, default_value = "out.png")]
         output: PathBuf,
         /// One shading point per pixel (its centre), its set-up reused by every estimate
         /// (default: a new jittered shading point and set-up for every estimate).
         #[arg(long)]
         fixed_point: bool,
+        /// The scene in grey (every light and albedo grey, as the scalar scenes were).
+        #[arg(long)]
+        grey: bool,
         /// The estimators' parameters.
         #[command(flatten)]
         params: ParamArgs,
@@ -191,6 +194,9 @@ struct ImageArgs {
     /// Small resolution and sample counts (those of `compare --quick`).
     #[arg(long)]
     quick: bool,
+    /// The scene in grey (every light and albedo grey, as the scalar scenes were).
+    #[arg(long)]
+    grey: bool,
     /// Seed of the estimates.
     #[arg(long, default_value_t = 1)]
     seed: u64,
@@ -210,7 +216,7 @@ struct ImageArgs {
 impl ImageArgs {
     /// The named scene; exits with status 2 on an unknown name or a bad light count.
     fn scene(&self) -> scene::RenderScene {
-        scene::by_name(&self.scene, self.lights).unwrap_or_else(|e| {
+        scene::by_name_with(&self.scene, self.lights, palette(self.grey)).unwrap_or_else(|e| {
             eprintln!("{e}");
             std::process::exit(2)
         })
@@ -270,6 +276,15 @@ fn parse_time(s: &str) -> Result<f64, String> {
     compare::check_time(v)
 }
 
+/// The scenes' palette: grey with `--grey`, colour otherwise.
+fn palette(grey: bool) -> scene::Palette {
+    if grey {
+        scene::Palette::Grey
+    } else {
+        scene::Palette::Colour
+    }
+}
+
 fn main() {
     let cli = Cli::parse();
     match cli.command {
@@ -324,11 +339,13 @@ fn main() {
             seed,
             output,
             fixed_point,
+            grey,
             params,
         } => {
             let code = run_render(
                 &scene,
                 lights,
+                palette(grey),
                 technique.0,
                 spp,
                 width,
@@ -407,6 +424,7 @@ fn main() {
 fn run_render(
     scene: &str,
     lights: Option<usize>,
+    palette: scene::Palette,
     technique: Technique,
     spp: usize,
     width: usize,
@@ -416,7 +434,7 @@ fn run_render(
     protocol: render::Protocol,
     params: manylights::Params,
 ) -> i32 {
-    let scene = match scene::by_name(scene, lights) {
+    let scene = match scene::by_name_with(scene, lights, palette) {
         Ok(s) => s,
         Err(e) => {
             eprintln!("{e}");

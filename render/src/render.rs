@@ -27,7 +27,7 @@
 //!
 //! The result is an [`Image`]; [`crate::image`] writes it out.
 
-use crate::image::Image;
+use crate::image::{Image, Pixel};
 use crate::scene::RenderScene;
 use crate::uniforms::RngUniforms;
 use indicatif::{ProgressBar, ProgressStyle};
@@ -167,22 +167,41 @@ pub fn primary_at(
     })
 }
 
-/// Mean and per-estimate variance of `spp` estimates (Welford), each from `estimate`.
+/// Mean and per-estimate variance of `spp` estimates (Welford, per channel), each from
+/// `estimate`.
 #[inline]
-fn moments(spp: usize, mut estimate: impl FnMut() -> f64) -> (f32, f32) {
-    let (mut m, mut m2) = (0f64, 0f64);
+fn moments(spp: usize, mut estimate: impl FnMut() -> [f64; 3]) -> (Pixel, Pixel) {
+    let (mut m, mut m2) = ([0f64; 3], [0f64; 3]);
     for k in 0..spp {
         let x = estimate();
-        let d = x - m;
-        m += d / (k + 1) as f64;
-        m2 += d * (x - m);
+        for c in 0..3 {
+            let d = x[c] - m[c];
+            m[c] += d / (k + 1) as f64;
+            m2[c] += d * (x[c] - m[c]);
+        }
     }
-    let var = if spp > 1 {
-        (m2 / (spp - 1) as f64) as f32
-    } else {
-        0.0
-    };
-    (m as f32, var)
+    let var = m2.map(|v| {
+        if spp > 1 {
+            (v / (spp - 1) as f64) as f32
+        } else {
+            0.0
+        }
+    });
+    (m.map(|v| v as f32), var)
+}
+
+/// No light: black with no variance.
+const BLACK: (Pixel, Pixel) = ([0.0; 3], [0.0; 3]);
+
+/// One estimate at the estimator's point, with the scene's sky if it has one.
+#[inline]
+fn estimate(scene: &RenderScene, est: &mut Estimator<'_>, rng: &mut Pcg64Mcg) -> [f64; 3] {
+    let mut u = RngUniforms(rng);
+    match &scene.sky {
+        Some(sky) => est.estimate_env(&scene.geometry, sky, &mut u),
+        None => est.estimate(&scene.geometry, &mut u),
+    }
+    .unwrap_or([0.0; 3])
 }
 
 /// One pixel's mean and variance under `cfg`'s protocol, with its own generator.
@@ -192,31 +211,26 @@ fn pixel(
     params: &Params,
     (px, py): (usize, usize),
     rng: &mut Pcg64Mcg,
-) -> (f32, f32) {
+) -> (Pixel, Pixel) {
     let (w, h) = (cfg.width, cfg.height);
     match cfg.protocol {
         Protocol::FixedPoint => {
             let Some(sp) = primary(scene, px, py, w, h) else {
-                return (0.0, 0.0);
+                return BLACK;
             };
             let Ok(mut est) = Estimator::new(&scene.lights, &sp, cfg.technique, params) else {
-                return (0.0, 0.0);
+                return BLACK;
             };
-            moments(cfg.spp, || {
-                est.estimate(&scene.geometry, &mut RngUniforms(rng))
-                    .unwrap_or(0.0)
-            })
+            moments(cfg.spp, || estimate(scene, &mut est, rng))
         }
         Protocol::Jittered => moments(cfg.spp, || {
             let offset = [rng.random::<f32>(), rng.random::<f32>()];
             let Some(sp) = primary_at(scene, px, py, w, h, offset) else {
-                return 0.0;
+                return [0.0; 3];
             };
             match Estimator::new(&scene.lights, &sp, cfg.technique, params) {
-                Ok(mut est) => est
-                    .estimate(&scene.geometry, &mut RngUniforms(rng))
-                    .unwrap_or(0.0),
-                Err(_) => 0.0,
+                Ok(mut est) => estimate(scene, &mut est, rng),
+                Err(_) => [0.0; 3],
             }
         }),
     }
@@ -243,8 +257,8 @@ pub fn render(scene: &RenderScene, cfg: &RenderConfig) -> Image {
         .position(|&t| t == cfg.technique)
         .unwrap_or(0) as u64;
     let start = Instant::now();
-    let mut mean = vec![0f32; w * h];
-    let mut var = vec![0f32; w * h];
+    let mut mean = vec![[0f32; 3]; w * h];
+    let mut var = vec![[0f32; 3]; w * h];
     // Busy time: each row timed on its own thread, summed (see the module documentation).
     let busy: f64 = mean
         .par_chunks_mut(w.max(1))

@@ -68,7 +68,7 @@ fn point_scene_is_points_in_the_cube() {
                 intensity,
             } => {
                 assert!(position.abs().max_element() <= manylights_testkit::HALF_EXTENT);
-                let power = intensity * 4.0 * std::f32::consts::PI;
+                let power = intensity.luminance() * 4.0 * std::f32::consts::PI;
                 assert!((0.099..=10.001).contains(&power), "{power}");
             }
             _ => panic!("not a point light: {l:?}"),

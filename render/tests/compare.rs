@@ -17,7 +17,7 @@ use std::process::Command;
 
 const W: usize = 12;
 const H: usize = 8;
-const NAMES: [&str; 9] = [
+const NAMES: [&str; 10] = [
     "uniform",
     "power",
     "tl",
@@ -27,6 +27,7 @@ const NAMES: [&str; 9] = [
     "full",
     "tl-mis",
     "bl-mis",
+    "tl-mis-pinf",
 ];
 
 /// A fresh, empty temporary folder for one test.
@@ -72,7 +73,8 @@ fn read_exr(path: &Path) -> (usize, usize, Vec<f32>) {
     )
 }
 
-/// An 8-bit grey-level PNG file's size and pixels.
+/// An 8-bit RGB PNG file of a grey image: its size and pixels (one channel; the three are
+/// checked equal).
 fn read_png(path: &Path) -> (usize, usize, Vec<u8>) {
     let file = std::fs::File::open(path).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
     let mut reader = png::Decoder::new(std::io::BufReader::new(file))
@@ -80,18 +82,32 @@ fn read_png(path: &Path) -> (usize, usize, Vec<u8>) {
         .unwrap();
     let mut buf = vec![0; reader.output_buffer_size().unwrap()];
     let info = reader.next_frame(&mut buf).unwrap();
-    assert_eq!(info.color_type, png::ColorType::Grayscale);
+    assert_eq!(info.color_type, png::ColorType::Rgb);
     assert_eq!(info.bit_depth, png::BitDepth::Eight);
     buf.truncate(info.buffer_size());
-    (info.width as usize, info.height as usize, buf)
+    let grey: Vec<u8> = buf
+        .chunks_exact(3)
+        .map(|p| {
+            assert!(p[0] == p[1] && p[1] == p[2], "{}: not grey", path.display());
+            p[0]
+        })
+        .collect();
+    (info.width as usize, info.height as usize, grey)
 }
 
-fn assert_same(path: &Path, values: &[f32]) {
+fn assert_same(path: &Path, values: &[[f32; 3]]) {
     let (w, h, px) = read_exr(path);
     assert_eq!((w, h), (W, H), "{}", path.display());
     assert_eq!(px.len(), values.len());
     for (a, b) in px.iter().zip(values) {
-        assert_eq!(a.to_bits(), b.to_bits(), "{}: {a} vs {b}", path.display());
+        // The scene is grey: every channel of the image is the same.
+        assert!(b[0].to_bits() == b[1].to_bits() && b[1].to_bits() == b[2].to_bits());
+        assert_eq!(
+            a.to_bits(),
+            b[0].to_bits(),
+            "{}: {a} vs {b:?}",
+            path.display()
+        );
     }
 }
 
@@ -225,10 +241,10 @@ fn compare_writes_every_output() {
     assert_same(&dir.join("reference.exr"), &reference.mean);
     // The error maps' EXR: the squared errors against the reference (the reference's own: the
     // variance of its pixel means); their PNG: the absolute error over the report's scale.
-    let ref_var: Vec<f32> = reference
+    let ref_var: Vec<[f32; 3]> = reference
         .mean_variances()
         .iter()
-        .map(|&v| v as f32)
+        .map(|&v| image::grey(v as f32))
         .collect();
     assert_same(&dir.join("reference-error.exr"), &ref_var);
     let tl_mis = render(
@@ -245,7 +261,7 @@ fn compare_writes_every_output() {
         },
     );
     let sq = tl_mis.squared_errors(&reference);
-    let sq32: Vec<f32> = sq.iter().map(|&e| e as f32).collect();
+    let sq32: Vec<[f32; 3]> = sq.iter().map(|&e| image::grey(e as f32)).collect();
     assert_same(&dir.join("tl-mis-error.exr"), &sq32);
     let (_, _, png) = read_png(&dir.join("tl-mis-error.png"));
     let expect: Vec<u8> = sq
@@ -401,13 +417,23 @@ fn compare_writes_every_output() {
     std::fs::remove_dir_all(&out).ok();
 }
 
+/// The first channel of grey pixels (the three checked equal).
+fn red(px: &[[f32; 3]]) -> Vec<f32> {
+    px.iter()
+        .map(|p| {
+            assert!(p[0] == p[1] && p[1] == p[2]);
+            p[0]
+        })
+        .collect()
+}
+
 /// A flat `width × height` image of `value`.
 fn flat(width: usize, height: usize, value: f32) -> Image {
     Image {
         width,
         height,
-        mean: vec![value; width * height],
-        var: vec![0.0; width * height],
+        mean: vec![[value; 3]; width * height],
+        var: vec![[0.0; 3]; width * height],
         spp: 1,
         seconds: 0.0,
         wall_seconds: 0.0,
@@ -445,6 +471,7 @@ fn captions() {
     assert_eq!(image::caption_scale(&[(long, &wide)]), 2);
     assert_eq!(image::caption_height(2), 18);
     let (w, h, px) = image::side_by_side_labelled(&[(long, &dark), ("reference", &dark)], 4);
+    let px = red(&px);
     assert_eq!((w, h), (196, 9 + 2 * 96 + 4));
     let ink = |x0: usize, x1: usize| -> Vec<usize> {
         (0..9)
@@ -474,10 +501,12 @@ fn captions() {
 
     // ×2 on wide panels; too narrow a panel cuts the caption short.
     let (w, h, px) = image::side_by_side_labelled(&[(long, &wide)], 4);
+    let px = red(&px);
     assert_eq!((w, h), (256, 18 + 2 * 40 + 4));
     assert!(px[..w * 18].contains(&1.0));
     let narrow = flat(5, 4, 0.5);
     let (w, h, px) = image::side_by_side_labelled(&[("uniform", &narrow)], 0);
+    let px = red(&px);
     assert_eq!((w, h), (5, 9 + 8));
     assert!(px[..5 * 9].iter().all(|&v| v == 0.0));
     assert_eq!(image::side_by_side_labelled(&[], 4), (0, 0, Vec::new()));

@@ -3,6 +3,7 @@
 //! pixel count), the uncorrected ratio of two RMSEs is pulled towards 1 and the corrected one
 //! is not, and every split of the squared error adds up to the whole.
 
+use manylights_render::image::grey;
 use manylights_render::image::Image;
 use manylights_render::instruments::error_split::{
     angle_bin, angle_name, corrected_rmse, split, Classes, ErrorSummary, ANGLE_BINS,
@@ -36,8 +37,8 @@ fn noisy(
         } else {
             0.0
         };
-        mean.push(m as f32);
-        var.push(v as f32);
+        mean.push(grey(m as f32));
+        var.push(grey(v as f32));
     }
     Image {
         width: w,
@@ -61,8 +62,8 @@ fn corrected_rmse_formula() {
     let img = Image {
         width: 2,
         height: 1,
-        mean: vec![1.0, 2.0],
-        var: vec![0.5, 2.0],
+        mean: vec![grey(1.0), grey(2.0)],
+        var: vec![grey(0.5), grey(2.0)],
         spp: 4,
         seconds: 0.0,
         wall_seconds: 0.0,
@@ -77,7 +78,7 @@ fn corrected_rmse_formula() {
         vec![0.0, 0.0]
     );
     let other = Image {
-        mean: vec![1.5, 0.0],
+        mean: vec![grey(1.5), grey(0.0)],
         ..img.clone()
     };
     assert_eq!(img.squared_errors(&other), vec![0.25, 4.0]);

@@ -1,8 +1,11 @@
 //! [`Brdf`] for [`Material`]: `f = albedo/π + specular · GGX(α)`, sampled by picking the GGX
 //! lobe with probability `specular / (albedo + specular)` (else the cosine lobe) with the first
-//! uniform number warped back into [0, 1), and the pdf of the whole mixture.
+//! uniform number warped back into [0, 1), and the pdf of the whole mixture. The scalar
+//! [`Brdf::eval`], the sampling and the pdf use the albedo's luminance;
+//! [`Material::eval_rgb`] is f in colour.
 
 use super::{finite, Brdf, Ggx, Lambert};
+use crate::colour::Rgb;
 use crate::material::Material;
 use glam::Vec3;
 
@@ -17,6 +20,38 @@ fn lobes(m: &Material) -> (f32, f32, Ggx) {
 fn p_specular(albedo: f32, specular: f32) -> Option<f32> {
     let total = albedo + specular;
     (total > 0.0).then(|| specular / total)
+}
+
+/// A weight clamped into [0, 1] (NaN → 0).
+#[inline]
+fn unit_weight(v: f32) -> f32 {
+    if v.is_nan() {
+        0.0
+    } else {
+        v.clamp(0.0, 1.0)
+    }
+}
+
+impl Material {
+    /// f(ωo, ωi) per channel (local frame, as [`Brdf::eval`]): channel c is what
+    /// [`Brdf::eval`] gives for a material of albedo channel c, operation for operation (so a
+    /// grey material gives [`Brdf::eval`] in every channel).
+    pub fn eval_rgb(&self, wo: Vec3, wi: Vec3) -> Rgb {
+        let (albedo, specular, alpha) = self.colour_lobes();
+        let specular = unit_weight(specular);
+        let glossy = (specular > 0.0).then(|| specular * Ggx::new(alpha).eval(wo, wi));
+        albedo.map(|a| {
+            let a = unit_weight(a);
+            let mut f = 0.0;
+            if a > 0.0 {
+                f += Lambert::new(a).eval(wo, wi);
+            }
+            if let Some(g) = glossy {
+                f += g;
+            }
+            f
+        })
+    }
 }
 
 impl Brdf for Material {

@@ -91,6 +91,7 @@ impl LightTree {
         let bin = binary(lights, opts)?;
         let mut tree = collapse::collapse(&bin, lights.len(), opts.compact)?;
         tree.light_checks = crate::checksum::light_checks(lights);
+        tree.infinite = crate::infinite::collect(lights)?;
         #[cfg(debug_assertions)]
         if let Err(e) = tree.validate() {
             panic!("manylights: internal error, built tree fails validation: {e}");

@@ -1,13 +1,19 @@
 //! The per-shading-point estimator: set-up, the step machine of the lower level, and the one
 //! call built on it.
 
-use super::sampler::{CutSampler, LightSampler, PowerSampler, TreeSampler, UniformSampler};
+use super::sampler::{
+    CutSampler, LightSampler, PinfSampler, PowerSampler, TreeSampler, UniformSampler,
+};
+use super::sky::Environment;
 use super::{DirectError, LambertMode, Occluder, Params, Technique, Uniforms};
 use crate::brdf::{Brdf, Frame};
+use crate::colour::Rgb;
 use crate::cut::{LightCut, CUT_CAPACITY};
 use crate::error::Problem;
-use crate::importance::{BlImportance, TlImportance};
-use crate::light_sample::{sample_point, LightPoint};
+use crate::importance::{BlImportance, Importance, TlImportance};
+use crate::infinite::{InfiniteKind, MAX_INFINITE_LIGHTS};
+use crate::light::Light;
+use crate::light_sample::{intersect, sample_point, LightPoint};
 use crate::light_set::LightSet;
 use crate::material::{Material, ShadingError, ShadingField, ShadingPoint};
 use crate::mis::{
@@ -87,6 +93,12 @@ impl Weighted {
         }
     }
 
+    /// [`Weighted::contribution`] of each channel of `value`.
+    #[inline]
+    pub fn contribution_rgb(&self, value: Rgb) -> Rgb {
+        value.map(|c| self.contribution(c))
+    }
+
     /// What a sample of `value` (`f · L · cos θi`, or one channel of it) contributes:
     /// `value · weight / pdf`, evaluated as the one-call estimator does; 0 for a value that is
     /// not positive, and never NaN or infinite. For values of any sign use
@@ -112,8 +124,9 @@ enum Role {
     Plain,
     /// A sample of split sampling.
     Split,
-    /// A BL sample of the BRDF-aware mixture, drawn with BL probability `p`, with BL's density.
-    MixtureBl { p: f32, pdf_bl: f32 },
+    /// A BL sample of the BRDF-aware mixture, drawn with BL probability `p`; `pmf_bl` is BL's
+    /// probability of the light (its density is `pmf_bl` times the point's).
+    MixtureBl { p: f32, pmf_bl: f32 },
     /// The light sample of `tl-mis` or `bl-mis`, weighted against one BSDF sample.
     OneMis,
 }
@@ -135,6 +148,21 @@ pub struct LightDraw {
     role: Role,
 }
 
+/// A sample of the host's environment to take: sample its map with `u` (a direction, the
+/// radiance along it and the pdf), hand them to [`Estimator::environment_point`] — which
+/// turns this step into a [`LightDraw`] — then shade, test and weigh that as any light point
+/// (its `distance` is +∞).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct EnvironmentDraw {
+    /// The environment light's index in the light set.
+    pub light: u32,
+    /// The probability of having chosen it.
+    pub pmf: f32,
+    /// The two uniform numbers (in [0, 1)) for sampling the map.
+    pub u: [f32; 2],
+    role: Role,
+}
+
 /// A BSDF sample for the host to take: sample its BSDF with `u`, cast the ray, and report the
 /// direction, its pdf and the first surface's distance to [`Estimator::bsdf_hits`]. A host
 /// whose BSDF gives no direction for `u` (below the surface, a zero pdf) skips the report, as
@@ -152,7 +180,10 @@ pub struct BsdfDraw {
 /// `point.radiance`) and adds `weighted.contribution(value)` (or `value ·
 /// weighted.factor()` per channel). `weighted.pdf()` is the BSDF's pdf only for `tl-mis` and
 /// `bl-mis`; for `mis-equal` and `full` it is the combined density of the mixed samples (see
-/// [`Weighted::pdf`]).
+/// [`Weighted::pdf`]). A ray that escapes (no surface) reaches the distant lights whose cones
+/// hold its direction (`point.distance` = +∞) and the environment, whose `point.radiance` is
+/// black and `point.pdf` the host's pdf of the direction: the radiance is the host's to
+/// evaluate.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct LightHit {
     /// The light's index in the light set.
@@ -168,6 +199,8 @@ pub struct LightHit {
 pub enum Step {
     /// A light point to shade.
     Light(LightDraw),
+    /// A sample of the host's environment to take.
+    Environment(EnvironmentDraw),
     /// A BSDF sample to take.
     Bsdf(BsdfDraw),
     /// The estimate is complete.
@@ -219,12 +252,16 @@ impl PmfCache {
     }
 }
 
+/// Split samples of one estimate: one per cluster of the cut and one per light at infinity.
+const SPLIT_CAPACITY: usize = CUT_CAPACITY + MAX_INFINITE_LIGHTS;
+
 /// The state of one estimate.
 #[derive(Clone, Debug)]
 struct Run {
     phase: Phase,
-    /// The split samples drawn: light, pmf within its cluster, the point's uniform numbers.
-    tl: [(u32, f32, [f32; 2]); CUT_CAPACITY],
+    /// The split samples drawn: light, pmf within its cluster, the point's uniform numbers
+    /// (the cut's clusters, then the lights at infinity).
+    tl: [(u32, f32, [f32; 2]); SPLIT_CAPACITY],
     tl_len: usize,
     tl_next: usize,
     /// The next BRDF-aware sample's index.
@@ -250,6 +287,7 @@ pub struct Estimator<'a> {
     tl: TreeSampler<'a>,
     split: LightCut,
     bl: Option<CutSampler<'a>>,
+    pinf: Option<PinfSampler<'a>>,
     n_mix: u32,
     /// BL takes part in `full`'s mixture.
     bl_in_full: bool,
@@ -346,6 +384,8 @@ impl<'a> Estimator<'a> {
         };
         let bl_in_full = !diffuse || params.lambert == LambertMode::BlTb;
         let heuristic = params.heuristic;
+        let pinf = (technique == Technique::TlMisPinf)
+            .then(|| PinfSampler::with_importance(tree, *tl.importance()));
         Ok(Estimator {
             set,
             technique,
@@ -356,13 +396,14 @@ impl<'a> Estimator<'a> {
             tl,
             split,
             bl,
+            pinf,
             n_mix,
             bl_in_full,
             heuristic,
             pmfs: PmfCache::EMPTY,
             run: Run {
                 phase: Phase::Done,
-                tl: [(0, 0.0, [0.0; 2]); CUT_CAPACITY],
+                tl: [(0, 0.0, [0.0; 2]); SPLIT_CAPACITY],
                 tl_len: 0,
                 tl_next: 0,
                 j: 0,
@@ -426,13 +467,23 @@ impl<'a> Estimator<'a> {
         }
     }
 
-    /// The pmf of `light` within its cluster of the split cut (0 if in none), remembered.
+    /// The pmf of `light` within its cluster of the split cut (0 if in none), remembered; a
+    /// light at infinity is a cluster of its own (1 where its TL importance is positive).
     #[inline]
     fn pmf_tl(&mut self, light: u32) -> f32 {
         let (split, tl) = (&self.split, &self.tl);
         PmfCache::get(&mut self.pmfs.tl, light, || {
+            let tree = tl.tree();
+            if let Some(i) = tree.infinite_entry(light) {
+                let e = &tree.infinite_lights()[i];
+                return if tl.importance().eval_infinite(e) > 0.0 {
+                    1.0
+                } else {
+                    0.0
+                };
+            }
             split
-                .pmf_in(tl.tree(), tl.importance(), light)
+                .pmf_in(tree, tl.importance(), light)
                 .map_or(0.0, |(_, p)| p)
         })
     }
@@ -463,23 +514,78 @@ impl<'a> Estimator<'a> {
         r.pending_tb = None;
     }
 
-    /// A light sample of `light` chosen with probability `pmf`, its point from `uv`.
+    /// Whether a light sample of `role` is weighed with the BSDF's pdf of its direction.
     #[inline]
-    fn draw(&self, light: u32, pmf: f32, uv: [f32; 2], role: Role) -> Option<LightDraw> {
-        let l = self.set.lights().get(light as usize)?;
-        let point = sample_point(l, self.x, uv)?;
-        let needs_bsdf_pdf = !point.delta
+    fn needs_bsdf_pdf(&self, role: Role, delta: bool) -> bool {
+        !delta
             && match role {
                 Role::Plain => false,
                 Role::Split => self.n_mix > 0 && self.technique != Technique::TlSplit,
                 Role::MixtureBl { .. } | Role::OneMis => true,
-            };
-        Some(LightDraw {
+            }
+    }
+
+    /// A light sample of `light` chosen with probability `pmf`, its point from `uv`: a light
+    /// point, or for the environment a sample of the host's map to take.
+    #[inline]
+    fn draw(&self, light: u32, pmf: f32, uv: [f32; 2], role: Role) -> Option<Step> {
+        let l = self.set.lights().get(light as usize)?;
+        if let Light::Environment { .. } = l {
+            return Some(Step::Environment(EnvironmentDraw {
+                light,
+                pmf,
+                u: uv,
+                role,
+            }));
+        }
+        let point = sample_point(l, self.x, uv)?;
+        Some(Step::Light(LightDraw {
             light,
             pmf,
             point,
-            needs_bsdf_pdf,
+            needs_bsdf_pdf: self.needs_bsdf_pdf(role, point.delta),
             role,
+        }))
+    }
+
+    /// Turns an environment step into the light point the host sampled from its map:
+    /// `direction` (world space, any positive length), the `radiance` along it and its
+    /// solid-angle `pdf` (> 0). Shade, test (to `distance` = +∞) and weigh it as any light
+    /// point.
+    pub fn environment_point(
+        &self,
+        draw: &EnvironmentDraw,
+        direction: Vec3,
+        radiance: Rgb,
+        pdf: f32,
+    ) -> Result<LightDraw, DirectError> {
+        let l2 = direction.length_squared();
+        if !(l2 > 0.0 && l2 < f32::INFINITY && direction.is_finite()) {
+            return Err(DirectError::Direction { length_squared: l2 });
+        }
+        if !(pdf > 0.0 && pdf < f32::INFINITY) {
+            return Err(DirectError::EnvironmentPdf { value: pdf });
+        }
+        for c in radiance.to_array() {
+            if !(0.0..f32::INFINITY).contains(&c) {
+                return Err(DirectError::EnvironmentRadiance { value: c });
+            }
+        }
+        let d = direction / crate::math::sqrt(l2);
+        Ok(LightDraw {
+            light: draw.light,
+            pmf: draw.pmf,
+            point: LightPoint {
+                position: d,
+                normal: Vec3::ZERO,
+                direction: d,
+                distance: f32::INFINITY,
+                pdf,
+                delta: false,
+                radiance,
+            },
+            needs_bsdf_pdf: self.needs_bsdf_pdf(draw.role, false),
+            role: draw.role,
         })
     }
 
@@ -506,13 +612,21 @@ impl<'a> Estimator<'a> {
                 n += 1;
             }
         }
+        // Each light at infinity is a cluster of its own, sampled where it may contribute.
+        let tree = self.tl.tree();
+        for e in tree.infinite_lights() {
+            if self.tl.importance().eval_infinite(e) > 0.0 {
+                self.run.tl[n] = (e.light, 1.0, next2(u)?);
+                n += 1;
+            }
+        }
         self.run.tl_len = n;
         self.run.tl_next = 0;
         Ok(())
     }
 
     /// The next split sample with a point, if any is left.
-    fn next_split(&mut self) -> Option<LightDraw> {
+    fn next_split(&mut self) -> Option<Step> {
         while self.run.tl_next < self.run.tl_len {
             let (light, pmf, uv) = self.run.tl[self.run.tl_next];
             self.run.tl_next += 1;
@@ -566,18 +680,20 @@ impl<'a> Estimator<'a> {
                                 return Ok(self.single(s.light, s.pmf, next2(u)?));
                             }
                         }
-                        Technique::TlMis | Technique::BlMis => {
+                        Technique::TlMis | Technique::BlMis | Technique::TlMisPinf => {
                             let v = next1(u)?;
                             let uv = next2(u)?;
                             self.run.phase = Phase::OneMisBsdf;
-                            let s = if self.technique == Technique::TlMis {
-                                self.tl.sample(v)
-                            } else {
-                                self.bl.as_ref().and_then(|b| b.sample(v))
+                            let s = match self.technique {
+                                Technique::TlMis => self.tl.sample(v),
+                                Technique::TlMisPinf => {
+                                    self.pinf.as_ref().and_then(|p| p.sample(v))
+                                }
+                                _ => self.bl.as_ref().and_then(|b| b.sample(v)),
                             };
                             if let Some(s) = s {
                                 if let Some(d) = self.draw(s.light, s.pmf, uv, Role::OneMis) {
-                                    return Ok(Step::Light(d));
+                                    return Ok(d);
                                 }
                             }
                         }
@@ -604,7 +720,7 @@ impl<'a> Estimator<'a> {
                 }
                 Phase::TlFirst => {
                     if let Some(d) = self.next_split() {
-                        return Ok(Step::Light(d));
+                        return Ok(d);
                     }
                     let mixture = self.technique == Technique::MisEqual
                         && self.n_mix > 0
@@ -613,7 +729,7 @@ impl<'a> Estimator<'a> {
                 }
                 Phase::TlLast => {
                     if let Some(d) = self.next_split() {
-                        return Ok(Step::Light(d));
+                        return Ok(d);
                     }
                     self.run.phase = Phase::Done;
                 }
@@ -637,10 +753,7 @@ impl<'a> Estimator<'a> {
     /// The only light sample of `uniform`, `power`, `tl` and `bl`, if it has a point.
     #[inline]
     fn single(&mut self, light: u32, pmf: f32, uv: [f32; 2]) -> Step {
-        match self.draw(light, pmf, uv, Role::Plain) {
-            Some(d) => Step::Light(d),
-            None => Step::Done,
-        }
+        self.draw(light, pmf, uv, Role::Plain).unwrap_or(Step::Done)
     }
 
     /// The j-th BRDF-aware sample: a BL light sample, a BSDF sample, or nothing (a BL sample
@@ -677,15 +790,8 @@ impl<'a> Estimator<'a> {
                 let Some(s) = self.bl.as_ref().and_then(|b| b.sample(warped)) else {
                     return Ok(None);
                 };
-                // BL's density of the point is known once the point is: set it then.
-                let draw = self.draw(s.light, s.pmf, uv, Role::MixtureBl { p, pdf_bl: 0.0 });
-                Ok(draw.map(|mut d| {
-                    d.role = Role::MixtureBl {
-                        p,
-                        pdf_bl: s.pmf * d.point.pdf,
-                    };
-                    Step::Light(d)
-                }))
+                let role = Role::MixtureBl { p, pmf_bl: s.pmf };
+                Ok(self.draw(s.light, s.pmf, uv, role))
             }
             Mixture::Tb => {
                 let v = next1(u)?;
@@ -756,7 +862,8 @@ impl<'a> Estimator<'a> {
                 }
                 _ => Weighted::plain(pdf),
             },
-            Role::MixtureBl { p, pdf_bl } => {
+            Role::MixtureBl { p, pmf_bl } => {
+                let pdf_bl = pmf_bl * pp;
                 let pdf_tl = self.pmf_tl(draw.light) * pp;
                 self.mixture_weight(p, pdf_tl, pdf_bl, pdf_tb)
             }
@@ -788,7 +895,10 @@ impl<'a> Estimator<'a> {
     /// Reports a BSDF sample: the host sampled `direction` (world space, any positive length)
     /// with density `bsdf_pdf`, and its ray's first surface is at `hit_distance` (+∞ for none).
     /// Calls `each` for every light reached in front of it with non-zero radiance, with its
-    /// weight. Returns whether any was reached (what the adaptive allocation learns).
+    /// weight — a ray that escapes also reaches the distant lights whose cones hold its
+    /// direction. Returns whether any was reached (what the adaptive allocation learns). For a
+    /// light set with an environment light, [`Estimator::bsdf_hits_env`] (this gives
+    /// [`DirectError::NeedsEnvironment`]).
     pub fn bsdf_hits(
         &mut self,
         draw: &BsdfDraw,
@@ -797,27 +907,66 @@ impl<'a> Estimator<'a> {
         hit_distance: f32,
         each: impl FnMut(LightHit),
     ) -> Result<bool, DirectError> {
+        self.needs_no_environment()?;
+        self.bsdf_hits_env(draw, direction, bsdf_pdf, hit_distance, 0.0, each)
+    }
+
+    /// [`Estimator::bsdf_hits`] for any light set: an escaping ray (`hit_distance` = +∞) also
+    /// reaches the environment, weighed with `environment_pdf`, the host's pdf of sampling
+    /// `direction` from its map (≥ 0, finite; ignored without an environment light or when
+    /// the ray does not escape). The environment's hit has a black `point.radiance`: the host
+    /// shades it with its own radiance along `direction`.
+    pub fn bsdf_hits_env(
+        &mut self,
+        draw: &BsdfDraw,
+        direction: Vec3,
+        bsdf_pdf: f32,
+        hit_distance: f32,
+        environment_pdf: f32,
+        each: impl FnMut(LightHit),
+    ) -> Result<bool, DirectError> {
         if hit_distance.is_nan() || hit_distance < 0.0 {
             return Err(DirectError::HitDistance {
                 value: hit_distance,
             });
         }
-        self.bsdf_hits_with(
+        // Points at infinity are reached only by a ray that escapes.
+        let escapes = hit_distance == f32::INFINITY;
+        self.bsdf_hits_with_env(
             draw,
             direction,
             bsdf_pdf,
-            |lp| lp.distance < hit_distance,
+            environment_pdf,
+            |lp| lp.distance < hit_distance || escapes,
             each,
         )
     }
 
     /// [`Estimator::bsdf_hits`] with visibility decided per light point by `visible` (a
-    /// shadow ray to the point, say).
+    /// shadow ray to the point, say; to `distance` = +∞ for a distant light). For a light set
+    /// with an environment light, [`Estimator::bsdf_hits_with_env`] (this gives
+    /// [`DirectError::NeedsEnvironment`]).
     pub fn bsdf_hits_with(
         &mut self,
         draw: &BsdfDraw,
         direction: Vec3,
         bsdf_pdf: f32,
+        visible: impl FnMut(&LightPoint) -> bool,
+        each: impl FnMut(LightHit),
+    ) -> Result<bool, DirectError> {
+        self.needs_no_environment()?;
+        self.bsdf_hits_with_env(draw, direction, bsdf_pdf, 0.0, visible, each)
+    }
+
+    /// [`Estimator::bsdf_hits_with`] for any light set: the environment is reached where
+    /// `visible` passes its point at infinity along `direction`, and weighed with
+    /// `environment_pdf` (as [`Estimator::bsdf_hits_env`]).
+    pub fn bsdf_hits_with_env(
+        &mut self,
+        draw: &BsdfDraw,
+        direction: Vec3,
+        bsdf_pdf: f32,
+        environment_pdf: f32,
         mut visible: impl FnMut(&LightPoint) -> bool,
         mut each: impl FnMut(LightHit),
     ) -> Result<bool, DirectError> {
@@ -827,6 +976,11 @@ impl<'a> Estimator<'a> {
         }
         if !(0.0..f32::INFINITY).contains(&bsdf_pdf) {
             return Err(DirectError::BsdfPdf { value: bsdf_pdf });
+        }
+        if !(0.0..f32::INFINITY).contains(&environment_pdf) {
+            return Err(DirectError::EnvironmentPdf {
+                value: environment_pdf,
+            });
         }
         // A direction already of unit length (to f32 rounding) is taken as it is.
         let dir = if (l2 - 1.0).abs() <= 4.0 * f32::EPSILON {
@@ -845,46 +999,102 @@ impl<'a> Estimator<'a> {
         let set = self.set;
         let x = self.x;
         set.trace(x, dir, |light, lp| {
-            if lp.radiance <= 0.0 || !visible(lp) {
+            if lp.radiance.is_black() || !visible(lp) {
                 return;
             }
             hit = true;
-            let weighted = match mixture {
-                Some(p) => {
-                    let pdf_tl = self.pmf_tl(light) * lp.pdf;
-                    let pdf_bl = if self.uses_bl(p) {
-                        self.pmf_bl(light) * lp.pdf
-                    } else {
-                        0.0
-                    };
-                    self.mixture_weight(p, pdf_tl, pdf_bl, bsdf_pdf)
-                }
-                None => {
-                    let pmf = if self.technique == Technique::BlMis {
-                        self.pmf_bl(light)
-                    } else {
-                        self.tl.pmf(light)
-                    };
-                    let pdf_l = pmf * lp.pdf;
-                    let w = crate::mis::power(1.0, bsdf_pdf, &[(1.0, pdf_l)]);
-                    Weighted::checked(Factors {
-                        num: w,
-                        den: bsdf_pdf,
-                        pdf: bsdf_pdf,
-                    })
-                }
-            };
+            let weighted = self.hit_weight(mixture, light, lp.pdf, bsdf_pdf);
             each(LightHit {
                 light,
                 point: *lp,
                 weighted,
             });
         });
+        // The lights at infinity along the ray.
+        for e in set.tree().infinite_lights() {
+            let lp = match e.kind() {
+                Some(InfiniteKind::Distant) => set
+                    .lights()
+                    .get(e.light as usize)
+                    .and_then(|l| intersect(l, x, dir)),
+                Some(InfiniteKind::Environment) => Some(LightPoint {
+                    position: dir,
+                    normal: Vec3::ZERO,
+                    direction: dir,
+                    distance: f32::INFINITY,
+                    pdf: environment_pdf,
+                    delta: false,
+                    radiance: Rgb::ZERO,
+                }),
+                None => None,
+            };
+            let Some(lp) = lp else {
+                continue;
+            };
+            let environment = e.kind() == Some(InfiniteKind::Environment);
+            if (!environment && lp.radiance.is_black()) || !visible(&lp) {
+                continue;
+            }
+            hit = true;
+            let weighted = self.hit_weight(mixture, e.light, lp.pdf, bsdf_pdf);
+            each(LightHit {
+                light: e.light,
+                point: lp,
+                weighted,
+            });
+        }
         if let Some(p) = pending {
             self.run.alloc.record_tb(hit);
             self.run.sw.record(p);
         }
         Ok(hit)
+    }
+
+    /// [`DirectError::NeedsEnvironment`] for a light set with an environment light.
+    #[inline]
+    fn needs_no_environment(&self) -> Result<(), DirectError> {
+        match self.set.environment() {
+            Some(_) => Err(DirectError::NeedsEnvironment),
+            None => Ok(()),
+        }
+    }
+
+    /// The weight of a BSDF sample (of mixture probability `mixture`, `None` for the BSDF
+    /// sample of a two-sample technique) that reached `light` at a point of light-sampling
+    /// density `point_pdf`, the BSDF's density being `bsdf_pdf`.
+    #[inline]
+    fn hit_weight(
+        &mut self,
+        mixture: Option<f32>,
+        light: u32,
+        point_pdf: f32,
+        bsdf_pdf: f32,
+    ) -> Weighted {
+        match mixture {
+            Some(p) => {
+                let pdf_tl = self.pmf_tl(light) * point_pdf;
+                let pdf_bl = if self.uses_bl(p) {
+                    self.pmf_bl(light) * point_pdf
+                } else {
+                    0.0
+                };
+                self.mixture_weight(p, pdf_tl, pdf_bl, bsdf_pdf)
+            }
+            None => {
+                let pmf = match self.technique {
+                    Technique::BlMis => self.pmf_bl(light),
+                    Technique::TlMisPinf => self.pinf.as_ref().map_or(0.0, |s| s.pmf(light)),
+                    _ => self.tl.pmf(light),
+                };
+                let pdf_l = pmf * point_pdf;
+                let w = crate::mis::power(1.0, bsdf_pdf, &[(1.0, pdf_l)]);
+                Weighted::checked(Factors {
+                    num: w,
+                    den: bsdf_pdf,
+                    pdf: bsdf_pdf,
+                })
+            }
+        }
     }
 
     /// Whether a BRDF-aware sample of BL probability `p` is weighted with BL's density.
@@ -897,66 +1107,122 @@ impl<'a> Estimator<'a> {
         }
     }
 
-    /// `f · L · cos θi` of a light point with the core's material, and the local direction.
+    /// `f · L · cos θi` of a light point with the core's material (per channel), and the
+    /// local direction.
     #[inline]
-    fn value(&self, lp: &LightPoint) -> (f32, Vec3) {
+    fn value(&self, lp: &LightPoint) -> (Rgb, Vec3) {
         let wi = self.frame.to_local(lp.direction);
-        if lp.radiance <= 0.0 || wi.z <= 0.0 {
-            return (0.0, wi);
+        if lp.radiance.is_black() || wi.z <= 0.0 {
+            return (Rgb::ZERO, wi);
         }
-        (self.material.eval(self.wo, wi) * lp.radiance * wi.z, wi)
+        (self.material.eval_rgb(self.wo, wi) * lp.radiance * wi.z, wi)
     }
 
     /// One estimate of the reflected radiance with the core's material and the host's
     /// occluder: the lower level's loop ([`Estimator::start`], [`Estimator::next`],
-    /// [`Estimator::weigh`], [`Estimator::bsdf_hits_with`]), summed in f64. Finite and
-    /// non-negative.
+    /// [`Estimator::weigh`], [`Estimator::bsdf_hits_with`]), summed in f64 per channel
+    /// (red, green, blue). Finite and non-negative. For a light set with an environment
+    /// light, [`Estimator::estimate_env`] (this gives [`DirectError::NeedsEnvironment`]).
     pub fn estimate<O: Occluder + ?Sized>(
         &mut self,
         occluder: &O,
         u: &mut (impl Uniforms + ?Sized),
-    ) -> Result<f64, DirectError> {
+    ) -> Result<[f64; 3], DirectError> {
+        self.needs_no_environment()?;
+        self.estimate_with(occluder, None, u)
+    }
+
+    /// [`Estimator::estimate`] with the host's environment: its samples
+    /// ([`Step::Environment`]) from [`Environment::sample`], and for a BSDF ray that escapes
+    /// its radiance and pdf from [`Environment::eval`] ([`Estimator::bsdf_hits_with_env`]).
+    /// A set without an environment light never calls it.
+    pub fn estimate_env<O: Occluder + ?Sized, E: Environment + ?Sized>(
+        &mut self,
+        occluder: &O,
+        environment: &E,
+        u: &mut (impl Uniforms + ?Sized),
+    ) -> Result<[f64; 3], DirectError> {
+        self.estimate_with(occluder, Some(&environment), u)
+    }
+
+    /// The loop of the one call, with the host's environment if the set has one.
+    fn estimate_with<O: Occluder + ?Sized>(
+        &mut self,
+        occluder: &O,
+        environment: Option<&dyn Environment>,
+        u: &mut (impl Uniforms + ?Sized),
+    ) -> Result<[f64; 3], DirectError> {
         self.start();
         let x = self.x;
-        let mut sum = 0.0f64;
+        let env_light = self.set.environment();
+        let mut sum = [0.0f64; 3];
         loop {
-            match self.next(u)? {
+            let d = match self.next(u)? {
                 Step::Done => break,
-                Step::Light(d) => {
-                    let (g, wi) = self.value(&d.point);
-                    if g <= 0.0 || occluder.occluded(x, d.point.direction, d.point.distance) {
+                Step::Light(d) => d,
+                Step::Environment(e) => {
+                    let Some(s) = environment.and_then(|env| env.sample(e.u)) else {
                         continue;
-                    }
-                    let pdf_tb = if d.needs_bsdf_pdf {
-                        self.material.pdf(self.wo, wi)
-                    } else {
-                        0.0
                     };
-                    sum += f64::from(self.weigh(&d, pdf_tb)?.contribution(g));
+                    self.environment_point(&e, s.direction, s.radiance, s.pdf)?
                 }
                 Step::Bsdf(b) => {
                     let Some((wi, pdf)) = self.material.sample(self.wo, b.u) else {
                         continue;
                     };
-                    let f = self.material.eval(self.wo, wi);
+                    let f = self.material.eval_rgb(self.wo, wi);
                     let dir = self.frame.to_world(wi).normalize();
-                    let mut value = 0.0f64;
-                    self.bsdf_hits_with(
+                    let (env_radiance, env_pdf) = match (environment, env_light) {
+                        (Some(env), Some(_)) => env.eval(dir),
+                        _ => (Rgb::ZERO, 0.0),
+                    };
+                    if !(0.0..f32::INFINITY).contains(&env_pdf) {
+                        return Err(DirectError::EnvironmentPdf { value: env_pdf });
+                    }
+                    let mut value = [0.0f64; 3];
+                    self.bsdf_hits_with_env(
                         &b,
                         dir,
                         pdf,
+                        env_pdf,
                         |lp| !occluder.occluded(x, dir, lp.distance),
                         |h| {
-                            let g = f * h.point.radiance * wi.z;
-                            if g > 0.0 {
-                                value += f64::from(h.weighted.contribution(g));
-                            }
+                            let radiance = if Some(h.light) == env_light {
+                                env_radiance
+                            } else {
+                                h.point.radiance
+                            };
+                            let g = f * radiance * wi.z;
+                            add(&mut value, h.weighted.contribution_rgb(g));
                         },
                     )?;
-                    sum += value;
+                    for c in 0..3 {
+                        sum[c] += value[c];
+                    }
+                    continue;
                 }
+            };
+            let (g, wi) = self.value(&d.point);
+            if g.max_channel() <= 0.0 || occluder.occluded(x, d.point.direction, d.point.distance) {
+                continue;
             }
+            let pdf_tb = if d.needs_bsdf_pdf {
+                self.material.pdf(self.wo, wi)
+            } else {
+                0.0
+            };
+            let w = self.weigh(&d, pdf_tb)?;
+            add(&mut sum, w.contribution_rgb(g));
         }
         Ok(sum)
+    }
+}
+
+/// Adds a contribution's channels to an f64 sum (a channel that is not positive adds
+/// nothing: [`Weighted::contribution`] gives 0 for it).
+#[inline]
+fn add(sum: &mut [f64; 3], c: Rgb) {
+    for (s, v) in sum.iter_mut().zip(c.to_array()) {
+        *s += f64::from(v);
     }
 }

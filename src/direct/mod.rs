@@ -18,7 +18,7 @@
 //! ```
 //! use glam::Vec3;
 //! use manylights::direct::{Estimator, Params, Technique, Uniforms, Unoccluded};
-//! use manylights::{Light, LightSet, Material, ShadingPoint};
+//! use manylights::{Light, LightSet, Material, Rgb, ShadingPoint};
 //!
 //! /// The host's random numbers (any generator; here a 64-bit LCG).
 //! struct Lcg(u64);
@@ -33,18 +33,22 @@
 //! }
 //!
 //! let set = LightSet::build(vec![
-//!     Light::Sphere { center: Vec3::new(0.0, 0.0, 2.0), radius: 0.5, radiance: 3.0 },
-//!     Light::Point { position: Vec3::new(1.0, 0.0, 1.0), intensity: 2.0 },
+//!     Light::Sphere {
+//!         center: Vec3::new(0.0, 0.0, 2.0),
+//!         radius: 0.5,
+//!         radiance: Rgb::new(3.0, 2.5, 2.0),
+//!     },
+//!     Light::Point { position: Vec3::new(1.0, 0.0, 1.0), intensity: Rgb::grey(2.0) },
 //! ])?;
 //! let sp = ShadingPoint {
 //!     position: Vec3::ZERO,
 //!     normal: Vec3::Z,
 //!     wo: Vec3::new(0.0, 0.6, 0.8),
-//!     material: Material::Plastic { albedo: 0.5, specular: 0.5, alpha: 0.2 },
+//!     material: Material::Plastic { albedo: Rgb::new(0.6, 0.5, 0.4), specular: 0.5, alpha: 0.2 },
 //! };
 //! let mut est = Estimator::new(&set, &sp, Technique::DEFAULT, &Params::default())?;
-//! let radiance = est.estimate(&Unoccluded, &mut Lcg(7))?; // one estimate, host visibility
-//! assert!(radiance.is_finite() && radiance >= 0.0);
+//! let rgb = est.estimate(&Unoccluded, &mut Lcg(7))?; // one estimate, host visibility
+//! assert!(rgb.iter().all(|c| c.is_finite() && *c >= 0.0));
 //! # Ok::<(), Box<dyn std::error::Error>>(())
 //! ```
 //!
@@ -154,9 +158,13 @@
 
 mod estimator;
 mod sampler;
+mod sky;
 
-pub use estimator::{BsdfDraw, Estimator, LightDraw, LightHit, Step, Weighted};
-pub use sampler::{CutSampler, LightSampler, PowerSampler, TreeSampler, UniformSampler};
+pub use estimator::{BsdfDraw, EnvironmentDraw, Estimator, LightDraw, LightHit, Step, Weighted};
+pub use sampler::{
+    CutSampler, LightSampler, PinfSampler, PowerSampler, TreeSampler, UniformSampler,
+};
+pub use sky::{Environment, EnvironmentSample, GradientSky, UniformSky};
 
 pub use crate::error::DirectError;
 
@@ -186,11 +194,15 @@ pub enum Technique {
     TlMis,
     /// One sample of the BRDF-oriented cut + one BSDF sample, power heuristic.
     BlMis,
+    /// `tl-mis` with pbrt-v4's handling of distant and environment lights: each picked with
+    /// the fixed probability `1 / (n + 1)` whatever the point, the node tree otherwise
+    /// ([`PinfSampler`]): the yardstick of weighing them per shading point.
+    TlMisPinf,
 }
 
 impl Technique {
     /// Every technique.
-    pub const ALL: [Technique; 9] = [
+    pub const ALL: [Technique; 10] = [
         Technique::Uniform,
         Technique::Power,
         Technique::Tl,
@@ -200,6 +212,7 @@ impl Technique {
         Technique::Full,
         Technique::TlMis,
         Technique::BlMis,
+        Technique::TlMisPinf,
     ];
 
     /// The technique a renderer should use when it has no reason to choose another: `bl-mis`,
@@ -224,6 +237,7 @@ impl Technique {
             Technique::Full => "full",
             Technique::TlMis => "tl-mis",
             Technique::BlMis => "bl-mis",
+            Technique::TlMisPinf => "tl-mis-pinf",
         }
     }
 
@@ -231,7 +245,11 @@ impl Technique {
     pub fn samples_bsdf(self) -> bool {
         matches!(
             self,
-            Technique::MisEqual | Technique::Full | Technique::TlMis | Technique::BlMis
+            Technique::MisEqual
+                | Technique::Full
+                | Technique::TlMis
+                | Technique::BlMis
+                | Technique::TlMisPinf
         )
     }
 }

@@ -3,9 +3,10 @@
 
 use crate::cut::{BlCutOptions, LightCut};
 use crate::importance::{BlImportance, TlImportance};
+use crate::infinite::RootChoice;
 use crate::light_set::{AliasTable, LightSet};
 use crate::material::{ShadingError, ShadingPoint};
-use crate::sample::LightSample;
+use crate::sample::{LightSample, MIN_PMF, ONE_MINUS_EPSILON};
 use crate::tree::LightTree;
 use glam::Vec3;
 
@@ -23,7 +24,8 @@ pub trait LightSampler {
 }
 
 /// Tree descent with the Conty–Kulla importance ([`TlImportance`]): one light per sample, no
-/// splitting (pbrt-v4's `BVHLightSampler`).
+/// splitting (pbrt-v4's `BVHLightSampler`), with the tree's distant and environment lights
+/// weighed against its nodes at the root by the same importance ([`crate::infinite`]).
 #[derive(Clone, Copy, Debug)]
 pub struct TreeSampler<'a> {
     tree: &'a LightTree,
@@ -70,11 +72,18 @@ impl LightSampler for TreeSampler<'_> {
 /// The BRDF-oriented light cut of Liu et al. 2019 (section 4.1): a cluster of the cut by its
 /// BRDF-oriented importance, then a descent in it. The sampler owns its tree, importance and
 /// cut, so the cut is always queried with the importance it was built with.
+///
+/// With distant and environment lights, a sample first chooses at the root among the cut (of
+/// weight the sum of its clusters' weights) and each light at infinity (of its BL importance,
+/// [`BlImportance::eval_infinite_with_integral`]), as [`crate::infinite::RootChoice`] does,
+/// then samples the cut if it was chosen: `pmf = P(cut) · cut.pmf`, exact. A product below
+/// [`MIN_PMF`] counts as no light (sample gives `None`, pmf 0).
 #[derive(Clone, Debug)]
 pub struct CutSampler<'a> {
     tree: &'a LightTree,
     importance: BlImportance,
     cut: LightCut,
+    root: Option<RootChoice>,
 }
 
 impl<'a> CutSampler<'a> {
@@ -95,11 +104,22 @@ impl<'a> CutSampler<'a> {
         options: &BlCutOptions,
     ) -> CutSampler<'a> {
         let cut = LightCut::build_bl(tree, &importance, options);
+        let root = (!tree.infinite_lights().is_empty()).then(|| {
+            let w: f64 = cut.clusters().iter().map(|c| f64::from(c.weight)).sum();
+            tree.root_choice(&importance, w)
+        });
         CutSampler {
             tree,
             importance,
             cut,
+            root,
         }
+    }
+
+    /// The root choice between the cut and the lights at infinity (`None` without any).
+    #[inline]
+    pub fn root_choice(&self) -> Option<&RootChoice> {
+        self.root.as_ref()
     }
 
     /// The cut.
@@ -124,19 +144,137 @@ impl<'a> CutSampler<'a> {
     /// gives them; the tree walks interleaved).
     #[inline]
     pub fn pmf_each(&self, lights: &[u32], out: &mut [f32]) {
+        if self.root.is_some() {
+            for (o, &l) in out.iter_mut().zip(lights) {
+                *o = self.pmf(l);
+            }
+            return;
+        }
         self.cut.pmf_each(self.tree, &self.importance, lights, out);
+    }
+}
+
+/// `p · pmf` if it is at least [`MIN_PMF`], else 0.
+#[inline]
+fn product(p: f32, pmf: f32) -> f32 {
+    let q = p * pmf;
+    if q >= MIN_PMF {
+        q
+    } else {
+        0.0
     }
 }
 
 impl LightSampler for CutSampler<'_> {
     #[inline]
     fn sample(&self, u: f32) -> Option<LightSample> {
-        self.cut.sample(self.tree, &self.importance, u)
+        let Some(root) = &self.root else {
+            return self.cut.sample(self.tree, &self.importance, u);
+        };
+        let (k, p, rest) = root.pick(u)?;
+        if k > 0 {
+            let light = self.tree.infinite_lights()[k - 1].light;
+            return Some(LightSample { light, pmf: p });
+        }
+        let s = self.cut.sample(self.tree, &self.importance, rest)?;
+        let pmf = product(p, s.pmf);
+        (pmf > 0.0).then_some(LightSample {
+            light: s.light,
+            pmf,
+        })
     }
 
     #[inline]
     fn pmf(&self, light: u32) -> f32 {
-        self.cut.pmf(self.tree, &self.importance, light)
+        let Some(root) = &self.root else {
+            return self.cut.pmf(self.tree, &self.importance, light);
+        };
+        if let Some(i) = self.tree.infinite_entry(light) {
+            return root.probability(1 + i);
+        }
+        let p = root.probability(0);
+        if p <= 0.0 {
+            return 0.0;
+        }
+        product(p, self.cut.pmf(self.tree, &self.importance, light))
+    }
+}
+
+/// pbrt-v4's handling of lights at infinity (`BVHLightSampler`): each distant or environment
+/// light with the fixed probability `1 / (n + 1)` (n of them; `1 / n` without local lights),
+/// whatever the shading point, and the node tree by TL descent otherwise. The yardstick of the
+/// root choice per shading point (technique `tl-mis-pinf`). A product below [`MIN_PMF`]
+/// counts as no light. As pbrt-v4's, it returns no light when the tree is chosen at a point
+/// where its root importance is 0, so there (only) the pmfs sum to `pInfinite` rather than 1:
+/// still unbiased, as no light that contributes has pmf 0.
+#[derive(Clone, Copy, Debug)]
+pub struct PinfSampler<'a> {
+    tree: &'a LightTree,
+    importance: TlImportance,
+    /// pInfinite = n / (n + 1), or 1 without local lights, or 0 without lights at infinity.
+    p_infinite: f32,
+}
+
+impl<'a> PinfSampler<'a> {
+    /// The sampler for an importance already set up.
+    pub fn with_importance(tree: &'a LightTree, importance: TlImportance) -> PinfSampler<'a> {
+        let n = tree.infinite_lights().len();
+        let local = usize::from(!tree.nodes().is_empty());
+        let p_infinite = if n == 0 {
+            0.0
+        } else {
+            n as f32 / (n + local) as f32
+        };
+        PinfSampler {
+            tree,
+            importance,
+            p_infinite,
+        }
+    }
+
+    /// pInfinite: the probability of choosing a light at infinity.
+    #[inline]
+    pub fn p_infinite(&self) -> f32 {
+        self.p_infinite
+    }
+}
+
+impl LightSampler for PinfSampler<'_> {
+    fn sample(&self, u: f32) -> Option<LightSample> {
+        let u = if u >= 0.0 {
+            u.min(ONE_MINUS_EPSILON)
+        } else {
+            0.0
+        };
+        let inf = self.tree.infinite_lights();
+        if u < self.p_infinite {
+            let k = ((u / self.p_infinite * inf.len() as f32) as usize).min(inf.len() - 1);
+            return Some(LightSample {
+                light: inf[k].light,
+                pmf: self.p_infinite / inf.len() as f32,
+            });
+        }
+        let rest = ((u - self.p_infinite) / (1.0 - self.p_infinite)).min(ONE_MINUS_EPSILON);
+        let s = self.tree.sample_local(&self.importance, rest)?;
+        let pmf = product(1.0 - self.p_infinite, s.pmf);
+        (pmf > 0.0).then_some(LightSample {
+            light: s.light,
+            pmf,
+        })
+    }
+
+    fn pmf(&self, light: u32) -> f32 {
+        let inf = self.tree.infinite_lights();
+        if self.tree.infinite_entry(light).is_some() {
+            return self.p_infinite / inf.len() as f32;
+        }
+        if self.p_infinite >= 1.0 {
+            return 0.0;
+        }
+        product(
+            1.0 - self.p_infinite,
+            self.tree.pmf_local(&self.importance, light),
+        )
     }
 }
 

@@ -17,10 +17,11 @@
 //! keeps a positive pmf; at 5 % of a Lambert lobe of the same albedo it does not change the
 //! ranking of clusters the SPTD sees.
 
-use super::conty_kulla::{ClusterView, ClusterView4, COS_FLOOR, COS_SLACK};
+use super::conty_kulla::{ClusterView, ClusterView4, Receiver, COS_FLOOR, COS_SLACK};
 use super::sptd::{lambert_visible, lambert_visible4, SptdGgx, SptdGgx4};
 use super::Importance;
 use crate::error::Problem;
+use crate::infinite::{cos_minus, InfiniteKind, InfiniteLight};
 use crate::material::{ShadingError, ShadingField, ShadingPoint, MIN_ALPHA};
 use crate::math;
 use crate::tree::{Node4, SlotBounds};
@@ -242,6 +243,65 @@ impl BlImportance {
         }
     }
 
+    /// The BL importance of a distant or environment light with its BRDF integral (the
+    /// `cap_integral` of [`BlEval`]). A distant light of irradiance E and angular radius γ is
+    /// the cap of half-angle γ about its direction: `4π E (SC / |Ω ∩ H| + defensive ·
+    /// cos θi')`, with the cap integral SC of the Lambert and GGX lobes as for a cluster
+    /// (the limit `f cos` in its direction below [`POINT_LIMIT_SIN`], a delta direction
+    /// included), so a glossy lobe facing away from a sun gives it only the defensive share and
+    /// a surface facing away from it 0. The environment, of irradiance bound E_n at the
+    /// normal, as a uniform environment of radiance E_n/π: `4π (E_n/π) ρ (1 + DEFENSIVE)`, ρ
+    /// the whole hemisphere's ∫ f cos ([`BlImportance::albedo`]).
+    pub fn eval_infinite_with_integral(&self, light: &InfiniteLight) -> BlEval {
+        let four_pi = 4.0 * PI;
+        match light.kind() {
+            Some(InfiniteKind::Distant) => {
+                let n = self.normal;
+                let w = light.direction();
+                let cos_omega = n.x * w.x + n.y * w.y + n.z * w.z;
+                let (cos_g, sin_g) = (light.cos_radius, light.sin_radius);
+                let cos_ip = cos_minus(cos_omega, cos_g, sin_g);
+                let (sc, omega) = if self.ks > 0.0 {
+                    let c = self.ggx.cap_integrals(w, sin_g);
+                    (self.kd * c.lambert + self.ks * c.ggx, c.visible)
+                } else {
+                    let (l, vis) = lambert_pair(cos_omega, sin_g);
+                    (self.kd * l, vis)
+                };
+                let avg = if sin_g < POINT_LIMIT_SIN {
+                    self.point_value(w, cos_omega)
+                } else if omega > 0.0 {
+                    sc / omega
+                } else {
+                    0.0
+                };
+                if cos_ip <= -COS_SLACK {
+                    return BlEval {
+                        importance: 0.0,
+                        cap_integral: sc,
+                    };
+                }
+                let brdf = avg + self.defensive * cos_ip.max(COS_FLOOR);
+                BlEval {
+                    importance: (four_pi * light.irradiance[0] * brdf).min(MAX_IMPORTANCE),
+                    cap_integral: sc,
+                }
+            }
+            Some(InfiniteKind::Environment) => {
+                let bound = light.environment_bound(self.normal, Receiver::Reflective);
+                let i = four_pi * (bound * FRAC_1_PI) * (self.albedo * (1.0 + DEFENSIVE));
+                BlEval {
+                    importance: i.min(MAX_IMPORTANCE),
+                    cap_integral: self.albedo,
+                }
+            }
+            None => BlEval {
+                importance: 0.0,
+                cap_integral: 0.0,
+            },
+        }
+    }
+
     /// The 4-wide twin of [`BlImportance::eval`]: `(importances, cap integrals)`.
     #[inline]
     pub fn eval4_with_integrals(&self, node: &Node4) -> (f32x4, f32x4) {
@@ -331,5 +391,11 @@ impl Importance for BlImportance {
     #[inline]
     fn eval_slot(&self, b: &SlotBounds) -> f32 {
         self.eval(b).importance
+    }
+
+    /// [`BlImportance::eval_infinite_with_integral`]'s importance.
+    #[inline]
+    fn eval_infinite(&self, light: &InfiniteLight) -> f32 {
+        self.eval_infinite_with_integral(light).importance
     }
 }

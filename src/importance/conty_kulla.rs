@@ -20,6 +20,7 @@
 //!   omnidirectional (no cosine; a medium or a point with no normal).
 
 use super::Importance;
+use crate::infinite::InfiniteLight;
 use crate::lanes::{self, Lanes};
 use crate::math;
 use crate::quantize;
@@ -574,6 +575,18 @@ impl Importance for TlImportance {
     fn eval_lane(&self, node: &Node4, k: usize) -> f32 {
         let k = k & 3;
         self.scaled(&node.bounds(k), quantize::decode_axis_raw(node.cone[k]))
+    }
+
+    /// A distant light's `4π E cos⁺(max(0, θi − γ))` (θi from the normal, γ its angular
+    /// radius: the cone of section 4 with no distance term and no emitter orientation), the
+    /// environment's `4π` times its irradiance bound at the normal
+    /// ([`InfiniteLight::environment_bound`]); 0 for a non-finite position.
+    #[inline]
+    fn eval_infinite(&self, light: &InfiniteLight) -> f32 {
+        if !self.valid {
+            return 0.0;
+        }
+        light.tl(self.normal, self.receiver)
     }
 }
 

@@ -14,6 +14,7 @@
 //! in `Cell`s).
 
 use super::Importance;
+use crate::infinite::InfiniteLight;
 use crate::tree::{LightTree, Node4, SlotBounds};
 use core::cell::Cell;
 use wide::f32x4;
@@ -132,11 +133,18 @@ impl<I: Importance> Importance for Memo<'_, I> {
     fn eval_lane(&self, node: &Node4, k: usize) -> f32 {
         self.imp.eval_lane(node, k)
     }
+
+    /// The inner importance's, not memoised.
+    #[inline]
+    fn eval_infinite(&self, light: &InfiniteLight) -> f32 {
+        self.imp.eval_infinite(light)
+    }
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::colour::Rgb;
     use crate::importance::TlImportance;
     use crate::math;
     use crate::{BuildOptions, Light};
@@ -149,7 +157,7 @@ mod tests {
                 let t = i as f32 * 0.37;
                 Light::Point {
                     position: Vec3::new(math::sin(t) * 5.0, math::cos(t * 1.3) * 5.0, t * 0.1),
-                    intensity: 1.0 + (i % 7) as f32,
+                    intensity: Rgb::grey(1.0 + (i % 7) as f32),
                 }
             })
             .collect();

@@ -16,6 +16,7 @@ pub use brdf_oriented::BlImportance;
 pub use conty_kulla::TlImportance;
 pub use memo::{Memo, MemoTable, MEMO_SLOTS};
 
+use crate::infinite::InfiniteLight;
 use crate::tree::{Node4, SlotBounds};
 use wide::f32x4;
 
@@ -41,6 +42,12 @@ pub trait Importance {
     fn eval_lane(&self, node: &Node4, k: usize) -> f32 {
         self.eval_slot(&node.bounds(k))
     }
+
+    /// The importance of a distant or environment light at the shading point, in the units
+    /// of the node tree's importances (4π times an irradiance; see [`crate::infinite`]), so
+    /// that the root weighs it against the tree: never negative or NaN, and positive wherever
+    /// the light can contribute (for the environment: wherever the host's bounds are).
+    fn eval_infinite(&self, light: &InfiniteLight) -> f32;
 
     /// `(self.eval4(a), other.eval4(b))`, bit for bit: the importances at two shading points
     /// (of two nodes) at once, as the batch calls take their descents two by two. The
@@ -69,5 +76,10 @@ impl<I: Importance + ?Sized> Importance for &I {
     #[inline(always)]
     fn eval_lane(&self, node: &Node4, k: usize) -> f32 {
         (**self).eval_lane(node, k)
+    }
+
+    #[inline(always)]
+    fn eval_infinite(&self, light: &InfiniteLight) -> f32 {
+        (**self).eval_infinite(light)
     }
 }

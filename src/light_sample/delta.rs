@@ -7,6 +7,7 @@
 
 use super::vec64::V64;
 use super::LightPoint;
+use crate::colour::Rgb;
 use crate::math;
 use glam::Vec3;
 
@@ -14,7 +15,7 @@ use glam::Vec3;
 /// of the intensity sent towards x given the unit direction light → x (1 for a point light).
 pub(super) fn sample(
     position: Vec3,
-    intensity: f32,
+    intensity: Rgb,
     x: Vec3,
     profile: impl FnOnce(V64) -> f64,
 ) -> Option<LightPoint> {
@@ -22,7 +23,8 @@ pub(super) fn sample(
     let dist2 = d.length_squared();
     let dist = math::sqrt64(dist2);
     let w = d.normalize()?;
-    let irradiance = f64::from(intensity) * profile(-w) / dist2;
+    let p = profile(-w);
+    let irradiance = intensity.map(|i| (f64::from(i) * p / dist2) as f32);
     LightPoint::checked(
         position,
         Vec3::ZERO,
@@ -30,7 +32,7 @@ pub(super) fn sample(
         dist as f32,
         1.0,
         true,
-        irradiance as f32,
+        irradiance,
     )
 }
 

@@ -12,6 +12,7 @@
 
 use super::vec64::V64;
 use super::LightPoint;
+use crate::colour::Rgb;
 use crate::math;
 use core::f64::consts::{FRAC_PI_4, PI};
 use glam::Vec3;
@@ -41,7 +42,7 @@ pub(super) fn sample(
     center: Vec3,
     normal: Vec3,
     radius: f32,
-    radiance: f32,
+    radiance: Rgb,
     two_sided: bool,
     x: Vec3,
     u: [f64; 2],
@@ -59,7 +60,7 @@ fn at_point(
     center: Vec3,
     n: V64,
     radius: f32,
-    radiance: f32,
+    radiance: Rgb,
     two_sided: bool,
     x: Vec3,
     p: Vec3,
@@ -85,13 +86,13 @@ fn at_point(
         dist as f32,
         pdf as f32,
         false,
-        if lit { radiance } else { 0.0 },
+        if lit { radiance } else { Rgb::ZERO },
     )
 }
 
 pub(super) fn pdf_point(center: Vec3, normal: Vec3, radius: f32, x: Vec3, p: Vec3) -> f64 {
     unit_normal(normal)
-        .and_then(|n| at_point(center, n, radius, 0.0, true, x, p))
+        .and_then(|n| at_point(center, n, radius, Rgb::ZERO, true, x, p))
         .map_or(0.0, |lp| f64::from(lp.pdf))
 }
 
@@ -100,7 +101,7 @@ pub(super) fn intersect(
     center: Vec3,
     normal: Vec3,
     radius: f32,
-    radiance: f32,
+    radiance: Rgb,
     two_sided: bool,
     x: Vec3,
     w: V64,

@@ -12,6 +12,9 @@
 //! | disk | uniform by area (concentric map) | `d² / (A · abs(cos θy))` |
 //! | triangle, Ω ≥ [`MIN_SPHERICAL_SOLID_ANGLE`] | uniform in solid angle (Arvo 1995) | `1 / Ω` |
 //! | triangle, smaller | uniform by area | `d² / (A · abs(cos θy))` |
+//! | distant, γ > 0 | uniform in its cone of directions | `1 / (2π(1 − cos γ))` |
+//! | distant, γ = 0 | its direction | delta: reported as `pdf = 1`, `delta = true` |
+//! | environment | the host's (see [`crate::direct::Environment`]) | the host's |
 //!
 //! # The estimator
 //!
@@ -27,10 +30,14 @@
 //! `radiance` is `I · falloff / d²` (the irradiance at normal incidence; for a virtual point
 //! light the falloff is `max(0, cos θ)` about its normal), so the same formula
 //! holds. One convention for delta lights everywhere: their pdf is the delta's weight,
-//! reported as 1, by [`sample_point`] and by [`pdf_point`] at the light's position (0 at any
-//! other point). A delta light can never be hit by a BRDF ray: [`intersect`] gives `None` and
-//! [`pdf_direction`] 0 for it (a direction reaches it with probability 0), and MIS must give
-//! its light samples the full weight (the estimators do: a BSDF density of 0).
+//! reported as 1, by [`sample_point`] and by [`pdf_point`] at the light's position (for a
+//! distant light of angular radius 0, its direction; 0 at any other point). A delta light can
+//! never be hit by a BRDF ray: [`intersect`] gives `None` and [`pdf_direction`] 0 for it (a
+//! direction reaches it with probability 0), and MIS must give its light samples the full
+//! weight (the estimators do: a BSDF density of 0). A distant light's point is at infinity
+//! (`distance` = +∞, `position` its unit direction) with radiance `E / (π sin²γ)`, or `E` for
+//! γ = 0 (a delta); an environment's points are the host's: [`sample_point`] and [`intersect`]
+//! return `None` for it and [`pdf_point`] 0.
 //!
 //! # Conventions
 //!
@@ -51,10 +58,12 @@
 
 mod delta;
 pub(crate) mod disk;
+mod distant;
 mod sphere;
 mod triangle;
 mod vec64;
 
+use crate::colour::Rgb;
 use crate::light::Light;
 use glam::Vec3;
 use vec64::V64;
@@ -72,7 +81,7 @@ pub struct LightPoint {
     pub normal: Vec3,
     /// Unit direction from x to `position`.
     pub direction: Vec3,
-    /// Distance from x to `position` (> 0).
+    /// Distance from x to `position` (> 0; +∞ for a distant or environment light).
     pub distance: f32,
     /// Solid-angle pdf at x of having sampled `direction` (> 0, finite); 1 for a delta light.
     pub pdf: f32,
@@ -84,7 +93,7 @@ pub struct LightPoint {
     /// `I · falloff / d²`, already divided by the squared distance (do not divide again: the
     /// contribution is `f · radiance · cos θi / pdf` with `pdf` = 1), 0 outside a spot's cone
     /// or behind a VPL.
-    pub radiance: f32,
+    pub radiance: Rgb,
 }
 
 impl LightPoint {
@@ -97,16 +106,19 @@ impl LightPoint {
         distance: f32,
         pdf: f32,
         delta: bool,
-        radiance: f32,
+        radiance: Rgb,
     ) -> Option<LightPoint> {
         let ok = position.is_finite()
             && normal.is_finite()
             && direction.is_finite()
             && distance > 0.0
-            && distance < f32::INFINITY
+            && !distance.is_nan()
             && pdf > 0.0
             && pdf < f32::INFINITY
-            && (0.0..f32::INFINITY).contains(&radiance);
+            && radiance
+                .to_array()
+                .iter()
+                .all(|c| (0.0..f32::INFINITY).contains(c));
         ok.then_some(LightPoint {
             position,
             normal,
@@ -135,13 +147,17 @@ fn unit_square(u: [f32; 2]) -> Option<[f64; 2]> {
 /// (see the [module documentation](self) for the pdf and the estimator).
 ///
 /// ```
-/// use manylights::{light_sample, Light};
+/// use manylights::{light_sample, Light, Rgb};
 /// use glam::Vec3;
 ///
-/// let sphere = Light::Sphere { center: Vec3::new(0.0, 0.0, 4.0), radius: 1.0, radiance: 2.0 };
+/// let sphere = Light::Sphere {
+///     center: Vec3::new(0.0, 0.0, 4.0),
+///     radius: 1.0,
+///     radiance: Rgb::grey(2.0),
+/// };
 /// let s = light_sample::sample_point(&sphere, Vec3::ZERO, [0.3, 0.7]).unwrap();
 /// assert_eq!(s.pdf, light_sample::pdf_point(&sphere, Vec3::ZERO, s.position));
-/// assert_eq!(s.radiance, 2.0);
+/// assert_eq!(s.radiance, Rgb::grey(2.0));
 /// ```
 pub fn sample_point(light: &Light, x: Vec3, u: [f32; 2]) -> Option<LightPoint> {
     let u = unit_square(u)?;
@@ -173,6 +189,12 @@ pub fn sample_point(light: &Light, x: Vec3, u: [f32; 2]) -> Option<LightPoint> {
             let n = V64::from_f32(normal).normalize()?;
             delta::sample(position, intensity, x, |w| n.dot(w).max(0.0))
         }
+        Light::Distant {
+            direction,
+            angular_radius,
+            irradiance,
+        } => distant::sample(direction, angular_radius, irradiance, u),
+        Light::Environment { .. } => None,
         Light::Sphere {
             center,
             radius,
@@ -198,10 +220,11 @@ pub fn sample_point(light: &Light, x: Vec3, u: [f32; 2]) -> Option<LightPoint> {
 }
 
 /// The solid-angle pdf at `x` with which [`sample_point`] returns the point `point` of `light`
-/// (taken as the first point of the light on the ray from x through it); 0 wherever
-/// `sample_point` gives `None`. For point, spot and virtual point lights the delta's weight,
-/// reported as 1, exactly as `sample_point` reports it: 1 at the light's position, 0 at any
-/// other point.
+/// (taken as the first point of the light on the ray from x through it; for a distant light,
+/// `point` is the direction, as its points' `position` is); 0 wherever `sample_point` gives
+/// `None`, and for the environment (the host's). For point, spot and virtual point lights and
+/// distant ones of angular radius 0 the delta's weight, reported as 1, exactly as
+/// `sample_point` reports it: 1 at the light's position (direction), 0 at any other point.
 pub fn pdf_point(light: &Light, x: Vec3, point: Vec3) -> f32 {
     if !(x.is_finite() && point.is_finite()) {
         return 0.0;
@@ -213,6 +236,20 @@ pub fn pdf_point(light: &Light, x: Vec3, point: Vec3) -> f32 {
                 .filter(|s| s.position == point)
                 .map_or(0.0, |s| s.pdf);
         }
+        Light::Distant { .. } => {
+            // A cone too narrow for f64 is a delta, as `sample_point` reports it.
+            return match sample_point(light, x, [0.5; 2]) {
+                Some(s) if s.delta => {
+                    if s.position == point {
+                        s.pdf
+                    } else {
+                        0.0
+                    }
+                }
+                _ => intersect(light, x, point).map_or(0.0, |lp| lp.pdf),
+            };
+        }
+        Light::Environment { .. } => 0.0,
         Light::Sphere { center, radius, .. } => sphere::pdf_point(center, radius, x, point),
         Light::Disk {
             center,
@@ -221,7 +258,7 @@ pub fn pdf_point(light: &Light, x: Vec3, point: Vec3) -> f32 {
             ..
         } => disk::pdf_point(center, normal, radius, x, point),
         Light::Triangle { vertices, .. } => triangle::view(&vertices, x, None)
-            .and_then(|view| view.at_point(0.0, true, x, point))
+            .and_then(|view| view.at_point(Rgb::ZERO, true, x, point))
             .map_or(0.0, |lp| f64::from(lp.pdf)),
     };
     // A density beyond f32 is "no finite density", as in `sample_point`.
@@ -244,6 +281,12 @@ pub fn intersect(light: &Light, x: Vec3, direction: Vec3) -> Option<LightPoint> 
     let w = V64::from_f32(direction).normalize()?;
     match *light {
         Light::Point { .. } | Light::Spot { .. } | Light::Vpl { .. } => None,
+        Light::Distant {
+            direction,
+            angular_radius,
+            irradiance,
+        } => distant::intersect(direction, angular_radius, irradiance, w),
+        Light::Environment { .. } => None,
         Light::Sphere {
             center,
             radius,

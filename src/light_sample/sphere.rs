@@ -13,6 +13,7 @@
 
 use super::vec64::V64;
 use super::LightPoint;
+use crate::colour::Rgb;
 use crate::math;
 use core::f64::consts::PI;
 use glam::Vec3;
@@ -54,7 +55,7 @@ fn cap_pdf(omc_max: f64) -> f64 {
 pub(super) fn sample(
     center: Vec3,
     radius: f32,
-    radiance: f32,
+    radiance: Rgb,
     x: Vec3,
     u: [f64; 2],
 ) -> Option<LightPoint> {
@@ -99,7 +100,7 @@ pub(super) fn sample(
 }
 
 /// The light point at `p` (on the sphere) seen from x inside or on the sphere.
-fn at_point_inside(c: V64, r: f64, radiance: f32, x: V64, p: Vec3) -> Option<LightPoint> {
+fn at_point_inside(c: V64, r: f64, radiance: Rgb, x: V64, p: Vec3) -> Option<LightPoint> {
     let pv = V64::from_f32(p);
     let d = pv - x;
     let dist = d.length();
@@ -108,7 +109,7 @@ fn at_point_inside(c: V64, r: f64, radiance: f32, x: V64, p: Vec3) -> Option<Lig
     let cos_y = -n.dot(w);
     let area = 4.0 * PI * r * r;
     let pdf = dist * dist / (area * cos_y.abs());
-    let l = if cos_y > 0.0 { radiance } else { 0.0 };
+    let l = if cos_y > 0.0 { radiance } else { Rgb::ZERO };
     LightPoint::checked(
         p,
         n.to_f32().normalize(),
@@ -132,7 +133,7 @@ pub(super) fn pdf_point(center: Vec3, radius: f32, x: Vec3, p: Vec3) -> f64 {
                 cap_pdf(omc_max)
             }
         }
-        View::Inside => at_point_inside(c, r, 0.0, xv, p).map_or(0.0, |lp| f64::from(lp.pdf)),
+        View::Inside => at_point_inside(c, r, Rgb::ZERO, xv, p).map_or(0.0, |lp| f64::from(lp.pdf)),
     }
 }
 
@@ -141,7 +142,7 @@ pub(super) fn pdf_point(center: Vec3, radius: f32, x: Vec3, p: Vec3) -> f64 {
 pub(super) fn intersect(
     center: Vec3,
     radius: f32,
-    radiance: f32,
+    radiance: Rgb,
     x: Vec3,
     w: V64,
 ) -> Option<LightPoint> {

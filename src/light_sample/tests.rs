@@ -23,9 +23,9 @@ fn irradiance(v: &[Vec3; 3], spherical: bool, n: usize) -> (f64, f64, f64) {
         };
         let est = view
             .sample(Vec3::ZERO, u.map(f64::from))
-            .and_then(|p| view.at_point(1.0, true, Vec3::ZERO, p))
+            .and_then(|p| view.at_point(1.0.into(), true, Vec3::ZERO, p))
             .map_or(0.0, |lp| {
-                f64::from(lp.radiance) * f64::from(lp.direction.z.max(0.0)) / f64::from(lp.pdf)
+                f64::from(lp.radiance.r) * f64::from(lp.direction.z.max(0.0)) / f64::from(lp.pdf)
             });
         s += est;
         s2 += est * est;

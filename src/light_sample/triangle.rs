@@ -18,6 +18,7 @@
 
 use super::vec64::V64;
 use super::LightPoint;
+use crate::colour::Rgb;
 use crate::math;
 use glam::Vec3;
 
@@ -121,7 +122,7 @@ impl View {
     /// The light point at `p` (on the triangle) seen from x.
     pub(crate) fn at_point(
         &self,
-        radiance: f32,
+        radiance: Rgb,
         two_sided: bool,
         x: Vec3,
         p: Vec3,
@@ -146,7 +147,7 @@ impl View {
             dist as f32,
             pdf as f32,
             false,
-            if lit { radiance } else { 0.0 },
+            if lit { radiance } else { Rgb::ZERO },
         )
     }
 

@@ -84,14 +84,19 @@ impl AcceptStats {
 ///
 /// ```
 /// use manylights::vpl::{Vpl, VplAcceptor};
+/// use manylights::Rgb;
 /// use glam::Vec3;
 ///
 /// let mut acc = VplAcceptor::new(64 * 64, 1000)?;
 /// acc.importons_mut().push_diffuse(Vec3::ZERO, Vec3::Z, 0.5)?;
-/// let candidate = Vpl { position: Vec3::new(0.0, 0.0, 1.0), normal: -Vec3::Z, intensity: 2.0 };
+/// let candidate = Vpl {
+///     position: Vec3::new(0.0, 0.0, 1.0),
+///     normal: -Vec3::Z,
+///     intensity: Rgb::grey(2.0),
+/// };
 /// // First frame: Φ̃_total = 0, everything is kept unchanged.
 /// let a = acc.accept(&candidate, 0.99)?.expect("p = 1");
-/// assert_eq!((a.probability, a.vpl.intensity), (1.0, 2.0));
+/// assert_eq!((a.probability, a.vpl.intensity), (1.0, Rgb::grey(2.0)));
 /// // Later frames: Φ̃_total from the rendered frames.
 /// acc.update(1e6)?;
 /// let p = acc.probability(&candidate)?;
@@ -116,7 +121,7 @@ pub struct VplAcceptor {
 /// VPL is a valid [`crate::Light`], and its intensity `I/p` is finite. For any ordinary
 /// intensity it is far below ε (3e-24 for I = 1), so p is the paper's.
 fn probability_floor(c: &Vpl) -> f32 {
-    let e = core::f64::consts::PI * f64::from(c.intensity);
+    let e = core::f64::consts::PI * f64::from(c.intensity.luminance());
     let f = e / f64::from(MAX_LIGHT_ENERGY) * (1.0 + 1e-6);
     if f <= 0.0 {
         0.0
@@ -295,9 +300,14 @@ impl VplAcceptor {
         let floor = probability_floor(c);
         // Monotone in the partial sum: f32 division and addition round monotonically.
         let enough = |s: f32| early && self.probability_of(s / n, floor) >= 1.0;
-        self.importons
-            .total(c.position, m, c.intensity, self.g_max, vis, enough)
-            / n
+        self.importons.total(
+            c.position,
+            m,
+            c.intensity.luminance(),
+            self.g_max,
+            vis,
+            enough,
+        ) / n
     }
 
     /// p from Φ̃_i and the candidate's [`probability_floor`].

@@ -44,6 +44,7 @@ mod importons;
 pub use acceptor::{AcceptStats, Accepted, VplAcceptor, DEFAULT_EPSILON};
 pub use importons::{Importons, DEFAULT_IMPORTONS};
 
+use crate::colour::Rgb;
 use crate::error::{Problem, VplError, VplField};
 use crate::light::{Light, MAX_COORDINATE, MAX_LIGHT_ENERGY};
 use glam::Vec3;
@@ -56,8 +57,9 @@ pub struct Vpl {
     pub position: Vec3,
     /// Normal: the emitting side (need not be unit length).
     pub normal: Vec3,
-    /// Radiant intensity along the normal (≥ 0).
-    pub intensity: f32,
+    /// Radiant intensity along the normal (W/sr, every channel ≥ 0); acceptance weighs its
+    /// luminance.
+    pub intensity: Rgb,
 }
 
 impl Vpl {
@@ -70,9 +72,9 @@ impl Vpl {
         }
     }
 
-    /// Its emitted power πI (as [`Light::energy`]).
+    /// Its emitted power πI, I the intensity's luminance (as [`Light::energy`]).
     pub fn energy(&self) -> f32 {
-        core::f32::consts::PI * self.intensity
+        core::f32::consts::PI * self.intensity.luminance()
     }
 
     /// Checks every field: finite position within [`MAX_COORDINATE`], finite non-zero normal,
@@ -81,18 +83,17 @@ impl Vpl {
     pub fn validate(&self) -> Result<Vec3, VplError> {
         check_position(VplField::Position, self.position)?;
         let n = unit(VplField::Normal, self.normal)?;
-        if !self.intensity.is_finite() {
-            return Err(err(VplField::Intensity, Problem::NotFinite, self.intensity));
+        for v in self.intensity.to_array() {
+            if !v.is_finite() {
+                return Err(err(VplField::Intensity, Problem::NotFinite, v));
+            }
+            if v < 0.0 {
+                return Err(err(VplField::Intensity, Problem::Negative, v));
+            }
         }
-        if self.intensity < 0.0 {
-            return Err(err(VplField::Intensity, Problem::Negative, self.intensity));
-        }
-        if core::f64::consts::PI * f64::from(self.intensity) > f64::from(MAX_LIGHT_ENERGY) {
-            return Err(err(
-                VplField::Intensity,
-                Problem::EnergyTooLarge,
-                self.intensity,
-            ));
+        let y = self.intensity.luminance();
+        if core::f64::consts::PI * f64::from(y) > f64::from(MAX_LIGHT_ENERGY) {
+            return Err(err(VplField::Intensity, Problem::EnergyTooLarge, y));
         }
         Ok(n)
     }

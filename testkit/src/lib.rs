@@ -13,6 +13,7 @@ mod rng;
 pub use rng::{splitmix64, SplitMix64};
 
 use glam::Vec3;
+use manylights::Rgb;
 use manylights::{Light, LightSample, LightTree, Material, TlImportance};
 use rand::{Rng, SeedableRng};
 use rand_pcg::Pcg64Mcg;
@@ -49,14 +50,14 @@ pub fn lights(n: usize, seed: u64) -> Vec<Light> {
             match i % 10 {
                 0..=3 => Light::Point {
                     position: c,
-                    intensity: power / (4.0 * PI),
+                    intensity: Rgb::grey(power / (4.0 * PI)),
                 },
                 4 | 5 => {
                     let half_angle = rng.random_range(10.0f32..60.0).to_radians();
                     Light::Spot {
                         position: c,
                         direction: unit_vector(&mut rng),
-                        intensity: power / (2.0 * PI * (1.0 - half_angle.cos())),
+                        intensity: Rgb::grey(power / (2.0 * PI * (1.0 - half_angle.cos()))),
                         half_angle,
                         falloff_start: half_angle * 0.8,
                     }
@@ -66,7 +67,7 @@ pub fn lights(n: usize, seed: u64) -> Vec<Light> {
                     Light::Sphere {
                         center: c,
                         radius,
-                        radiance: power / (PI * 4.0 * PI * radius * radius),
+                        radiance: Rgb::grey(power / (PI * 4.0 * PI * radius * radius)),
                     }
                 }
                 _ => {
@@ -83,13 +84,13 @@ pub fn lights(n: usize, seed: u64) -> Vec<Light> {
                     });
                     let t = Light::Triangle {
                         vertices,
-                        radiance: 1.0,
+                        radiance: Rgb::grey(1.0),
                         two_sided: false,
                     };
                     let area = t.area().max(1e-12);
                     Light::Triangle {
                         vertices,
-                        radiance: power / (PI * area),
+                        radiance: Rgb::grey(power / (PI * area)),
                         two_sided: false,
                     }
                 }
@@ -108,7 +109,7 @@ pub fn point_lights(n: usize, seed: u64) -> Vec<Light> {
             let power = rng.random_range(0.1f32..10.0);
             Light::Point {
                 position: c,
-                intensity: power / (4.0 * PI),
+                intensity: Rgb::grey(power / (4.0 * PI)),
             }
         })
         .collect()

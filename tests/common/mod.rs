@@ -11,6 +11,7 @@
 pub mod cut;
 
 use glam::{DVec3, Vec3};
+use manylights::Rgb;
 use manylights::{Importance, Light, Node4, Receiver, SlotBounds, TlImportance};
 use std::f32::consts::{FRAC_PI_2, PI};
 
@@ -82,7 +83,7 @@ pub fn random_light(rng: &mut Rng, spec: &SceneSpec, zero: bool) -> Light {
     match kind {
         0 => Light::Point {
             position: rng.in_cube(spec.half),
-            intensity: p(rng),
+            intensity: Rgb::grey(p(rng)),
         },
         1 => {
             let half_angle = half_angle(rng);
@@ -94,7 +95,7 @@ pub fn random_light(rng: &mut Rng, spec: &SceneSpec, zero: bool) -> Light {
             Light::Spot {
                 position: rng.in_cube(spec.half),
                 direction: rng.direction(),
-                intensity: p(rng),
+                intensity: Rgb::grey(p(rng)),
                 half_angle,
                 falloff_start,
             }
@@ -102,19 +103,19 @@ pub fn random_light(rng: &mut Rng, spec: &SceneSpec, zero: bool) -> Light {
         2 => Light::Sphere {
             center: rng.in_cube(spec.half),
             radius: rng.log_range(1e-3, 0.05 * spec.half),
-            radiance: p(rng),
+            radiance: Rgb::grey(p(rng)),
         },
         3 => Light::Disk {
             center: rng.in_cube(spec.half),
             normal: rng.direction(),
             radius: rng.log_range(1e-3, 0.05 * spec.half),
-            radiance: p(rng),
+            radiance: Rgb::grey(p(rng)),
             two_sided: rng.chance(0.5),
         },
         5 => Light::Vpl {
             position: rng.in_cube(spec.half),
             normal: rng.direction(),
-            intensity: p(rng),
+            intensity: Rgb::grey(p(rng)),
         },
         _ => {
             let v0 = rng.in_cube(spec.half);
@@ -138,7 +139,7 @@ pub fn random_light(rng: &mut Rng, spec: &SceneSpec, zero: bool) -> Light {
             };
             Light::Triangle {
                 vertices,
-                radiance,
+                radiance: radiance.into(),
                 two_sided: rng.chance(0.5),
             }
         }
@@ -167,11 +168,14 @@ pub fn zero_energy(l: &Light) -> bool {
     match *l {
         Light::Point { intensity, .. }
         | Light::Spot { intensity, .. }
-        | Light::Vpl { intensity, .. } => intensity == 0.0,
-        Light::Sphere { radiance, .. } | Light::Disk { radiance, .. } => radiance == 0.0,
+        | Light::Vpl { intensity, .. } => intensity == 0.0.into(),
+        Light::Sphere { radiance, .. } | Light::Disk { radiance, .. } => radiance == 0.0.into(),
         Light::Triangle {
             vertices, radiance, ..
-        } => radiance == 0.0 || vertices_area(&vertices) == 0.0,
+        } => radiance == 0.0.into() || vertices_area(&vertices) == 0.0,
+        Light::Distant { .. } | Light::Environment { .. } => {
+            unreachable!("lights at infinity are tested in tests/infinite.rs")
+        }
     }
 }
 
@@ -212,6 +216,9 @@ pub fn push_emitter_points(rng: &mut Rng, lights: &[Light], half: f32, xs: &mut 
             | Light::Sphere {
                 center: position, ..
             } => (position, rng.unit()),
+            Light::Distant { .. } | Light::Environment { .. } => {
+                unreachable!("lights at infinity are tested in tests/infinite.rs")
+            }
         };
         let t = half * rng.log_range(1e-4, 10.0);
         xs.push(c - m * t);
@@ -245,6 +252,9 @@ pub fn point_on_light(rng: &mut Rng, l: &Light) -> Vec3 {
                 b = 1.0 - b;
             }
             vertices[0] + (vertices[1] - vertices[0]) * a + (vertices[2] - vertices[0]) * b
+        }
+        Light::Distant { .. } | Light::Environment { .. } => {
+            unreachable!("lights at infinity are tested in tests/infinite.rs")
         }
     }
 }
@@ -587,6 +597,9 @@ pub fn contributes(light: &Light, x: Vec3, n: Vec3, receiver: Receiver, margin: 
             };
             side_ok && v.iter().any(|&p| (p - x).length() > 0.0 && rec(p - x))
         }
+        Light::Distant { .. } | Light::Environment { .. } => {
+            unreachable!("lights at infinity are tested in tests/infinite.rs")
+        }
     }
 }
 
@@ -713,6 +726,9 @@ pub fn move_to(l: &mut Light, c: Vec3) {
                 *v += t;
             }
         }
+        Light::Distant { .. } | Light::Environment { .. } => {
+            unreachable!("lights at infinity are tested in tests/infinite.rs")
+        }
     }
 }
 
@@ -789,14 +805,14 @@ pub fn ring_scene() -> (Vec<Light>, TlImportance) {
             center: Vec3::new(phi.cos(), phi.sin(), 0.0),
             normal: Vec3::Z,
             radius: 0.005,
-            radiance: 1.0 + (i % 5) as f32,
+            radiance: Rgb::grey(1.0 + (i % 5) as f32),
             two_sided: false,
         });
     }
     for i in 0..4 {
         lights.push(Light::Point {
             position: Vec3::new(i as f32 - 1.5, 0.5, -30.0),
-            intensity: 1.0,
+            intensity: Rgb::grey(1.0),
         });
     }
     let imp = TlImportance::with_receiver(

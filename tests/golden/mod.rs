@@ -6,6 +6,7 @@
 
 use glam::Vec3;
 use manylights::baseline::BinaryLightTree;
+use manylights::Rgb;
 use manylights::{BuildOptions, Light, LightTree, Slot};
 
 /// SplitMix64 (Steele, Lea, Flood 2014).
@@ -79,14 +80,14 @@ pub fn scene(seed: u64, n: usize, style: u32) -> Vec<Light> {
             match rng.below(9) {
                 0 => Light::Point {
                     position: c,
-                    intensity: power,
+                    intensity: Rgb::grey(power),
                 },
                 1 => {
                     let half_angle = rng.range(0.01, 3.1);
                     Light::Spot {
                         position: c,
                         direction: rng.direction(),
-                        intensity: power,
+                        intensity: Rgb::grey(power),
                         half_angle,
                         falloff_start: half_angle * 0.5,
                     }
@@ -94,13 +95,13 @@ pub fn scene(seed: u64, n: usize, style: u32) -> Vec<Light> {
                 2 => Light::Sphere {
                     center: c,
                     radius: rng.range(0.01, 3.0),
-                    radiance: power,
+                    radiance: Rgb::grey(power),
                 },
                 3 | 4 => Light::Disk {
                     center: c,
                     normal: rng.direction(),
                     radius: rng.range(0.01, 3.0),
-                    radiance: power,
+                    radiance: Rgb::grey(power),
                     two_sided: rng.below(2) == 0,
                 },
                 5 | 6 => {
@@ -112,14 +113,14 @@ pub fn scene(seed: u64, n: usize, style: u32) -> Vec<Light> {
                     };
                     Light::Triangle {
                         vertices,
-                        radiance: power,
+                        radiance: Rgb::grey(power),
                         two_sided: rng.below(3) == 0,
                     }
                 }
                 _ => Light::Vpl {
                     position: c,
                     normal: rng.direction(),
-                    intensity: power,
+                    intensity: Rgb::grey(power),
                 },
             }
         })

@@ -71,6 +71,16 @@ static ml_uniforms uniforms_of(rng *r) {
     return u;
 }
 
+static ml_rgb rgb(float r, float g, float b) {
+    ml_rgb c;
+    c.r = r;
+    c.g = g;
+    c.b = b;
+    return c;
+}
+
+static ml_rgb grey(float v) { return rgb(v, v, v); }
+
 static ml_vec3 v3(float x, float y, float z) {
     ml_vec3 v;
     v.x = x;
@@ -93,7 +103,7 @@ static ml_light make_light(rng *r, size_t i) {
     memset(&l, 0, sizeof l);
     l.kind = (uint32_t)(i % 6);
     l.position = v3(rng_range(r, -10, 10), rng_range(r, -10, 10), rng_range(r, 1, 6));
-    l.power = rng_range(r, 0.1f, 2.0f);
+    l.power = rgb(rng_range(r, 0.1f, 2.0f), rng_range(r, 0.1f, 2.0f), rng_range(r, 0.1f, 2.0f));
     switch (l.kind) {
     case ML_LIGHT_KIND_SPOT:
         l.direction = v3(rng_range(r, -0.5f, 0.5f), rng_range(r, -0.5f, 0.5f), -1.0f);
@@ -143,14 +153,14 @@ static ml_material lambert(float albedo) {
     ml_material m;
     memset(&m, 0, sizeof m);
     m.kind = ML_MATERIAL_KIND_LAMBERT;
-    m.albedo = albedo;
+    m.albedo = grey(albedo);
     return m;
 }
 
 static ml_material plastic(float albedo, float specular, float alpha) {
     ml_material m;
     m.kind = ML_MATERIAL_KIND_PLASTIC;
-    m.albedo = albedo;
+    m.albedo = grey(albedo);
     m.specular = specular;
     m.alpha = alpha;
     return m;
@@ -330,11 +340,14 @@ static void sample_job_run(sample_job *job) {
 /* ---- pmf consistency with the Rust core: a dump the Rust harness replays -------------- */
 
 static void dump_light(FILE *f, const ml_light *l) {
-    fprintf(f, "L %u %u %08x %08x %08x %08x %08x %08x %08x %08x %08x %08x %08x %08x %08x\n",
+    fprintf(f,
+            "L %u %u %08x %08x %08x %08x %08x %08x %08x %08x %08x %08x %08x %08x %08x %08x "
+            "%08x\n",
             (unsigned)l->kind, (unsigned)l->two_sided, bits(l->position.x), bits(l->position.y),
             bits(l->position.z), bits(l->direction.x), bits(l->direction.y), bits(l->direction.z),
-            bits(l->vertex2.x), bits(l->vertex2.y), bits(l->vertex2.z), bits(l->power),
-            bits(l->radius), bits(l->half_angle), bits(l->falloff_start));
+            bits(l->vertex2.x), bits(l->vertex2.y), bits(l->vertex2.z), bits(l->power.r),
+            bits(l->power.g), bits(l->power.b), bits(l->radius), bits(l->half_angle),
+            bits(l->falloff_start));
 }
 
 static void dump_tl(FILE *f, char tag, const ml_tl_point *p, uint32_t x, uint32_t light, float pmf) {
@@ -346,10 +359,12 @@ static void dump_tl(FILE *f, char tag, const ml_tl_point *p, uint32_t x, uint32_
 static void dump_bl(FILE *f, char tag, const ml_shading_point *p, uint32_t x, uint32_t light,
                     float pmf) {
     fprintf(f,
-            "%c %08x %08x %08x %08x %08x %08x %08x %08x %08x %u %08x %08x %08x %08x %u %08x\n",
+            "%c %08x %08x %08x %08x %08x %08x %08x %08x %08x %u %08x %08x %08x %08x %08x %08x "
+            "%u %08x\n",
             tag, bits(p->position.x), bits(p->position.y), bits(p->position.z),
             bits(p->normal.x), bits(p->normal.y), bits(p->normal.z), bits(p->wo.x),
-            bits(p->wo.y), bits(p->wo.z), (unsigned)p->material.kind, bits(p->material.albedo),
+            bits(p->wo.y), bits(p->wo.z), (unsigned)p->material.kind,
+            bits(p->material.albedo.r), bits(p->material.albedo.g), bits(p->material.albedo.b),
             bits(p->material.specular), bits(p->material.alpha), (unsigned)x, (unsigned)light,
             bits(pmf));
 }
@@ -439,11 +454,11 @@ static void scenario_tree(const ml_tree *tree, size_t n) {
 /* ---- a cached tree: loaded with its lights, corrupt bytes, the wrong lights ------------- */
 
 /* The estimate of technique t at sp with the uniform numbers of `seed`. */
-static double estimate_seeded(const ml_tree *tree, const ml_shading_point *sp, uint32_t t,
-                              uint64_t seed) {
+static ml_rgb64 estimate_seeded(const ml_tree *tree, const ml_shading_point *sp, uint32_t t,
+                                uint64_t seed) {
     rng r;
     ml_uniforms u = uniforms_of(&r);
-    double e = -1;
+    ml_rgb64 e = {-1, -1, -1};
     r.s = seed;
     OK(ml_direct_estimate(tree, sp, t, NULL, NULL, &u, &e));
     return e;
@@ -492,8 +507,8 @@ static void scenario_cache(const ml_tree *tree, const ml_light *lights, size_t n
             CHECK(memcmp(&pa, &pb, sizeof pa) == 0);
             t = (uint32_t)(k % 9);
             {
-                double ea = estimate_seeded(tree, &sp, t, seed);
-                double eb = estimate_seeded(loaded, &sp, t, seed);
+                ml_rgb64 ea = estimate_seeded(tree, &sp, t, seed);
+                ml_rgb64 eb = estimate_seeded(loaded, &sp, t, seed);
                 CHECK(memcmp(&ea, &eb, sizeof ea) == 0);
             }
         }
@@ -614,7 +629,7 @@ static void scenario_points(const ml_tree *tree, const ml_light *lights, size_t 
         OK(ml_light_sample_point(tree, l, x, rng_f32(&r), rng_f32(&r), &p));
         if (p.pdf > 0) {
             float q = -1;
-            CHECK(p.distance > 0 && p.radiance >= 0);
+            CHECK(p.distance > 0 && p.radiance.r >= 0 && p.radiance.g >= 0 && p.radiance.b >= 0);
             OK(ml_light_pdf_point(tree, l, x, p.position, &q));
             if (p.delta) {
                 /* One convention: the delta's weight, reported as 1, at its position. */
@@ -641,37 +656,44 @@ static void scenario_points(const ml_tree *tree, const ml_light *lights, size_t 
 /* ---- direct lighting against a closed form --------------------------------------------- */
 
 /* 40 sphere lights and 10 point lights above the point (0, 0, 0) with normal +z, all entirely
- * above its horizon: the radiance a Lambert surface of albedo rho reflects is
+ * above its horizon, in colour (each channel of each light drawn on its own): the radiance a
+ * Lambert surface of albedo rho reflects is, per channel,
  *   sum over spheres of rho · L · (r/d)² · cos θ  (irradiance π L sin²α cos θ)
  *   + sum over points of rho/π · I · cos θ / d². */
 #define DIRECT_LIGHTS 50
 
-static double direct_scene(ml_light *ls, float rho) {
+static void direct_scene(ml_light *ls, float rho, double exact[3]) {
     rng r;
-    int i;
-    double exact = 0;
+    int i, c;
     r.s = 4242;
+    exact[0] = exact[1] = exact[2] = 0;
     for (i = 0; i < DIRECT_LIGHTS; i++) {
         ml_light l;
-        double d, c;
+        double d, cos_t, power[3];
         memset(&l, 0, sizeof l);
         l.position = v3(rng_range(&r, -3, 3), rng_range(&r, -3, 3), rng_range(&r, 1.5f, 4));
         d = sqrt((double)l.position.x * l.position.x + (double)l.position.y * l.position.y +
                  (double)l.position.z * l.position.z);
-        c = l.position.z / d;
+        cos_t = l.position.z / d;
         if (i % 5 == 4) {
             l.kind = ML_LIGHT_KIND_POINT;
-            l.power = rng_range(&r, 0.5f, 2);
-            exact += rho / ML_PI * l.power * c / (d * d);
+            l.power = rgb(rng_range(&r, 0.5f, 2), rng_range(&r, 0.5f, 2), rng_range(&r, 0.5f, 2));
         } else {
             l.kind = ML_LIGHT_KIND_SPHERE;
             l.radius = rng_range(&r, 0.05f, 0.2f);
-            l.power = rng_range(&r, 0.5f, 3);
-            exact += rho * l.power * ((double)l.radius * l.radius) / (d * d) * c;
+            l.power = rgb(rng_range(&r, 0.5f, 3), rng_range(&r, 0.5f, 3), rng_range(&r, 0.5f, 3));
+        }
+        power[0] = l.power.r;
+        power[1] = l.power.g;
+        power[2] = l.power.b;
+        for (c = 0; c < 3; c++) {
+            if (l.kind == ML_LIGHT_KIND_POINT)
+                exact[c] += rho / ML_PI * power[c] * cos_t / (d * d);
+            else
+                exact[c] += rho * power[c] * ((double)l.radius * l.radius) / (d * d) * cos_t;
         }
         ls[i] = l;
     }
-    return exact;
 }
 
 static ml_shading_point direct_point(float rho) {
@@ -696,6 +718,22 @@ static void running_add(running *s, double x) {
     s->n++;
 }
 
+/* Three channels' running sums. */
+typedef struct running3 {
+    running c[3];
+} running3;
+
+static void running3_add(running3 *s, ml_rgb64 e) {
+    running_add(&s->c[0], e.r);
+    running_add(&s->c[1], e.g);
+    running_add(&s->c[2], e.b);
+}
+
+static int estimate_ok(ml_rgb64 e) {
+    return e.r >= 0 && e.r == e.r && e.g >= 0 && e.g == e.g && e.b >= 0 && e.b == e.b &&
+           e.r < INFINITY && e.g < INFINITY && e.b < INFINITY;
+}
+
 static int running_check(const running *s, double exact, const char *what, int line) {
     double mean = s->sum / (double)s->n;
     double var = (s->sum2 / (double)s->n - mean * mean) * (double)s->n / (double)(s->n - 1);
@@ -711,8 +749,17 @@ static int running_check(const running *s, double exact, const char *what, int l
     return 1;
 }
 
-static const char *const technique_names[9] = {"uniform",  "power", "tl",     "tl-split", "bl",
-                                               "mis-equal", "full", "tl-mis", "bl-mis"};
+/* Every channel within its tolerance (see running_check). */
+static int running3_check(const running3 *s, const double exact[3], const char *what, int line) {
+    int c, ok = 1;
+    for (c = 0; c < 3; c++) ok &= running_check(&s->c[c], exact[c], what, line);
+    return ok;
+}
+
+#define N_TECHNIQUES 10
+static const char *const technique_names[N_TECHNIQUES] = {
+    "uniform", "power", "tl", "tl-split", "bl", "mis-equal", "full", "tl-mis", "bl-mis",
+    "tl-mis-pinf"};
 
 static float never_hit(void *user, ml_vec3 x, ml_vec3 d) {
     (void)user;
@@ -733,56 +780,60 @@ static int32_t always_occluded(void *user, ml_vec3 x, ml_vec3 d, float t) {
 static void scenario_direct(void) {
     ml_light ls[DIRECT_LIGHTS];
     const float rho = 0.8f;
-    double exact = direct_scene(ls, rho);
-    ml_tree *tree = build_tree(ls, DIRECT_LIGHTS);
+    double exact[3];
+    ml_tree *tree;
     ml_shading_point sp = direct_point(rho);
     ml_estimator *est = NULL;
     uint32_t t;
     rng r;
     ml_uniforms u = uniforms_of(&r);
+    direct_scene(ls, rho, exact);
+    tree = build_tree(ls, DIRECT_LIGHTS);
     r.s = 31337;
     OK(ml_estimator_create(tree, &est));
-    for (t = 0; t < 9; t++) {
-        running s = {0, 0, 0};
+    for (t = 0; t < N_TECHNIQUES; t++) {
+        running3 s;
         long k, n = (t == ML_TECHNIQUE_FULL || t == ML_TECHNIQUE_MIS_EQUAL ||
                      t == ML_TECHNIQUE_TL_SPLIT) ? 1500 : 6000;
+        memset(&s, 0, sizeof s);
         OK(ml_estimator_set_point(est, &sp, t, NULL));
         for (k = 0; k < n; k++) {
-            double e = -1;
+            ml_rgb64 e = {-1, -1, -1};
             OK(ml_estimator_estimate(est, NULL, &u, &e));
-            CHECK(e >= 0 && e == e);
-            running_add(&s, e);
+            CHECK(estimate_ok(e));
+            running3_add(&s, e);
         }
-        running_check(&s, exact, technique_names[t], __LINE__);
+        running3_check(&s, exact, technique_names[t], __LINE__);
         /* The one call without a handle gives an estimate of the same quantity. */
         {
-            double e = -1;
+            ml_rgb64 e = {-1, -1, -1};
             OK(ml_direct_estimate(tree, &sp, t, NULL, NULL, &u, &e));
-            CHECK(e >= 0 && e == e);
+            CHECK(estimate_ok(e));
         }
     }
     /* Visibility callbacks: a first-surface distance of +infinity changes nothing; a shadow
      * ray that always hits leaves nothing. */
     {
         ml_visibility vis;
-        running s = {0, 0, 0};
+        running3 s;
         long k, calls = 0;
+        memset(&s, 0, sizeof s);
         vis.occluded = NULL;
         vis.first_hit = never_hit;
         vis.user_data = NULL;
         for (k = 0; k < 6000; k++) {
-            double e = -1;
+            ml_rgb64 e = {-1, -1, -1};
             OK(ml_direct_estimate(tree, &sp, ML_TECHNIQUE_DEFAULT, NULL, &vis, &u, &e));
-            running_add(&s, e);
+            running3_add(&s, e);
         }
-        running_check(&s, exact, "bl-mis with first_hit", __LINE__);
+        running3_check(&s, exact, "bl-mis with first_hit", __LINE__);
         vis.occluded = always_occluded;
         vis.first_hit = NULL;
         vis.user_data = &calls;
         for (k = 0; k < 200; k++) {
-            double e = -1;
+            ml_rgb64 e = {-1, -1, -1};
             OK(ml_direct_estimate(tree, &sp, ML_TECHNIQUE_TL_MIS, NULL, &vis, &u, &e));
-            CHECK(e == 0);
+            CHECK(e.r == 0 && e.g == 0 && e.b == 0);
         }
         CHECK(calls > 0);
     }
@@ -790,21 +841,27 @@ static void scenario_direct(void) {
     OK(ml_tree_free(tree));
 }
 
-/* The lower level with the host's own Lambert BSDF (cosine sampling by Malley's method). */
+/* The lower level with the host's own Lambert BSDF (cosine sampling by Malley's method), in
+ * the host's own colour arithmetic: each channel times the weight's scale. */
 typedef struct host_hit {
-    double sum;
+    ml_rgb64 sum;
     float f;
     float cos_theta;
 } host_hit;
 
-static void on_hit(void *user, const ml_light_hit *hit) {
-    host_hit *h = (host_hit *)user;
-    double value = (double)h->f * hit->point.radiance * h->cos_theta;
-    h->sum += value * hit->weighted.scale;
+static void add_scaled(ml_rgb64 *sum, ml_rgb radiance, double k) {
+    sum->r += radiance.r * k;
+    sum->g += radiance.g * k;
+    sum->b += radiance.b * k;
 }
 
-static double host_estimate(ml_estimator *est, ml_uniforms *u, float rho, int *steps) {
-    double sum = 0;
+static void on_hit(void *user, const ml_light_hit *hit) {
+    host_hit *h = (host_hit *)user;
+    add_scaled(&h->sum, hit->point.radiance, (double)h->f * h->cos_theta * hit->weighted.scale);
+}
+
+static ml_rgb64 host_estimate(ml_estimator *est, ml_uniforms *u, float rho, int *steps) {
+    ml_rgb64 sum = {0, 0, 0};
     float f = rho / (float)ML_PI;
     OK(ml_estimator_start(est));
     for (;;) {
@@ -819,12 +876,10 @@ static double host_estimate(ml_estimator *est, ml_uniforms *u, float rho, int *s
         if (s.kind == ML_STEP_KIND_LIGHT) {
             float c = s.point.direction.z;
             ml_weighted w;
-            double value;
-            if (c <= 0 || s.point.radiance <= 0) continue;
-            value = (double)f * s.point.radiance * c;
+            if (c <= 0) continue;
             OK(ml_estimator_weigh(est, s.needs_bsdf_pdf ? c / (float)ML_PI : 0, &w));
             CHECK(w.weight >= 0 && w.weight <= 1 && w.scale >= 0);
-            sum += value * w.scale;
+            add_scaled(&sum, s.point.radiance, (double)f * c * w.scale);
         } else {
             float r = sqrtf(s.u0), phi = 2 * (float)ML_PI * s.u1;
             float z = sqrtf(1 - s.u0 > 0 ? 1 - s.u0 : 0);
@@ -832,13 +887,15 @@ static double host_estimate(ml_estimator *est, ml_uniforms *u, float rho, int *s
             host_hit h;
             uint32_t any = 7;
             if (z <= 0) continue;
-            h.sum = 0;
+            h.sum.r = h.sum.g = h.sum.b = 0;
             h.f = f;
             h.cos_theta = z;
             OK(ml_estimator_bsdf_hits(est, wi, z / (float)ML_PI, (float)INFINITY, on_hit, &h,
                                       &any));
             CHECK(any == 0 || any == 1);
-            sum += h.sum;
+            sum.r += h.sum.r;
+            sum.g += h.sum.g;
+            sum.b += h.sum.b;
         }
     }
     return sum;
@@ -847,26 +904,29 @@ static double host_estimate(ml_estimator *est, ml_uniforms *u, float rho, int *s
 static void scenario_lower_level(void) {
     ml_light ls[DIRECT_LIGHTS];
     const float rho = 0.6f;
-    double exact = direct_scene(ls, rho);
-    ml_tree *tree = build_tree(ls, DIRECT_LIGHTS);
+    double exact[3];
+    ml_tree *tree;
     ml_shading_point sp = direct_point(rho);
     ml_estimator *est = NULL;
     uint32_t t;
     rng r;
     ml_uniforms u = uniforms_of(&r);
+    direct_scene(ls, rho, exact);
+    tree = build_tree(ls, DIRECT_LIGHTS);
     r.s = 2718;
     OK(ml_estimator_create(tree, &est));
     /* The tree may go first: the estimator keeps what it needs. */
     OK(ml_tree_free(tree));
-    for (t = 0; t < 9; t++) {
-        running s = {0, 0, 0};
+    for (t = 0; t < N_TECHNIQUES; t++) {
+        running3 s;
         long k, n = (t == ML_TECHNIQUE_FULL || t == ML_TECHNIQUE_MIS_EQUAL ||
                      t == ML_TECHNIQUE_TL_SPLIT) ? 1500 : 6000;
         int steps = 0;
+        memset(&s, 0, sizeof s);
         OK(ml_estimator_set_point(est, &sp, t, NULL));
-        for (k = 0; k < n; k++) running_add(&s, host_estimate(est, &u, rho, &steps));
+        for (k = 0; k < n; k++) running3_add(&s, host_estimate(est, &u, rho, &steps));
         CHECK(steps >= n);
-        running_check(&s, exact, technique_names[t], __LINE__);
+        running3_check(&s, exact, technique_names[t], __LINE__);
     }
     OK(ml_estimator_free(est));
 }
@@ -880,7 +940,8 @@ static void scenario_wavefront(void) {
     ml_light ls[DIRECT_LIGHTS];
     ml_tree *tree;
     ml_shading_point sps[WAVE_POINTS];
-    double batch[WAVE_POINTS * WAVE_PER_POINT], single;
+    ml_rgb64 batch[WAVE_POINTS * WAVE_PER_POINT], single;
+    double exact[3];
     uint32_t which[300];
     ml_vec3 xs[300];
     float u0s[300], u1s[300];
@@ -890,7 +951,7 @@ static void scenario_wavefront(void) {
     ml_uniforms ua = uniforms_of(&ra), ub = uniforms_of(&rb);
     uint32_t t;
     int i, j;
-    direct_scene(ls, 0.5f);
+    direct_scene(ls, 0.5f, exact);
     tree = build_tree(ls, DIRECT_LIGHTS);
     r.s = 77;
     for (i = 0; i < WAVE_POINTS; i++) {
@@ -906,7 +967,7 @@ static void scenario_wavefront(void) {
         for (i = 0; i < WAVE_POINTS; i++) {
             OK(ml_estimator_set_point(est, &sps[i], t, NULL));
             for (j = 0; j < WAVE_PER_POINT; j++) {
-                single = -1;
+                single.r = single.g = single.b = -1;
                 OK(ml_estimator_estimate(est, NULL, &ub, &single));
                 CHECK(memcmp(&single, &batch[i * WAVE_PER_POINT + j], sizeof single) == 0);
             }
@@ -916,7 +977,7 @@ static void scenario_wavefront(void) {
         ra.s = rb.s = 2000 + t;
         OK(ml_direct_estimate_batch(tree, sps, WAVE_POINTS, 1, t, NULL, NULL, &ua, batch));
         for (i = 0; i < WAVE_POINTS; i++) {
-            single = -1;
+            single.r = single.g = single.b = -1;
             OK(ml_direct_estimate(tree, &sps[i], t, NULL, NULL, &ub, &single));
             CHECK(memcmp(&single, &batch[i], sizeof single) == 0);
         }
@@ -936,6 +997,258 @@ static void scenario_wavefront(void) {
         CHECK(memcmp(&p, &pts[i], sizeof p) == 0);
     }
     OK(ml_light_sample_point_batch(tree, NULL, NULL, NULL, NULL, 0, NULL));
+    OK(ml_tree_free(tree));
+}
+
+/* ---- a sun and a host environment ------------------------------------------------------ */
+
+/* The host's uniform environment of radiance SKY_L, sampled uniformly over the sphere. */
+static const float SKY_L[3] = {0.2f, 0.3f, 0.45f};
+
+static int32_t sky_sample(void *user, float u0, float u1, ml_vec3 *d, ml_rgb *radiance,
+                          float *pdf) {
+    float z = 1 - 2 * u0, r = sqrtf(1 - z * z > 0 ? 1 - z * z : 0), phi = 2 * (float)ML_PI * u1;
+    ++*(long *)user;
+    *d = v3(r * cosf(phi), r * sinf(phi), z);
+    *radiance = rgb(SKY_L[0], SKY_L[1], SKY_L[2]);
+    *pdf = 1 / (4 * (float)ML_PI);
+    return 1;
+}
+
+static void sky_eval(void *user, ml_vec3 d, ml_rgb *radiance, float *pdf) {
+    (void)user;
+    (void)d;
+    *radiance = rgb(SKY_L[0], SKY_L[1], SKY_L[2]);
+    *pdf = 1 / (4 * (float)ML_PI);
+}
+
+#define INFINITE_LIGHTS (DIRECT_LIGHTS + 2)
+#define SKY_INDEX (DIRECT_LIGHTS + 1)
+
+/* direct_scene's lights, a sun of irradiance E (its cap entirely above the horizon, at θ from
+ * the normal: it reflects ρ/π · E cos θ) and the uniform sky (it reflects ρ L). */
+static void infinite_scene(ml_light *ls, float rho, double exact[3]) {
+    ml_light sun, sky;
+    const float e[3] = {1.5f, 1.1f, 0.7f};
+    double len, cos_t, y;
+    int c;
+    direct_scene(ls, rho, exact);
+    memset(&sun, 0, sizeof sun);
+    sun.kind = ML_LIGHT_KIND_DISTANT;
+    sun.direction = v3(0.4f, -0.3f, 1);
+    sun.half_angle = 0.05f;
+    sun.power = rgb(e[0], e[1], e[2]);
+    len = sqrt(0.16 + 0.09 + 1.0);
+    cos_t = 1.0 / len;
+    for (c = 0; c < 3; c++) exact[c] += rho / ML_PI * e[c] * cos_t + rho * SKY_L[c];
+    memset(&sky, 0, sizeof sky);
+    sky.kind = ML_LIGHT_KIND_ENVIRONMENT;
+    y = ML_PI * (0.2126 * SKY_L[0] + 0.7152 * SKY_L[1] + 0.0722 * SKY_L[2]) * 1.0001;
+    for (c = 0; c < 6; c++) sky.irradiance_bounds[c] = (float)y;
+    ls[DIRECT_LIGHTS] = sun;
+    ls[SKY_INDEX] = sky;
+}
+
+/* The sky's hits are shaded with the host's radiance. */
+static void on_hit_sky(void *user, const ml_light_hit *hit) {
+    host_hit *h = (host_hit *)user;
+    ml_rgb l = hit->point.radiance;
+    if (hit->light == SKY_INDEX) {
+        CHECK(l.r == 0 && l.g == 0 && l.b == 0);
+        l = rgb(SKY_L[0], SKY_L[1], SKY_L[2]);
+    }
+    add_scaled(&h->sum, l, (double)h->f * h->cos_theta * hit->weighted.scale);
+}
+
+/* host_estimate with the environment: its steps sampled by the host, escaping rays weighed
+ * with its pdf. */
+static ml_rgb64 host_estimate_env(ml_estimator *est, ml_uniforms *u, float rho, long *env_steps) {
+    ml_rgb64 sum = {0, 0, 0};
+    float f = rho / (float)ML_PI;
+    long calls = 0;
+    OK(ml_estimator_start(est));
+    for (;;) {
+        ml_step s;
+        if (ml_estimator_next(est, u, &s) != ML_OK) {
+            g_failures++;
+            fprintf(stderr, "ml_estimator_next: %s\n", ml_last_error_message());
+            break;
+        }
+        if (s.kind == ML_STEP_KIND_DONE) break;
+        if (s.kind == ML_STEP_KIND_ENVIRONMENT) {
+            ml_vec3 d;
+            ml_rgb l;
+            float pdf;
+            CHECK(s.light == SKY_INDEX && s.pmf > 0 && s.pmf <= 1);
+            ++*env_steps;
+            if (!sky_sample(&calls, s.u0, s.u1, &d, &l, &pdf)) continue;
+            OK(ml_estimator_environment_point(est, d, l, pdf, &s));
+            CHECK(s.kind == ML_STEP_KIND_LIGHT && s.point.distance == (float)INFINITY);
+        }
+        if (s.kind == ML_STEP_KIND_LIGHT) {
+            float c = s.point.direction.z;
+            ml_weighted w;
+            if (c <= 0) continue;
+            OK(ml_estimator_weigh(est, s.needs_bsdf_pdf ? c / (float)ML_PI : 0, &w));
+            CHECK(w.weight >= 0 && w.weight <= 1 && w.scale >= 0);
+            add_scaled(&sum, s.point.radiance, (double)f * c * w.scale);
+        } else {
+            float r = sqrtf(s.u0), phi = 2 * (float)ML_PI * s.u1;
+            float z = sqrtf(1 - s.u0 > 0 ? 1 - s.u0 : 0);
+            ml_vec3 wi = v3(r * cosf(phi), r * sinf(phi), z);
+            host_hit h;
+            uint32_t any = 7;
+            if (z <= 0) continue;
+            h.sum.r = h.sum.g = h.sum.b = 0;
+            h.f = f;
+            h.cos_theta = z;
+            OK(ml_estimator_bsdf_hits_env(est, wi, z / (float)ML_PI, (float)INFINITY,
+                                          1 / (4 * (float)ML_PI), on_hit_sky, &h, &any));
+            CHECK(any == 1);
+            sum.r += h.sum.r;
+            sum.g += h.sum.g;
+            sum.b += h.sum.b;
+        }
+    }
+    return sum;
+}
+
+/* The lights of direct_scene with a sun and a host sky, in colour: every technique through
+ * the one call with the host's environment and through the step loop, against the closed
+ * form. */
+static void scenario_infinite(void) {
+    ml_light ls[INFINITE_LIGHTS];
+    const float rho = 0.7f;
+    double exact[3];
+    ml_tree *tree;
+    ml_shading_point sp = direct_point(rho);
+    ml_estimator *est = NULL;
+    ml_environment env;
+    uint32_t t;
+    long calls = 0, env_steps = 0;
+    rng r;
+    ml_uniforms u = uniforms_of(&r);
+    infinite_scene(ls, rho, exact);
+    tree = build_tree(ls, INFINITE_LIGHTS);
+    r.s = 8080;
+    env.sample = sky_sample;
+    env.eval = sky_eval;
+    env.user_data = &calls;
+    OK(ml_estimator_create(tree, &est));
+    for (t = 0; t < N_TECHNIQUES; t++) {
+        running3 s, s2;
+        long k, n = (t == ML_TECHNIQUE_FULL || t == ML_TECHNIQUE_MIS_EQUAL ||
+                     t == ML_TECHNIQUE_TL_SPLIT) ? 1500 : 6000;
+        memset(&s, 0, sizeof s);
+        memset(&s2, 0, sizeof s2);
+        OK(ml_estimator_set_point(est, &sp, t, NULL));
+        for (k = 0; k < n; k++) {
+            ml_rgb64 e = {-1, -1, -1};
+            OK(ml_estimator_estimate_env(est, NULL, &env, &u, &e));
+            CHECK(estimate_ok(e));
+            running3_add(&s, e);
+            running3_add(&s2, host_estimate_env(est, &u, rho, &env_steps));
+        }
+        running3_check(&s, exact, technique_names[t], __LINE__);
+        running3_check(&s2, exact, technique_names[t], __LINE__);
+        {
+            ml_rgb64 e = {-1, -1, -1};
+            OK(ml_direct_estimate_env(tree, &sp, t, NULL, NULL, &env, &u, &e));
+            CHECK(estimate_ok(e));
+        }
+    }
+    CHECK(calls > 0 && env_steps > 0);
+    OK(ml_estimator_free(est));
+    OK(ml_tree_free(tree));
+}
+
+/* Bad input to the calls of the environment. */
+static void bad_input_infinite(void) {
+    ml_light ls[INFINITE_LIGHTS];
+    double exact[3];
+    ml_tree *tree;
+    ml_shading_point sp = direct_point(0.5f);
+    ml_estimator *est = NULL;
+    ml_environment env, noeval;
+    ml_rgb64 e = {0, 0, 0};
+    ml_step step;
+    uint32_t any;
+    long calls = 0;
+    int i, env_step = 0, bsdf_step = 0;
+    rng r;
+    ml_uniforms u = uniforms_of(&r);
+    r.s = 99;
+    infinite_scene(ls, 0.5f, exact);
+    tree = build_tree(ls, INFINITE_LIGHTS);
+    env.sample = sky_sample;
+    env.eval = sky_eval;
+    env.user_data = &calls;
+    noeval = env;
+    noeval.eval = NULL;
+    BAD_VALUE(ml_direct_estimate, ml_direct_estimate(tree, &sp, 0, NULL, NULL, &u, &e), ML_ERR_STATE,
+              "environment");
+    BAD_NULL(ml_direct_estimate_env, ml_direct_estimate_env(tree, &sp, 0, NULL, NULL, NULL, &u, &e),
+             "`environment` is NULL");
+    BAD_NULL(ml_direct_estimate_env, ml_direct_estimate_env(tree, &sp, 0, NULL, NULL, &noeval, &u, &e),
+             "environment->eval");
+    BAD_VALUE(ml_direct_estimate_env, ml_direct_estimate_env(tree, &sp, 10, NULL, NULL, &env, &u, &e),
+              ML_ERR_INVALID_ARGUMENT, "technique: 10 is not an ml_technique");
+    OK(ml_estimator_create(tree, &est));
+    BAD_VALUE(ml_estimator_estimate_env, ml_estimator_estimate_env(est, NULL, &env, &u, &e),
+              ML_ERR_STATE, "est: not set up");
+    OK(ml_estimator_set_point(est, &sp, ML_TECHNIQUE_BL_MIS, NULL));
+    BAD_NULL(ml_estimator_estimate_env, ml_estimator_estimate_env(est, NULL, NULL, &u, &e),
+             "`environment` is NULL");
+    BAD_VALUE(ml_estimator_estimate, ml_estimator_estimate(est, NULL, &u, &e), ML_ERR_STATE,
+              "environment");
+    OK(ml_estimator_start(est));
+    BAD_NULL(ml_estimator_environment_point,
+             ml_estimator_environment_point(est, v3(0, 0, 1), rgb(1, 1, 1), 1, NULL), "`out` is NULL");
+    BAD_VALUE(ml_estimator_environment_point,
+              ml_estimator_environment_point(est, v3(0, 0, 1), rgb(1, 1, 1), 1, &step), ML_ERR_STATE,
+              "no environment step");
+    BAD_NULL(ml_estimator_bsdf_hits_env,
+             ml_estimator_bsdf_hits_env(est, v3(0, 0, 1), 1, (float)INFINITY, 0, NULL, NULL, &any),
+             "`each` is NULL");
+    /* Walk bl-mis until both an environment step and a BSDF step were given bad values. */
+    for (i = 0; i < 4000 && !(env_step && bsdf_step); i++) {
+        OK(ml_estimator_next(est, &u, &step));
+        if (step.kind == ML_STEP_KIND_DONE) {
+            OK(ml_estimator_start(est));
+        } else if (step.kind == ML_STEP_KIND_ENVIRONMENT && !env_step) {
+            env_step = 1;
+            BAD_VALUE(ml_estimator_environment_point,
+                      ml_estimator_environment_point(est, v3(0, 0, 1), rgb(1, 1, 1), -1, &step),
+                      ML_ERR_INVALID_ARGUMENT, "environment pdf");
+            BAD_VALUE(ml_estimator_environment_point,
+                      ml_estimator_environment_point(est, v3(0, 0, 0), rgb(1, 1, 1), 1, &step),
+                      ML_ERR_INVALID_ARGUMENT, "direction");
+            BAD_VALUE(ml_estimator_environment_point,
+                      ml_estimator_environment_point(est, v3(0, 0, 1), rgb(1, (float)NAN, 1), 1, &step),
+                      ML_ERR_INVALID_ARGUMENT, "environment radiance");
+        } else if (step.kind == ML_STEP_KIND_BSDF && !bsdf_step) {
+            host_hit h;
+            memset(&h, 0, sizeof h);
+            bsdf_step = 1;
+            BAD_VALUE(ml_estimator_bsdf_hits,
+                      ml_estimator_bsdf_hits(est, v3(0, 0, 1), 1, (float)INFINITY, on_hit_sky, &h, &any),
+                      ML_ERR_STATE, "environment");
+            BAD_VALUE(ml_estimator_bsdf_hits_env,
+                      ml_estimator_bsdf_hits_env(est, v3(0, 0, 1), 1, (float)INFINITY, (float)NAN,
+                                                 on_hit_sky, &h, &any),
+                      ML_ERR_INVALID_ARGUMENT, "environment pdf");
+        }
+    }
+    CHECK(env_step && bsdf_step);
+    /* A second environment light is refused, naming it. */
+    ls[DIRECT_LIGHTS] = ls[SKY_INDEX];
+    {
+        ml_tree *t2 = NULL;
+        BAD_VALUE(ml_tree_build, ml_tree_build(ls, INFINITE_LIGHTS, NULL, &t2), ML_ERR_INVALID_ARGUMENT,
+                  "lights[51]");
+        CHECK(t2 == NULL);
+    }
+    OK(ml_estimator_free(est));
     OK(ml_tree_free(tree));
 }
 
@@ -979,9 +1292,9 @@ static void scenario_vpl(void) {
         ml_vpl_decision d;
         c.position = v3(rng_range(&r, -3, 3), rng_range(&r, -3, 3), rng_range(&r, 0.5f, 3));
         c.normal = v3(0, 0, -1);
-        c.intensity = 1.5f;
+        c.intensity = grey(1.5f);
         OK(ml_acceptor_accept(acc, &c, rng_f32(&r), NULL, &d));
-        CHECK(d.accepted == 1 && d.probability == 1 && d.vpl.intensity == 1.5f);
+        CHECK(d.accepted == 1 && d.probability == 1 && d.vpl.intensity.r == 1.5f && d.vpl.intensity.b == 1.5f);
     }
     OK(ml_acceptor_reset_stats(acc));
     OK(ml_acceptor_set_total_luminance(acc, 4e4));
@@ -994,7 +1307,7 @@ static void scenario_vpl(void) {
         float p0 = -1, p1 = -1;
         c.position = v3(rng_range(&r, -6, 6), rng_range(&r, -6, 6), rng_range(&r, 0.3f, 4));
         c.normal = v3(rng_range(&r, -0.5f, 0.5f), rng_range(&r, -0.5f, 0.5f), -1);
-        c.intensity = rng_range(&r, 0.5f, 2);
+        c.intensity = rgb(rng_range(&r, 0.5f, 2), rng_range(&r, 0.5f, 2), rng_range(&r, 0.5f, 2));
         if (i % 50 == 0) {
             OK(ml_acceptor_probability(acc, &c, NULL, &p0));
             OK(ml_acceptor_probability(acc, &c, &vis, &p1));
@@ -1003,7 +1316,7 @@ static void scenario_vpl(void) {
         OK(ml_acceptor_accept(acc, &c, rng_f32(&r), i % 2 ? &vis : NULL, &d));
         if (d.accepted) {
             CHECK(d.probability > 0 && d.probability <= 1);
-            CHECK(fabs(d.vpl.intensity - c.intensity / d.probability) <= 1e-5 * d.vpl.intensity);
+            CHECK(fabs(d.vpl.intensity.g - c.intensity.g / d.probability) <= 1e-5 * d.vpl.intensity.g);
             accepted[n_acc].kind = ML_LIGHT_KIND_VPL;
             accepted[n_acc].two_sided = 0;
             accepted[n_acc].position = d.vpl.position;
@@ -1090,7 +1403,8 @@ static void scenario_bad_input(const ml_tree *tree, size_t n) {
     ml_importon imps[4];
     ml_accept_stats ast;
     const char *name = NULL;
-    double e = 0, dbl[2];
+    ml_rgb64 e = {0, 0, 0};
+    ml_rgb64 dbl[2];
     rng r;
     ml_uniforms u = uniforms_of(&r), badu = uniforms_of(&r), nullu = uniforms_of(&r);
     int i;
@@ -1135,7 +1449,7 @@ static void scenario_bad_input(const ml_tree *tree, size_t n) {
         ls[i].kind = ML_LIGHT_KIND_SPHERE;
         ls[i].position = v3((float)i, 0, 2);
         ls[i].radius = 0.1f;
-        ls[i].power = 1;
+        ls[i].power = grey(1);
     }
     BAD_NULL(ml_tree_build, ml_tree_build(NULL, 3, NULL, &t), "`lights` is NULL");
     BAD_NULL(ml_tree_build, ml_tree_build(ls, 4, NULL, NULL), "`out` is NULL");
@@ -1143,10 +1457,10 @@ static void scenario_bad_input(const ml_tree *tree, size_t n) {
     BAD_VALUE(ml_tree_build, ml_tree_build(ls, 4, NULL, &t), ML_ERR_INVALID_ARGUMENT,
               "lights[1].position (the sphere light's centre) is NaN or infinite");
     ls[1].position.y = 0;
-    ls[2].power = -1;
+    ls[2].power = rgb(1, -1, 1);
     BAD_VALUE(ml_tree_build, ml_tree_build(ls, 4, NULL, &t), ML_ERR_INVALID_ARGUMENT,
               "lights[2].power (the sphere light's radiance) is negative (got -1)");
-    ls[2].power = 1;
+    ls[2].power = grey(1);
     ls[3].radius = -1;
     BAD_VALUE(ml_tree_build, ml_tree_build(ls, 4, NULL, &t), ML_ERR_INVALID_ARGUMENT,
               "lights[3].radius must be positive (got -1)");
@@ -1226,12 +1540,12 @@ static void scenario_bad_input(const ml_tree *tree, size_t n) {
     free(bytes);
     /* The limits, named by their macros with the field's own value. */
     ls[0].kind = ML_LIGHT_KIND_POINT;
-    ls[0].power = 5e25f / (4 * (float)ML_PI);
+    ls[0].power = grey(5e25f / (4 * (float)ML_PI));
     BAD_VALUE(ml_tree_build, ml_tree_build(ls, 4, NULL, &t2), ML_ERR_INVALID_ARGUMENT,
               "lights[0].power (the point light's intensity) gives an energy of 5e25 W, above "
               "ML_MAX_LIGHT_ENERGY (1e24) (got 3.9788736e24)");
     CHECK(5e25 > ML_MAX_LIGHT_ENERGY);
-    ls[0].power = 1;
+    ls[0].power = grey(1);
     ls[0].position.x = 2 * ML_MAX_COORDINATE;
     BAD_VALUE(ml_tree_build, ml_tree_build(ls, 4, NULL, &t2), ML_ERR_INVALID_ARGUMENT,
               "lights[0].position exceeds ML_MAX_COORDINATE (1e15) in magnitude (got 2e15)");
@@ -1263,10 +1577,10 @@ static void scenario_bad_input(const ml_tree *tree, size_t n) {
     BAD_VALUE(ml_tree_sample_bl, ml_tree_sample_bl(tree, &sp, 0.5f, &s), ML_ERR_INVALID_ARGUMENT,
               "sp.material.alpha must be in (0, 1] (got 0)");
     sp.material.alpha = 0.3f;
-    sp.material.albedo = 2;
+    sp.material.albedo = rgb(0.5f, 0.5f, 2);
     BAD_VALUE(ml_tree_sample_bl, ml_tree_sample_bl(tree, &sp, 0.5f, &s), ML_ERR_INVALID_ARGUMENT,
               "sp.material.albedo must be in [0, 1] (got 2)");
-    sp.material.albedo = 0.5f;
+    sp.material.albedo = grey(0.5f);
     sp.material.kind = 7;
     BAD_VALUE(ml_tree_sample_bl, ml_tree_sample_bl(tree, &sp, 0.5f, &s), ML_ERR_INVALID_ARGUMENT,
               "sp.material.kind: 7 is not an ml_material_kind");
@@ -1423,12 +1737,12 @@ static void scenario_bad_input(const ml_tree *tree, size_t n) {
              "`uniforms` is NULL");
     BAD_NULL(ml_direct_estimate, ml_direct_estimate(tree, &sp, 0, NULL, NULL, &nullu, &e),
              "`uniforms->next_f32` is NULL");
-    BAD_VALUE(ml_direct_estimate, ml_direct_estimate(tree, &sp, 9, NULL, NULL, &u, &e),
-              ML_ERR_INVALID_ARGUMENT, "technique: 9 is not an ml_technique");
-    e = -7;
+    BAD_VALUE(ml_direct_estimate, ml_direct_estimate(tree, &sp, 10, NULL, NULL, &u, &e),
+              ML_ERR_INVALID_ARGUMENT, "technique: 10 is not an ml_technique (0 to 9)");
+    e.r = e.g = e.b = -7;
     BAD_VALUE(ml_direct_estimate, ml_direct_estimate(tree, &sp, ML_TECHNIQUE_TL, NULL, NULL, &badu, &e),
               ML_ERR_INVALID_ARGUMENT, "uniforms: a number from next_f32 or next_f64 is outside [0, 1) (got 1.5)");
-    CHECK(e == -7);
+    CHECK(e.r == -7 && e.g == -7 && e.b == -7);
     OK(ml_direct_params_default(&dp));
     dp.n_max = 0;
     BAD_VALUE(ml_direct_estimate, ml_direct_estimate(tree, &sp, 0, &dp, NULL, &u, &e),
@@ -1450,19 +1764,21 @@ static void scenario_bad_input(const ml_tree *tree, size_t n) {
               ml_direct_estimate_batch(tree, sps, 2, 1, 0, NULL, NULL, &u, dbl),
               ML_ERR_INVALID_ARGUMENT, "points[1].material.alpha must be in (0, 1] (got 2)");
     sps[1].material.alpha = 0.5f;
-    dbl[0] = dbl[1] = -7;
+    dbl[0].r = dbl[1].r = -7;
     BAD_VALUE(ml_direct_estimate_batch,
               ml_direct_estimate_batch(tree, sps, 2, 1, ML_TECHNIQUE_TL, NULL, NULL, &badu, dbl),
               ML_ERR_INVALID_ARGUMENT, "points[0]: uniforms: a number from next_f32 or next_f64 is outside [0, 1) (got 1.5)");
-    CHECK(dbl[0] == -7 && dbl[1] == -7);
+    CHECK(dbl[0].r == -7 && dbl[1].r == -7);
     BAD_VALUE(ml_direct_estimate_batch,
               ml_direct_estimate_batch(loaded, sps, 2, 1, 0, NULL, NULL, &u, dbl), ML_ERR_STATE,
               "loaded from bytes");
     OK(ml_direct_estimate_batch(tree, sps, 2, 1, 0, NULL, NULL, &u, dbl));
-    CHECK(dbl[0] >= 0 && dbl[1] >= 0);
+    CHECK(dbl[0].g >= 0 && dbl[1].g >= 0);
     vis.occluded = NULL;
     vis.first_hit = nan_hit;
     vis.user_data = NULL;
+    /* A stream whose TL sample is a light that lights sp, so that a shadow ray is traced. */
+    r.s = 1;
     BAD_VALUE(ml_direct_estimate, ml_direct_estimate(tree, &sp, ML_TECHNIQUE_TL, NULL, &vis, &u, &e),
               ML_ERR_INVALID_ARGUMENT, "visibility->first_hit returned NaN");
     BAD_NULL(ml_estimator_create, ml_estimator_create(NULL, &est), "`tree` is NULL");
@@ -1504,7 +1820,8 @@ static void scenario_bad_input(const ml_tree *tree, size_t n) {
             BAD_VALUE(ml_estimator_weigh, ml_estimator_weigh(est, (float)NAN, &w),
                       ML_ERR_INVALID_ARGUMENT, "bsdf_pdf must be finite and non-negative (got NaN)");
         } else if (step.kind == ML_STEP_KIND_BSDF) {
-            host_hit h = {0, 0, 0};
+            host_hit h;
+            memset(&h, 0, sizeof h);
             BAD_VALUE(ml_estimator_bsdf_hits,
                       ml_estimator_bsdf_hits(est, v3(0, 0, 0), 1, (float)INFINITY, on_hit, &h, u32s),
                       ML_ERR_INVALID_ARGUMENT, "direction must be finite and non-zero");
@@ -1514,6 +1831,8 @@ static void scenario_bad_input(const ml_tree *tree, size_t n) {
         }
     }
     OK(ml_estimator_free(est));
+
+    bad_input_infinite();
 
     /* VPL acceptance */
     OK(ml_acceptor_options_default(&ao));
@@ -1558,7 +1877,7 @@ static void scenario_bad_input(const ml_tree *tree, size_t n) {
               ML_ERR_INVALID_ARGUMENT, "total is NaN or infinite");
     cand.position = v3(0, 0, 1);
     cand.normal = v3(0, 0, -1);
-    cand.intensity = 1;
+    cand.intensity = grey(1);
     BAD_NULL(ml_acceptor_accept, ml_acceptor_accept(acc, NULL, 0.5f, NULL, &dec), "`candidate` is NULL");
     BAD_VALUE(ml_acceptor_accept, ml_acceptor_accept(acc, &cand, 1.0f, NULL, &dec),
               ML_ERR_INVALID_ARGUMENT, "xi must be in [0, 1) (got 1)");
@@ -1566,10 +1885,10 @@ static void scenario_bad_input(const ml_tree *tree, size_t n) {
     vvis.user_data = NULL;
     BAD_NULL(ml_acceptor_accept, ml_acceptor_accept(acc, &cand, 0.5f, &vvis, &dec),
              "`visibility->visible` is NULL");
-    cand.intensity = -1;
+    cand.intensity = rgb(1, 1, -1);
     BAD_VALUE(ml_acceptor_accept, ml_acceptor_accept(acc, &cand, 0.5f, NULL, &dec),
               ML_ERR_INVALID_ARGUMENT, "candidate.intensity is negative (got -1)");
-    cand.intensity = 1;
+    cand.intensity = grey(1);
     cand.normal = v3(0, 0, 0);
     BAD_NULL(ml_acceptor_probability, ml_acceptor_probability(acc, &cand, NULL, NULL), "`out` is NULL");
     BAD_VALUE(ml_acceptor_probability, ml_acceptor_probability(acc, &cand, NULL, &f),

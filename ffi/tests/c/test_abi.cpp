@@ -69,6 +69,7 @@ int main(int argc, char **argv) {
     scenario_direct();
     scenario_lower_level();
     scenario_wavefront();
+    scenario_infinite();
     scenario_vpl();
     scenario_bad_input(tree.get(), n);
 

@@ -4,6 +4,7 @@
 
 use arbitrary::Arbitrary;
 use glam::Vec3;
+use manylights::Rgb;
 use manylights::{Light, Material, ShadingPoint};
 
 /// Coordinates and sizes are bounded to ±`LIMIT`.
@@ -58,7 +59,7 @@ impl BLight {
         match *self {
             BLight::Point(p, i) => Light::Point {
                 position: v(p),
-                intensity: pos(i, 0.0),
+                intensity: Rgb::grey(pos(i, 0.0)),
             },
             // Just under π, not π: the spot's angle as the targets have always drawn it.
             #[allow(clippy::approx_constant)]
@@ -67,7 +68,7 @@ impl BLight {
                 Light::Spot {
                     position: v(p),
                     direction: n(d),
-                    intensity: pos(i, 0.0),
+                    intensity: Rgb::grey(pos(i, 0.0)),
                     half_angle: half,
                     falloff_start: pos(f, 0.0).min(half),
                 }
@@ -75,24 +76,24 @@ impl BLight {
             BLight::Sphere(c, r, l) => Light::Sphere {
                 center: v(c),
                 radius: pos(r, 1e-3),
-                radiance: pos(l, 0.0),
+                radiance: Rgb::grey(pos(l, 0.0)),
             },
             BLight::Disk(c, d, r, l, two_sided) => Light::Disk {
                 center: v(c),
                 normal: n(d),
                 radius: pos(r, 1e-3),
-                radiance: pos(l, 0.0),
+                radiance: Rgb::grey(pos(l, 0.0)),
                 two_sided,
             },
             BLight::Triangle(t, l, two_sided) => Light::Triangle {
                 vertices: [v(t[0]), v(t[1]), v(t[2])],
-                radiance: pos(l, 0.0),
+                radiance: Rgb::grey(pos(l, 0.0)),
                 two_sided,
             },
             BLight::Vpl(p, d, i) => Light::Vpl {
                 position: v(p),
                 normal: n(d),
-                intensity: pos(i, 0.0),
+                intensity: Rgb::grey(pos(i, 0.0)),
             },
         }
     }
@@ -114,13 +115,15 @@ impl BMaterial {
     pub fn material(self) -> Material {
         let unit = |x: u8| f32::from(x) / 255.0;
         match self {
-            BMaterial::Lambert(a) => Material::Lambert { albedo: unit(a) },
+            BMaterial::Lambert(a) => Material::Lambert {
+                albedo: Rgb::grey(unit(a)),
+            },
             BMaterial::Ggx(a, s) => Material::Ggx {
                 alpha: 0.01 + 0.99 * unit(a),
                 specular: unit(s),
             },
             BMaterial::Plastic(a, s, r) => Material::Plastic {
-                albedo: 0.5 * unit(a),
+                albedo: Rgb::grey(0.5 * unit(a)),
                 specular: 0.5 * unit(s),
                 alpha: 0.01 + 0.99 * unit(r),
             },

@@ -3,6 +3,7 @@
 
 use arbitrary::Arbitrary;
 use glam::Vec3;
+use manylights::Rgb;
 use manylights::{Light, LightTree};
 
 use crate::Checked;
@@ -28,36 +29,36 @@ impl RawLight {
         match *self {
             RawLight::Point(p, i) => Light::Point {
                 position: v(p),
-                intensity: i,
+                intensity: Rgb::grey(i),
             },
             RawLight::Spot(p, d, i, h, f) => Light::Spot {
                 position: v(p),
                 direction: v(d),
-                intensity: i,
+                intensity: Rgb::grey(i),
                 half_angle: h,
                 falloff_start: f,
             },
             RawLight::Sphere(c, r, l) => Light::Sphere {
                 center: v(c),
                 radius: r,
-                radiance: l,
+                radiance: Rgb::grey(l),
             },
             RawLight::Disk(c, n, r, l, two_sided) => Light::Disk {
                 center: v(c),
                 normal: v(n),
                 radius: r,
-                radiance: l,
+                radiance: Rgb::grey(l),
                 two_sided,
             },
             RawLight::Triangle(t, l, two_sided) => Light::Triangle {
                 vertices: [v(t[0]), v(t[1]), v(t[2])],
-                radiance: l,
+                radiance: Rgb::grey(l),
                 two_sided,
             },
             RawLight::Vpl(p, n, i) => Light::Vpl {
                 position: v(p),
                 normal: v(n),
-                intensity: i,
+                intensity: Rgb::grey(i),
             },
         }
     }

@@ -108,7 +108,7 @@ pub fn check(input: &Input) {
             let v = est
                 .estimate(&Unoccluded, &mut u)
                 .expect("numbers in [0, 1)");
-            assert!(v.is_finite() && v >= 0.0, "{t}: {v}");
+            assert!(v.iter().all(|c| c.is_finite() && *c >= 0.0), "{t}: {v:?}");
         }
     }
 }

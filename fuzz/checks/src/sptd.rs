@@ -122,7 +122,7 @@ pub struct Surface {
 
 impl Surface {
     fn material(&self, alpha: f32) -> Material {
-        let (albedo, specular) = (self.albedo.value(), self.specular.value());
+        let (albedo, specular) = (self.albedo.value().into(), self.specular.value());
         match self.kind {
             Kind::Lambert => Material::Lambert { albedo },
             Kind::Ggx => Material::Ggx { alpha, specular },

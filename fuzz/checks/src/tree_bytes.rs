@@ -11,6 +11,7 @@
 use arbitrary::Arbitrary;
 use glam::Vec3;
 use manylights::tree::{seal, HEADER_BYTES};
+use manylights::Rgb;
 use manylights::{Light, LightTree, TlImportance};
 
 /// The target's input.
@@ -32,7 +33,7 @@ fn valid_tree_bytes() -> Vec<u8> {
             Light::Sphere {
                 center: Vec3::new(t.sin() * 5.0, t.cos() * 5.0, 1.0 + (t * 0.37).sin()),
                 radius: 0.1 + 0.01 * t,
-                radiance: 1.0 + t,
+                radiance: Rgb::grey(1.0 + t),
             }
         })
         .collect();

@@ -15,6 +15,7 @@
 use arbitrary::Arbitrary;
 use glam::Vec3;
 use manylights::vpl::Accepted;
+use manylights::Rgb;
 use manylights::{Material, Vpl, VplAcceptor, VplField, MAX_COORDINATE, MAX_LIGHT_ENERGY};
 
 use crate::bounded::{Dir, Real};
@@ -102,13 +103,15 @@ impl RawMaterial {
     /// The material.
     pub fn material(self) -> Material {
         match self {
-            RawMaterial::Lambert(a) => Material::Lambert { albedo: a.value() },
+            RawMaterial::Lambert(a) => Material::Lambert {
+                albedo: Rgb::grey(a.value()),
+            },
             RawMaterial::Ggx(alpha, s) => Material::Ggx {
                 alpha: alpha.value(),
                 specular: s.value(),
             },
             RawMaterial::Plastic(a, s, alpha) => Material::Plastic {
-                albedo: a.value(),
+                albedo: Rgb::grey(a.value()),
                 specular: s.value(),
                 alpha: alpha.value(),
             },
@@ -146,7 +149,7 @@ impl Candidate {
         Vpl {
             position: self.position.point(),
             normal: self.normal.vector(),
-            intensity: self.intensity.value() as f32,
+            intensity: Rgb::grey(self.intensity.value() as f32),
         }
     }
 }
@@ -175,9 +178,13 @@ pub fn candidate_error(v: &Vpl) -> Option<VplField> {
         Some(VplField::Position)
     } else if bad_direction(v.normal) {
         Some(VplField::Normal)
-    } else if !(v.intensity.is_finite()
-        && v.intensity >= 0.0
-        && core::f64::consts::PI * f64::from(v.intensity) <= f64::from(MAX_LIGHT_ENERGY))
+    } else if !(v
+        .intensity
+        .to_array()
+        .iter()
+        .all(|c| c.is_finite() && *c >= 0.0)
+        && core::f64::consts::PI * f64::from(v.intensity.luminance())
+            <= f64::from(MAX_LIGHT_ENERGY))
     {
         Some(VplField::Intensity)
     } else {
@@ -248,13 +255,13 @@ fn kept(what: &str, c: &Vpl, p: f32, xi: f32, got: Option<Accepted>, input: &Inp
             assert_eq!(a.vpl.position, c.position, "{what}: {input:?}");
             assert_eq!(a.vpl.normal, c.normal, "{what}: {input:?}");
             assert_eq!(
-                a.vpl.intensity.to_bits(),
-                (c.intensity / p).to_bits(),
+                a.vpl.intensity.to_array().map(f32::to_bits),
+                (c.intensity / p).to_array().map(f32::to_bits),
                 "{what}: {a:?}: {input:?}"
             );
             assert!(
                 a.vpl.intensity.is_finite(),
-                "{what}: the scaled intensity of {c:?} is {} (p = {p}): {input:?}",
+                "{what}: the scaled intensity of {c:?} is {:?} (p = {p}): {input:?}",
                 a.vpl.intensity
             );
             if let Err(e) = a.vpl.light().validate(0) {

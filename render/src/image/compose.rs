@@ -1,13 +1,13 @@
 //! Comparison images: panels side by side, a row of magnified crops, caption strips.
 
-use super::{font, Image};
+use super::{font, Image, Pixel};
 
 /// Images side by side (same height), separated by `gap` black columns.
-pub fn side_by_side(images: &[&Image], gap: usize) -> (usize, usize, Vec<f32>) {
+pub fn side_by_side(images: &[&Image], gap: usize) -> (usize, usize, Vec<Pixel>) {
     let h = images.first().map_or(0, |i| i.height);
     let w: usize =
         images.iter().map(|i| i.width).sum::<usize>() + gap * images.len().saturating_sub(1);
-    let mut out = vec![0f32; w * h];
+    let mut out = vec![[0f32; 3]; w * h];
     let mut x0 = 0;
     for img in images {
         for y in 0..h.min(img.height) {
@@ -31,8 +31,8 @@ pub fn crop_region(width: usize, height: usize) -> (usize, usize, usize, usize) 
 
 /// The crops row: each image's [`crop_region`] magnified 2× (nearest neighbour), `w` wide
 /// and `h` high, placed as in [`side_by_side`].
-fn crops_row(images: &[&Image], gap: usize, w: usize, h: usize) -> Vec<f32> {
-    let mut row = vec![0f32; w * h];
+fn crops_row(images: &[&Image], gap: usize, w: usize, h: usize) -> Vec<Pixel> {
+    let mut row = vec![[0f32; 3]; w * h];
     let mut x0 = 0;
     for img in images {
         let (iw, ih) = (img.width, img.height);
@@ -51,10 +51,10 @@ fn crops_row(images: &[&Image], gap: usize, w: usize, h: usize) -> Vec<f32> {
 
 /// [`side_by_side`] with a second row: each image's crop of its lower middle quarter
 /// ([`crop_region`]), magnified 2× (nearest neighbour), below it, `gap` black rows between.
-pub fn side_by_side_with_crops(images: &[&Image], gap: usize) -> (usize, usize, Vec<f32>) {
+pub fn side_by_side_with_crops(images: &[&Image], gap: usize) -> (usize, usize, Vec<Pixel>) {
     let (w, h, top) = side_by_side(images, gap);
     let mut out = top;
-    out.extend(std::iter::repeat_n(0.0, w * gap));
+    out.extend(std::iter::repeat_n([0.0; 3], w * gap));
     out.extend(crops_row(images, gap, w, h));
     (w, 2 * h + gap, out)
 }
@@ -62,14 +62,18 @@ pub fn side_by_side_with_crops(images: &[&Image], gap: usize) -> (usize, usize, 
 /// Outlines each image's [`crop_region`] on the side-by-side row `top` (`w` wide): a 1-pixel
 /// line inside the region's border, in dashes of two white (1.0) and two black pixels so that
 /// it shows on bright and dark areas alike.
-fn outline_crop_regions(top: &mut [f32], w: usize, images: &[&Image], gap: usize) {
+fn outline_crop_regions(top: &mut [Pixel], w: usize, images: &[&Image], gap: usize) {
     let h = top.len().checked_div(w).unwrap_or(0);
     let mut x0 = 0;
     for img in images {
         let (ax, ay, bx, by) = crop_region(img.width, img.height);
         let mut set = |x: usize, y: usize| {
             if y < h {
-                top[y * w + x0 + x] = if (x + y) / 2 % 2 == 0 { 1.0 } else { 0.0 };
+                top[y * w + x0 + x] = if (x + y) / 2 % 2 == 0 {
+                    [1.0; 3]
+                } else {
+                    [0.0; 3]
+                };
             }
         };
         if img.width > 0 && img.height > 0 {
@@ -109,7 +113,7 @@ pub fn caption_scale(panels: &[(&str, &Image)]) -> usize {
 /// short) — and each image's [`crop_region`] outlined on the top row (1 pixel, dashed white
 /// and black), so that the crops row needs no labels of its own. Returns width, height
 /// ([`caption_height`] + 2 × image height + `gap`) and the values.
-pub fn side_by_side_labelled(panels: &[(&str, &Image)], gap: usize) -> (usize, usize, Vec<f32>) {
+pub fn side_by_side_labelled(panels: &[(&str, &Image)], gap: usize) -> (usize, usize, Vec<Pixel>) {
     if panels.is_empty() {
         return (0, 0, Vec::new());
     }
@@ -118,16 +122,17 @@ pub fn side_by_side_labelled(panels: &[(&str, &Image)], gap: usize) -> (usize, u
     outline_crop_regions(&mut top, w, &images, gap);
     let scale = caption_scale(panels);
     let strip = caption_height(scale);
-    let mut out = vec![0f32; w * strip];
+    let mut strip_values = vec![0f32; w * strip];
     let mut x0 = 0;
     for &(label, img) in panels {
         let text = font::truncate(label, scale, img.width.saturating_sub(scale));
         let dx = (img.width.saturating_sub(font::text_width(text, scale)) / 2).max(scale);
-        font::draw_text(&mut out, w, x0 + dx, scale, text, scale, 1.0);
+        font::draw_text(&mut strip_values, w, x0 + dx, scale, text, scale, 1.0);
         x0 += img.width + gap;
     }
+    let mut out: Vec<Pixel> = strip_values.into_iter().map(|v| [v; 3]).collect();
     out.extend(top);
-    out.extend(std::iter::repeat_n(0.0, w * gap));
+    out.extend(std::iter::repeat_n([0.0; 3], w * gap));
     out.extend(crops_row(&images, gap, w, h));
     (w, strip + 2 * h + gap, out)
 }

@@ -1,6 +1,7 @@
-//! Image files: 8-bit sRGB PNG, linear f32 OpenEXR, and the raw f32 cache of references.
+//! Image files: 8-bit sRGB PNG, linear f32 OpenEXR, and the raw f32 cache of references, all
+//! in RGB.
 
-use super::Image;
+use super::{Image, Pixel};
 use std::io::{BufWriter, Write};
 use std::path::Path;
 
@@ -38,7 +39,7 @@ fn create_parent(path: &Path) -> std::io::Result<()> {
 }
 
 /// Checks that `values` holds `width × height` values.
-fn check_size(path: &Path, width: usize, height: usize, values: &[f32]) -> std::io::Result<()> {
+fn check_size(path: &Path, width: usize, height: usize, values: &[Pixel]) -> std::io::Result<()> {
     if width == 0 || height == 0 || width.checked_mul(height) != Some(values.len()) {
         return Err(with_path(
             path,
@@ -49,9 +50,14 @@ fn check_size(path: &Path, width: usize, height: usize, values: &[f32]) -> std::
     Ok(())
 }
 
-/// Writes grey-level values (`width × height`, row-major, linear) as an 8-bit sRGB PNG
-/// (creating the folder if needed; errors name the file).
-pub fn write_png(path: &Path, width: usize, height: usize, values: &[f32]) -> std::io::Result<()> {
+/// Writes linear RGB pixels (`width × height`, row-major) as an 8-bit sRGB PNG, each channel
+/// clamped to [0, 1] (creating the folder if needed; errors name the file).
+pub fn write_png(
+    path: &Path,
+    width: usize,
+    height: usize,
+    values: &[Pixel],
+) -> std::io::Result<()> {
     check_size(path, width, height, values)?;
     let (Ok(w), Ok(h)) = (u32::try_from(width), u32::try_from(height)) else {
         return Err(with_path(
@@ -63,27 +69,32 @@ pub fn write_png(path: &Path, width: usize, height: usize, values: &[f32]) -> st
     create_parent(path)?;
     let file = std::fs::File::create(path).map_err(|e| with_path(path, &e, e.kind()))?;
     let mut enc = png::Encoder::new(BufWriter::new(file), w, h);
-    enc.set_color(png::ColorType::Grayscale);
+    enc.set_color(png::ColorType::Rgb);
     enc.set_depth(png::BitDepth::Eight);
     let other = |e| with_path(path, e, std::io::ErrorKind::Other);
     let mut writer = enc.write_header().map_err(other)?;
-    let data: Vec<u8> = values.iter().map(|&v| tone_map(v)).collect();
+    let data: Vec<u8> = values.iter().flat_map(|p| p.map(tone_map)).collect();
     writer.write_image_data(&data).map_err(other)?;
     writer.finish().map_err(other)?;
     Ok(())
 }
 
-/// Writes grey-level values (`width × height`, row-major, linear) as a linear OpenEXR file:
-/// 32-bit float R, G and B channels, all three equal to the value (what every viewer opens;
-/// no tone mapping, no clamping), scan lines with lossless ZIP compression (the most widely
-/// read layout). Creates the folder if needed; errors name the file.
-pub fn write_exr(path: &Path, width: usize, height: usize, values: &[f32]) -> std::io::Result<()> {
+/// Writes linear RGB pixels (`width × height`, row-major) as a linear OpenEXR file: 32-bit
+/// float R, G and B channels (what every viewer opens; no tone mapping, no clamping), scan
+/// lines with lossless ZIP compression (the most widely read layout). Creates the folder if
+/// needed; errors name the file.
+pub fn write_exr(
+    path: &Path,
+    width: usize,
+    height: usize,
+    values: &[Pixel],
+) -> std::io::Result<()> {
     use exr::prelude::{Encoding, SpecificChannels, Vec2, WritableImage};
     check_size(path, width, height, values)?;
     create_parent(path)?;
     let channels = SpecificChannels::rgb(|Vec2(x, y): Vec2<usize>| {
-        let v = values[y * width + x];
-        (v, v, v)
+        let [r, g, b] = values[y * width + x];
+        (r, g, b)
     });
     exr::prelude::Image::from_encoded_channels((width, height), Encoding::SMALL_LOSSLESS, channels)
         .write()
@@ -100,7 +111,7 @@ pub fn write_image(
     path: &Path,
     width: usize,
     height: usize,
-    values: &[f32],
+    values: &[Pixel],
 ) -> std::io::Result<()> {
     if is_exr(path) {
         write_exr(path, width, height, values)
@@ -115,7 +126,8 @@ pub fn is_exr(path: &Path) -> bool {
         .is_some_and(|e| e.eq_ignore_ascii_case("exr"))
 }
 
-/// Writes an image's means as raw little-endian f32 (header: width, height, spp as u64).
+/// Writes an image's means and variances as raw little-endian f32, three channels per pixel
+/// (header: width, height, spp as u64).
 /// Creates the folder if needed; errors name the file.
 pub fn write_raw(path: &Path, img: &Image) -> std::io::Result<()> {
     create_parent(path)?;
@@ -124,8 +136,10 @@ pub fn write_raw(path: &Path, img: &Image) -> std::io::Result<()> {
         for v in [img.width as u64, img.height as u64, img.spp as u64] {
             f.write_all(&v.to_le_bytes())?;
         }
-        for &v in img.mean.iter().chain(&img.var) {
-            f.write_all(&v.to_le_bytes())?;
+        for p in img.mean.iter().chain(&img.var) {
+            for v in p {
+                f.write_all(&v.to_le_bytes())?;
+            }
         }
         f.flush()
     };
@@ -145,14 +159,15 @@ pub fn read_raw(path: &Path) -> Option<Image> {
         .chunks_exact(4)
         .map(|c| f32::from_le_bytes([c[0], c[1], c[2], c[3]]))
         .collect();
-    if floats.len() != 2 * n {
+    if floats.len() != 6 * n {
         return None;
     }
+    let pixels: Vec<Pixel> = floats.chunks_exact(3).map(|c| [c[0], c[1], c[2]]).collect();
     Some(Image {
         width,
         height,
-        mean: floats[..n].to_vec(),
-        var: floats[n..].to_vec(),
+        mean: pixels[..n].to_vec(),
+        var: pixels[n..].to_vec(),
         spp,
         seconds: 0.0,
         wall_seconds: 0.0,

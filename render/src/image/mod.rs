@@ -1,4 +1,4 @@
-//! Images: the grey-level [`Image`] a render produces, its files ([`io`]: PNG, linear
+//! Images: the linear RGB [`Image`] a render produces, its files ([`io`]: PNG, linear
 //! OpenEXR, a raw cache format), side-by-side comparisons with captions and magnified crops
 //! ([`compose`], in the built-in bitmap [`font`]) and convergence plots ([`plot`]).
 
@@ -14,7 +14,22 @@ pub use compose::{
 pub use io::{is_exr, read_raw, tone_map, write_exr, write_image, write_png, write_raw};
 pub use plot::convergence_svg;
 
-/// A rendered grey-level image: per-pixel mean and per-estimate variance.
+/// One pixel: linear red, green and blue.
+pub type Pixel = [f32; 3];
+
+/// The grey pixel of `v`.
+#[inline]
+pub fn grey(v: f32) -> Pixel {
+    [v; 3]
+}
+
+/// The mean of a pixel's three channels, in f64 (exactly `v` for a grey `v`).
+#[inline]
+pub fn channel_mean(p: Pixel) -> f64 {
+    (f64::from(p[0]) + f64::from(p[1]) + f64::from(p[2])) / 3.0
+}
+
+/// A rendered image in linear RGB: per-pixel mean and per-estimate variance, per channel.
 #[derive(Clone, Debug)]
 pub struct Image {
     /// Width.
@@ -22,9 +37,9 @@ pub struct Image {
     /// Height.
     pub height: usize,
     /// Mean of the estimates, row-major.
-    pub mean: Vec<f32>,
-    /// Per-estimate sample variance of each pixel (0 with one estimate).
-    pub var: Vec<f32>,
+    pub mean: Vec<Pixel>,
+    /// Per-estimate sample variance of each pixel and channel (0 with one estimate).
+    pub var: Vec<Pixel>,
     /// Estimates per pixel.
     pub spp: usize,
     /// Busy seconds of the render: the CPU time spent on its rows, summed over the threads
@@ -35,38 +50,45 @@ pub struct Image {
 }
 
 impl Image {
-    /// The average of the pixel means.
+    /// The average over pixels of the pixel means' channel mean ([`channel_mean`]).
     pub fn average(&self) -> f64 {
-        self.mean.iter().map(|&v| f64::from(v)).sum::<f64>() / self.mean.len() as f64
+        self.mean.iter().map(|&v| channel_mean(v)).sum::<f64>() / self.mean.len() as f64
     }
 
-    /// Standard error of [`Image::average`] from the per-pixel variances.
+    /// Standard error of [`Image::average`] from the per-pixel variances (each pixel's
+    /// channel-mean variance taken as the mean of its channels' variances: exact for grey
+    /// images, an upper bound for colour ones).
     pub fn average_se(&self) -> f64 {
         let n = self.mean.len() as f64;
-        let s: f64 = self.var.iter().map(|&v| f64::from(v)).sum();
+        let s: f64 = self.var.iter().map(|&v| channel_mean(v)).sum();
         (s / self.spp.max(1) as f64).sqrt() / n
     }
 
-    /// The squared difference to `other` (same size) at every pixel, row-major: the per-pixel
-    /// error every RMSE and error split of the renderer sums.
+    /// The squared difference to `other` (same size) at every pixel, row-major, averaged over
+    /// the three channels: the per-pixel error every RMSE and error split of the renderer sums.
     pub fn squared_errors(&self, other: &Image) -> Vec<f64> {
         self.mean
             .iter()
             .zip(&other.mean)
-            .map(|(&a, &b)| (f64::from(a) - f64::from(b)).powi(2))
+            .map(|(a, b)| {
+                (0..3)
+                    .map(|c| (f64::from(a[c]) - f64::from(b[c])).powi(2))
+                    .sum::<f64>()
+                    / 3.0
+            })
             .collect()
     }
 
-    /// The variance of each pixel's mean estimated from the image's own estimates: the
-    /// per-estimate sample variance over the number of estimates, row-major (0 everywhere
-    /// below 2 estimates, where there is no estimate of it).
+    /// The variance of each pixel's mean estimated from the image's own estimates, averaged
+    /// over the three channels: the per-estimate sample variance over the number of
+    /// estimates, row-major (0 everywhere below 2 estimates, where there is no estimate of it).
     pub fn mean_variances(&self) -> Vec<f64> {
         let spp = self.spp;
         self.var
             .iter()
             .map(|&v| {
                 if spp >= 2 {
-                    f64::from(v) / spp as f64
+                    channel_mean(v) / spp as f64
                 } else {
                     0.0
                 }
@@ -74,8 +96,8 @@ impl Image {
             .collect()
     }
 
-    /// Root mean square difference to `other` (same size): the root of the mean of
-    /// [`Image::squared_errors`].
+    /// Root mean square difference to `other` (same size), over the three channels of every
+    /// pixel: the root of the mean of [`Image::squared_errors`].
     pub fn rmse(&self, other: &Image) -> f64 {
         let s: f64 = self.squared_errors(other).iter().sum();
         (s / self.mean.len() as f64).sqrt()

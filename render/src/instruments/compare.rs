@@ -772,7 +772,10 @@ fn write_error_map(dir: &Path, stem: &str, map: &Image, squared: &[f64]) -> std:
         map.height,
         &map.mean,
     )?;
-    let sq: Vec<f32> = squared.iter().map(|&e| e as f32).collect();
+    let sq: Vec<[f32; 3]> = squared
+        .iter()
+        .map(|&e| crate::image::grey(e as f32))
+        .collect();
     write_exr(&dir.join(format!("{stem}.exr")), map.width, map.height, &sq)
 }
 
@@ -845,7 +848,7 @@ pub fn run(scene: &RenderScene, cfg: &CompareConfig) -> std::io::Result<Report> 
         .map(|c| {
             let mut sums = vec![0f64; c.names.len()];
             for (&k, &v) in c.of_pixel.iter().zip(&reference.mean) {
-                sums[k] += f64::from(v);
+                sums[k] += crate::image::channel_mean(v);
             }
             sums.iter()
                 .zip(c.pixels())

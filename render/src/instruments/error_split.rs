@@ -305,8 +305,8 @@ pub fn map_image(like: &Image, values: Vec<f32>) -> Image {
     Image {
         width: like.width,
         height: like.height,
-        var: vec![0.0; values.len()],
-        mean: values,
+        var: vec![[0.0; 3]; values.len()],
+        mean: values.into_iter().map(crate::image::grey).collect(),
         spp: 1,
         seconds: 0.0,
         wall_seconds: 0.0,

@@ -2,8 +2,10 @@
 //! lights: street lamps, car lights and lit windows.
 
 use super::geometry::{cuboid, disk_light, quad, sphere_light, Geometry, Triangle};
-use super::{Camera, LightSet, RenderScene};
+use super::{hash, Camera, LightSet, Palette, RenderScene};
 use glam::Vec3;
+use manylights::direct::GradientSky;
+use manylights::Rgb;
 use manylights::{Light, Material};
 use rand::{Rng, SeedableRng};
 use rand_pcg::Pcg64Mcg;
@@ -43,6 +45,42 @@ fn log_uniform(rng: &mut Pcg64Mcg, lo: f32, hi: f32) -> f32 {
     rng.random_range(lo.ln()..hi.ln()).exp()
 }
 
+/// A colour of `palette` chosen by `key`.
+fn pick(palette: &[Rgb], key: u64) -> Rgb {
+    palette[(hash(key) % palette.len() as u64) as usize]
+}
+
+/// Hues of the Lambert façades: brick, sand, concrete, ochre.
+const FACADE_HUES: [Rgb; 4] = [
+    Rgb::new(1.0, 0.75, 0.6),
+    Rgb::new(1.0, 0.93, 0.75),
+    Rgb::new(0.95, 0.97, 1.0),
+    Rgb::new(1.0, 0.85, 0.55),
+];
+/// Hues of the cars: red, blue, white, silver, green, yellow.
+const CAR_HUES: [Rgb; 6] = [
+    Rgb::new(1.0, 0.15, 0.1),
+    Rgb::new(0.2, 0.35, 1.0),
+    Rgb::new(1.0, 1.0, 1.0),
+    Rgb::new(0.9, 0.93, 1.0),
+    Rgb::new(0.3, 0.8, 0.4),
+    Rgb::new(1.0, 0.85, 0.2),
+];
+/// Colours of the lit windows: incandescent, neutral, fluorescent, television blue, yellow.
+const WINDOW_COLOURS: [Rgb; 5] = [
+    Rgb::new(1.0, 0.75, 0.45),
+    Rgb::new(1.0, 0.92, 0.8),
+    Rgb::new(0.75, 0.85, 1.0),
+    Rgb::new(0.55, 0.65, 1.0),
+    Rgb::new(1.0, 0.85, 0.5),
+];
+/// A street lamp's colour (high-pressure sodium).
+const LAMP_COLOUR: Rgb = Rgb::new(1.0, 0.72, 0.4);
+/// A headlight's colour.
+const HEADLIGHT_COLOUR: Rgb = Rgb::new(1.0, 0.96, 0.88);
+/// A tail light's colour.
+const TAIL_COLOUR: Rgb = Rgb::new(1.0, 0.1, 0.06);
+
 /// A building.
 struct Building {
     /// Centre of its footprint (on the sidewalk).
@@ -64,20 +102,30 @@ struct Building {
 ///
 /// The streets are wet (plastic, GGX α 0.15), the glass façades plastic with GGX α 0.1, the
 /// cars plastic with GGX α 0.07. The camera looks down the middle street (along −z) from
-/// above the +z edge of the city. Everything is placed with a fixed seed.
+/// above the +z edge of the city. Everything is placed with a fixed seed. In colour:
+/// [`city_with`].
 pub fn city() -> RenderScene {
+    city_with(Palette::Colour)
+}
+
+/// [`city`] in `palette`: in colour the street lamps are sodium orange, windows incandescent,
+/// neutral, fluorescent or television blue, headlights warm white and tail lights red (each
+/// of the luminance of its grey power); façades, cars, sidewalks and glass are tinted.
+pub fn city_with(palette: Palette) -> RenderScene {
     let street = Material::Plastic {
-        albedo: 0.08,
+        albedo: palette.albedo_of(0.08, Rgb::new(0.95, 1.0, 1.05)),
         specular: 0.5,
         alpha: 0.15,
     };
-    let sidewalk = Material::Lambert { albedo: 0.35 };
+    let sidewalk = Material::Lambert {
+        albedo: palette.albedo_of(0.35, Rgb::new(1.0, 0.97, 0.9)),
+    };
     let pole = Material::Ggx {
         alpha: 0.2,
         specular: 0.6,
     };
     let glass = Material::Plastic {
-        albedo: 0.08,
+        albedo: palette.albedo_of(0.08, Rgb::new(0.6, 0.95, 1.3)),
         specular: 0.7,
         alpha: 0.1,
     };
@@ -120,8 +168,9 @@ pub fn city() -> RenderScene {
             let facade = if rng.random_range(0.0f32..1.0) < 1.0 / 3.0 {
                 glass
             } else {
+                let a = rng.random_range(0.3f32..0.7);
                 Material::Lambert {
-                    albedo: rng.random_range(0.3f32..0.7),
+                    albedo: palette.albedo_of(a, pick(&FACADE_HUES, (i * BLOCKS + j) as u64)),
                 }
             };
             let centre = v(cx, CURB, cz);
@@ -153,6 +202,7 @@ pub fn city() -> RenderScene {
                         v(base.x, lamp_height, base.z),
                         lamp_radius,
                         LAMP_POWER * rng.random_range(0.8f32..1.25),
+                        palette.tint(LAMP_COLOUR),
                     ));
                 }
             }
@@ -189,8 +239,9 @@ pub fn city() -> RenderScene {
             (v(s - lane, car_y, u), v(0.0, 0.0, forward), Vec3::X)
         };
         let angle = if along_x { FRAC_PI_2 } else { 0.0 };
+        let a = rng.random_range(0.05f32..0.6);
         let paint = Material::Plastic {
-            albedo: rng.random_range(0.05f32..0.6),
+            albedo: palette.albedo_of(a, pick(&CAR_HUES, 1_000_000 + k as u64)),
             specular: 0.6,
             alpha: 0.07,
         };
@@ -201,8 +252,16 @@ pub fn city() -> RenderScene {
         for w in [-0.6f32, 0.6] {
             let front = centre + dir * (car_half.z + 0.02) + side * w - v(0.0, 0.1, 0.0);
             let back = centre - dir * (car_half.z + 0.02) + side * w;
-            lights.push(disk_light(front, head, 0.1, HEADLIGHT_POWER));
-            lights.push(disk_light(back, -dir, 0.08, HEADLIGHT_POWER * 0.25));
+            let (head_tint, tail_tint) =
+                (palette.tint(HEADLIGHT_COLOUR), palette.tint(TAIL_COLOUR));
+            lights.push(disk_light(front, head, 0.1, HEADLIGHT_POWER, head_tint));
+            lights.push(disk_light(
+                back,
+                -dir,
+                0.08,
+                HEADLIGHT_POWER * 0.25,
+                tail_tint,
+            ));
         }
     }
 
@@ -237,15 +296,17 @@ pub fn city() -> RenderScene {
         let r = rng.random_range(k..slots.len());
         slots.swap(k, r);
     }
-    for &(p, normal) in &slots[..windows] {
+    for (k, &(p, normal)) in slots[..windows].iter().enumerate() {
         let power = WINDOW_POWER * log_uniform(&mut rng, 0.3, 3.0);
-        lights.push(disk_light(p, normal, 0.6, power));
+        let tint = palette.tint(pick(&WINDOW_COLOURS, 2_000_000 + k as u64));
+        lights.push(disk_light(p, normal, 0.6, power, tint));
     }
 
     RenderScene {
         name: "city".into(),
         geometry: Geometry::new(t),
         lights: LightSet::build(lights).expect("the built-in lights are valid"),
+        sky: None,
         camera: Camera {
             eye: v(4.0, 24.0, block_centre(BLOCKS - 1) + 30.0),
             target: v(0.0, 2.0, block_centre(BLOCKS / 2)),
@@ -272,5 +333,48 @@ pub(crate) fn material_name(material: &Material) -> Option<&'static str> {
         } if (specular, alpha) == (0.6, 0.07) => Some("cars"),
         Material::Ggx { alpha, specular } if (specular, alpha) == (0.6, 0.2) => Some("lamp poles"),
         _ => None,
+    }
+}
+
+/// The direction towards the sun of `city-sun`: 12° above the horizon (+y up), from the
+/// west-south-west of the grid, so that the sunlit façades, the long shadows of the
+/// buildings and the streets in their shade are all in view.
+pub const CITY_SUN_DIRECTION: Vec3 = Vec3::new(-0.8, 0.208, -0.42);
+/// The sun's angular radius: 0.27°.
+const SUN_RADIUS: f32 = 0.27 * std::f32::consts::PI / 180.0;
+/// The sun's irradiance at normal incidence: a low, reddened sun of luminance 4.2 W/m².
+const SUN_IRRADIANCE: Rgb = Rgb::new(6.0, 3.8, 2.1);
+
+/// `city` at dusk in `palette`: the 8,000 lamps, a low sun ([`CITY_SUN_DIRECTION`], angular
+/// radius 0.27°, irradiance [`SUN_IRRADIANCE`]) and a dusk sky ([`GradientSky`] about +y:
+/// deep blue at the zenith, warm at the horizon, black below), the sky an environment light
+/// of the light set. At this sun the lamps under their poles and the lit windows are as
+/// bright as the sun on the streets, and the shaded streets are lit by the lamps and the sky
+/// alone: lights at infinity and thousands of local lights in one scene. In grey the sun and
+/// sky have the luminance of their colours.
+pub fn city_sun(palette: Palette) -> RenderScene {
+    let city = city_with(palette);
+    let tint = |c: Rgb| match palette {
+        Palette::Colour => c,
+        Palette::Grey => Rgb::grey(c.luminance()),
+    };
+    let sky = GradientSky {
+        up: Vec3::Y,
+        zenith: tint(Rgb::new(0.08, 0.14, 0.36)),
+        horizon: tint(Rgb::new(0.44, 0.32, 0.26)),
+        ground: Rgb::ZERO,
+    };
+    let mut lights = city.lights.lights().to_vec();
+    lights.push(Light::Distant {
+        direction: CITY_SUN_DIRECTION,
+        angular_radius: SUN_RADIUS,
+        irradiance: tint(SUN_IRRADIANCE),
+    });
+    lights.push(sky.light());
+    RenderScene {
+        name: "city-sun".into(),
+        lights: LightSet::build(lights).expect("the built-in lights are valid"),
+        sky: Some(sky),
+        ..city
     }
 }

@@ -1,8 +1,9 @@
 //! `cornell`: a Cornell box lit by many tiny sphere lights on its side walls.
 
 use super::geometry::{cuboid, quad, sphere_light, Geometry};
-use super::{Camera, LightSet, RenderScene};
+use super::{Camera, LightSet, Palette, RenderScene};
 use glam::Vec3;
+use manylights::Rgb;
 use manylights::{Light, Material};
 use rand::{Rng, SeedableRng};
 use rand_pcg::Pcg64Mcg;
@@ -31,21 +32,42 @@ pub const CORNELL_WALL_GAP: f32 = 0.015;
 /// The Cornell box, `[0, 1]³` (open at z = 1, where the camera is), with `n_lights` tiny sphere
 /// lights at random on the left (x = 0) and right (x = 1) walls, powers `12/n × e^U` with U
 /// uniform in `[ln 0.25, ln 4]` (a 16:1 spread; E[e^U] = 3.75/ln 16 ≈ 1.35, so the expected
-/// total power is about 16.2 for any n); `seed` places them.
+/// total power is about 16.2 for any n); `seed` places them. In colour: [`cornell_with`].
 pub fn cornell(n_lights: usize, seed: u64) -> RenderScene {
-    let white = Material::Lambert { albedo: 0.7 };
-    let wall_l = Material::Lambert { albedo: 0.5 };
+    cornell_with(n_lights, seed, Palette::Colour)
+}
+
+/// [`cornell`] in `palette`: in colour the left wall is red, the right one green, the floor a
+/// warm grey, the tall box pale blue and the short one yellow plastic; the lights on the left
+/// wall are warm white, those on the right cool white (each of the luminance of its grey
+/// power).
+pub fn cornell_with(n_lights: usize, seed: u64, palette: Palette) -> RenderScene {
+    let white = Material::Lambert {
+        albedo: palette.albedo(0.7, Rgb::new(0.73, 0.71, 0.68)),
+    };
+    let wall_l = Material::Lambert {
+        albedo: palette.albedo(0.5, Rgb::new(0.63, 0.065, 0.05)),
+    };
+    let wall_r = Material::Lambert {
+        albedo: palette.albedo(0.5, Rgb::new(0.14, 0.45, 0.091)),
+    };
     let floor = Material::Plastic {
-        albedo: 0.5,
+        albedo: palette.albedo(0.5, Rgb::new(0.55, 0.5, 0.42)),
         specular: 0.5,
         alpha: 0.08,
     };
     let glossy = Material::Plastic {
-        albedo: 0.3,
+        albedo: palette.albedo(0.3, Rgb::new(0.6, 0.45, 0.08)),
         specular: 0.7,
         alpha: 0.05,
     };
-    let diffuse = Material::Lambert { albedo: 0.6 };
+    let diffuse = Material::Lambert {
+        albedo: palette.albedo(0.6, Rgb::new(0.45, 0.6, 0.75)),
+    };
+    let (warm, cool) = (
+        palette.tint(Rgb::new(1.0, 0.8, 0.6)),
+        palette.tint(Rgb::new(0.7, 0.85, 1.0)),
+    );
     let v = |x, y, z| Vec3::new(x, y, z);
     let mut t = Vec::new();
     // Floor, ceiling, back wall, left and right walls (corners in order around each quad).
@@ -56,7 +78,7 @@ pub fn cornell(n_lights: usize, seed: u64) -> RenderScene {
         [v(0., 0., 0.), v(0., 1., 0.), v(0., 1., 1.), v(0., 0., 1.)],
         [v(1., 0., 0.), v(1., 1., 0.), v(1., 1., 1.), v(1., 0., 1.)],
     ];
-    for ([a, b, c, d], m) in walls.into_iter().zip([floor, white, white, wall_l, wall_l]) {
+    for ([a, b, c, d], m) in walls.into_iter().zip([floor, white, white, wall_l, wall_r]) {
         quad(&mut t, a, b, c, d, m);
     }
     cuboid(&mut t, v(0.33, 0.3, 0.38), v(0.14, 0.3, 0.14), 0.3, diffuse);
@@ -81,13 +103,14 @@ pub fn cornell(n_lights: usize, seed: u64) -> RenderScene {
             let y = rng.random_range(0.05f32..0.95);
             let z = rng.random_range(0.05f32..0.95);
             let power = base_power * rng.random_range((0.25f32).ln()..(4.0f32).ln()).exp();
-            sphere_light(v(x, y, z), r, power)
+            sphere_light(v(x, y, z), r, power, if i % 2 == 0 { warm } else { cool })
         })
         .collect();
     RenderScene {
         name: "cornell".into(),
         geometry: Geometry::new(t),
         lights: LightSet::build(lights).expect("the built-in lights are valid"),
+        sky: None,
         camera: Camera {
             eye: v(0.5, 0.5, 2.3),
             target: v(0.5, 0.5, 0.0),

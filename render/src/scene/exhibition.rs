@@ -4,6 +4,7 @@
 use super::geometry::{cuboid, cylinder, disk_light, quad, superellipsoid, torus, Geometry};
 use super::{Camera, LightSet, RenderScene};
 use glam::Vec3;
+use manylights::Rgb;
 use manylights::{Light, Material};
 use rand::{Rng, SeedableRng};
 use rand_pcg::Pcg64Mcg;
@@ -73,15 +74,19 @@ fn disk_centres() -> Vec<Vec3> {
 /// would give it; a single pair would be picked so rarely by the techniques that ignore power
 /// that their images would miss its reflection in the car's roof for hundreds of samples).
 pub fn exhibition() -> RenderScene {
-    let wall = Material::Lambert { albedo: 0.6 };
-    let ceiling = Material::Lambert { albedo: 0.5 };
+    let wall = Material::Lambert {
+        albedo: Rgb::grey(0.6),
+    };
+    let ceiling = Material::Lambert {
+        albedo: Rgb::grey(0.5),
+    };
     let floor = Material::Plastic {
-        albedo: 0.3,
+        albedo: Rgb::grey(0.3),
         specular: 0.5,
         alpha: 0.08,
     };
     let turntable = Material::Plastic {
-        albedo: 0.15,
+        albedo: Rgb::grey(0.15),
         specular: 0.4,
         alpha: 0.2,
     };
@@ -93,8 +98,12 @@ pub fn exhibition() -> RenderScene {
         alpha: 0.05,
         specular: 0.6,
     };
-    let tyre = Material::Lambert { albedo: 0.05 };
-    let plinth = Material::Lambert { albedo: 0.7 };
+    let tyre = Material::Lambert {
+        albedo: Rgb::grey(0.05),
+    };
+    let plinth = Material::Lambert {
+        albedo: Rgb::grey(0.7),
+    };
     let chrome = Material::Ggx {
         alpha: 0.08,
         specular: 0.95,
@@ -185,7 +194,7 @@ pub fn exhibition() -> RenderScene {
         .iter()
         .map(|&c| {
             let power = mean * rng.random_range((0.5f32).ln()..(2.0f32).ln()).exp();
-            disk_light(c, (AIM - c).normalize(), DISK_RADIUS, power)
+            disk_light(c, (AIM - c).normalize(), DISK_RADIUS, power, Rgb::ONE)
         })
         .collect();
     // The panel: PANEL_QUADS.0 × PANEL_QUADS.1 quads, two triangles each, wound so that
@@ -211,7 +220,7 @@ pub fn exhibition() -> RenderScene {
             for vertices in [[a, b, c], [a, c, d]] {
                 lights.push(Light::Triangle {
                     vertices,
-                    radiance,
+                    radiance: radiance.into(),
                     two_sided: false,
                 });
             }
@@ -221,6 +230,7 @@ pub fn exhibition() -> RenderScene {
         name: "exhibition".into(),
         geometry: Geometry::new(t),
         lights: LightSet::build(lights).expect("the built-in lights are valid"),
+        sky: None,
         camera: Camera {
             eye: v(2.6, 1.5, 4.2),
             target: v(0.0, 0.55, 0.0),

@@ -7,6 +7,7 @@ use bvh::bounding_hierarchy::BHShape;
 use bvh::bvh::Bvh;
 use glam::Vec3;
 use manylights::Occluder;
+use manylights::Rgb;
 use manylights::{Light, Material};
 use nalgebra::{Point3, Vector3};
 use std::f32::consts::PI;
@@ -278,22 +279,24 @@ pub(crate) fn torus(
     });
 }
 
-/// Sphere light of total power `power`.
-pub(crate) fn sphere_light(center: Vec3, radius: f32, power: f32) -> Light {
+/// Sphere light of total power (luminance) `power` in the colour `tint` (a colour of
+/// luminance 1, [`Rgb::ONE`] for grey: the radiance is `tint` times the grey radiance).
+pub(crate) fn sphere_light(center: Vec3, radius: f32, power: f32, tint: Rgb) -> Light {
     Light::Sphere {
         center,
         radius,
-        radiance: power / (PI * 4.0 * PI * radius * radius),
+        radiance: tint * (power / (PI * 4.0 * PI * radius * radius)),
     }
 }
 
-/// One-sided disk light facing along `normal` (unit) with total power `power`.
-pub(crate) fn disk_light(center: Vec3, normal: Vec3, radius: f32, power: f32) -> Light {
+/// One-sided disk light facing along `normal` (unit) with total power `power` in the colour
+/// `tint` (as [`sphere_light`]).
+pub(crate) fn disk_light(center: Vec3, normal: Vec3, radius: f32, power: f32, tint: Rgb) -> Light {
     Light::Disk {
         center,
         normal,
         radius,
-        radiance: power / (PI * PI * radius * radius),
+        radiance: tint * (power / (PI * PI * radius * radius)),
         two_sided: false,
     }
 }

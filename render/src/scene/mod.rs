@@ -16,6 +16,9 @@
 //!   glossy glass façades) along wet glossy streets with cars, lit by [`CITY_LIGHTS`] small
 //!   lights: street lamps (spheres), car lights and lit windows (one-sided disks facing away
 //!   from the car or façade they sit on).
+//! - `city-sun` ([`city_sun()`]): the same city at dusk — a low sun of 0.27° angular radius
+//!   ([`manylights::Light::Distant`]), a sky ([`GradientSky`], an environment light) and the
+//!   8,000 lamps: light at infinity in the same scene as thousands of local lights.
 //! - `stairs` ([`stairs()`]): a staircase between two walls with 18 small sphere lights along
 //!   the walls and two large disk lights under the ceiling (20 lights).
 //! - a path ending in `.obj` ([`obj::load`]): the meshes of the file, with Lambert, plastic or
@@ -23,8 +26,14 @@
 //!
 //! Ray casts against the triangles go through the `bvh` crate ([`Geometry`]); the lights are
 //! reached by BRDF rays through the light tree's node spheres
-//! ([`manylights::LightTree::trace`]). Materials are scalar (grey): the images are
-//! grey-level.
+//! ([`manylights::LightTree::trace`]). Lights and albedos are linear RGB: `cornell` and
+//! `city` are in colour by default ([`Palette::Colour`]: a red and a green wall, warm and cool
+//! lights; warm street lamps, coloured windows, red tail lights, tinted façades and cars), and
+//! the same scenes in grey ([`Palette::Grey`], `--grey`) are the scalar scenes they were,
+//! number for number. The colours are chosen from each light's or surface's index, never from
+//! the placement generator, so both palettes place everything at the same positions, and a
+//! light's colour has the luminance its grey power had (its energy in the tree is the same up
+//! to rounding). The other scenes are grey in both palettes.
 
 mod city;
 mod cornell;
@@ -33,9 +42,10 @@ mod geometry;
 pub mod obj;
 mod stairs;
 
-pub use city::{city, CITY_LIGHTS};
+pub use city::{city, city_sun, city_with, CITY_LIGHTS, CITY_SUN_DIRECTION};
 pub use cornell::{
-    cornell, cornell_light_radius, CORNELL_DEFAULT_LIGHTS, CORNELL_LIGHT_RADIUS, CORNELL_WALL_GAP,
+    cornell, cornell_light_radius, cornell_with, CORNELL_DEFAULT_LIGHTS, CORNELL_LIGHT_RADIUS,
+    CORNELL_WALL_GAP,
 };
 pub use exhibition::{exhibition, EXHIBITION_DISKS, EXHIBITION_PANEL_TRIANGLES};
 pub(crate) use geometry::{disk_light, sphere_light};
@@ -43,11 +53,58 @@ pub use geometry::{Geometry, Hit, Triangle};
 pub use stairs::stairs;
 
 use glam::Vec3;
-use manylights::{LightSet, Material};
+use manylights::direct::GradientSky;
+use manylights::{LightSet, Material, Rgb};
 use std::path::Path;
 
 /// The built-in scene names, in help order (`by_name` also takes a path to an `.obj` file).
-pub const SCENES: [&str; 4] = ["cornell", "exhibition", "city", "stairs"];
+pub const SCENES: [&str; 5] = ["cornell", "exhibition", "city", "city-sun", "stairs"];
+
+/// Colour or grey (see the module documentation).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Default)]
+pub enum Palette {
+    /// The scenes' colours (the default).
+    #[default]
+    Colour,
+    /// Every light and albedo grey, as the scalar scenes were.
+    Grey,
+}
+
+impl Palette {
+    /// The tint of a light (luminance 1): `colour` scaled to luminance 1, or white in grey.
+    pub fn tint(self, colour: Rgb) -> Rgb {
+        match self {
+            Palette::Grey => Rgb::ONE,
+            Palette::Colour => colour * (1.0 / colour.luminance()),
+        }
+    }
+
+    /// An albedo: `grey` in grey, `colour` (every channel in [0, 1]) in colour.
+    pub fn albedo(self, grey: f32, colour: Rgb) -> Rgb {
+        match self {
+            Palette::Grey => Rgb::grey(grey),
+            Palette::Colour => colour,
+        }
+    }
+
+    /// An albedo of luminance `grey` in the hue of `colour`: `colour` scaled to luminance
+    /// `grey` (each channel clamped to 1), or `grey` in grey.
+    pub fn albedo_of(self, grey: f32, colour: Rgb) -> Rgb {
+        match self {
+            Palette::Grey => Rgb::grey(grey),
+            Palette::Colour => (colour * (grey / colour.luminance())).map(|c| c.min(1.0)),
+        }
+    }
+}
+
+/// A small integer hash (for choosing colours by index without touching a scene's placement
+/// generator).
+pub(crate) fn hash(i: u64) -> u64 {
+    let mut x = i.wrapping_add(0x9e37_79b9_7f4a_7c15);
+    x = (x ^ (x >> 30)).wrapping_mul(0xbf58_476d_1ce4_e5b9);
+    x = (x ^ (x >> 27)).wrapping_mul(0x94d0_49bb_1331_11eb);
+    x ^ (x >> 31)
+}
 
 /// A pinhole camera.
 #[derive(Clone, Copy, Debug)]
@@ -82,6 +139,9 @@ pub struct RenderScene {
     pub geometry: Geometry,
     /// Lights, light tree and the power distribution.
     pub lights: LightSet,
+    /// The sky, for a scene whose lights include an environment (its radiance and sampling;
+    /// the light set holds its irradiance bounds).
+    pub sky: Option<GradientSky>,
     /// Camera.
     pub camera: Camera,
 }
@@ -111,6 +171,7 @@ impl RenderScene {
         for l in self.lights.lights() {
             let _ = write!(h, "{l:?}");
         }
+        let _ = write!(h, "{:?}", self.sky);
         h.0
     }
 }
@@ -157,18 +218,28 @@ fn is_obj_path(name: &str) -> bool {
         .is_some_and(|e| e.eq_ignore_ascii_case("obj"))
 }
 
+/// The scene named `name` in colour: [`by_name_with`] with [`Palette::Colour`].
+pub fn by_name(name: &str, lights: Option<usize>) -> Result<RenderScene, String> {
+    by_name_with(name, lights, Palette::Colour)
+}
+
 /// The scene named `name`: one of [`SCENES`], or a path ending in `.obj` loaded by
-/// [`obj::load`]. `lights` is the light count of `cornell`, default
+/// [`obj::load`], in `palette`. `lights` is the light count of `cornell`, default
 /// [`CORNELL_DEFAULT_LIGHTS`], any positive count (the range is 1,000 to 100,000);
 /// the other scenes ignore it.
-pub fn by_name(name: &str, lights: Option<usize>) -> Result<RenderScene, String> {
+pub fn by_name_with(
+    name: &str,
+    lights: Option<usize>,
+    palette: Palette,
+) -> Result<RenderScene, String> {
     match name {
         "cornell" => match lights.unwrap_or(CORNELL_DEFAULT_LIGHTS) {
             0 => Err("cornell needs at least one light".into()),
-            n => Ok(cornell(n, 1)),
+            n => Ok(cornell_with(n, 1, palette)),
         },
         "exhibition" => Ok(exhibition()),
-        "city" => Ok(city()),
+        "city" => Ok(city_with(palette)),
+        "city-sun" => Ok(city_sun(palette)),
         "stairs" => Ok(stairs()),
         _ if is_obj_path(name) => obj::load(Path::new(name)),
         _ => Err(format!(

@@ -1,17 +1,18 @@
 //! Scenes from Wavefront OBJ + MTL files (read with the `tobj` crate).
 //!
-//! Faces are triangulated. Each material becomes (grey levels are the luminance
-//! `0.2126 R + 0.7152 G + 0.0722 B` of its colours, clamped to [0, 1]):
+//! Faces are triangulated. Each material becomes (colours are linear RGB; where a choice
+//! needs one number it takes the luminance `0.2126 R + 0.7152 G + 0.0722 B`; albedos are
+//! clamped to [0, 1] per channel, the specular weight is the luminance of `Ks`):
 //! - **emissive** (`Ke` of non-zero luminance): every triangle is a one-sided
 //!   [`Light::Triangle`] (emitting on the side of `(v1 − v0) × (v2 − v0)`, i.e. towards a
-//!   viewer that sees the face counter-clockwise) of radiance `luminance(Ke)`. Emitters are
+//!   viewer that sees the face counter-clockwise) of radiance `Ke`. Emitters are
 //!   not surfaces: they do not block light (as every light of the renderer) and are not seen;
 //! - **glossy** (`Ks` of non-zero luminance and a roughness, `Pr` or `Ns`): GGX of
 //!   `α = Pr²` when `Pr` is given (the usual roughness-to-α mapping), else
 //!   `α = sqrt(2 / (Ns + 2))` (the Phong exponent of the same lobe width), clamped to
-//!   [[`MIN_ALPHA`], 1]. Plastic (`albedo` from `Kd`, `specular` from `Ks`) if `Kd` is not
+//!   [[`MIN_ALPHA`], 1]. Plastic (`albedo` `Kd`, `specular` from `Ks`) if `Kd` is not
 //!   black, GGX (`specular` from `Ks`) if it is;
-//! - anything else: Lambert of `albedo` from `Kd` (0.5 if absent).
+//! - anything else: Lambert of `albedo` `Kd` (0.5 grey if absent).
 //!
 //! Faces without a material are Lambert 0.5. The camera looks at the centre of the bounding box
 //! of all vertices from +z, far enough that the box's bounding sphere fits the 45° field of
@@ -21,6 +22,7 @@ use super::geometry::{Geometry, Triangle};
 use super::{Camera, LightSet, RenderScene};
 use glam::Vec3;
 use manylights::material::MIN_ALPHA;
+use manylights::Rgb;
 use manylights::{BuildError, Light, LightTree, Material, MAX_COORDINATE};
 use std::path::Path;
 
@@ -35,26 +37,27 @@ pub enum Surface {
     /// A surface that reflects (and blocks) light.
     Reflector(Material),
     /// An emitter of this radiance: its triangles are lights.
-    Emitter(f32),
+    Emitter(Rgb),
 }
 
 /// The surface of an MTL material (see the module documentation); `Err` names the field
 /// that is not finite.
 pub fn surface(m: &tobj::Material) -> Result<Surface, String> {
-    let colour = |name: &str, c: Option<[f32; 3]>| -> Result<f32, String> {
+    let colour = |name: &str, c: Option<[f32; 3]>| -> Result<[f32; 3], String> {
         let c = c.unwrap_or([0.0; 3]);
         if c.iter().all(|v| v.is_finite()) {
-            Ok(luminance(c))
+            Ok(c)
         } else {
             Err(format!("material {:?}: {name} is not finite", m.name))
         }
     };
     let ke = colour("Ke", m.emissive)?;
-    if ke > 0.0 {
-        return Ok(Surface::Emitter(ke));
+    if luminance(ke) > 0.0 {
+        return Ok(Surface::Emitter(Rgb::from_array(ke.map(|v| v.max(0.0)))));
     }
-    let kd = colour("Kd", m.diffuse.or(Some([0.5; 3])))?.clamp(0.0, 1.0);
-    let ks = colour("Ks", m.specular)?.clamp(0.0, 1.0);
+    let kd =
+        Rgb::from_array(colour("Kd", m.diffuse.or(Some([0.5; 3])))?.map(|v| v.clamp(0.0, 1.0)));
+    let ks = luminance(colour("Ks", m.specular)?).clamp(0.0, 1.0);
     let pr = match m.unknown_param.get("Pr") {
         Some(s) => match s.trim().parse::<f32>() {
             Ok(v) if v.is_finite() => Some(v),
@@ -75,7 +78,7 @@ pub fn surface(m: &tobj::Material) -> Result<Surface, String> {
     Ok(Surface::Reflector(match alpha {
         Some(alpha) if ks > 0.0 => {
             let alpha = alpha.clamp(MIN_ALPHA, 1.0);
-            if kd > 0.0 {
+            if kd.max_channel() > 0.0 {
                 Material::Plastic {
                     albedo: kd,
                     specular: ks,
@@ -93,7 +96,9 @@ pub fn surface(m: &tobj::Material) -> Result<Surface, String> {
 }
 
 /// The material of faces that name none.
-const DEFAULT_MATERIAL: Material = Material::Lambert { albedo: 0.5 };
+const DEFAULT_MATERIAL: Material = Material::Lambert {
+    albedo: Rgb::grey(0.5),
+};
 
 /// A file-name-safe scene name from the file's stem.
 fn scene_name(path: &Path) -> String {
@@ -231,6 +236,7 @@ pub fn load(path: &Path) -> Result<RenderScene, String> {
         name: scene_name(path),
         geometry: Geometry::new(triangles),
         lights: LightSet::build(lights).map_err(|e| format!("{}: {e}", path.display()))?,
+        sky: None,
         camera: Camera {
             eye: centre + Vec3::Z * distance,
             target: centre,

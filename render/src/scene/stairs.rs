@@ -3,14 +3,17 @@
 use super::geometry::{cuboid, quad, sphere_light, Geometry};
 use super::{Camera, LightSet, RenderScene};
 use glam::Vec3;
+use manylights::Rgb;
 use manylights::{Light, Material};
 
 /// A staircase of 10 steps between two walls, 18 small sphere lights along the walls and two
 /// large one-sided disk lights under the ceiling.
 pub fn stairs() -> RenderScene {
-    let wall = Material::Lambert { albedo: 0.6 };
+    let wall = Material::Lambert {
+        albedo: Rgb::grey(0.6),
+    };
     let step = Material::Plastic {
-        albedo: 0.5,
+        albedo: Rgb::grey(0.5),
         specular: 0.4,
         alpha: 0.15,
     };
@@ -89,15 +92,15 @@ pub fn stairs() -> RenderScene {
     for i in 0..9 {
         let z = 0.3 + (len - 0.6) * i as f32 / 8.0;
         let y = 0.9 + rise * n as f32 * (1.0 - z / len);
-        lights.push(sphere_light(v(0.05, y, z), 0.02, 1.5));
-        lights.push(sphere_light(v(w - 0.05, y + 0.1, z), 0.02, 1.5));
+        lights.push(sphere_light(v(0.05, y, z), 0.02, 1.5, Rgb::ONE));
+        lights.push(sphere_light(v(w - 0.05, y + 0.1, z), 0.02, 1.5, Rgb::ONE));
     }
     for z in [len * 0.3, len * 0.75] {
         lights.push(Light::Disk {
             center: v(w * 0.5, height - 0.01, z),
             normal: v(0.0, -1.0, 0.0),
             radius: 0.35,
-            radiance: 4.0,
+            radiance: Rgb::grey(4.0),
             two_sided: false,
         });
     }
@@ -105,6 +108,7 @@ pub fn stairs() -> RenderScene {
         name: "stairs".into(),
         geometry: Geometry::new(t),
         lights: LightSet::build(lights).expect("the built-in lights are valid"),
+        sky: None,
         camera: Camera {
             eye: v(w * 0.5, 1.5, len + 1.2),
             target: v(w * 0.5, 1.2, 0.0),

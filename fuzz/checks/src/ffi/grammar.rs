@@ -7,6 +7,11 @@ use arbitrary::{Arbitrary, Unstructured};
 use manylights_ffi::*;
 use std::fmt;
 
+/// A grey colour.
+pub(crate) fn grey(v: f32) -> ml_rgb {
+    ml_rgb { r: v, g: v, b: v }
+}
+
 /// The target's input: the operations, in order (the first [`MAX_OPS`]).
 #[derive(Arbitrary, Debug)]
 pub struct Input {
@@ -262,14 +267,15 @@ pub struct Light {
 impl Light {
     pub(super) fn ml(&self) -> ml_light {
         ml_light {
-            kind: self.kind.value(6),
+            kind: self.kind.value(8),
             two_sided: self.two_sided.value(2),
             position: v3(&self.position),
             direction: v3(&self.direction),
             vertex2: v3(&self.vertex2),
-            power: self.power.value(),
+            power: grey(self.power.value()),
             radius: self.radius.value(),
             half_angle: self.half_angle.value(),
+            irradiance_bounds: [self.power.value(); 6],
             falloff_start: match self.falloff_start {
                 F::Unit(_) => self.falloff_start.value() * self.half_angle.value(),
                 f => f.value(),
@@ -295,7 +301,7 @@ impl MaterialDesc {
     pub(super) fn ml(&self) -> ml_material {
         ml_material {
             kind: self.kind.value(3),
-            albedo: self.albedo.value(),
+            albedo: grey(self.albedo.value()),
             specular: self.specular.value(),
             alpha: self.alpha.value(),
         }
@@ -506,7 +512,7 @@ impl VplDesc {
         ml_vpl {
             position: v3(&self.position),
             normal: v3(&self.normal),
-            intensity: self.intensity.value(),
+            intensity: grey(self.intensity.value()),
         }
     }
 }

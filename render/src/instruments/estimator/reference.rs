@@ -156,7 +156,7 @@ impl Integrand {
                     t,
                     b,
                     omc_max,
-                    scale: f64::from(radiance) * 2.0 * PI * omc_max,
+                    scale: f64::from(radiance.luminance()) * 2.0 * PI * omc_max,
                 })
             }
             Light::Disk {
@@ -184,7 +184,7 @@ impl Integrand {
                     t,
                     b,
                     r,
-                    scale: f64::from(radiance) * PI * r * r,
+                    scale: f64::from(radiance.luminance()) * PI * r * r,
                 })
             }
             _ => panic!("the estimator scene holds only spheres and disks"),

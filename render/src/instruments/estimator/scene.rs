@@ -21,6 +21,7 @@
 //!   material instead (5× the configurations and the run time).
 
 use glam::Vec3;
+use manylights::Rgb;
 use manylights::{Light, LightSet, Material, ShadingPoint};
 use rand::{Rng, SeedableRng};
 use rand_pcg::Pcg64Mcg;
@@ -35,7 +36,12 @@ pub const LIGHT_RADIUS: (f32, f32) = (0.02, 0.3);
 
 /// The five materials: a name (used in reports) and the material.
 pub const MATERIALS: [(&str, Material); 5] = [
-    ("lambert", Material::Lambert { albedo: 0.8 }),
+    (
+        "lambert",
+        Material::Lambert {
+            albedo: Rgb::grey(0.8),
+        },
+    ),
     (
         "ggx-0.05",
         Material::Ggx {
@@ -60,7 +66,7 @@ pub const MATERIALS: [(&str, Material); 5] = [
     (
         "plastic",
         Material::Plastic {
-            albedo: 0.5,
+            albedo: Rgb::grey(0.5),
             specular: 0.5,
             alpha: 0.1,
         },
@@ -128,12 +134,12 @@ pub fn lights(n: usize, seed: u64) -> Vec<Light> {
             let radius = log_uniform(&mut rng, LIGHT_RADIUS);
             let power = log_uniform(&mut rng, (0.1, 10.0)) * dist;
             match i % 8 {
-                0 | 1 | 4 | 5 => crate::scene::sphere_light(center, radius, power),
+                0 | 1 | 4 | 5 => crate::scene::sphere_light(center, radius, power, Rgb::ONE),
                 3 => Light::Disk {
                     center,
                     normal: unit_vector(&mut rng),
                     radius,
-                    radiance: power / (2.0 * PI * PI * radius * radius),
+                    radiance: Rgb::grey(power / (2.0 * PI * PI * radius * radius)),
                     two_sided: true,
                 },
                 _ => {
@@ -146,7 +152,7 @@ pub fn lights(n: usize, seed: u64) -> Vec<Light> {
                     let normal = (to_origin * tilt.cos()
                         + (t * phi.cos() + b * phi.sin()) * tilt.sin())
                     .normalize();
-                    crate::scene::disk_light(center, normal, radius, power)
+                    crate::scene::disk_light(center, normal, radius, power, Rgb::ONE)
                 }
             }
         })

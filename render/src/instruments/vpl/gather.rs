@@ -73,7 +73,7 @@ impl From<&Vpl> for Gathered {
         Gathered {
             position: v.position,
             normal: v.normal.normalize(),
-            intensity: v.intensity,
+            intensity: v.intensity.luminance(),
         }
     }
 }
@@ -157,7 +157,7 @@ impl VplTree {
             .map(|v| Light::Vpl {
                 position: v.position,
                 normal: v.normal,
-                intensity: v.intensity,
+                intensity: v.intensity.into(),
             })
             .collect();
         let tree = if vpls.iter().any(|v| v.intensity > 0.0) {

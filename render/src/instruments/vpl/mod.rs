@@ -400,15 +400,15 @@ pub fn run_variant(setup: &Setup, name: &str, cfg: &VariantConfig) -> Variant {
     }
     progress.finish_and_clear();
     let n = v.frames.max(1) as f64;
-    v.image.mean = sum.iter().map(|&s| (s / n) as f32).collect();
+    v.image.mean = sum.iter().map(|&s| [(s / n) as f32; 3]).collect();
     v.image.var = sum
         .iter()
         .zip(&sum2)
         .map(|(&s, &s2)| {
             if v.frames > 1 {
-                (((s2 - s * s / n) / (n - 1.0)).max(0.0)) as f32
+                [(((s2 - s * s / n) / (n - 1.0)).max(0.0)) as f32; 3]
             } else {
-                0.0
+                [0.0; 3]
             }
         })
         .collect();
@@ -480,10 +480,11 @@ pub fn reference(
     Ok(v.image)
 }
 
-/// The RMS standard error of an image's pixels (from their variance across frames).
+/// The RMS standard error of an image's pixels (from their variance across frames; the VPL
+/// images are grey, so one channel).
 pub fn rms_standard_error(img: &Image) -> f64 {
     let n = img.var.len().max(1) as f64;
-    let s: f64 = img.var.iter().map(|&v| f64::from(v)).sum();
+    let s: f64 = img.var.iter().map(|&v| f64::from(v[0])).sum();
     (s / n / img.spp.max(1) as f64).sqrt()
 }
 
@@ -647,7 +648,7 @@ fn write_images(report: &Report, reference: &Image, out: &std::path::Path) -> st
     // One exposure for all: the reference's average at 0.18.
     let k = 0.18 / reference.average().max(1e-30) as f32;
     let scaled = |img: &Image| Image {
-        mean: img.mean.iter().map(|&x| x * k).collect(),
+        mean: img.mean.iter().map(|x| x.map(|c| c * k)).collect(),
         ..img.clone()
     };
     let mut panels = Vec::new();

@@ -13,6 +13,7 @@
 use crate::scene::{Camera, Geometry, RenderScene, Triangle};
 use glam::Vec3;
 use manylights::LightSet;
+use manylights::Rgb;
 use manylights::{Light, Material};
 
 /// The scene names, in help order.
@@ -43,7 +44,9 @@ fn horizontal(out: &mut Vec<Triangle>, y: f32, (x0, x1): (f32, f32), (z0, z1): (
     quad(
         out,
         [v(x0, z0), v(x1, z0), v(x1, z1), v(x0, z1)],
-        Material::Lambert { albedo: 0.7 },
+        Material::Lambert {
+            albedo: Rgb::grey(0.7),
+        },
     );
 }
 
@@ -53,7 +56,9 @@ fn wall_x(out: &mut Vec<Triangle>, x: f32, (z0, z1): (f32, f32), h: f32, albedo:
     quad(
         out,
         [v(0.0, z0), v(0.0, z1), v(h, z1), v(h, z0)],
-        Material::Lambert { albedo },
+        Material::Lambert {
+            albedo: albedo.into(),
+        },
     );
 }
 
@@ -63,7 +68,9 @@ fn wall_z(out: &mut Vec<Triangle>, z: f32, (x0, x1): (f32, f32), h: f32, albedo:
     quad(
         out,
         [v(x0, 0.0), v(x1, 0.0), v(x1, h), v(x0, h)],
-        Material::Lambert { albedo },
+        Material::Lambert {
+            albedo: albedo.into(),
+        },
     );
 }
 
@@ -77,13 +84,14 @@ fn with_light(
 ) -> VplScene {
     let point = Light::Point {
         position: light,
-        intensity,
+        intensity: intensity.into(),
     };
     VplScene {
         scene: RenderScene {
             name: name.into(),
             geometry: Geometry::new(t),
             lights: LightSet::build(vec![point]).expect("the scene's light is valid"),
+            sky: None,
             camera,
         },
         light,
@@ -133,7 +141,9 @@ pub fn room() -> VplScene {
     wall_z(&mut t, 5.0, (0.0, 5.0), h, 0.7);
     // A box on the floor, 1.2 m on a side.
     let (lo, hi) = (Vec3::new(3.0, 0.0, 1.2), Vec3::new(4.2, 1.2, 2.4));
-    let m = Material::Lambert { albedo: 0.5 };
+    let m = Material::Lambert {
+        albedo: Rgb::grey(0.5),
+    };
     let v = |x: f32, y: f32, z: f32| Vec3::new(x, y, z);
     quad(
         &mut t,

@@ -13,6 +13,7 @@ use super::scenes::VplScene;
 use crate::render::busy_time;
 use glam::Vec3;
 use manylights::vpl::AcceptStats;
+use manylights::Rgb;
 use manylights::{Frame, Vpl, VplAcceptor};
 use rand::{Rng, SeedableRng};
 use rand_pcg::Pcg64Mcg;
@@ -86,7 +87,7 @@ pub fn walk(scene: &VplScene, flux: f32, rng: &mut Pcg64Mcg, mut emit: impl FnMu
         emit(Vpl {
             position: p,
             normal: n,
-            intensity: albedo * flux * FRAC_1_PI,
+            intensity: Rgb::grey(albedo * flux * FRAC_1_PI),
         });
         if rng.random::<f32>() >= albedo {
             break;

@@ -118,8 +118,7 @@ impl Harness<'_> {
                                 d.probability > 0.0
                                     && d.probability <= 1.0
                                     && f.iter().all(|v| v.is_finite())
-                                    && d.vpl.intensity >= 0.0
-                                    && d.vpl.intensity.is_finite()
+                                    && super::colour_ok(d.vpl.intensity)
                             }
                             _ => false,
                         };

@@ -2,9 +2,9 @@
 //! (`ml_estimator_*`): created on a tree, set up at a shading point, one-call estimates, the
 //! lower-level steps, weights and BSDF hits, freed.
 
-use super::{Est, Harness};
+use super::{estimate_ok, Est, Harness};
 use crate::ffi::buffers::{HandleArg, In, Out};
-use crate::ffi::grammar::{v3, Op, Ptr, Uniforms, Visibility, F, MAX_STEPS};
+use crate::ffi::grammar::{grey, v3, Op, Ptr, Uniforms, Visibility, F, MAX_STEPS};
 use crate::ffi::host::{each_hit, host, uniforms, visibility, Host};
 use manylights_ffi::*;
 use std::ptr;
@@ -32,14 +32,12 @@ impl Harness<'_> {
                         .map(|v| (visibility(&v.value, host(hp.cast())), v.ptr)),
                 );
                 let u = In::one(uniforms(&uni.value, hp), uni.ptr);
-                let mut o = Out::<f64>::one(*out);
+                let mut o = Out::<ml_rgb64>::one(*out);
                 let s =
-                    ml_direct_estimate(t, p.p(), technique.value(9), prm.p(), v.p(), u.p(), o.p());
+                    ml_direct_estimate(t, p.p(), technique.value(10), prm.p(), v.p(), u.p(), o.p());
                 if self.status("ml_direct_estimate", s, &[&th, &p, &prm, &v, &u, &o]) {
                     let e = o.get(0);
-                    self.ensure(e >= 0.0 && e.is_finite(), || {
-                        format!("ml_direct_estimate: {e}")
-                    });
+                    self.ensure(estimate_ok(e), || format!("ml_direct_estimate: {e:?}"));
                 }
             }
             Op::EstimatorCreate { tree, out } => {
@@ -75,7 +73,7 @@ impl Harness<'_> {
                 let spv = sp.value.ml();
                 let p = In::one(spv, sp.ptr);
                 let prm = In::opt(params.as_ref().map(|o| (o.value.ml(), o.ptr)));
-                let s = ml_estimator_set_point(e, p.p(), technique.value(9), prm.p());
+                let s = ml_estimator_set_point(e, p.p(), technique.value(10), prm.p());
                 if self.status("ml_estimator_set_point", s, &[&eh, &p, &prm]) {
                     if let Some(i) = ei {
                         self.ests[i].sp = Some(spv);
@@ -96,13 +94,11 @@ impl Harness<'_> {
                         .map(|v| (visibility(&v.value, host(hp.cast())), v.ptr)),
                 );
                 let u = In::one(uniforms(&uni.value, hp), uni.ptr);
-                let mut o = Out::<f64>::one(*out);
+                let mut o = Out::<ml_rgb64>::one(*out);
                 let s = ml_estimator_estimate(e, v.p(), u.p(), o.p());
                 if self.status("ml_estimator_estimate", s, &[&eh, &v, &u, &o]) {
                     let r = o.get(0);
-                    self.ensure(r >= 0.0 && r.is_finite(), || {
-                        format!("ml_estimator_estimate: {r}")
-                    });
+                    self.ensure(estimate_ok(r), || format!("ml_estimator_estimate: {r:?}"));
                 }
             }
             Op::Start(est) => {
@@ -183,7 +179,7 @@ impl Harness<'_> {
                 let s = ml_estimator_set_point(
                     e,
                     &sp,
-                    technique.value(9),
+                    technique.value(10),
                     prm.as_ref().map_or(ptr::null(), |p| p as *const _),
                 );
                 let ok = self.status("ml_estimator_set_point", s, &[]);
@@ -220,7 +216,7 @@ impl Harness<'_> {
             let hp: *mut Host = &mut h;
             let v = vis.map(|v| visibility(v, host(hp.cast())));
             let u = uniforms(uni, hp);
-            let mut o = Out::<f64>::one(Ptr::Valid);
+            let mut o = Out::<ml_rgb64>::one(Ptr::Valid);
             let s = ml_estimator_estimate(
                 e,
                 v.as_ref().map_or(ptr::null(), |v| v as *const _),
@@ -229,9 +225,7 @@ impl Harness<'_> {
             );
             if self.status("ml_estimator_estimate", s, &[&o]) {
                 let r = o.get(0);
-                self.ensure(r >= 0.0 && r.is_finite(), || {
-                    format!("ml_estimator_estimate: {r}")
-                });
+                self.ensure(estimate_ok(r), || format!("ml_estimator_estimate: {r:?}"));
             }
         }
         let s = ml_estimator_start(e);
@@ -263,6 +257,29 @@ impl Harness<'_> {
                 }
                 let mut o = Out::<ml_weighted>::one(Ptr::Valid);
                 let s = ml_estimator_weigh(e, q, o.p());
+                if self.status("ml_estimator_weigh", s, &[&o]) {
+                    self.weighted("ml_estimator_weigh", &o.get(0));
+                }
+            } else if step.kind == 3 {
+                // The host's environment: a direction about the normal, radiance 1, pdf 1/4π.
+                let mut o = Out::<ml_step>::one(Ptr::Valid);
+                let s = ml_estimator_environment_point(
+                    e,
+                    sp.normal,
+                    grey(1.0),
+                    0.25 * core::f32::consts::FRAC_1_PI,
+                    o.p(),
+                );
+                if !self.status("ml_estimator_environment_point", s, &[&o]) {
+                    return;
+                }
+                let step = o.get(0);
+                self.ensure(step.kind == 0, || {
+                    format!("ml_estimator_environment_point: {step:?}")
+                });
+                self.step(&step, n);
+                let mut o = Out::<ml_weighted>::one(Ptr::Valid);
+                let s = ml_estimator_weigh(e, 0.0, o.p());
                 if self.status("ml_estimator_weigh", s, &[&o]) {
                     self.weighted("ml_estimator_weigh", &o.get(0));
                 }
@@ -304,6 +321,14 @@ impl Harness<'_> {
                 || format!("ml_estimator_next: {s:?}"),
             ),
             2 => {}
+            3 => self.ensure(
+                (s.light as usize) < n
+                    && s.pmf > 0.0
+                    && s.pmf <= 1.0
+                    && (0.0..1.0).contains(&s.u0)
+                    && (0.0..1.0).contains(&s.u1),
+                || format!("ml_estimator_next: {s:?}"),
+            ),
             k => self.fail(format_args!("ml_estimator_next: step kind {k}")),
         }
     }

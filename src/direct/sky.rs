@@ -1,0 +1,182 @@
+//! The host's environment as the one call takes it ([`Environment`]: radiance, sampling and
+//! pdf of an environment map or sky), and two built-in ones for renderers and tests: a
+//! uniform environment ([`UniformSky`]) and an analytic sky ([`GradientSky`]).
+//!
+//! An environment is infinitely far: its radiance and pdf depend on the direction alone. The
+//! light set holds it as a [`Light::Environment`] whose six irradiance bounds the importances
+//! weigh it by; the built-in skies give theirs ([`UniformSky::light`], [`GradientSky::light`]).
+
+use crate::colour::Rgb;
+use crate::light::Light;
+use crate::math;
+use core::f32::consts::PI;
+use glam::Vec3;
+
+/// A direction sampled from an environment, with its radiance and solid-angle pdf.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct EnvironmentSample {
+    /// Unit direction from the shading point towards the environment.
+    pub direction: Vec3,
+    /// The radiance arriving along `-direction`.
+    pub radiance: Rgb,
+    /// The solid-angle pdf of having sampled `direction` (> 0, finite).
+    pub pdf: f32,
+}
+
+/// The host's environment: its radiance, its importance sampling and that sampling's pdf.
+pub trait Environment {
+    /// A direction for the uniform numbers `u` in [0, 1)², or `None` (the sample is skipped).
+    fn sample(&self, u: [f32; 2]) -> Option<EnvironmentSample>;
+    /// The radiance arriving along `-direction` from the unit `direction`, and the solid-angle
+    /// pdf with which [`Environment::sample`] returns it (0 where it never does).
+    fn eval(&self, direction: Vec3) -> (Rgb, f32);
+}
+
+impl<E: Environment + ?Sized> Environment for &E {
+    #[inline]
+    fn sample(&self, u: [f32; 2]) -> Option<EnvironmentSample> {
+        (**self).sample(u)
+    }
+
+    #[inline]
+    fn eval(&self, direction: Vec3) -> (Rgb, f32) {
+        (**self).eval(direction)
+    }
+}
+
+/// A uniform environment of radiance `radiance`, sampled uniformly over the sphere (pdf
+/// `1 / 4π`). A Lambert surface of albedo ρ under it reflects `ρ · radiance` (its irradiance
+/// is π · radiance).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct UniformSky {
+    /// The radiance from every direction.
+    pub radiance: Rgb,
+}
+
+impl UniformSky {
+    /// Its light: irradiance bounds `π Y(radiance)` on every axis.
+    pub fn light(&self) -> Light {
+        Light::Environment {
+            irradiance: [PI * self.radiance.luminance(); 6],
+        }
+    }
+}
+
+/// The unit direction of `u` on the sphere (uniform), `z = 1 − 2 u₀`.
+#[inline]
+fn uniform_sphere(u: [f32; 2]) -> Vec3 {
+    let z = 1.0 - 2.0 * u[0];
+    let r = math::sqrt((1.0 - z * z).max(0.0));
+    let (s, c) = math::sin_cos(2.0 * PI * u[1]);
+    Vec3::new(r * c, r * s, z)
+}
+
+impl Environment for UniformSky {
+    fn sample(&self, u: [f32; 2]) -> Option<EnvironmentSample> {
+        Some(EnvironmentSample {
+            direction: uniform_sphere(u).normalize(),
+            radiance: self.radiance,
+            pdf: 1.0 / (4.0 * PI),
+        })
+    }
+
+    fn eval(&self, _direction: Vec3) -> (Rgb, f32) {
+        (self.radiance, 1.0 / (4.0 * PI))
+    }
+}
+
+/// An analytic sky about the unit `up`: above the horizon (`c = up·ω > 0`) the radiance
+/// `horizon (1 − c) + zenith c`, below it `ground`. Sampled by the cosine lobe about `up`
+/// with probability q and uniformly over the lower hemisphere otherwise, q the upper
+/// hemisphere's share of `Y(zenith) + Y(horizon)` against `2 Y(ground)` (1 for a black
+/// ground): pdf `q c / π` above, `(1 − q) / 2π` below.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct GradientSky {
+    /// The up direction (unit).
+    pub up: Vec3,
+    /// Radiance at the zenith.
+    pub zenith: Rgb,
+    /// Radiance at the horizon.
+    pub horizon: Rgb,
+    /// Radiance below the horizon.
+    pub ground: Rgb,
+}
+
+impl GradientSky {
+    /// The probability of sampling the upper hemisphere.
+    fn q(&self) -> f32 {
+        let up = self.zenith.luminance() + self.horizon.luminance();
+        let low = 2.0 * self.ground.luminance();
+        if up + low > 0.0 {
+            up / (up + low)
+        } else {
+            1.0
+        }
+    }
+
+    /// Its light: on a receiver facing the axis direction a, with `c = a·up`, the irradiance is
+    /// at most `Y_up π (1 + c)/2 + Y(ground) π (1 − c)/2`, `Y_up` the larger of the zenith's and
+    /// the horizon's luminance (the clamped cosine integrates to `π (1 + c)/2` over the upper
+    /// hemisphere), rounded up.
+    pub fn light(&self) -> Light {
+        let y_up = self.zenith.luminance().max(self.horizon.luminance());
+        let y_low = self.ground.luminance();
+        let axes = [Vec3::X, -Vec3::X, Vec3::Y, -Vec3::Y, Vec3::Z, -Vec3::Z];
+        let up = self.up.normalize();
+        let irradiance = axes.map(|a| {
+            let c = a.dot(up).clamp(-1.0, 1.0);
+            let e = y_up * PI * (1.0 + c) * 0.5 + y_low * PI * (1.0 - c) * 0.5;
+            e * (1.0 + 1e-5)
+        });
+        Light::Environment { irradiance }
+    }
+
+    /// The radiance along `-d` for a unit `d`.
+    fn radiance(&self, d: Vec3) -> Rgb {
+        let c = d.dot(self.up);
+        if c > 0.0 {
+            self.horizon * (1.0 - c) + self.zenith * c
+        } else {
+            self.ground
+        }
+    }
+}
+
+impl Environment for GradientSky {
+    fn sample(&self, u: [f32; 2]) -> Option<EnvironmentSample> {
+        let q = self.q();
+        let up = self.up.normalize();
+        let (t, b) = crate::brdf::Frame::from_normal(up).map(|f| (f.tangent, f.bitangent))?;
+        let local = if u[0] < q {
+            // Cosine-weighted about up (Malley), the first number rescaled.
+            let v = (u[0] / q).min(1.0);
+            let r = math::sqrt(v);
+            let (s, c) = math::sin_cos(2.0 * PI * u[1]);
+            Vec3::new(r * c, r * s, math::sqrt((1.0 - v).max(0.0)))
+        } else {
+            let v = ((u[0] - q) / (1.0 - q)).min(1.0);
+            let z = -v;
+            let r = math::sqrt((1.0 - z * z).max(0.0));
+            let (s, c) = math::sin_cos(2.0 * PI * u[1]);
+            Vec3::new(r * c, r * s, z)
+        };
+        let d = (t * local.x + b * local.y + up * local.z).normalize();
+        let (radiance, pdf) = self.eval(d);
+        (pdf > 0.0 && pdf < f32::INFINITY).then_some(EnvironmentSample {
+            direction: d,
+            radiance,
+            pdf,
+        })
+    }
+
+    fn eval(&self, d: Vec3) -> (Rgb, f32) {
+        let q = self.q();
+        let c = d.dot(self.up.normalize());
+        let pdf = if c > 0.0 {
+            q * c / PI
+        } else {
+            (1.0 - q) / (2.0 * PI)
+        };
+        (self.radiance(d), pdf)
+    }
+}

@@ -1,0 +1,548 @@
+//! Lights at infinity — distant lights (a cone of directions: a sun) and the host's
+//! environment — kept beside the node tree and weighed against it at the root, at every
+//! shading point, with the importance of the descent (docs/formulas.md, section 16).
+//!
+//! pbrt-v4's `BVHLightSampler` picks its infinite lights with a fixed probability (their count
+//! over their count plus one) whatever the shading point; Cycles (since 3.5) keeps distant
+//! lights and the background in a subtree of their own, weighed against the local lights'
+//! subtree by orientation bounds. Here every distant and environment light is one entry of a
+//! short list ([`InfiniteLight`], at most [`MAX_INFINITE_LIGHTS`]), and a sample first chooses
+//! among {the node tree, each entry} in proportion to their importances at the point — the
+//! tree's is the sum of its root's four slot importances, an entry's the same importance
+//! ([`Importance::eval_infinite`]) in the same units — then descends the tree if it was
+//! chosen. So `pmf = P(root choice) · P(descent)`, and [`LightTree::pmf`] recomputes both
+//! factors from the same numbers: exactly what [`LightTree::sample`] reported.
+//!
+//! **The root choice** ([`RootChoice`]) is computed in f64 from the f32 importances: weights
+//! that are NaN, negative or infinite count as 0; a choice whose probability would be below
+//! [`MIN_PMF`] is dropped and the others renormalise (as the descent drops vanishing slots);
+//! the uniform number is rescaled into the chosen interval. Below the root the descent runs
+//! with the floor `MIN_PMF / P(tree)` (rounded up), so the product stays at least
+//! [`MIN_PMF`] and the pmfs of all lights still sum to 1.
+//!
+//! **Storage and byte format.** The entries follow the paths in the byte format (version 4) as
+//! a section of their own: a little-endian u64 count, then the 64-byte entries (fields in the
+//! host's byte order, as the nodes). The lights they name have the path 0 (not in the node
+//! tree). An empty section is 8 bytes of zeros; a tree without lights at infinity samples and
+//! answers exactly as the node tree alone.
+
+use crate::error::{BuildError, ValidationError};
+use crate::importance::conty_kulla::Receiver;
+use crate::importance::Importance;
+use crate::light::Light;
+use crate::math;
+use crate::sample::{LightSample, WalkStart, MIN_PMF, ONE_MINUS_EPSILON};
+use crate::tree::LightTree;
+use alloc::vec::Vec;
+use bytemuck::{Pod, Zeroable};
+use glam::Vec3;
+
+/// Most distant and environment lights a tree holds (at most one of them an environment).
+pub const MAX_INFINITE_LIGHTS: usize = 16;
+
+/// `4π`: the node tree's importances are `flux / d²`, 4π times an irradiance; a light at
+/// infinity's are its irradiance times this, so that all are in the same units.
+const FOUR_PI: f32 = 4.0 * core::f32::consts::PI;
+
+/// What an [`InfiniteLight`] entry is.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum InfiniteKind {
+    /// A [`Light::Distant`].
+    Distant,
+    /// A [`Light::Environment`].
+    Environment,
+}
+
+/// A distant or environment light as the tree keeps it (64 bytes, `repr(C)`, Pod).
+///
+/// | offset | field | distant | environment |
+/// |---:|---|---|---|
+/// | 0 | `light: u32` | its index in the build's input | the same |
+/// | 4 | `kind: u32` | 0 | 1 |
+/// | 8 | `direction: [f32; 3]` | unit, towards the light | 0 |
+/// | 20 | `cos_radius: f32` | cos γ | −1 |
+/// | 24 | `sin_radius: f32` | sin γ | 0 |
+/// | 28 | `irradiance: [f32; 6]` | the irradiance's luminance, then 0 | the six bounds (+x, −x, +y, −y, +z, −z) |
+/// | 52 | `reserved: [u32; 3]` | 0 | 0 |
+#[repr(C)]
+#[derive(Clone, Copy, Debug, PartialEq, Pod, Zeroable)]
+pub struct InfiniteLight {
+    /// The light's index in the slice the tree was built from.
+    pub light: u32,
+    /// 0: distant, 1: environment.
+    pub kind: u32,
+    /// Distant: the unit direction towards the light; environment: 0.
+    pub direction: [f32; 3],
+    /// Distant: cos γ of its angular radius; environment: −1.
+    pub cos_radius: f32,
+    /// Distant: sin γ; environment: 0.
+    pub sin_radius: f32,
+    /// Distant: the luminance of its irradiance in slot 0 (the rest 0); environment: the six
+    /// irradiance bounds of [`Light::Environment`].
+    pub irradiance: [f32; 6],
+    /// Zero.
+    pub reserved: [u32; 3],
+}
+
+const _: () = assert!(core::mem::size_of::<InfiniteLight>() == 64);
+
+impl InfiniteLight {
+    /// The entry of light `index`, `None` for a light of the node tree. Valid only for a light
+    /// that passed [`Light::validate`].
+    pub fn of(index: u32, light: &Light) -> Option<InfiniteLight> {
+        match *light {
+            Light::Distant {
+                direction,
+                angular_radius,
+                irradiance,
+            } => {
+                let d = math::unit_f64(direction.as_ref().map(f64::from)).unwrap_or(Vec3::Z);
+                let (s, c) = math::sin_cos64(f64::from(angular_radius));
+                let mut e = [0.0; 6];
+                e[0] = irradiance.luminance();
+                Some(InfiniteLight {
+                    light: index,
+                    kind: 0,
+                    direction: d.to_array(),
+                    cos_radius: c as f32,
+                    sin_radius: s as f32,
+                    irradiance: e,
+                    reserved: [0; 3],
+                })
+            }
+            Light::Environment { irradiance } => Some(InfiniteLight {
+                light: index,
+                kind: 1,
+                direction: [0.0; 3],
+                cos_radius: -1.0,
+                sin_radius: 0.0,
+                irradiance,
+                reserved: [0; 3],
+            }),
+            _ => None,
+        }
+    }
+
+    /// The entry's kind (`None` for a corrupt kind field).
+    #[inline]
+    pub fn kind(&self) -> Option<InfiniteKind> {
+        match self.kind {
+            0 => Some(InfiniteKind::Distant),
+            1 => Some(InfiniteKind::Environment),
+            _ => None,
+        }
+    }
+
+    /// The direction towards a distant light (0 for an environment).
+    #[inline]
+    pub fn direction(&self) -> Vec3 {
+        Vec3::from_array(self.direction)
+    }
+
+    /// The environment's irradiance bound at the unit normal `n` for `receiver`:
+    /// `Σ |n_i| E(sign(n_i) e_i)` for a reflective receiver (with `max(0, n·ω) ≤
+    /// Σ |n_i| max(0, sign(n_i) e_i·ω)` it bounds the irradiance), the bounds of both
+    /// sides for a transmissive one, all six for an omnidirectional one (`1 ≤ Σ |ω_i|`).
+    pub fn environment_bound(&self, n: Vec3, receiver: Receiver) -> f32 {
+        let e = &self.irradiance;
+        let pick = |c: f32, pos: f32, neg: f32| if c >= 0.0 { pos } else { neg };
+        match receiver {
+            Receiver::Omnidirectional => e.iter().sum(),
+            Receiver::Reflective => {
+                n.x.abs() * pick(n.x, e[0], e[1])
+                    + n.y.abs() * pick(n.y, e[2], e[3])
+                    + n.z.abs() * pick(n.z, e[4], e[5])
+            }
+            Receiver::Transmissive => {
+                n.x.abs() * (e[0] + e[1]) + n.y.abs() * (e[2] + e[3]) + n.z.abs() * (e[4] + e[5])
+            }
+        }
+    }
+
+    /// The TL importance of the entry at a point of unit normal `n`: for a distant light
+    /// `4π E cos⁺(max(0, θi − γ))` with θi the angle between `n` and its direction (the
+    /// cosine floored at `COS_FLOOR` within `COS_SLACK` of the horizon, as the node tree's:
+    /// conservative), for the environment `4π` times its bound at `n`.
+    pub(crate) fn tl(&self, n: Vec3, receiver: Receiver) -> f32 {
+        use crate::importance::conty_kulla::{COS_FLOOR, COS_SLACK};
+        match self.kind() {
+            Some(InfiniteKind::Distant) => {
+                let cos_ip = match receiver {
+                    Receiver::Omnidirectional => 1.0,
+                    _ => {
+                        let mut ci = n.dot(self.direction());
+                        if receiver == Receiver::Transmissive {
+                            ci = ci.abs();
+                        }
+                        cos_minus(ci, self.cos_radius, self.sin_radius)
+                    }
+                };
+                if cos_ip <= -COS_SLACK {
+                    return 0.0;
+                }
+                FOUR_PI * self.irradiance[0] * cos_ip.max(COS_FLOOR)
+            }
+            Some(InfiniteKind::Environment) => FOUR_PI * self.environment_bound(n, receiver),
+            None => 0.0,
+        }
+    }
+}
+
+/// `cos(max(0, θ − γ))` from `cos θ = c` and γ's cosine and sine (1 when θ ≤ γ).
+#[inline]
+pub(crate) fn cos_minus(c: f32, cos_g: f32, sin_g: f32) -> f32 {
+    if c >= cos_g {
+        1.0
+    } else {
+        let s = math::sqrt((1.0 - c * c).max(0.0));
+        c * cos_g + s * sin_g
+    }
+}
+
+/// The entries of `lights` (validated), in input order; errors for too many lights at
+/// infinity or a second environment.
+pub(crate) fn collect(lights: &[Light]) -> Result<Vec<InfiniteLight>, BuildError> {
+    let mut out = Vec::new();
+    let mut environment = false;
+    for (i, l) in lights.iter().enumerate() {
+        let Some(e) = InfiniteLight::of(i as u32, l) else {
+            continue;
+        };
+        if e.kind() == Some(InfiniteKind::Environment) {
+            if environment {
+                return Err(BuildError::SecondEnvironment { index: i });
+            }
+            environment = true;
+        }
+        out.push(e);
+    }
+    if out.len() > MAX_INFINITE_LIGHTS {
+        return Err(BuildError::TooManyInfiniteLights { count: out.len() });
+    }
+    Ok(out)
+}
+
+/// The choice at the root among the node tree (choice 0) and the lights at infinity (choice
+/// `1 + i` for entry `i`), from their weights at one shading point (see the module
+/// documentation). No allocation.
+#[derive(Clone, Copy, Debug)]
+pub struct RootChoice {
+    w: [f64; MAX_INFINITE_LIGHTS + 1],
+    n: usize,
+    sum: f64,
+}
+
+impl RootChoice {
+    /// The choice among `tree` (the node tree's weight) and the weights of the lights at
+    /// infinity (at most [`MAX_INFINITE_LIGHTS`]; more are ignored).
+    pub fn new(tree: f64, infinite: impl IntoIterator<Item = f32>) -> RootChoice {
+        let clean = |x: f64| if x > 0.0 && x.is_finite() { x } else { 0.0 };
+        let mut w = [0.0f64; MAX_INFINITE_LIGHTS + 1];
+        w[0] = clean(tree);
+        let mut n = 1;
+        for x in infinite.into_iter().take(MAX_INFINITE_LIGHTS) {
+            w[n] = clean(f64::from(x));
+            n += 1;
+        }
+        // Drop the choices whose probability would be below MIN_PMF, until none is (the
+        // largest never is: its share is at least 1 / (MAX_INFINITE_LIGHTS + 1)).
+        let mut sum: f64 = w[..n].iter().sum();
+        loop {
+            let mut dropped = false;
+            for x in w[..n].iter_mut() {
+                if *x > 0.0 && ((*x / sum) as f32) < MIN_PMF {
+                    *x = 0.0;
+                    dropped = true;
+                }
+            }
+            if !dropped {
+                break;
+            }
+            sum = w[..n].iter().sum();
+        }
+        RootChoice { w, n, sum }
+    }
+
+    /// Number of choices (1 + the lights at infinity).
+    #[inline]
+    pub fn len(&self) -> usize {
+        self.n
+    }
+
+    /// Never empty: the node tree is choice 0.
+    #[inline]
+    pub fn is_empty(&self) -> bool {
+        false
+    }
+
+    /// The probability of choice `k` (0 outside, or when nothing can be chosen).
+    #[inline]
+    pub fn probability(&self, k: usize) -> f32 {
+        if k >= self.n || self.sum <= 0.0 {
+            return 0.0;
+        }
+        (self.w[k] / self.sum) as f32
+    }
+
+    /// The choice for the uniform number `u` (clamped into [0, 1); NaN counts as 0): `(k,
+    /// its probability, u rescaled into [0, 1))`; `None` when every weight is 0. A choice of
+    /// weight 0 is never made.
+    pub fn pick(&self, u: f32) -> Option<(usize, f32, f32)> {
+        if self.sum <= 0.0 {
+            return None;
+        }
+        let u = if u >= 0.0 {
+            u.min(ONE_MINUS_EPSILON)
+        } else {
+            0.0
+        };
+        let t = f64::from(u) * self.sum;
+        let last = (0..self.n).rev().find(|&k| self.w[k] > 0.0)?;
+        let (mut k, mut before) = (last, 0.0);
+        for (j, &w) in self.w[..self.n].iter().enumerate() {
+            if w <= 0.0 {
+                continue;
+            }
+            if t < before + w || j == last {
+                k = j;
+                break;
+            }
+            before += w;
+        }
+        let rest = ((t - before) / self.w[k]) as f32;
+        Some((k, self.probability(k), rest.clamp(0.0, ONE_MINUS_EPSILON)))
+    }
+}
+
+/// The floor of a descent of the node tree chosen at the root with probability `p`: the
+/// smallest descent pmf whose product with `p` is still at least [`MIN_PMF`] (rounded up).
+#[inline]
+pub(crate) fn tree_floor(p: f32) -> f32 {
+    (MIN_PMF / p * (1.0 + 4.0 * f32::EPSILON)).clamp(MIN_PMF, 1.0)
+}
+
+impl LightTree {
+    /// The distant and environment lights, in the order of the build's input.
+    #[inline]
+    pub fn infinite_lights(&self) -> &[InfiniteLight] {
+        &self.infinite
+    }
+
+    /// The entry of `light` among the lights at infinity, if it is one.
+    #[inline]
+    pub fn infinite_entry(&self, light: u32) -> Option<usize> {
+        self.infinite.iter().position(|e| e.light == light)
+    }
+
+    /// The environment light's index, if the tree has one.
+    #[inline]
+    pub fn environment(&self) -> Option<u32> {
+        self.infinite
+            .iter()
+            .find(|e| e.kind() == Some(InfiniteKind::Environment))
+            .map(|e| e.light)
+    }
+
+    /// The node tree's weight at the root for `imp`: the sum of its root's four slot
+    /// importances as the descent adds them (0 without nodes, or when the sum is not positive
+    /// and finite).
+    #[inline]
+    pub fn root_weight<I: Importance + ?Sized>(&self, imp: &I) -> f64 {
+        let Some(root) = self.nodes.first() else {
+            return 0.0;
+        };
+        let a = imp.eval4(root).to_array();
+        let sum = a[0] + a[1] + a[2] + a[3];
+        if sum > 0.0 && sum < f32::INFINITY {
+            f64::from(sum)
+        } else {
+            0.0
+        }
+    }
+
+    /// The root choice for `imp` with the node tree weighing `tree` (see the module
+    /// documentation).
+    #[inline]
+    pub fn root_choice<I: Importance + ?Sized>(&self, imp: &I, tree: f64) -> RootChoice {
+        RootChoice::new(tree, self.infinite.iter().map(|e| imp.eval_infinite(e)))
+    }
+
+    /// [`LightTree::sample`] of a tree with lights at infinity.
+    pub(crate) fn sample_with_infinite<I: Importance + ?Sized>(
+        &self,
+        imp: &I,
+        u: f32,
+    ) -> Option<LightSample> {
+        let choice = self.root_choice(imp, self.root_weight(imp));
+        let (k, p, rest) = choice.pick(u)?;
+        if k == 0 {
+            let s = self.descend_from(imp, 0, true, rest, tree_floor(p))?;
+            Some(LightSample {
+                light: s.light,
+                pmf: p * s.pmf,
+            })
+        } else {
+            Some(LightSample {
+                light: self.infinite[k - 1].light,
+                pmf: p,
+            })
+        }
+    }
+
+    /// [`LightTree::pmf`] of a tree with lights at infinity.
+    pub(crate) fn pmf_with_infinite<I: Importance + ?Sized>(&self, imp: &I, light: u32) -> f32 {
+        let choice = self.root_choice(imp, self.root_weight(imp));
+        if let Some(i) = self.infinite_entry(light) {
+            return choice.probability(1 + i);
+        }
+        let p = choice.probability(0);
+        if p <= 0.0 {
+            return 0.0;
+        }
+        let walk = WalkStart {
+            node: 0,
+            root: true,
+            path: self.path(light),
+            from_level: 0,
+            light,
+            floor: tree_floor(p),
+        };
+        p * self.pmf_from(imp, &walk)
+    }
+
+    /// A light of the node tree alone, ignoring the lights at infinity: what
+    /// [`LightTree::sample`] gives for a tree without them (pbrt-v4's descent of its BVH).
+    #[inline]
+    pub fn sample_local<I: Importance + ?Sized>(&self, imp: &I, u: f32) -> Option<LightSample> {
+        self.descend_from(imp, 0, true, u, MIN_PMF)
+    }
+
+    /// The pmf of [`LightTree::sample_local`] (0 for a light at infinity).
+    #[inline]
+    pub fn pmf_local<I: Importance + ?Sized>(&self, imp: &I, light: u32) -> f32 {
+        let walk = WalkStart {
+            node: 0,
+            root: true,
+            path: self.path(light),
+            from_level: 0,
+            light,
+            floor: MIN_PMF,
+        };
+        self.pmf_from(imp, &walk)
+    }
+
+    /// Checks the entries of the lights at infinity (see [`ValidationError::BadInfinite`]).
+    pub(crate) fn validate_infinite(&self) -> Result<(), ValidationError> {
+        if self.infinite.len() > MAX_INFINITE_LIGHTS {
+            return Err(ValidationError::BadStats);
+        }
+        let mut environments = 0;
+        for (i, e) in self.infinite.iter().enumerate() {
+            let bad = ValidationError::BadInfinite { entry: i as u32 };
+            let finite = e.direction.iter().all(|x| x.is_finite())
+                && e.cos_radius.is_finite()
+                && e.sin_radius.is_finite()
+                && e.irradiance.iter().all(|x| x.is_finite() && *x >= 0.0);
+            if !finite
+                || e.reserved != [0; 3]
+                || e.light as usize >= self.paths.len()
+                || self.path(e.light) != 0
+                || self.infinite[..i].iter().any(|f| f.light == e.light)
+            {
+                return Err(bad);
+            }
+            match e.kind() {
+                Some(InfiniteKind::Distant) => {
+                    let l2 = e.direction().length_squared();
+                    let r2 = e.cos_radius * e.cos_radius + e.sin_radius * e.sin_radius;
+                    if (l2 - 1.0).abs() > 1e-5
+                        || (r2 - 1.0).abs() > 1e-5
+                        || e.cos_radius < -1e-6
+                        || e.sin_radius < 0.0
+                        || e.irradiance[1..].iter().any(|&x| x != 0.0)
+                    {
+                        return Err(bad);
+                    }
+                }
+                Some(InfiniteKind::Environment) => {
+                    environments += 1;
+                    if environments > 1
+                        || e.direction != [0.0; 3]
+                        || e.cos_radius != -1.0
+                        || e.sin_radius != 0.0
+                    {
+                        return Err(bad);
+                    }
+                }
+                None => return Err(bad),
+            }
+        }
+        Ok(())
+    }
+
+    /// Checks the entries against the lights the tree was built from: exactly the distant and
+    /// environment lights, each entry what [`InfiniteLight::of`] makes of its light.
+    pub(crate) fn validate_infinite_lights(&self, lights: &[Light]) -> Result<(), ValidationError> {
+        let mut n = 0;
+        for (i, l) in lights.iter().enumerate() {
+            let Some(want) = InfiniteLight::of(i as u32, l) else {
+                continue;
+            };
+            let entry = self.infinite.get(n).copied();
+            if entry != Some(want) {
+                return Err(ValidationError::BadInfinite { entry: n as u32 });
+            }
+            n += 1;
+        }
+        if n != self.infinite.len() {
+            return Err(ValidationError::BadInfinite { entry: n as u32 });
+        }
+        Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Every pick has the probability `probability` reports, its interval is the weight's
+    /// share, the rescaled number stays in [0, 1), and vanishing weights are dropped.
+    #[test]
+    fn root_choice_picks_by_weight() {
+        let c = RootChoice::new(2.0, [1.0, 0.0, 1.0]);
+        assert_eq!(c.len(), 4);
+        let p: f32 = (0..4).map(|k| c.probability(k)).sum();
+        assert!((p - 1.0).abs() < 1e-6);
+        assert_eq!(c.pick(0.0).map(|x| x.0), Some(0));
+        assert_eq!(c.pick(0.49).map(|x| x.0), Some(0));
+        assert_eq!(c.pick(0.5).map(|x| x.0), Some(1));
+        assert_eq!(c.pick(0.8).map(|x| x.0), Some(3));
+        assert_eq!(c.pick(ONE_MINUS_EPSILON).map(|x| x.0), Some(3));
+        let (k, p, r) = c.pick(0.625).unwrap();
+        assert_eq!((k, p), (1, 0.25));
+        assert!((r - 0.5).abs() < 1e-6);
+        for i in 0..1000 {
+            let u = i as f32 / 1000.0;
+            let (k, p, r) = c.pick(u).unwrap();
+            assert!(p > 0.0 && p == c.probability(k) && (0.0..1.0).contains(&r));
+        }
+        // Nothing to choose.
+        assert!(RootChoice::new(0.0, [0.0, f32::NAN, -1.0])
+            .pick(0.3)
+            .is_none());
+        // A share below MIN_PMF is dropped.
+        let c = RootChoice::new(1.0, [1e-40, f32::INFINITY]);
+        assert_eq!(c.probability(1), 0.0);
+        assert_eq!(c.probability(2), 0.0);
+        assert_eq!(c.probability(0), 1.0);
+    }
+
+    #[test]
+    fn tree_floor_keeps_the_product_above_min_pmf() {
+        for p in [1.0f32, 0.5, 1e-3, 1e-20, 3.7e-38, MIN_PMF] {
+            let f = tree_floor(p);
+            assert!((MIN_PMF..=1.0).contains(&f));
+            assert!(p * f >= MIN_PMF, "{p}: {f}");
+        }
+    }
+}
