@@ -346,7 +346,7 @@ const SUN_RADIUS: f32 = 0.27 * std::f32::consts::PI / 180.0;
 const SUN_IRRADIANCE: Rgb = Rgb::new(6.0, 3.8, 2.1);
 
 /// `city` at dusk in `palette`: the 8,000 lamps, a low sun ([`CITY_SUN_DIRECTION`], angular
-/// radius 0.27°, irradiance [`SUN_IRRADIANCE`]) and a dusk sky ([`GradientSky`] about +y:
+/// radius 0.27°, irradiance (6, 3.8, 2.1) W/m²) and a dusk sky ([`GradientSky`] about +y:
 /// deep blue at the zenith, warm at the horizon, black below), the sky an environment light
 /// of the light set. At this sun the lamps under their poles and the lit windows are as
 /// bright as the sun on the streets, and the shaded streets are lit by the lamps and the sky
