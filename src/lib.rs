@@ -32,10 +32,13 @@
 //! probabilistic acceptance of Georgiev & Slusallek 2010 ([`vpl`]: [`Importons`],
 //! [`VplAcceptor`]) and sample the accepted ones through a tree like any other lights.
 //!
-//! The crate is `no_std` (it needs `alloc`) and has no `unsafe` code.
+//! The crate is `no_std` (it needs `alloc`). Its one `unsafe` is the cache prefetch hint of the
+//! descents, behind the cargo feature `prefetch` (on by default); without that feature the
+//! crate forbids `unsafe` code.
 
 #![no_std]
-#![forbid(unsafe_code)]
+#![cfg_attr(not(feature = "prefetch"), forbid(unsafe_code))]
+#![cfg_attr(feature = "prefetch", deny(unsafe_code))]
 #![deny(missing_docs)]
 
 extern crate alloc;
@@ -59,6 +62,7 @@ pub mod material;
 mod math;
 pub mod mis;
 mod packed;
+mod prefetch;
 pub mod quantize;
 pub mod sample;
 pub mod trace;
@@ -66,7 +70,7 @@ pub mod tree;
 pub mod vpl;
 
 pub use brdf::{Brdf, Frame, Ggx, Lambert};
-pub use build::BuildOptions;
+pub use build::{BuildOptions, Join, Serial};
 pub use cut::{BlCutOptions, Cluster, LightCut, SplitCutOptions, CUT_CAPACITY};
 pub use direct::{Estimator, LightSampler, Occluder, Params, Technique, Uniforms};
 pub use error::{

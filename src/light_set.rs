@@ -30,7 +30,17 @@ impl LightSet {
 
     /// [`LightSet::build`] with the tree built with `opts`.
     pub fn build_with(lights: Vec<Light>, opts: &BuildOptions) -> Result<LightSet, BuildError> {
-        let tree = LightTree::build_with(&lights, opts)?;
+        LightSet::build_parallel(lights, opts, &crate::Serial)
+    }
+
+    /// [`LightSet::build_with`], the tree built by [`LightTree::build_parallel`] over `join`
+    /// (the same tree as the serial build).
+    pub fn build_parallel<J: crate::Join>(
+        lights: Vec<Light>,
+        opts: &BuildOptions,
+        join: &J,
+    ) -> Result<LightSet, BuildError> {
+        let tree = LightTree::build_parallel(&lights, opts, join)?;
         let power = AliasTable::new(lights.iter().map(|l| f64::from(l.energy())));
         Ok(LightSet {
             lights,

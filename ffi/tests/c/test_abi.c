@@ -52,6 +52,7 @@ int main(int argc, char **argv) {
     scenario_direct();
     scenario_lower_level();
     scenario_vpl();
+    scenario_parallel_build();
     scenario_bad_input(tree, n);
 
     OK(ml_tree_free(tree));

@@ -68,6 +68,7 @@ int main(int argc, char **argv) {
     scenario_direct();
     scenario_lower_level();
     scenario_vpl();
+    scenario_parallel_build();
     scenario_bad_input(tree.get(), n);
 
     tree.reset();
