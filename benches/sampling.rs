@@ -4,15 +4,17 @@
 //! timed loop), BL sampling through a BRDF-oriented cut and split sampling with their per-point
 //! set-up, pmf queries single and batch, build time against the binary build, cut construction
 //! against one tree descent, and split sampling one descent at a time against interleaved
-//! (`sample_each`).
+//! (`sample_each`); the descents with the prefetch hint against the same descents with plain
+//! loads (`prefetch`), and the build split over two threads against the serial build
+//! (`build_parallel`).
 //! Scene: the random scene of `mlrender bench` (fixed seed).
 
 use criterion::{criterion_group, criterion_main, BenchmarkId, Criterion, Throughput};
-use manylights::baseline::BinaryLightTree;
+use manylights::baseline::{touched, BinaryLightTree};
 use manylights::Rgb;
 use manylights::{
-    BlCutOptions, BlImportance, LightCut, LightSample, LightTree, Material, Memo, MemoTable,
-    SplitCutOptions, TlImportance, CUT_CAPACITY,
+    BlCutOptions, BlImportance, BuildOptions, Join, LightCut, LightSample, LightTree, Material,
+    Memo, MemoTable, SplitCutOptions, TlImportance, CUT_CAPACITY,
 };
 use manylights_testkit as random_scene;
 use std::hint::black_box;
@@ -309,5 +311,139 @@ fn cuts(c: &mut Criterion) {
     group.finish();
 }
 
-criterion_group!(benches, sampling, pmf, memo, build, cuts);
+/// The descents with the prefetch hint (the default calls; without the feature `prefetch`
+/// they are the plain-load ones) against the same descents with plain loads
+/// ([`manylights::baseline::touched`]): one sample, a batch of samples and a batch of pmfs per
+/// shading point.
+fn prefetch(c: &mut Criterion) {
+    let mut group = c.benchmark_group("prefetch");
+    group.sample_size(20);
+    group.throughput(Throughput::Elements(POINTS as u64));
+    let points = random_scene::shading_points(POINTS, 7);
+    let us = random_scene::uniforms(POINTS, 7);
+    let imps: Vec<TlImportance> = points
+        .iter()
+        .map(|p| TlImportance::new(p.position, p.normal))
+        .collect();
+    for n in [100_000usize, 1_000_000] {
+        let lights = random_scene::lights(n, 7);
+        let tree = LightTree::build(&lights).unwrap();
+        let lights_of = random_scene::sampled_lights(&tree, &points, &us);
+        let single = |hint: bool| {
+            let mut acc = 0.0f32;
+            for (imp, &u) in imps.iter().zip(&us) {
+                let s = if hint {
+                    tree.sample(black_box(imp), black_box(u))
+                } else {
+                    touched::sample(&tree, black_box(imp), black_box(u))
+                };
+                acc += s.map_or(0.0, |s| s.pmf);
+            }
+            acc
+        };
+        group.bench_with_input(BenchmarkId::new("sample hint", n), &n, |b, _| {
+            b.iter(|| single(true))
+        });
+        group.bench_with_input(BenchmarkId::new("sample loads", n), &n, |b, _| {
+            b.iter(|| single(false))
+        });
+        let mut out = vec![None; BATCH];
+        let mut batches = |hint: bool| {
+            let mut acc = 0.0f32;
+            for (ic, uc) in imps.chunks(BATCH).zip(us.chunks(BATCH)) {
+                let out = &mut out[..ic.len()];
+                if hint {
+                    tree.sample_batch(black_box(ic), uc, out).unwrap();
+                } else {
+                    touched::sample_batch(&tree, black_box(ic), uc, out).unwrap();
+                }
+                acc += out.iter().flatten().map(|s| s.pmf).sum::<f32>();
+            }
+            acc
+        };
+        group.bench_with_input(BenchmarkId::new("sample_batch hint", n), &n, |b, _| {
+            b.iter(|| batches(true))
+        });
+        group.bench_with_input(BenchmarkId::new("sample_batch loads", n), &n, |b, _| {
+            b.iter(|| batches(false))
+        });
+        let mut out = vec![0.0f32; BATCH];
+        let mut pmfs = |hint: bool| {
+            let mut acc = 0.0f32;
+            for (ic, lc) in imps.chunks(BATCH).zip(lights_of.chunks(BATCH)) {
+                let out = &mut out[..ic.len()];
+                if hint {
+                    tree.pmf_batch(black_box(ic), lc, out).unwrap();
+                } else {
+                    touched::pmf_batch(&tree, black_box(ic), lc, out).unwrap();
+                }
+                acc += out.iter().sum::<f32>();
+            }
+            acc
+        };
+        group.bench_with_input(BenchmarkId::new("pmf_batch hint", n), &n, |b, _| {
+            b.iter(|| pmfs(true))
+        });
+        group.bench_with_input(BenchmarkId::new("pmf_batch loads", n), &n, |b, _| {
+            b.iter(|| pmfs(false))
+        });
+    }
+    group.finish();
+}
+
+/// A fork-join on scoped threads: `b` on a thread of its own while `a` runs on the caller's
+/// (the build splits only subtrees of 2^14 lights or more, so few threads are started).
+struct ScopedThreads;
+
+impl Join for ScopedThreads {
+    fn join<A, B, RA, RB>(&self, a: A, b: B) -> (RA, RB)
+    where
+        A: FnOnce() -> RA + Send,
+        B: FnOnce() -> RB + Send,
+        RA: Send,
+        RB: Send,
+    {
+        std::thread::scope(|s| {
+            let hb = s.spawn(b);
+            let ra = a();
+            (ra, hb.join().unwrap())
+        })
+    }
+}
+
+/// The build split over threads ([`LightTree::build_parallel`]) against the serial build; an
+/// element is a light.
+fn build_parallel(c: &mut Criterion) {
+    let mut group = c.benchmark_group("build_parallel");
+    group.sample_size(10);
+    for n in [100_000usize, 1_000_000] {
+        let lights = random_scene::lights(n, 7);
+        group.throughput(Throughput::Elements(n as u64));
+        group.bench_with_input(BenchmarkId::new("serial", n), &lights, |b, lights| {
+            b.iter(|| LightTree::build(black_box(lights)).unwrap())
+        });
+        group.bench_with_input(BenchmarkId::new("threads", n), &lights, |b, lights| {
+            b.iter(|| {
+                LightTree::build_parallel(
+                    black_box(lights),
+                    &BuildOptions::default(),
+                    &ScopedThreads,
+                )
+                .unwrap()
+            })
+        });
+    }
+    group.finish();
+}
+
+criterion_group!(
+    benches,
+    sampling,
+    pmf,
+    memo,
+    build,
+    cuts,
+    prefetch,
+    build_parallel
+);
 criterion_main!(benches);

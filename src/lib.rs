@@ -36,7 +36,9 @@
 //! probabilistic acceptance of Georgiev & Slusallek 2010 ([`vpl`]: [`Importons`],
 //! [`VplAcceptor`]) and sample the accepted ones through a tree like any other lights.
 //!
-//! The crate is `no_std` (it needs `alloc`) and has no `unsafe` code.
+//! The crate is `no_std` (it needs `alloc`). Its one `unsafe` is the cache prefetch hint of the
+//! descents, behind the cargo feature `prefetch` (on by default); without that feature the
+//! crate forbids `unsafe` code.
 //!
 //! # Units and limits
 //!
@@ -83,7 +85,8 @@
 //! sum to 1).
 
 #![no_std]
-#![forbid(unsafe_code)]
+#![cfg_attr(not(feature = "prefetch"), forbid(unsafe_code))]
+#![cfg_attr(feature = "prefetch", deny(unsafe_code))]
 #![deny(missing_docs)]
 
 /// The README, whose Rust example `cargo test --doc` compiles and runs.
@@ -115,6 +118,7 @@ pub mod material;
 mod math;
 pub mod mis;
 mod packed;
+mod prefetch;
 pub mod quantize;
 pub mod sample;
 pub mod trace;
@@ -123,7 +127,7 @@ pub mod vpl;
 pub mod wavefront;
 
 pub use brdf::{Brdf, Frame, Ggx, Lambert};
-pub use build::BuildOptions;
+pub use build::{BuildOptions, Join, Serial};
 pub use colour::Rgb;
 pub use cut::{BlCutOptions, Cluster, LightCut, SplitCutOptions, CUT_CAPACITY};
 pub use direct::{Estimator, LightSampler, Occluder, Params, Technique, Uniforms};

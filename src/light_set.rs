@@ -38,9 +38,18 @@ impl LightSet {
 
     /// [`LightSet::build`] with the tree built with `opts`.
     pub fn build_with(lights: Vec<Light>, opts: &BuildOptions) -> Result<LightSet, BuildError> {
-        let tree = LightTree::build_with(&lights, opts)?;
-        let r2 = scene_radius2(&lights);
-        let power = AliasTable::new(lights.iter().map(|l| power(l, r2)));
+        LightSet::build_parallel(lights, opts, &crate::Serial)
+    }
+
+    /// [`LightSet::build_with`], the tree built by [`LightTree::build_parallel`] over `join`
+    /// (the same tree as the serial build).
+    pub fn build_parallel<J: crate::Join>(
+        lights: Vec<Light>,
+        opts: &BuildOptions,
+        join: &J,
+    ) -> Result<LightSet, BuildError> {
+        let tree = LightTree::build_parallel(&lights, opts, join)?;
+        let power = power_table(&lights);
         Ok(LightSet {
             lights,
             tree,
@@ -55,7 +64,7 @@ impl LightSet {
     /// gives points on lights and estimates bit for bit as the set the tree was saved from.
     pub fn from_bytes(bytes: &[u8], lights: Vec<Light>) -> Result<LightSet, FormatError> {
         let tree = LightTree::from_bytes_with_lights(bytes, &lights)?;
-        let power = AliasTable::new(lights.iter().map(|l| f64::from(l.energy())));
+        let power = power_table(&lights);
         Ok(LightSet {
             lights,
             tree,
@@ -125,6 +134,12 @@ fn scene_radius2(lights: &[Light]) -> f64 {
     } else {
         1.0
     }
+}
+
+/// The alias table of the power-proportional technique over `lights` ([`power`]).
+fn power_table(lights: &[Light]) -> AliasTable {
+    let r2 = scene_radius2(lights);
+    AliasTable::new(lights.iter().map(|l| power(l, r2)))
 }
 
 /// A light's weight in the alias table: its energy, or for a light at infinity the power of

@@ -62,6 +62,16 @@ impl Packed {
         Some((both >> (bit & 63)) as u64 & (u64::MAX >> (64 - self.bits)))
     }
 
+    /// Hints that value `i` will soon be read ([`crate::prefetch`]): the cache line of its
+    /// first word. Nothing past the end.
+    #[inline(always)]
+    pub(crate) fn prefetch(&self, i: usize) {
+        let w = ((i as u64 * u64::from(self.bits)) >> 6) as usize;
+        if let Some(word) = self.words.get(w) {
+            crate::prefetch::prefetch(word);
+        }
+    }
+
     /// Sets value `i` (< `len`) to `value` cut to `bits` bits.
     pub(crate) fn set(&mut self, i: usize, value: u64) {
         debug_assert!(i < self.len);

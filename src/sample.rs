@@ -204,11 +204,14 @@ pub(crate) fn pick(w: f32x4, sum: f32, u: f32) -> (usize, f32, f32) {
     (k, w[k], ((t - before) / w[k]).clamp(0.0, ONE_MINUS_EPSILON))
 }
 
+/// Whether the descents prefetch the next level's nodes ([`crate::prefetch`]); without the
+/// hint they touch them with plain loads ([`touch`]).
+pub(crate) const PREFETCH: bool = crate::prefetch::ENABLED;
+
 /// Loads the first word of each inner child of `node` (consecutive nodes, so consecutive
 /// cache lines), so that the memory latency of the next level overlaps the evaluation of
-/// `node` (the core has no `unsafe`, so no prefetch intrinsic). Returns a value to be fed to
-/// `black_box`. What it gains is in docs/measurements.md ("Batch widths and the next level's
-/// loads").
+/// `node`: what the single descent does without the prefetch hint. Returns a value to be fed
+/// to `black_box`.
 #[inline(always)]
 fn touch(tree: &LightTree, node: &Node4) -> u32 {
     let base = node.child_base as usize;
@@ -223,6 +226,30 @@ fn touch(tree: &LightTree, node: &Node4) -> u32 {
         }
     }
     t
+}
+
+/// Gets the inner children of `node` on their way: prefetched (`P`) or touched ([`touch`]).
+/// Returns a value to be fed to `black_box` (0 with `P`).
+#[inline(always)]
+fn ahead<const P: bool>(tree: &LightTree, node: &Node4) -> u32 {
+    if !P {
+        return touch(tree, node);
+    }
+    // The node's light slots, which the descent reads if it picks one.
+    if node.leaf_count() > 0 {
+        tree.leaves.prefetch(node.leaf_base as usize);
+    }
+    let base = node.child_base as usize;
+    let n = node.inner_count() as usize;
+    if let Some(children) = tree.nodes.get(base..base + n) {
+        if let Some(last) = n.checked_sub(1) {
+            // Four hints and no loop, as `touch` loads.
+            for i in 0..4 {
+                crate::prefetch::prefetch(&children[i.min(last)]);
+            }
+        }
+    }
+    0
 }
 
 /// The importances `imp.eval4(node)` of the lanes `lane(j)` gives (`None` for a lane with
@@ -329,9 +356,22 @@ impl LightTree {
         u: f32,
         floor: f32,
     ) -> Option<LightSample> {
+        self.descend_from_with::<I, PREFETCH>(imp, start, is_root, u, floor)
+    }
+
+    /// [`LightTree::descend_from`], the children of each node prefetched (`P`) or touched.
+    #[inline]
+    pub(crate) fn descend_from_with<I: Importance + ?Sized, const P: bool>(
+        &self,
+        imp: &I,
+        start: usize,
+        is_root: bool,
+        u: f32,
+        floor: f32,
+    ) -> Option<LightSample> {
         let mut u = sanitize(u);
         let mut node = self.nodes.get(start)?;
-        let mut touched = touch(self, node);
+        let mut touched = ahead::<P>(self, node);
         let mut pmf = 1.0f32;
         let (mut w, mut sum) = weights(imp, node, is_root, pmf, floor)?;
         loop {
@@ -346,7 +386,7 @@ impl LightTree {
                 }
                 Child::Node(c) => {
                     node = self.nodes.get(c as usize)?;
-                    touched ^= touch(self, node);
+                    touched ^= ahead::<P>(self, node);
                     (w, sum) = weights(imp, node, false, pmf, floor)?;
                 }
                 Child::Empty => return None,
@@ -395,6 +435,16 @@ impl LightTree {
         us: &[f32],
         out: &mut [Option<LightSample>],
     ) -> Result<(), LengthMismatch> {
+        self.sample_batch_with::<I, PREFETCH>(imps, us, out)
+    }
+
+    /// [`LightTree::sample_batch`], the next level's nodes prefetched (`P`) or touched.
+    pub(crate) fn sample_batch_with<I: Importance, const P: bool>(
+        &self,
+        imps: &[I],
+        us: &[f32],
+        out: &mut [Option<LightSample>],
+    ) -> Result<(), LengthMismatch> {
         LengthMismatch::check("us", imps.len(), us.len())?;
         LengthMismatch::check("out", imps.len(), out.len())?;
         if !self.infinite.is_empty() {
@@ -404,7 +454,7 @@ impl LightTree {
             }
             return Ok(());
         }
-        self.descend_many::<I, BATCH_LANES>(
+        self.descend_many_with::<I, BATCH_LANES, P>(
             imps.len(),
             |j| &imps[j],
             |j| {
@@ -430,6 +480,16 @@ impl LightTree {
         lights: &[u32],
         out: &mut [f32],
     ) -> Result<(), LengthMismatch> {
+        self.pmf_batch_hint::<I, PREFETCH>(imps, lights, out)
+    }
+
+    /// [`LightTree::pmf_batch`], the next level's nodes prefetched (`P`) or touched.
+    pub(crate) fn pmf_batch_hint<I: Importance, const P: bool>(
+        &self,
+        imps: &[I],
+        lights: &[u32],
+        out: &mut [f32],
+    ) -> Result<(), LengthMismatch> {
         LengthMismatch::check("lights", imps.len(), lights.len())?;
         LengthMismatch::check("out", imps.len(), out.len())?;
         if !self.infinite.is_empty() {
@@ -439,21 +499,21 @@ impl LightTree {
             return Ok(());
         }
         if self.nodes.len() >= PMF_WIDE_NODES {
-            self.pmf_batch_with::<I, PMF_BATCH_LANES_WIDE>(imps, lights, out);
+            self.pmf_batch_with::<I, PMF_BATCH_LANES_WIDE, P>(imps, lights, out);
         } else {
-            self.pmf_batch_with::<I, PMF_BATCH_LANES>(imps, lights, out);
+            self.pmf_batch_with::<I, PMF_BATCH_LANES, P>(imps, lights, out);
         }
         Ok(())
     }
 
     /// [`LightTree::pmf_batch`] with `K` walks in flight, the lengths checked.
-    fn pmf_batch_with<I: Importance, const K: usize>(
+    fn pmf_batch_with<I: Importance, const K: usize, const P: bool>(
         &self,
         imps: &[I],
         lights: &[u32],
         out: &mut [f32],
     ) {
-        self.pmf_many::<I, K>(
+        self.pmf_many_with::<I, K, P>(
             imps.len(),
             |j| &imps[j],
             |j| {
@@ -477,6 +537,21 @@ impl LightTree {
     /// same start.
     #[inline(always)]
     pub(crate) fn descend_many<'a, I, const K: usize>(
+        &self,
+        n: usize,
+        imp_of: impl Fn(usize) -> &'a I,
+        start_of: impl FnMut(usize) -> Result<Start, Option<LightSample>>,
+        emit: impl FnMut(usize, Option<LightSample>),
+    ) where
+        I: Importance + 'a,
+    {
+        self.descend_many_with::<I, K, PREFETCH>(n, imp_of, start_of, emit);
+    }
+
+    /// [`LightTree::descend_many`], the next level's nodes prefetched (`P`) or touched by a
+    /// load.
+    #[inline(always)]
+    pub(crate) fn descend_many_with<'a, I, const K: usize, const P: bool>(
         &self,
         n: usize,
         imp_of: impl Fn(usize) -> &'a I,
@@ -520,7 +595,12 @@ impl LightTree {
                 if item[j] == IDLE {
                     return None;
                 }
-                Some((imp_of(item[j]), self.nodes.get(node[j] as usize)?))
+                let nd = self.nodes.get(node[j] as usize)?;
+                // The node's light slots, read after the step if the lane picks one.
+                if P && nd.leaf_count() > 0 {
+                    self.leaves.prefetch(nd.leaf_base as usize);
+                }
+                Some((imp_of(item[j]), nd))
             });
             let mut busy = false;
             for j in 0..K {
@@ -551,8 +631,9 @@ impl LightTree {
                 break;
             }
             // The loads of the next level, issued back to back so that their misses overlap
-            // (one load per lane, with nothing depending on it until the next round): the
-            // next node of every lane going on, the light of every lane that reached a leaf.
+            // (one hint or load per lane, with nothing depending on it until the next round):
+            // the next node of every lane going on, the light of every lane that reached a
+            // leaf.
             let mut light = [NO_LEAF; K];
             let mut first = [0u32; K];
             for j in 0..K {
@@ -560,7 +641,12 @@ impl LightTree {
                     continue;
                 }
                 if leaf[j] == NO_LEAF {
-                    first[j] = self.nodes[node[j] as usize].sphere[0];
+                    let next = &self.nodes[node[j] as usize];
+                    if P {
+                        crate::prefetch::prefetch(next);
+                    } else {
+                        first[j] = next.sphere[0];
+                    }
                 } else {
                     light[j] = self.leaf_light(leaf[j]).unwrap_or(NO_LEAF);
                 }
@@ -587,6 +673,20 @@ impl LightTree {
         &self,
         n: usize,
         imp_of: impl Fn(usize) -> &'a I,
+        start_of: impl FnMut(usize) -> Result<WalkStart, f32>,
+        emit: impl FnMut(usize, f32),
+    ) where
+        I: Importance + 'a,
+    {
+        self.pmf_many_with::<I, K, PREFETCH>(n, imp_of, start_of, emit);
+    }
+
+    /// [`LightTree::pmf_many`], the next level's nodes prefetched (`P`) or touched by a load.
+    #[inline(always)]
+    pub(crate) fn pmf_many_with<'a, I, const K: usize, const P: bool>(
+        &self,
+        n: usize,
+        imp_of: impl Fn(usize) -> &'a I,
         mut start_of: impl FnMut(usize) -> Result<WalkStart, f32>,
         mut emit: impl FnMut(usize, f32),
     ) where
@@ -607,6 +707,7 @@ impl LightTree {
         let mut levels = [0u32; K];
         let mut pmf = [1f32; K];
         let mut next = 0usize;
+        let leaf_hint = P && self.nodes.len() >= PMF_WIDE_NODES;
         loop {
             for j in 0..K {
                 while item[j] == IDLE && next < n {
@@ -628,7 +729,12 @@ impl LightTree {
                 if item[j] == IDLE {
                     return None;
                 }
-                Some((imp_of(item[j]), self.nodes.get(walk[j].node as usize)?))
+                let nd = self.nodes.get(walk[j].node as usize)?;
+                // The node's light slots, in trees whose leaf array does not stay in cache.
+                if leaf_hint && nd.leaf_count() > 0 {
+                    self.leaves.prefetch(nd.leaf_base as usize);
+                }
+                Some((imp_of(item[j]), nd))
             });
             let mut busy = false;
             for j in 0..K {
@@ -679,10 +785,13 @@ impl LightTree {
                     continue;
                 }
                 if leaf[j] == NO_LEAF {
-                    first[j] = self
-                        .nodes
-                        .get(walk[j].node as usize)
-                        .map_or(0, |n| n.sphere[0]);
+                    if let Some(next) = self.nodes.get(walk[j].node as usize) {
+                        if P {
+                            crate::prefetch::prefetch(next);
+                        } else {
+                            first[j] = next.sphere[0];
+                        }
+                    }
                 } else {
                     light[j] = self.leaf_light(leaf[j]);
                 }
@@ -723,6 +832,16 @@ impl LightTree {
     /// its path reaches after `walk.from_level` levels: [`LightTree::descend_from`]'s pmf for
     /// it (with the same root flag and floor).
     pub(crate) fn pmf_from<I: Importance + ?Sized>(&self, imp: &I, walk: &WalkStart) -> f32 {
+        self.pmf_from_with::<I, PREFETCH>(imp, walk)
+    }
+
+    /// [`LightTree::pmf_from`], the next node of the path prefetched (`P`) as soon as it is
+    /// known, or not.
+    pub(crate) fn pmf_from_with<I: Importance + ?Sized, const P: bool>(
+        &self,
+        imp: &I,
+        walk: &WalkStart,
+    ) -> f32 {
         let WalkStart {
             node: start,
             root: is_root,
@@ -739,12 +858,20 @@ impl LightTree {
             let Some(node) = self.nodes.get(index) else {
                 return 0.0;
             };
+            let child = node.child(k);
+            if P {
+                if let Child::Node(c) = child {
+                    if let Some(next) = self.nodes.get(c as usize) {
+                        crate::prefetch::prefetch(next);
+                    }
+                }
+            }
             let Some((w, sum)) = weights(imp, node, is_root && level == from_level, pmf, floor)
             else {
                 return 0.0;
             };
             pmf *= w.to_array()[k] / sum;
-            match node.child(k) {
+            match child {
                 Child::Node(c) => index = c as usize,
                 Child::Leaf(i) if level + 1 == levels && self.leaf_light(i) == Some(light) => {
                     return pmf
@@ -967,8 +1094,8 @@ mod tests {
             .collect();
         let mut narrow = vec![f32::NAN; m];
         let mut wide = vec![f32::NAN; m];
-        tree.pmf_batch_with::<_, PMF_BATCH_LANES>(&imps, &ls, &mut narrow);
-        tree.pmf_batch_with::<_, PMF_BATCH_LANES_WIDE>(&imps, &ls, &mut wide);
+        tree.pmf_batch_with::<_, PMF_BATCH_LANES, PREFETCH>(&imps, &ls, &mut narrow);
+        tree.pmf_batch_with::<_, PMF_BATCH_LANES_WIDE, PREFETCH>(&imps, &ls, &mut wide);
         let mut positive = 0;
         for j in 0..m {
             let want = tree.pmf(&imps[j], ls[j]).to_bits();

@@ -7,8 +7,14 @@
 //! change to a split, a bound, a slot or a code shows here; one that is meant must record new
 //! hashes: run `GOLDEN_PRINT=1 cargo test --test build_golden -- --nocapture` and paste the
 //! printed rows over `RECORDED`.
+//!
+//! The parallel build ([`LightTree::build_parallel`]) is checked against the serial one, byte
+//! for byte, with a fork-join on threads of its own.
 
 mod golden;
+
+use manylights::{BuildOptions, Join, LightTree};
+use std::sync::atomic::{AtomicUsize, Ordering};
 
 /// (seed, lights, style, binary tree, 4-wide tree's contents, the same with `compact`, 4-wide
 /// tree's bytes).
@@ -71,4 +77,67 @@ fn binary_and_4_wide_trees_are_the_recorded_ones() {
         }
     }
     assert!(wrong.is_empty(), "{}", wrong.join("\n"));
+}
+
+/// A fork-join that runs `b` on a scoped thread of its own while `a` runs on the caller's, and
+/// counts its calls.
+#[derive(Default)]
+struct Threads {
+    calls: AtomicUsize,
+}
+
+impl Join for Threads {
+    fn join<A, B, RA, RB>(&self, a: A, b: B) -> (RA, RB)
+    where
+        A: FnOnce() -> RA + Send,
+        B: FnOnce() -> RB + Send,
+        RA: Send,
+        RB: Send,
+    {
+        self.calls.fetch_add(1, Ordering::Relaxed);
+        std::thread::scope(|s| {
+            let hb = s.spawn(b);
+            let ra = a();
+            (ra, hb.join().expect("the other half of the build ran"))
+        })
+    }
+}
+
+#[test]
+fn parallel_build_is_the_serial_one_byte_for_byte() {
+    // Sizes around and well above the smallest split subtree (2^14 lights), every layout,
+    // with and without `compact`.
+    for (seed, n, style) in [
+        (31, 18_000, 0),
+        (32, 20_000, 1),
+        (33, 40_000, 2),
+        (34, 70_000, 3),
+        (35, 100_000, 4),
+    ] {
+        let lights = golden::scene(seed, n, style);
+        for compact in [false, true] {
+            let opts = BuildOptions {
+                compact,
+                ..BuildOptions::default()
+            };
+            let serial = LightTree::build_with(&lights, &opts).expect("valid scene");
+            let join = Threads::default();
+            let parallel = LightTree::build_parallel(&lights, &opts, &join).expect("valid scene");
+            assert!(
+                join.calls.load(Ordering::Relaxed) >= 2,
+                "{n} lights, style {style}: the build was not split"
+            );
+            assert!(
+                parallel.as_bytes() == serial.as_bytes(),
+                "{n} lights, style {style}, compact {compact}: the parallel tree differs"
+            );
+        }
+    }
+    // The mixed scene of the benches.
+    let lights = manylights_testkit::lights(60_000, 5);
+    let serial = LightTree::build(&lights).expect("valid scene");
+    let parallel =
+        LightTree::build_parallel(&lights, &BuildOptions::default(), &Threads::default())
+            .expect("valid scene");
+    assert!(parallel.as_bytes() == serial.as_bytes());
 }

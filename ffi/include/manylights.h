@@ -1528,6 +1528,20 @@ ml_status ml_tree_build(const struct ml_light *lights,
                         struct ml_tree **out);
 
 /**
+ * `ml_tree_build` with the build's work spread over `threads` threads (0: one per core),
+ * made for the call: the same tree, byte for byte (`ml_tree_serialize`), as
+ * `ml_tree_build` gives, sooner on a machine with idle cores.
+ *
+ * Errors: those of `ml_tree_build`; `ML_ERR_INVALID_ARGUMENT` if `threads` is above 1024;
+ * `ML_ERR_INTERNAL` if the threads cannot be started.
+ */
+ml_status ml_tree_build_parallel(const struct ml_light *lights,
+                                 size_t count,
+                                 const struct ml_build_options *options,
+                                 uint32_t threads,
+                                 struct ml_tree **out);
+
+/**
  * Frees a tree (NULL: nothing). Cuts and estimators made from it stay valid.
  */
 ml_status ml_tree_free(struct ml_tree *tree);

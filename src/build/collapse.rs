@@ -27,6 +27,7 @@
 //! ([`LightTree::with_paths`]).
 
 use super::saoh::{children, BinNode, BinTree};
+use super::Join;
 use crate::bounds::{Cone, Sphere};
 use crate::error::BuildError;
 use crate::packed::{index_bits, Packed};
@@ -154,10 +155,15 @@ impl Plan {
 /// `g(k)` of binary node `b` for `k` in 1..=4 (index 0 unused).
 #[inline]
 fn g_of(bin: &[BinNode], plans: &[Plan], b: usize) -> [u64; 5] {
+    g_with(bin, b, plans.get(b).copied().unwrap_or_default())
+}
+
+/// `g(k)` of binary node `b` whose plan (when it is an inner node) is `p`.
+#[inline]
+fn g_with(bin: &[BinNode], b: usize, p: Plan) -> [u64; 5] {
     if bin[b].light.is_some() {
         return [0; 5];
     }
-    let p = plans[b];
     let g4 = p.g(4);
     [
         0,
@@ -168,16 +174,76 @@ fn g_of(bin: &[BinNode], plans: &[Plan], b: usize) -> [u64; 5] {
     ]
 }
 
+/// Subtrees of at least this many lights have their two halves (planning) or their children
+/// (laying out) done as the [`Join`]'s two halves.
+const PARALLEL_MIN: usize = 1 << 14;
+
 /// Computes the plans bottom-up (children follow their parent among the inner nodes, and
-/// leaves come last). Opening is preferred on ties, so the tree stays shallow; among equal
-/// counts, the split giving the costlier child more slots wins; a free-form cover is taken
-/// only when strictly cheaper than the binary one.
-fn plan(bin: &[BinNode], free: &FreeTable, free_max: usize) -> Vec<Plan> {
+/// leaves come last), the two subtrees of a large node as `join`'s two halves. Opening is
+/// preferred on ties, so the tree stays shallow; among equal counts, the split giving the
+/// costlier child more slots wins; a free-form cover is taken only when strictly cheaper than
+/// the binary one.
+fn plan<J: Join>(bin: &[BinNode], free: &FreeTable, free_max: usize, join: &J) -> Vec<Plan> {
     let inner = bin.len() / 2;
     let mut plans = vec![Plan::default(); inner];
-    for b in (0..inner).rev() {
+    if inner > 0 {
+        plan_sub(bin, free, free_max, &mut plans, 0, join);
+    }
+    plans
+}
+
+/// The plans of the inner nodes of the subtree of inner node `root`: `plans[i]` is that of
+/// node `root + i` (the subtree's inner nodes are contiguous from its root).
+fn plan_sub<J: Join>(
+    bin: &[BinNode],
+    free: &FreeTable,
+    free_max: usize,
+    plans: &mut [Plan],
+    root: usize,
+    join: &J,
+) {
+    let n = plans.len() + 1;
+    if n < PARALLEL_MIN {
+        for b in (root..root + plans.len()).rev() {
+            let (l, r) = children(bin, b);
+            let of = |c: usize| plans.get(c.wrapping_sub(root)).copied().unwrap_or_default();
+            plans[b - root] = node_plan(bin, free, free_max, b, of(l), of(r));
+        }
+        return;
+    }
+    let (l, r) = children(bin, root);
+    // The left subtree's inner nodes follow the root, then the right one's.
+    let mid = bin[l].count as usize;
+    let (me, below) = plans.split_at_mut(1);
+    let (pl, pr) = below.split_at_mut(mid - 1);
+    join.join(
+        || {
+            if !pl.is_empty() {
+                plan_sub(bin, free, free_max, pl, l, join);
+            }
+        },
+        || {
+            if !pr.is_empty() {
+                plan_sub(bin, free, free_max, pr, r, join);
+            }
+        },
+    );
+    let first = |p: &[Plan]| p.first().copied().unwrap_or_default();
+    me[0] = node_plan(bin, free, free_max, root, first(pl), first(pr));
+}
+
+/// The plan of inner node `b` from those of its children (ignored for a leaf).
+fn node_plan(
+    bin: &[BinNode],
+    free: &FreeTable,
+    free_max: usize,
+    b: usize,
+    plan_l: Plan,
+    plan_r: Plan,
+) -> Plan {
+    {
         let (l, r) = children(bin, b);
-        let (pl, pr) = (g_of(bin, &plans, l), g_of(bin, &plans, r));
+        let (pl, pr) = (g_with(bin, l, plan_l), g_with(bin, r, plan_r));
         let left_costlier = bin[l].cost >= bin[r].cost;
         let best_open = |k: usize| -> (u64, u8) {
             let mut best = (u64::MAX, 0u8);
@@ -220,9 +286,8 @@ fn plan(bin: &[BinNode], free: &FreeTable, free_max: usize) -> Vec<Plan> {
             }
         }
         debug_assert_eq!(g[2] + NODE_WEIGHT + u64::from(bin[b].count), own);
-        plans[b] = Plan::new(g, split, own_free);
+        Plan::new(g, split, own_free)
     }
-    plans
 }
 
 /// A run of consecutive binary leaves (`len` of them from index `start` of the binary tree)
@@ -409,8 +474,8 @@ impl ConeCodes {
 
 struct Collapser<'a> {
     bin: &'a [BinNode],
-    plans: Vec<Plan>,
-    free: FreeTable,
+    plans: &'a [Plan],
+    free: &'a FreeTable,
     cones: ConeCodes,
     nodes: Vec<Node4>,
     variances: Vec<u16>,
@@ -420,24 +485,114 @@ struct Collapser<'a> {
     depth: u32,
 }
 
-impl Collapser<'_> {
+impl<'a> Collapser<'a> {
+    /// An empty layout for `lights` light slots of `bits` bits each.
+    fn new(
+        bin: &'a [BinNode],
+        plans: &'a [Plan],
+        free: &'a FreeTable,
+        lights: usize,
+        bits: u32,
+    ) -> Collapser<'a> {
+        Collapser {
+            bin,
+            plans,
+            free,
+            cones: ConeCodes::new(),
+            nodes: Vec::with_capacity(2 * lights / 5 + 1),
+            variances: Vec::with_capacity(2 * lights / 5 + 1),
+            leaves: Packed::zeros(lights, bits),
+            n_leaves: 0,
+            depth: 0,
+        }
+    }
+
+    /// The layout of the subtree of `src` alone, as [`collapse`] lays out a whole tree: its
+    /// node at index 0 (at `level`), then its descendants, its lights from 0.
+    fn subtree<J: Join>(&self, src: Src, level: u32, join: &J) -> Result<(Self, Sums), BuildError> {
+        let lights = match src {
+            Src::Bin(b) => self.bin[b].count as usize,
+            Src::Run(run) => run.len as usize,
+        };
+        let mut sub = Collapser::new(self.bin, self.plans, self.free, lights, self.leaves.bits());
+        sub.nodes.push(Node4::EMPTY);
+        sub.variances.push(0);
+        let sums = sub.fill(0, src, level, join)?;
+        Ok((sub, sums))
+    }
+
+    /// The layouts of the subtrees of `srcs` (at `level`), split over `join`.
+    #[allow(clippy::type_complexity)]
+    fn subtrees<J: Join>(
+        &self,
+        srcs: &[Src],
+        level: u32,
+        join: &J,
+    ) -> Vec<Result<(Self, Sums), BuildError>> {
+        match srcs {
+            [] => return Vec::new(),
+            [one] => return alloc::vec![self.subtree(*one, level, join)],
+            _ => {}
+        }
+        let (a, b) = srcs.split_at(srcs.len() / 2);
+        let (mut ra, rb) = join.join(
+            || self.subtrees(a, level, join),
+            || self.subtrees(b, level, join),
+        );
+        ra.extend(rb);
+        ra
+    }
+
+    /// Appends the layout `sub` of a subtree ([`Collapser::subtree`]), its node becoming node
+    /// `node`: exactly what laying it out in place would have written.
+    fn append(&mut self, node: usize, sub: &Collapser<'_>) {
+        // Node i ≥ 1 of `sub` lands at `base + i − 1`, its light slot j at `lights + j`.
+        let base = self.nodes.len() as u32;
+        let lights = self.n_leaves as u32;
+        fn moved(n: &Node4, base: u32, lights: u32) -> Node4 {
+            let mut n = *n;
+            n.child_base = base + n.child_base - 1;
+            n.leaf_base += lights;
+            n
+        }
+        self.nodes[node] = moved(&sub.nodes[0], base, lights);
+        self.variances[node] = sub.variances[0];
+        self.nodes
+            .extend(sub.nodes[1..].iter().map(|n| moved(n, base, lights)));
+        self.variances.extend_from_slice(&sub.variances[1..]);
+        for j in 0..sub.n_leaves {
+            self.leaves
+                .set(self.n_leaves + j, sub.leaves.get(j).unwrap_or_default());
+        }
+        self.n_leaves += sub.n_leaves;
+        self.depth = self.depth.max(sub.depth);
+    }
+
     /// Lays out node `node` from `src` (an inner binary node, a free-form run, or the lone
     /// light of a one-light tree), then, depth first, its children, and quantises it. Returns
-    /// the sums of its lights.
-    fn fill(&mut self, node: usize, src: Src, level: u32) -> Result<Sums, BuildError> {
+    /// the sums of its lights. The children of a node of [`PARALLEL_MIN`] lights or more are
+    /// laid out apart, split over `join`, then appended in order.
+    fn fill<J: Join>(
+        &mut self,
+        node: usize,
+        src: Src,
+        level: u32,
+        join: &J,
+    ) -> Result<Sums, BuildError> {
         if level >= MAX_DEPTH {
             return Err(BuildError::TooDeep { depth: level + 1 });
         }
         self.depth = self.depth.max(level + 1);
         let (set, len) = match src {
             Src::Bin(b) if self.bin[b].light.is_some() => ([src; 4], 1), // a single light
-            Src::Bin(b) => open(self.bin, &self.plans, &self.free, b),
+            Src::Bin(b) => open(self.bin, self.plans, self.free, b),
             Src::Run(run) => {
                 let mut out = ([Src::Bin(0); 4], 0usize);
-                free_slots(&self.free, run, 4, &mut out);
+                free_slots(self.free, run, 4, &mut out);
                 out
             }
         };
+        let parallel = matches!(src, Src::Bin(b) if self.bin[b].count as usize >= PARALLEL_MIN);
         let first = self.nodes.len();
         let mut n_inner = 0;
         let mut mask = 0u8;
@@ -471,6 +626,21 @@ impl Collapser<'_> {
             },
         }; 4];
         let mut idx = first;
+        // The inner children's layouts, made apart when the node is large.
+        let mut subs = if parallel {
+            let mut inner = [Src::Bin(0); 4];
+            let mut m = 0;
+            for &c in &set[..len] {
+                if !matches!(c, Src::Bin(b) if self.bin[b].light.is_some()) {
+                    inner[m] = c;
+                    m += 1;
+                }
+            }
+            self.subtrees(&inner[..m], level + 1, join)
+        } else {
+            Vec::new()
+        }
+        .into_iter();
         for (k, &c) in set[..len].iter().enumerate() {
             parts[k] = match c {
                 Src::Bin(b) if self.bin[b].light.is_some() => {
@@ -488,7 +658,14 @@ impl Collapser<'_> {
                     }
                 }
                 _ => {
-                    let sums = self.fill(idx, c, level + 1)?;
+                    let sums = match subs.next() {
+                        Some(sub) => {
+                            let (sub, sums) = sub?;
+                            self.append(idx, &sub);
+                            sums
+                        }
+                        None => self.fill(idx, c, level + 1, join)?,
+                    };
                     idx += 1;
                     let (sphere, cone) = exact_of(self.bin, c);
                     Part {
@@ -550,28 +727,22 @@ fn round_up(x: f64) -> f32 {
 /// Turns the binary tree into the flat, quantised 4-wide tree; `n_lights` is the length of
 /// the build's input (lights absent from `bin` get path 0).
 /// With `compact`, subtrees of at most [`FREE_MAX`] lights may be packed free-form.
-pub(crate) fn collapse(
+/// The planning and the layout of large subtrees are split over `join`; the tree does not
+/// depend on it.
+pub(crate) fn collapse<J: Join>(
     bin: &BinTree,
     n_lights: usize,
     compact: bool,
+    join: &J,
 ) -> Result<LightTree, BuildError> {
     let free = FreeTable::new();
     let n_leaves = bin.nodes.len().div_ceil(2);
-    let mut c = Collapser {
-        bin: &bin.nodes,
-        plans: plan(&bin.nodes, &free, if compact { FREE_MAX } else { 1 }),
-        free,
-        cones: ConeCodes::new(),
-        nodes: Vec::with_capacity(bin.nodes.len() / 5 + 1),
-        variances: Vec::with_capacity(bin.nodes.len() / 5 + 1),
-        leaves: Packed::zeros(n_leaves, index_bits(n_lights)),
-        n_leaves: 0,
-        depth: 0,
-    };
+    let plans = plan(&bin.nodes, &free, if compact { FREE_MAX } else { 1 }, join);
+    let mut c = Collapser::new(&bin.nodes, &plans, &free, n_leaves, index_bits(n_lights));
     if !bin.nodes.is_empty() {
         c.nodes.push(Node4::EMPTY);
         c.variances.push(0);
-        c.fill(0, Src::Bin(0), 0)?;
+        c.fill(0, Src::Bin(0), 0, join)?;
     }
     debug_assert_eq!(c.n_leaves, n_leaves);
     Ok(LightTree::with_paths(

@@ -4,6 +4,8 @@
 //! This module holds the constructors of [`LightTree`]'s API: [`LightTree::build`] and
 //! [`LightTree::build_with`] (with [`BuildOptions`]). A tree can also be read back from bytes
 //! ([`LightTree::from_bytes`], in [`crate::tree`], which holds the layout and accessors).
+//! Both stages split their recursion over a host-supplied fork-join ([`Join`]); the tree is
+//! the same, byte for byte, whichever [`Join`] runs it.
 
 pub(crate) mod collapse;
 pub(crate) mod saoh;
@@ -34,12 +36,42 @@ impl Default for BuildOptions {
     }
 }
 
+/// A fork-join the build splits its work over: `join(a, b)` runs both closures, possibly at
+/// the same time on two threads, and returns both results (as `rayon::join` does). The
+/// default method runs `a`, then `b`, on the calling thread.
+///
+/// The build's result does not depend on the implementation: each half of a split works on
+/// its own part of the tree, and the halves are put together in a fixed order.
+pub trait Join: Sync {
+    /// Runs `a` and `b`, returns their results.
+    fn join<A, B, RA, RB>(&self, a: A, b: B) -> (RA, RB)
+    where
+        A: FnOnce() -> RA + Send,
+        B: FnOnce() -> RB + Send,
+        RA: Send,
+        RB: Send,
+    {
+        let ra = a();
+        (ra, b())
+    }
+}
+
+/// The serial [`Join`]: both closures on the calling thread, one after the other.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct Serial;
+
+impl Join for Serial {}
+
 /// Validates every light and returns the binary SAOH tree of the ones with positive energy
 /// (empty when there are none).
 ///
 /// Two passes over the lights: the first validates them and counts the ones with energy, so
 /// that the second can bound them straight into the leaves of the tree's one array.
-pub(crate) fn binary(lights: &[Light], opts: &BuildOptions) -> Result<BinTree, BuildError> {
+pub(crate) fn binary<J: Join>(
+    lights: &[Light],
+    opts: &BuildOptions,
+    join: &J,
+) -> Result<BinTree, BuildError> {
     if lights.len() > MAX_LIGHTS as usize {
         return Err(BuildError::TooManyLights {
             count: lights.len(),
@@ -75,6 +107,7 @@ pub(crate) fn binary(lights: &[Light], opts: &BuildOptions) -> Result<BinTree, B
         &mut nodes,
         &mut boxes,
         opts.buckets.clamp(12, saoh::MAX_BUCKETS),
+        join,
     );
     Ok(BinTree { nodes })
 }
@@ -88,8 +121,18 @@ impl LightTree {
 
     /// Builds the tree with `opts`.
     pub fn build_with(lights: &[Light], opts: &BuildOptions) -> Result<LightTree, BuildError> {
-        let bin = binary(lights, opts)?;
-        let mut tree = collapse::collapse(&bin, lights.len(), opts.compact)?;
+        LightTree::build_parallel(lights, opts, &Serial)
+    }
+
+    /// [`LightTree::build_with`], its work split over `join` (e.g. a thread pool's fork-join):
+    /// the same tree, byte for byte ([`LightTree::as_bytes`]), as the serial build.
+    pub fn build_parallel<J: Join>(
+        lights: &[Light],
+        opts: &BuildOptions,
+        join: &J,
+    ) -> Result<LightTree, BuildError> {
+        let bin = binary(lights, opts, join)?;
+        let mut tree = collapse::collapse(&bin, lights.len(), opts.compact, join)?;
         tree.light_checks = crate::checksum::light_checks(lights);
         tree.infinite = crate::infinite::collect(lights)?;
         #[cfg(debug_assertions)]

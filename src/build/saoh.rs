@@ -16,6 +16,7 @@
 //! and nothing per node but for the rare split at the median (which selects on (key, index)
 //! pairs).
 
+use super::Join;
 use crate::bounds::{Aabb, Cone, LightBounds, Sphere};
 use crate::light::outward;
 use alloc::vec::Vec;
@@ -293,14 +294,32 @@ fn measure_full(lo: Vec3A, hi: Vec3A) -> f32 {
     }
 }
 
-/// The build's state: the inner nodes being written, and the buckets and the side of each
-/// light in a partition (a bit per light), reused by every node.
-struct Ctx<'a> {
-    inner: &'a mut [BinNode],
+/// The build's scratch: the buckets and the side of each light in a partition (a bit per
+/// light), reused by every node of one thread's part of the tree.
+struct Ctx {
     buckets: usize,
     bins: Buckets,
     sides: Vec<u64>,
 }
+
+impl Ctx {
+    /// The scratch for subtrees of at most `n` lights.
+    fn new(buckets: usize, n: usize) -> Ctx {
+        Ctx {
+            buckets,
+            bins: Buckets {
+                acc: [[Bucket::EMPTY; MAX_BUCKETS]; 3],
+                cone: [[Cone::SPHERE; MAX_BUCKETS]; 3],
+                used: [0; 3],
+            },
+            sides: alloc::vec![0; n.div_ceil(64)],
+        }
+    }
+}
+
+/// Subtrees of at least this many lights are built with their two children split over the
+/// [`Join`]; smaller ones on the thread that reaches them.
+const PARALLEL_MIN: usize = 1 << 14;
 
 /// Box of the geometry and box of the centroids of the lights with boxes `boxes`.
 fn bounds_of(boxes: &[Aabb]) -> (Aabb, Aabb) {
@@ -315,22 +334,15 @@ fn bounds_of(boxes: &[Aabb]) -> (Aabb, Aabb) {
 
 /// Builds the binary tree in `nodes`: `n − 1` placeholders followed by the `n ≥ 1` leaves,
 /// `boxes[i]` the box of the light of leaf `n − 1 + i`. Leaves and boxes are reordered.
-pub(crate) fn build(nodes: &mut [BinNode], boxes: &mut [Aabb], buckets: usize) {
+/// The two children of a node of [`PARALLEL_MIN`] lights or more are built as `join`'s two
+/// halves, each on scratch of its own; the result does not depend on `join`.
+pub(crate) fn build<J: Join>(nodes: &mut [BinNode], boxes: &mut [Aabb], buckets: usize, join: &J) {
     let n = boxes.len();
     debug_assert!(n >= 1 && nodes.len() == 2 * n - 1);
     let (inner, leaves) = nodes.split_at_mut(n - 1);
-    let mut ctx = Ctx {
-        inner,
-        buckets: buckets.clamp(2, MAX_BUCKETS),
-        bins: Buckets {
-            acc: [[Bucket::EMPTY; MAX_BUCKETS]; 3],
-            cone: [[Cone::SPHERE; MAX_BUCKETS]; 3],
-            used: [0; 3],
-        },
-        sides: alloc::vec![0; n.div_ceil(64)],
-    };
+    let mut ctx = Ctx::new(buckets.clamp(2, MAX_BUCKETS), n);
     let (geo, cbox) = bounds_of(boxes);
-    ctx.build_rec(leaves, boxes, 0, 0, 0, geo, cbox);
+    ctx.build_rec(inner, leaves, boxes, 0, 0, geo, cbox, join);
 }
 
 /// A chosen split: where it is and the boxes of both sides.
@@ -340,21 +352,22 @@ struct Split {
     right: (Aabb, Aabb),
 }
 
-impl Ctx<'_> {
-    /// Builds the subtree over `leaves` (the leaves from position `lo`, with their boxes) as
-    /// inner node `b` (when it has two lights or more); `geo`: box of the node's geometry,
-    /// `cbox`: box of its centroids (both from the parent). Returns the sum of the lights'
-    /// energies (in f64).
+impl Ctx {
+    /// Builds the subtree over `leaves` (the leaves from position `lo`, with their boxes) into
+    /// `inner`, its `leaves.len() − 1` inner nodes, root first (when it has two lights or
+    /// more); `geo`: box of the node's geometry, `cbox`: box of its centroids (both from the
+    /// parent). Returns the sum of the lights' energies (in f64).
     #[allow(clippy::too_many_arguments)]
-    fn build_rec(
+    fn build_rec<J: Join>(
         &mut self,
+        inner: &mut [BinNode],
         leaves: &mut [BinNode],
         boxes: &mut [Aabb],
         lo: usize,
-        b: usize,
         depth: u32,
         geo: Aabb,
         cbox: Aabb,
+        join: &J,
     ) -> f64 {
         let n = leaves.len();
         if n == 1 {
@@ -370,23 +383,47 @@ impl Ctx<'_> {
         let mid = split.mid;
         let (ll, lr) = leaves.split_at_mut(mid);
         let (bl, br) = boxes.split_at_mut(mid);
-        let ls = self.build_rec(ll, bl, lo, b + 1, depth + 1, split.left.0, split.left.1);
-        let rs = self.build_rec(
-            lr,
-            br,
-            lo + mid,
-            b + mid,
-            depth + 1,
-            split.right.0,
-            split.right.1,
-        );
+        // The node, then the left subtree's mid − 1 inner nodes, then the right one's.
+        let (node, below) = inner.split_at_mut(1);
+        let (il, ir) = below.split_at_mut(mid - 1);
+        let (ls, rs) = if n >= PARALLEL_MIN {
+            let buckets = self.buckets;
+            join.join(
+                || self.build_rec(il, ll, bl, lo, depth + 1, split.left.0, split.left.1, join),
+                || {
+                    Ctx::new(buckets, n - mid).build_rec(
+                        ir,
+                        lr,
+                        br,
+                        lo + mid,
+                        depth + 1,
+                        split.right.0,
+                        split.right.1,
+                        join,
+                    )
+                },
+            )
+        } else {
+            let ls = self.build_rec(il, ll, bl, lo, depth + 1, split.left.0, split.left.1, join);
+            let rs = self.build_rec(
+                ir,
+                lr,
+                br,
+                lo + mid,
+                depth + 1,
+                split.right.0,
+                split.right.1,
+                join,
+            );
+            (ls, rs)
+        };
         let left_cone = if mid >= 2 {
-            self.inner[b + 1].bounds.cone
+            il[0].bounds.cone
         } else {
             ll[0].bounds.cone
         };
         let right_cone = if n - mid >= 2 {
-            self.inner[b + mid].bounds.cone
+            ir[0].bounds.cone
         } else {
             lr[0].bounds.cone
         };
@@ -394,7 +431,7 @@ impl Ctx<'_> {
         let energy_sum = ls + rs;
         let count = n as u32;
         let energy = energy_sum as f32;
-        self.inner[b] = BinNode {
+        node[0] = BinNode {
             bounds: NodeBounds {
                 sphere: Sphere {
                     center,

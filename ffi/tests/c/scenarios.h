@@ -1372,6 +1372,46 @@ static float nan_hit(void *user, ml_vec3 x, ml_vec3 d) {
     return (float)NAN;
 }
 
+/* The serialized bytes of `tree` (malloc'd), their number in *size. */
+static uint8_t *tree_bytes(const ml_tree *tree, size_t *size) {
+    size_t written = 0;
+    uint8_t *buf;
+    *size = 0;
+    OK(ml_tree_serialized_size(tree, size));
+    buf = (uint8_t *)malloc(*size);
+    OK(ml_tree_serialize(tree, buf, *size, &written));
+    CHECK(written == *size);
+    return buf;
+}
+
+/* ml_tree_build_parallel gives ml_tree_build's tree, byte for byte, at a size whose build is
+   split (20000 lights), with 2 threads and with one per core. */
+static void scenario_parallel_build(void) {
+    const size_t n = 20000;
+    ml_light *lights = make_lights(n, 77);
+    ml_tree *serial = NULL, *two = NULL, *all = NULL;
+    size_t ns = 0, n2 = 0, na = 0;
+    uint8_t *bs, *b2, *ba;
+    OK(ml_tree_build(lights, n, NULL, &serial));
+    OK(ml_tree_build_parallel(lights, n, NULL, 2, &two));
+    OK(ml_tree_build_parallel(lights, n, NULL, 0, &all));
+    if (serial != NULL && two != NULL && all != NULL) {
+        bs = tree_bytes(serial, &ns);
+        b2 = tree_bytes(two, &n2);
+        ba = tree_bytes(all, &na);
+        CHECK(ns > 0 && ns == n2 && ns == na);
+        CHECK(ns == n2 && memcmp(bs, b2, ns) == 0);
+        CHECK(ns == na && memcmp(bs, ba, ns) == 0);
+        free(bs);
+        free(b2);
+        free(ba);
+    }
+    OK(ml_tree_free(serial));
+    OK(ml_tree_free(two));
+    OK(ml_tree_free(all));
+    free(lights);
+}
+
 static void scenario_bad_input(const ml_tree *tree, size_t n) {
     ml_light ls[4];
     ml_tree *t = NULL, *loaded = NULL, *t2 = NULL;
@@ -1489,6 +1529,18 @@ static void scenario_bad_input(const ml_tree *tree, size_t n) {
     BAD_VALUE(ml_tree_build, ml_tree_build(ls, 4, &bo, &t), ML_ERR_INVALID_ARGUMENT,
               "options.buckets must be 0 or in [12, 64], ML_MIN_BUCKETS to ML_MAX_BUCKETS (got 5)");
     CHECK(t == NULL); /* no output on failure */
+    BAD_NULL(ml_tree_build_parallel, ml_tree_build_parallel(NULL, 3, NULL, 2, &t),
+             "`lights` is NULL");
+    BAD_NULL(ml_tree_build_parallel, ml_tree_build_parallel(ls, 4, NULL, 2, NULL),
+             "`out` is NULL");
+    BAD_VALUE(ml_tree_build_parallel, ml_tree_build_parallel(ls, 4, NULL, 5000, &t),
+              ML_ERR_INVALID_ARGUMENT, "threads must be at most 1024 (got 5000)");
+    ls[2].power = rgb(1, -1, 1);
+    BAD_VALUE(ml_tree_build_parallel, ml_tree_build_parallel(ls, 4, NULL, 2, &t),
+              ML_ERR_INVALID_ARGUMENT,
+              "lights[2].power (the sphere light's radiance) is negative (got -1)");
+    ls[2].power = grey(1);
+    CHECK(t == NULL);
     bo.buckets = 32;
     OK(ml_tree_build(ls, 4, &bo, &t));
     FREE_NULL(ml_tree_free, ml_tree_free(NULL));

@@ -55,6 +55,7 @@ int main(int argc, char **argv) {
     scenario_wavefront();
     scenario_infinite();
     scenario_vpl();
+    scenario_parallel_build();
     scenario_bad_input(tree, n);
 
     OK(ml_tree_free(tree));

@@ -71,6 +71,7 @@ int main(int argc, char **argv) {
     scenario_wavefront();
     scenario_infinite();
     scenario_vpl();
+    scenario_parallel_build();
     scenario_bad_input(tree.get(), n);
 
     tree.reset();

@@ -10,8 +10,8 @@
 use crate::alloc_count;
 use manylights::baseline::BinaryLightTree;
 use manylights::{
-    BlCutOptions, BlImportance, Light, LightCut, LightTree, Material, Memo, MemoTable,
-    ShadingPoint, SplitCutOptions, TlImportance, CUT_CAPACITY,
+    BlCutOptions, BlImportance, BuildOptions, Light, LightCut, LightTree, Material, Memo,
+    MemoTable, ShadingPoint, SplitCutOptions, TlImportance, CUT_CAPACITY,
 };
 use manylights_ffi as ffi;
 use manylights_testkit::{self as random_scene, BenchPoint};
@@ -181,6 +181,11 @@ pub struct BuildFigures {
     pub build_cpu_ms: f64,
     /// [`LightTree::build`], peak heap bytes per light (the tree included).
     pub build_peak_bytes_per_light: Option<f64>,
+    /// [`LightTree::build_parallel`] on rayon's pool ([`crate::RayonJoin`]), wall-clock ms;
+    /// the tree is checked to be the serial build's, byte for byte.
+    pub build_parallel_ms: f64,
+    /// Threads of rayon's pool (`RAYON_NUM_THREADS`, else one per core).
+    pub build_threads: usize,
     /// [`BinaryLightTree::build`], wall-clock ms.
     pub baseline_build_ms: f64,
     /// [`BinaryLightTree::build`], thread CPU ms.
@@ -377,6 +382,16 @@ fn measure_builds(
     let (tree, time) = best_build(repeats, || {
         LightTree::build(lights).expect("the bench scene is valid")
     });
+    let threads = rayon::current_num_threads();
+    let (parallel, parallel_time) = best_build(repeats, || {
+        LightTree::build_parallel(lights, &BuildOptions::default(), &crate::RayonJoin)
+            .expect("the bench scene is valid")
+    });
+    assert!(
+        parallel.as_bytes() == tree.as_bytes(),
+        "the parallel build differs from the serial one"
+    );
+    drop(parallel);
     let (baseline, baseline_time) = best_build(repeats, || {
         BinaryLightTree::build(lights).expect("the bench scene is valid")
     });
@@ -384,6 +399,8 @@ fn measure_builds(
         build_ms: time.ms,
         build_cpu_ms: time.cpu_ms,
         build_peak_bytes_per_light: time.peak.map(per_light),
+        build_parallel_ms: parallel_time.ms,
+        build_threads: threads,
         baseline_build_ms: baseline_time.ms,
         baseline_build_cpu_ms: baseline_time.cpu_ms,
         baseline_build_peak_bytes_per_light: baseline_time.peak.map(per_light),
@@ -886,6 +903,8 @@ fn rows(r: &BenchReport) -> Vec<(&'static str, f64)> {
             "build peak heap (bytes per light)",
             unmeasured(b.build_peak_bytes_per_light),
         ),
+        ("parallel build (ms, best)", b.build_parallel_ms),
+        ("parallel build threads", b.build_threads as f64),
         ("baseline build (ms)", b.baseline_build_ms),
         (
             "baseline build, thread CPU time (ms)",
