@@ -719,17 +719,33 @@ pub extern "C" fn ml_estimator_estimate(
     out: *mut ml_rgb64,
 ) -> ml_status {
     ffi_fn!("ml_estimator_estimate", {
-        let h = arg::get_mut(est, "est")?;
-        let vis = arg::opt(visibility, "visibility")?;
-        let u = arg::get(uniforms, "uniforms")?;
-        let out = arg::out(out, "out")?;
-        let e = set_up(h)?;
-        out.write(estimate_with(e, vis, None, u)?);
-        h.last_light = None;
-        h.last_bsdf = None;
-        h.last_environment = None;
-        Ok(())
+        estimator_estimate(est, visibility, None, uniforms, out)
     })
+}
+
+/// The body of `ml_estimator_estimate` and `ml_estimator_estimate_env`: one estimate at the
+/// estimator's point, the lower level's state forgotten.
+fn estimator_estimate(
+    est: *mut ml_estimator,
+    visibility: *const ml_visibility,
+    environment: Option<*const ml_environment>,
+    uniforms: *const ml_uniforms,
+    out: *mut ml_rgb64,
+) -> Result<()> {
+    let h = arg::get_mut(est, "est")?;
+    let vis = arg::opt(visibility, "visibility")?;
+    let env = match environment {
+        Some(e) => Some(arg::get(e, "environment")?),
+        None => None,
+    };
+    let u = arg::get(uniforms, "uniforms")?;
+    let out = arg::out(out, "out")?;
+    let e = set_up(h)?;
+    out.write(estimate_with(e, vis, env, u)?);
+    h.last_light = None;
+    h.last_bsdf = None;
+    h.last_environment = None;
+    Ok(())
 }
 
 /// `ml_estimator_estimate` with the host's `environment` (see `ml_direct_estimate_env`).
@@ -746,17 +762,7 @@ pub extern "C" fn ml_estimator_estimate_env(
     out: *mut ml_rgb64,
 ) -> ml_status {
     ffi_fn!("ml_estimator_estimate_env", {
-        let h = arg::get_mut(est, "est")?;
-        let vis = arg::opt(visibility, "visibility")?;
-        let env = arg::get(environment, "environment")?;
-        let u = arg::get(uniforms, "uniforms")?;
-        let out = arg::out(out, "out")?;
-        let e = set_up(h)?;
-        out.write(estimate_with(e, vis, Some(env), u)?);
-        h.last_light = None;
-        h.last_bsdf = None;
-        h.last_environment = None;
-        Ok(())
+        estimator_estimate(est, visibility, Some(environment), uniforms, out)
     })
 }
 
