@@ -230,23 +230,14 @@ pub fn pdf_point(light: &Light, x: Vec3, point: Vec3) -> f32 {
         return 0.0;
     }
     let pdf = match *light {
-        Light::Point { .. } | Light::Spot { .. } | Light::Vpl { .. } => {
-            // The only point there is, where `sample_point` gives one.
-            return sample_point(light, x, [0.5; 2])
-                .filter(|s| s.position == point)
-                .map_or(0.0, |s| s.pdf);
-        }
-        Light::Distant { .. } => {
-            // A cone too narrow for f64 is a delta, as `sample_point` reports it.
+        Light::Point { .. } | Light::Spot { .. } | Light::Vpl { .. } | Light::Distant { .. } => {
+            // A delta (point, spot, VPL, or a cone too narrow for f64): the only point there
+            // is, where `sample_point` gives one; a distant light's cone otherwise.
             return match sample_point(light, x, [0.5; 2]) {
-                Some(s) if s.delta => {
-                    if s.position == point {
-                        s.pdf
-                    } else {
-                        0.0
-                    }
-                }
-                _ => intersect(light, x, point).map_or(0.0, |lp| lp.pdf),
+                Some(s) if s.delta && s.position == point => s.pdf,
+                Some(s) if s.delta => 0.0,
+                _ if light.is_infinite() => intersect(light, x, point).map_or(0.0, |lp| lp.pdf),
+                _ => 0.0,
             };
         }
         Light::Environment { .. } => 0.0,
