@@ -224,21 +224,25 @@ impl LightCut {
     /// `total` is `root_total(root)`, the importance of the whole tree at the shading point,
     /// for criteria that normalise by it. At most `max_size` clusters (at least the root's
     /// slots: `max_size` is clamped to [`MIN_CUT_SIZE`]..=[`CUT_CAPACITY`]).
+    ///
+    /// The cut is built in `cut`, whatever it held before (what a cut rebuilt in place per
+    /// shading point needs: no copy of its arrays).
     pub(crate) fn build_with(
+        cut: &mut LightCut,
         tree: &LightTree,
         max_size: usize,
         mut decide: impl FnMut(&Node4, f32) -> [SlotDecision; 4],
         root_total: impl FnOnce(&Node4) -> f32,
-    ) -> LightCut {
-        let mut cut = LightCut::new();
+    ) {
+        cut.clear();
         // The root's (up to four) slots are the coarsest cut there is.
         let max_size = max_size.clamp(MIN_CUT_SIZE, CUT_CAPACITY);
         let Some(root) = tree.nodes.first() else {
-            return cut;
+            return;
         };
         let total = root_total(root);
         if !(positive(total) && total < f32::INFINITY) {
-            return cut;
+            return;
         }
         // Clusters waiting to be opened: a ring buffer; accepted + queued ≤ max_size always.
         let mut queue = [Cluster::default(); CUT_CAPACITY];
@@ -282,7 +286,7 @@ impl LightCut {
         };
         let n = open(0, 1, &mut children);
         for &c in &children[..n] {
-            place(&mut cut, &mut queue, head, &mut queued, c);
+            place(cut, &mut queue, head, &mut queued, c);
         }
         while queued > 0 {
             let c = queue[head];
@@ -298,11 +302,23 @@ impl LightCut {
                 continue;
             }
             for &cc in &children[..n] {
-                place(&mut cut, &mut queue, head, &mut queued, cc);
+                place(cut, &mut queue, head, &mut queued, cc);
             }
         }
         cut.finish();
-        cut
+    }
+
+    /// Empties the cut: what [`LightCut::new`] gives, but for the arrays' contents beyond
+    /// the (zero) length, which nothing reads.
+    fn clear(&mut self) {
+        self.len = 0;
+        self.total = 0.0;
+        self.max_score = 0.0;
+        self.max_glossy_score = 0.0;
+        self.scale = 1.0;
+        self.skipped = 0;
+        self.sample_total = 0.0;
+        self.last = 0;
     }
 
     /// Decides which clusters [`LightCut::sample`] can choose (see the module documentation).
@@ -374,6 +390,15 @@ impl LightCut {
     /// `opts.delta`. Weights are BL importances, scores the SC values, so
     /// [`LightCut::max_score`] is IB(x).
     pub fn build_bl(tree: &LightTree, imp: &BlImportance, opts: &BlCutOptions) -> LightCut {
+        let mut cut = LightCut::new();
+        cut.rebuild_bl(tree, imp, opts);
+        cut
+    }
+
+    /// [`LightCut::build_bl`] in place: the cut becomes the one `build_bl(tree, imp, opts)`
+    /// returns, whatever it held before, without a copy of its arrays (a cut kept per thread
+    /// and rebuilt at each shading point).
+    pub fn rebuild_bl(&mut self, tree: &LightTree, imp: &BlImportance, opts: &BlCutOptions) {
         let x = imp.position();
         let delta = opts.delta;
         // The root is evaluated once: its importances (those of `eval4`, bit for bit) give the
@@ -401,15 +426,23 @@ impl LightCut {
             out
         };
         let total = |_: &Node4| root_eval.map_or(0.0, |e| e.0.to_array().iter().sum());
-        LightCut::build_with(tree, opts.max_size, decide, total)
+        LightCut::build_with(self, tree, opts.max_size, decide, total);
     }
 
     /// The split-sampling cut of Conty & Kulla at the shading point of `imp` (see the module
     /// documentation); each cluster's weight is its TL importance.
     pub fn build_split(tree: &LightTree, imp: &TlImportance, opts: &SplitCutOptions) -> LightCut {
+        let mut cut = LightCut::new();
+        cut.rebuild_split(tree, imp, opts);
+        cut
+    }
+
+    /// [`LightCut::build_split`] in place (as [`LightCut::rebuild_bl`] is `build_bl`'s).
+    pub fn rebuild_split(&mut self, tree: &LightTree, imp: &TlImportance, opts: &SplitCutOptions) {
         let x = imp.position();
         let threshold = opts.threshold;
         LightCut::build_with(
+            self,
             tree,
             opts.max_size,
             |node, total| {
@@ -448,7 +481,7 @@ impl LightCut {
                 out
             },
             |root| imp.eval4(root).to_array().iter().sum(),
-        )
+        );
     }
 
     /// Samples a light in cluster `i` with `u`: its pmf is relative to the cluster (the

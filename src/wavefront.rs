@@ -69,7 +69,8 @@ impl From<LengthMismatch> for BatchError {
 }
 
 /// `per_point` estimates at each of `points` with `technique` and `params`: for each point in
-/// order, [`Estimator::new`] there (the per-point set-up) and `per_point` calls of
+/// order, [`Estimator::new`] there (the per-point set-up; made once and moved by
+/// [`Estimator::reset`], which gives the same estimator) and `per_point` calls of
 /// [`Estimator::estimate`] with `occluder` and the uniform numbers of `u` (RGB), written to
 /// `out[j · per_point ..][..per_point]` — bit for bit, and drawing exactly the uniform
 /// numbers, of those single calls made one after the other. Every shading point is checked
@@ -101,15 +102,24 @@ pub fn estimate_each<O: Occluder + ?Sized>(
             error: DirectError::Shading(e),
         })?;
     }
+    // One estimator, moved from point to point ([`Estimator::reset`]: the same set-up as a
+    // new one, without its copy).
+    let mut est: Option<Estimator<'_>> = None;
     for (index, (sp, o)) in points
         .iter()
         .zip(out.chunks_exact_mut(per_point))
         .enumerate()
     {
         let at = |error| BatchError::Point { index, error };
-        let mut est = Estimator::new(set, sp, technique, params).map_err(at)?;
+        let e = match &mut est {
+            Some(e) => {
+                e.reset(sp).map_err(at)?;
+                e
+            }
+            None => est.insert(Estimator::new(set, sp, technique, params).map_err(at)?),
+        };
         for v in o {
-            *v = est.estimate(occluder, u).map_err(at)?;
+            *v = e.estimate(occluder, u).map_err(at)?;
         }
     }
     Ok(())

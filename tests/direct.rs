@@ -1015,3 +1015,95 @@ fn bad_input_is_an_error_naming_it() {
     }
     assert!(saw_light);
 }
+
+/// A random material of each kind (Lambert, GGX and plastic, rough and sharp).
+fn random_material(rng: &mut Rng) -> Material {
+    let alpha = [0.03f32, 0.1, 0.3, 0.8][rng.below(4)];
+    match rng.below(3) {
+        0 => Material::Lambert {
+            albedo: Rgb::new(0.2, 0.5, 0.7),
+        },
+        1 => Material::Ggx {
+            alpha,
+            specular: 0.9,
+        },
+        _ => Material::Plastic {
+            albedo: Rgb::grey(0.4),
+            specular: 0.5,
+            alpha,
+        },
+    }
+}
+
+/// `Estimator::reset` is `Estimator::new` at the new point, in place: moved through a chain
+/// of shading points (and refused an invalid one on the way), an estimator gives bit for bit
+/// the estimates, cuts and budgets of new estimators made at each point, for every technique,
+/// with and without a light at infinity.
+#[test]
+fn reset_is_a_new_estimator_in_place() {
+    let mut rng = Rng::new(41);
+    let spec = common::SceneSpec::default();
+    for with_sun in [false, true] {
+        let mut lights = random_lights(17, 150);
+        if with_sun {
+            lights.push(Light::Distant {
+                direction: Vec3::new(0.3, 0.2, 1.0),
+                angular_radius: 0.01,
+                irradiance: Rgb::new(3.0, 2.5, 2.0),
+            });
+        }
+        let set = LightSet::build(lights.clone()).unwrap();
+        let points: Vec<ShadingPoint> = (0..40)
+            .map(|_| ShadingPoint {
+                position: common::random_shading_point(&mut rng, &lights, spec.half),
+                normal: rng.unit(),
+                wo: rng.unit(),
+                material: random_material(&mut rng),
+            })
+            .collect();
+        let bad = ShadingPoint {
+            normal: Vec3::ZERO,
+            ..points[0]
+        };
+        for t in Technique::ALL {
+            let params = Params::default();
+            let mut moved = Estimator::new(&set, &points[0], t, &params).unwrap();
+            for (i, sp) in points.iter().enumerate() {
+                if i % 7 == 3 {
+                    // Refused: the error `new` gives, and the estimator stays where it was.
+                    let want = Estimator::new(&set, &bad, t, &params).err();
+                    assert_eq!(moved.reset(&bad).err(), want, "{t}");
+                    assert!(want.is_some());
+                    let prev = &points[i.saturating_sub(1)];
+                    let mut fresh = Estimator::new(&set, prev, t, &params).unwrap();
+                    let (mut ua, mut ub) = (U(Rng::new(i as u64)), U(Rng::new(i as u64)));
+                    for _ in 0..3 {
+                        let a = moved.estimate(&Unoccluded, &mut ua).unwrap();
+                        let b = fresh.estimate(&Unoccluded, &mut ub).unwrap();
+                        assert_eq!(
+                            a.map(f64::to_bits),
+                            b.map(f64::to_bits),
+                            "{t} after refusal"
+                        );
+                    }
+                }
+                moved.reset(sp).unwrap();
+                let mut fresh = Estimator::new(&set, sp, t, &params).unwrap();
+                assert_eq!(moved.budget(), fresh.budget(), "{t} at {i}");
+                assert_eq!(moved.ib().to_bits(), fresh.ib().to_bits(), "{t} at {i}");
+                assert_eq!(moved.split_cut().clusters(), fresh.split_cut().clusters());
+                assert_eq!(
+                    moved.cut_sampler().map(|c| c.cut().clusters().to_vec()),
+                    fresh.cut_sampler().map(|c| c.cut().clusters().to_vec()),
+                    "{t} at {i}"
+                );
+                let (mut ua, mut ub) = (U(Rng::new(100 + i as u64)), U(Rng::new(100 + i as u64)));
+                for _ in 0..8 {
+                    let a = moved.estimate(&Unoccluded, &mut ua).unwrap();
+                    let b = fresh.estimate(&Unoccluded, &mut ub).unwrap();
+                    assert_eq!(a.map(f64::to_bits), b.map(f64::to_bits), "{t} at {i}");
+                }
+            }
+        }
+    }
+}

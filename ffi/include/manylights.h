@@ -1360,7 +1360,10 @@ ml_status ml_estimator_free(struct ml_estimator *est);
 
 /**
  * Sets the estimator up for the shading point `sp` with `technique` and `params` (NULL:
- * defaults): builds what the technique needs there (its cuts, its budget). On error the
+ * defaults): builds what the technique needs there (its cuts, its budget). With the
+ * technique and parameters of its previous set-up the estimator is rebuilt in place (the
+ * same set-up, and bit for bit the same estimates, without a new estimator's copy): a host
+ * keeps one estimator per thread and sets it up at every shading point. On error the
  * estimator keeps its previous set-up.
  *
  * Errors: `ML_ERR_NULL` (`est`, `sp`); `ML_ERR_INVALID_ARGUMENT` (a bad shading point,

@@ -612,12 +612,21 @@ pub extern "C" fn ml_direct_estimate_batch(
         }
         let mut res = vec![ml_rgb64::default(); total];
         let per = per_point as usize;
+        // One estimator, moved from point to point (the same set-up as a new one).
+        let mut slot: Option<Estimator<'_>> = None;
         for (j, (sp, r)) in sps.iter().zip(res.chunks_exact_mut(per)).enumerate() {
             let name = || format!("points[{j}]");
-            let mut est =
-                Estimator::new(set, sp, t, &p).map_err(|e| direct_error_at(e, &name()))?;
+            let est = match &mut slot {
+                Some(e) => {
+                    e.reset(sp).map_err(|e| direct_error_at(e, &name()))?;
+                    e
+                }
+                None => slot.insert(
+                    Estimator::new(set, sp, t, &p).map_err(|e| direct_error_at(e, &name()))?,
+                ),
+            };
             for v in r {
-                *v = estimate_with(&mut est, vis, None, u).map_err(|e| e.within(&name()))?;
+                *v = estimate_with(est, vis, None, u).map_err(|e| e.within(&name()))?;
             }
         }
         for (i, v) in res.into_iter().enumerate() {
@@ -668,7 +677,10 @@ pub extern "C" fn ml_estimator_free(est: *mut ml_estimator) -> ml_status {
 }
 
 /// Sets the estimator up for the shading point `sp` with `technique` and `params` (NULL:
-/// defaults): builds what the technique needs there (its cuts, its budget). On error the
+/// defaults): builds what the technique needs there (its cuts, its budget). With the
+/// technique and parameters of its previous set-up the estimator is rebuilt in place (the
+/// same set-up, and bit for bit the same estimates, without a new estimator's copy): a host
+/// keeps one estimator per thread and sets it up at every shading point. On error the
 /// estimator keeps its previous set-up.
 ///
 /// Errors: `ML_ERR_NULL` (`est`, `sp`); `ML_ERR_INVALID_ARGUMENT` (a bad shading point,
@@ -690,8 +702,14 @@ pub extern "C" fn ml_estimator_set_point(
         // replaces; `h.est` is declared before `h.tree` (dropped first) and the reference never
         // leaves the handle.
         let set: &'static LightSet = unsafe { &*(set as *const LightSet) };
-        let e = Estimator::new(set, &sp, t, &p).map_err(direct_error)?;
-        h.est = Some(e);
+        // The same technique and parameters: the estimator is moved to the point in place
+        // (`reset`, the same set-up as a new one without its copy).
+        match &mut h.est {
+            Some(e) if e.technique() == t && *e.params() == p => {
+                e.reset(&sp).map_err(direct_error)?;
+            }
+            slot => *slot = Some(Estimator::new(set, &sp, t, &p).map_err(direct_error)?),
+        }
         h.last_light = None;
         h.last_bsdf = None;
         h.last_environment = None;

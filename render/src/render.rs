@@ -223,16 +223,39 @@ fn pixel(
             };
             moments(cfg.spp, || estimate(scene, &mut est, rng))
         }
-        Protocol::Jittered => moments(cfg.spp, || {
-            let offset = [rng.random::<f32>(), rng.random::<f32>()];
-            let Some(sp) = primary_at(scene, px, py, w, h, offset) else {
-                return [0.0; 3];
-            };
-            match Estimator::new(&scene.lights, &sp, cfg.technique, params) {
-                Ok(mut est) => estimate(scene, &mut est, rng),
-                Err(_) => [0.0; 3],
-            }
-        }),
+        Protocol::Jittered => {
+            // One estimator per pixel, moved to each new shading point (`reset`: the same
+            // estimator as a new one, without copying it).
+            let mut slot: Option<Estimator<'_>> = None;
+            moments(cfg.spp, || {
+                let offset = [rng.random::<f32>(), rng.random::<f32>()];
+                let Some(sp) = primary_at(scene, px, py, w, h, offset) else {
+                    return [0.0; 3];
+                };
+                match estimator_at(&mut slot, scene, &sp, cfg.technique, params) {
+                    Some(est) => estimate(scene, est, rng),
+                    None => [0.0; 3],
+                }
+            })
+        }
+    }
+}
+
+/// The estimator at `sp`: the one in `slot` moved there, or a new one when `slot` has none;
+/// `None` where the point is invalid.
+fn estimator_at<'s, 'a>(
+    slot: &'s mut Option<Estimator<'a>>,
+    scene: &'a RenderScene,
+    sp: &ShadingPoint,
+    technique: Technique,
+    params: &Params,
+) -> Option<&'s mut Estimator<'a>> {
+    match slot {
+        Some(est) => est.reset(sp).ok().map(|()| est),
+        None => {
+            *slot = Estimator::new(&scene.lights, sp, technique, params).ok();
+            slot.as_mut()
+        }
     }
 }
 

@@ -279,6 +279,8 @@ struct Run {
 pub struct Estimator<'a> {
     set: &'a LightSet,
     technique: Technique,
+    /// The parameters it was made with ([`Estimator::reset`] keeps them).
+    params: Params,
     x: Vec3,
     frame: Frame,
     /// ωo in the local frame.
@@ -329,23 +331,27 @@ fn next2(u: &mut (impl Uniforms + ?Sized)) -> Result<[f32; 2], DirectError> {
     Ok([next1(u)?, next1(u)?])
 }
 
-impl<'a> Estimator<'a> {
-    /// What `technique` needs at `sp` (only that: the split cut for the split techniques, the
-    /// BRDF-oriented cut where BL or the budget needs it).
-    pub fn new(
-        set: &'a LightSet,
-        sp: &ShadingPoint,
-        technique: Technique,
-        params: &Params,
-    ) -> Result<Estimator<'a>, DirectError> {
+/// What a technique needs at one shading point, decided and validated before anything is
+/// built: shared by [`Estimator::new`] and [`Estimator::reset`].
+struct Plan {
+    frame: Frame,
+    wo: Vec3,
+    tl: TlImportance,
+    /// The BRDF-oriented importance, where the technique builds a BL cut.
+    bl: Option<BlImportance>,
+    needs_split: bool,
+    diffuse: bool,
+}
+
+impl Plan {
+    /// Validates `sp` and decides what `technique` builds there.
+    fn new(sp: &ShadingPoint, technique: Technique, params: &Params) -> Result<Plan, DirectError> {
         sp.validate()?;
         let frame = Frame::from_normal(sp.normal).ok_or(ShadingError {
             field: ShadingField::Normal,
             problem: Problem::ZeroLength,
             value: sp.normal.length(),
         })?;
-        let tree = set.tree();
-        let tl = TreeSampler::with_importance(tree, TlImportance::new(sp.position, frame.normal));
         let needs_split = matches!(
             technique,
             Technique::TlSplit | Technique::MisEqual | Technique::Full
@@ -359,47 +365,85 @@ impl<'a> Estimator<'a> {
             Technique::Full => !no_ib,
             _ => false,
         };
-        let split = if needs_split {
+        let bl = if needs_bl {
+            Some(BlImportance::new(sp)?)
+        } else {
+            None
+        };
+        Ok(Plan {
+            frame,
+            wo: frame.to_local(sp.wo.normalize()),
+            tl: TlImportance::new(sp.position, frame.normal),
+            bl,
+            needs_split,
+            diffuse,
+        })
+    }
+
+    /// The number of BRDF-aware samples N (`mis-equal` and `full`; 0 otherwise), given the BL
+    /// sampler where one was built.
+    fn budget(&self, technique: Technique, params: &Params, bl: Option<&CutSampler>) -> u32 {
+        match (technique, bl) {
+            (Technique::Full, _) if self.diffuse => match params.lambert {
+                LambertMode::TlOnly => 0,
+                LambertMode::TbOne => 1,
+                LambertMode::TbBudget | LambertMode::BlTb => {
+                    sample_budget(bl.map_or(0.0, |b| b.cut().max_score()), params.n_max)
+                }
+            },
+            (Technique::MisEqual | Technique::Full, Some(b)) => brdf_budget(b.cut(), params.n_max),
+            _ => 0,
+        }
+    }
+
+    /// Whether BL takes part in `full`'s mixture.
+    fn bl_in_full(&self, params: &Params) -> bool {
+        !self.diffuse || params.lambert == LambertMode::BlTb
+    }
+}
+
+impl<'a> Estimator<'a> {
+    /// What `technique` needs at `sp` (only that: the split cut for the split techniques, the
+    /// BRDF-oriented cut where BL or the budget needs it).
+    ///
+    /// The estimator holds its cuts in place (several kilobytes): a host that sets one up at
+    /// every shading point of a thread can keep one estimator per thread and move it to each
+    /// new point with [`Estimator::reset`], which gives the same estimator without copying it.
+    pub fn new(
+        set: &'a LightSet,
+        sp: &ShadingPoint,
+        technique: Technique,
+        params: &Params,
+    ) -> Result<Estimator<'a>, DirectError> {
+        let plan = Plan::new(sp, technique, params)?;
+        let tree = set.tree();
+        let tl = TreeSampler::with_importance(tree, plan.tl);
+        let split = if plan.needs_split {
             LightCut::build_split(tree, tl.importance(), &params.split_cut)
         } else {
             LightCut::new()
         };
-        let bl = if needs_bl {
-            let imp = BlImportance::new(sp)?;
-            Some(CutSampler::with_importance(tree, imp, &params.bl_cut))
-        } else {
-            None
-        };
-        let n_mix = match (technique, &bl) {
-            (Technique::Full, _) if diffuse => match params.lambert {
-                LambertMode::TlOnly => 0,
-                LambertMode::TbOne => 1,
-                LambertMode::TbBudget | LambertMode::BlTb => sample_budget(
-                    bl.as_ref().map_or(0.0, |b| b.cut().max_score()),
-                    params.n_max,
-                ),
-            },
-            (Technique::MisEqual | Technique::Full, Some(b)) => brdf_budget(b.cut(), params.n_max),
-            _ => 0,
-        };
-        let bl_in_full = !diffuse || params.lambert == LambertMode::BlTb;
-        let heuristic = params.heuristic;
+        let bl = plan
+            .bl
+            .map(|imp| CutSampler::with_importance(tree, imp, &params.bl_cut));
+        let n_mix = plan.budget(technique, params, bl.as_ref());
         let pinf = (technique == Technique::TlMisPinf)
             .then(|| PinfSampler::with_importance(tree, *tl.importance()));
         Ok(Estimator {
             set,
             technique,
+            params: *params,
             x: sp.position,
-            frame,
-            wo: frame.to_local(sp.wo.normalize()),
+            frame: plan.frame,
+            wo: plan.wo,
             material: sp.material,
             tl,
             split,
             bl,
             pinf,
             n_mix,
-            bl_in_full,
-            heuristic,
+            bl_in_full: plan.bl_in_full(params),
+            heuristic: params.heuristic,
             pmfs: PmfCache::EMPTY,
             run: Run {
                 phase: Phase::Done,
@@ -408,10 +452,60 @@ impl<'a> Estimator<'a> {
                 tl_next: 0,
                 j: 0,
                 alloc: AdaptiveAllocator::new(false),
-                sw: SequentialWeights::new(0, 1.0, heuristic),
+                sw: SequentialWeights::new(0, 1.0, params.heuristic),
                 pending_tb: None,
             },
         })
+    }
+
+    /// Moves the estimator to the shading point `sp`, with the same light set, technique and
+    /// parameters: afterwards it is what [`Estimator::new`] would have returned at `sp`, and
+    /// gives bit for bit the same estimates, but it is set up in place, without the copy of
+    /// the whole estimator that returning a new one costs. The current estimate is
+    /// forgotten (call [`Estimator::start`] before the lower level's steps, as after
+    /// `new`). An invalid `sp` is the error `new` would give, and leaves the estimator
+    /// unchanged.
+    pub fn reset(&mut self, sp: &ShadingPoint) -> Result<(), DirectError> {
+        let params = self.params;
+        let plan = Plan::new(sp, self.technique, &params)?;
+        let tree = self.set.tree();
+        self.tl = TreeSampler::with_importance(tree, plan.tl);
+        // A technique without split sampling keeps the empty cut `new` gave it.
+        if plan.needs_split {
+            let tl = *self.tl.importance();
+            self.split.rebuild_split(tree, &tl, &params.split_cut);
+        }
+        match (&mut self.bl, plan.bl) {
+            (Some(b), Some(imp)) => b.reset(imp, &params.bl_cut),
+            (bl, imp) => {
+                *bl = imp.map(|imp| CutSampler::with_importance(tree, imp, &params.bl_cut))
+            }
+        }
+        self.n_mix = plan.budget(self.technique, &params, self.bl.as_ref());
+        if self.technique == Technique::TlMisPinf {
+            self.pinf = Some(PinfSampler::with_importance(tree, *self.tl.importance()));
+        }
+        self.x = sp.position;
+        self.frame = plan.frame;
+        self.wo = plan.wo;
+        self.material = sp.material;
+        self.bl_in_full = plan.bl_in_full(&params);
+        self.pmfs = PmfCache::EMPTY;
+        let r = &mut self.run;
+        r.phase = Phase::Done;
+        r.tl_len = 0;
+        r.tl_next = 0;
+        r.j = 0;
+        r.alloc = AdaptiveAllocator::new(false);
+        r.sw = SequentialWeights::new(0, 1.0, params.heuristic);
+        r.pending_tb = None;
+        Ok(())
+    }
+
+    /// The parameters.
+    #[inline]
+    pub fn params(&self) -> &Params {
+        &self.params
     }
 
     /// The technique.

@@ -104,16 +104,30 @@ impl<'a> CutSampler<'a> {
         options: &BlCutOptions,
     ) -> CutSampler<'a> {
         let cut = LightCut::build_bl(tree, &importance, options);
-        let root = (!tree.infinite_lights().is_empty()).then(|| {
-            let w: f64 = cut.clusters().iter().map(|c| f64::from(c.weight)).sum();
-            tree.root_choice(&importance, w)
-        });
+        let root = CutSampler::root_of(tree, &importance, &cut);
         CutSampler {
             tree,
             importance,
             cut,
             root,
         }
+    }
+
+    /// Moves the sampler to another shading point in place: it becomes what
+    /// [`CutSampler::with_importance`] gives for `importance` on the same tree, without a
+    /// copy of its cut.
+    pub fn reset(&mut self, importance: BlImportance, options: &BlCutOptions) {
+        self.cut.rebuild_bl(self.tree, &importance, options);
+        self.root = CutSampler::root_of(self.tree, &importance, &self.cut);
+        self.importance = importance;
+    }
+
+    /// The root choice between `cut` and the tree's lights at infinity (`None` without any).
+    fn root_of(tree: &LightTree, importance: &BlImportance, cut: &LightCut) -> Option<RootChoice> {
+        (!tree.infinite_lights().is_empty()).then(|| {
+            let w: f64 = cut.clusters().iter().map(|c| f64::from(c.weight)).sum();
+            tree.root_choice(importance, w)
+        })
     }
 
     /// The root choice between the cut and the lights at infinity (`None` without any).

@@ -966,6 +966,12 @@ static void scenario_wavefront(void) {
                                     batch));
         for (i = 0; i < WAVE_POINTS; i++) {
             OK(ml_estimator_set_point(est, &sps[i], t, NULL));
+            if (i % 3 == 1) {
+                /* Refused: the estimator keeps the point it was set up for. */
+                ml_shading_point bad = sps[i];
+                bad.normal.z = (float)NAN;
+                CHECK(ml_estimator_set_point(est, &bad, t, NULL) == ML_ERR_INVALID_ARGUMENT);
+            }
             for (j = 0; j < WAVE_PER_POINT; j++) {
                 single.r = single.g = single.b = -1;
                 OK(ml_estimator_estimate(est, NULL, &ub, &single));
