@@ -1,5 +1,6 @@
 //! Every direct-lighting technique per shading point: the estimator's set-up at the point
-//! (`Estimator::new`: cuts, budget) and one estimate (`Estimator::estimate`) with the core's
+//! (`Estimator::new`: cuts, budget; or, in the group `direct, reset`, one estimator moved to
+//! each point by `Estimator::reset`) and one estimate (`Estimator::estimate`) with the core's
 //! plastic material and no occluder (`direct::Unoccluded`: every shadow ray passes, so the
 //! figures are the library's alone). The yardstick is `tl-mis`, one TL tree sample plus one
 //! BSDF sample (what pbrt-v4 and Cycles do at a shading point).
@@ -51,6 +52,27 @@ fn direct(c: &mut Criterion) {
                 let mut acc = 0.0f64;
                 for sp in &sps {
                     let mut est = Estimator::new(&set, black_box(sp), technique, &params).unwrap();
+                    acc += est.estimate(&Unoccluded, &mut u).unwrap()[0];
+                }
+                acc
+            })
+        });
+    }
+    group.finish();
+    // The same, with one estimator moved from point to point (`Estimator::reset`, the same
+    // set-up and estimates without a new estimator's copy): how a host keeping one
+    // estimator per thread pays for the set-up.
+    let mut group = c.benchmark_group("direct, reset");
+    group.sample_size(10);
+    group.throughput(Throughput::Elements(POINTS as u64));
+    for technique in Technique::ALL {
+        group.bench_function(technique.name(), |b| {
+            let mut est = Estimator::new(&set, &sps[0], technique, &params).unwrap();
+            b.iter(|| {
+                let mut u = Lcg(13);
+                let mut acc = 0.0f64;
+                for sp in &sps {
+                    est.reset(black_box(sp)).unwrap();
                     acc += est.estimate(&Unoccluded, &mut u).unwrap()[0];
                 }
                 acc

@@ -2,8 +2,10 @@
 //! lower level for hosts with their own BSDFs, spectra or ray casts.
 //!
 //! A host builds a [`LightSet`](crate::LightSet) once per scene, then at each shading point an
-//! [`Estimator`] for one [`Technique`] (its per-point set-up: cuts, budget), and asks it for
-//! estimates of the reflected radiance `∫ f(ωo, ωi) L(ωi) cos θi dωi` from the lights:
+//! [`Estimator`] for one [`Technique`] (its per-point set-up: cuts, budget) — a new one, or
+//! better one kept per thread and moved to the point by [`Estimator::reset`], the same set-up
+//! without the copy of its state — and asks it for estimates of the reflected radiance
+//! `∫ f(ωo, ωi) L(ωi) cos θi dωi` from the lights:
 //!
 //! - **One call** ([`Estimator::estimate`]): with the core's [`Material`](crate::Material)s and a
 //!   host [`Occluder`] (shadow rays), uniform numbers from the host's [`Uniforms`].
