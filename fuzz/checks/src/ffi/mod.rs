@@ -246,6 +246,48 @@ mod tests {
         }
     }
 
+    /// The `.rs` files of `dir`, concatenated.
+    fn sources(dir: &std::path::Path) -> String {
+        let mut files: Vec<_> = std::fs::read_dir(dir)
+            .expect("a source directory")
+            .map(|e| e.expect("a readable directory").path())
+            .filter(|p| p.extension().is_some_and(|x| x == "rs"))
+            .collect();
+        files.sort();
+        files
+            .iter()
+            .map(|f| std::fs::read_to_string(f).expect("a readable source"))
+            .collect()
+    }
+
+    /// Every function the C ABI exports (`pub extern "C" fn` in `ffi/src/`) is called by the
+    /// harness (named in `harness/`, as a whole word).
+    #[test]
+    fn every_abi_function_is_driven() {
+        let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR"));
+        let ffi = sources(&dir.join("../../ffi/src"));
+        let harness = sources(&dir.join("src/ffi/harness"));
+        let ident = |c: char| c.is_ascii_alphanumeric() || c == '_';
+        let named = |name: &str| {
+            harness.match_indices(name).any(|(i, _)| {
+                let before = harness[..i].chars().next_back().is_none_or(|c| !ident(c));
+                let after = harness[i + name.len()..]
+                    .chars()
+                    .next()
+                    .is_none_or(|c| !ident(c));
+                before && after
+            })
+        };
+        let exported: Vec<&str> = ffi
+            .split("pub extern \"C\" fn ")
+            .skip(1)
+            .map(|rest| rest.split(|c: char| !ident(c)).next().unwrap_or(""))
+            .collect();
+        assert!(exported.len() > 60, "{} exported functions", exported.len());
+        let missing: Vec<&str> = exported.into_iter().filter(|n| !named(n)).collect();
+        assert!(missing.is_empty(), "not called by the harness: {missing:?}");
+    }
+
     /// Seeded inputs of every length up to 4 KiB pass the checks (the harness itself works:
     /// the committed crash inputs are replayed by `tests/fuzz_regressions.rs`).
     #[test]
