@@ -985,6 +985,213 @@ pub enum Op {
         /// The status named.
         status: i32,
     },
+    /// `ml_tree_build_parallel`, then `ml_tree_build` of the same arguments: the same status,
+    /// and on success the same tree byte for byte (`ml_tree_serialize`).
+    BuildParallel {
+        /// The lights (the first [`MAX_LEN`]).
+        lights: Vec<Light>,
+        /// How many are passed.
+        count: Count,
+        /// The array pointer.
+        ptr: Ptr,
+        /// `options` (NULL: defaults); `buckets` as given.
+        options: Option<Arg<u8>>,
+        /// `threads`.
+        threads: Threads,
+        /// `out`.
+        out: Ptr,
+    },
+    /// `ml_tree_load_with_lights`; serialized bytes unedited with the lights of their tree
+    /// load, and the tree serializes to the same bytes and answers the pmfs, samples and
+    /// points on lights of the tree they were saved from bit for bit (at `points` and `sps`).
+    LoadWithLights {
+        /// The bytes.
+        bytes: Bytes,
+        /// The lights.
+        lights: LightsArg,
+        /// How many lights are passed.
+        count: Count,
+        /// The byte pointer (valid or NULL) and the lights' pointer.
+        ptrs: [Ptr; 2],
+        /// `out`.
+        out: Ptr,
+        /// TL points where the pmfs are compared (the first [`MAX_COMPARE`]).
+        points: Vec<TlPoint>,
+        /// Shading points where the BL pmfs are compared (the first [`MAX_COMPARE`]).
+        sps: Vec<Sp>,
+    },
+    /// `ml_light_sample_point_batch` (then the single calls).
+    LightSamplePointBatch {
+        /// The tree.
+        tree: Handle,
+        /// The shading positions (the first [`MAX_LEN`]).
+        xs: Vec<V3>,
+        /// The lights (missing ones 0).
+        lights: Vec<Index>,
+        /// u0 (missing ones 0.5).
+        u0s: Vec<F>,
+        /// u1 (missing ones 0.5).
+        u1s: Vec<F>,
+        /// How many are passed.
+        count: Count,
+        /// `lights`, `xs`, `u0s`, `u1s`, `out`.
+        ptrs: [Ptr; 5],
+    },
+    /// `ml_direct_estimate_batch`, then the same estimates one call at a time from the same
+    /// uniform numbers and visibility: `ml_direct_estimate` per point (one estimate a point),
+    /// or one estimator set up at each point in turn and its estimates.
+    DirectEstimateBatch {
+        /// The tree.
+        tree: Handle,
+        /// The shading points (the first [`MAX_ESTIMATE_BATCH`]).
+        points: Vec<Sp>,
+        /// How many are passed.
+        count: Count,
+        /// `per_point`: `1 + b mod 3` for `b` < 240, else `b − 240` (0 to 15: 0 is out of range).
+        per_point: u8,
+        /// An `ml_technique`.
+        technique: Enum,
+        /// `params` (NULL: defaults).
+        params: Option<Arg<Params>>,
+        /// `visibility` (NULL: unoccluded).
+        visibility: Option<Arg<Visibility>>,
+        /// `uniforms`.
+        uniforms: Arg<Uniforms>,
+        /// `points`, `out`.
+        ptrs: [Ptr; 2],
+    },
+    /// `ml_direct_estimate_env`; on a tree without an environment light the environment is
+    /// never called and the estimate is `ml_direct_estimate`'s, on one with it
+    /// `ml_direct_estimate` is `ML_ERR_STATE`.
+    DirectEstimateEnv {
+        /// The tree.
+        tree: Handle,
+        /// The shading point.
+        sp: Arg<Sp>,
+        /// An `ml_technique`.
+        technique: Enum,
+        /// `params` (NULL: defaults).
+        params: Option<Arg<Params>>,
+        /// `visibility` (NULL: unoccluded).
+        visibility: Option<Arg<Visibility>>,
+        /// `environment` (NULL when absent).
+        environment: Option<Arg<EnvDesc>>,
+        /// `uniforms`.
+        uniforms: Arg<Uniforms>,
+        /// `out`.
+        out: Ptr,
+    },
+    /// `ml_estimator_estimate_env` (the environment never called on a tree without an
+    /// environment light).
+    EstimateEnv {
+        /// The estimator.
+        est: Handle,
+        /// `visibility` (NULL: unoccluded).
+        visibility: Option<Arg<Visibility>>,
+        /// `environment` (NULL when absent).
+        environment: Option<Arg<EnvDesc>>,
+        /// `uniforms`.
+        uniforms: Arg<Uniforms>,
+        /// `out`.
+        out: Ptr,
+    },
+    /// `ml_estimator_bsdf_hits_env`.
+    BsdfHitsEnv {
+        /// The estimator.
+        est: Handle,
+        /// The direction.
+        direction: V3,
+        /// The BSDF pdf.
+        bsdf_pdf: F,
+        /// The first surface's distance.
+        hit_distance: F,
+        /// The environment's pdf of the direction.
+        environment_pdf: F,
+        /// `each` NULL (rarely).
+        no_each: Rare,
+        /// `any_hit`.
+        any_hit: Ptr,
+    },
+    /// [`Op::Run`] with the host's environment: `ml_estimator_estimate_env`, environment
+    /// steps sampled from it and passed to `ml_estimator_environment_point`, BSDF rays
+    /// reported to `ml_estimator_bsdf_hits_env` with its pdf of their direction.
+    RunEnv {
+        /// The tree.
+        tree: Handle,
+        /// The shading point.
+        sp: Sp,
+        /// An `ml_technique`.
+        technique: Enum,
+        /// `params` (NULL: defaults).
+        params: Option<Params>,
+        /// `uniforms`.
+        uniforms: Uniforms,
+        /// `visibility` of the one-call estimate (NULL: unoccluded).
+        visibility: Option<Visibility>,
+        /// The environment.
+        environment: EnvDesc,
+        /// First-surface distances of the BSDF rays.
+        distances: Vec<F>,
+        /// Kept as a live estimator.
+        keep: bool,
+    },
+}
+
+/// Points and lights compared per operation between a tree loaded with its lights and the
+/// tree it was saved from.
+pub const MAX_COMPARE: usize = 4;
+/// Shading points of one `ml_direct_estimate_batch`.
+pub const MAX_ESTIMATE_BATCH: usize = 8;
+
+/// `threads` of `ml_tree_build_parallel`: `b mod 4` (0: one per core) for `b` < 248, else
+/// `1025 + b − 248` (above the limit, 1024).
+#[derive(Arbitrary, Debug, Clone, Copy)]
+pub struct Threads(pub u8);
+
+impl Threads {
+    /// The value.
+    pub fn value(self) -> u32 {
+        if self.0 < 248 {
+            u32::from(self.0 % 4)
+        } else {
+            1025 + u32::from(self.0 - 248)
+        }
+    }
+}
+
+/// The light descriptors passed to `ml_tree_load_with_lights`.
+#[derive(Arbitrary, Debug, Clone)]
+pub enum LightsArg {
+    /// Those of the tree last serialized (skipped when they are not known: a tree loaded
+    /// without them).
+    Own,
+    /// Those, light `i` mod their number replaced by each `Light` (the first [`MAX_LEN`]).
+    Edited(Vec<(u8, Light)>),
+    /// Drawn ones (the first [`MAX_LEN`]).
+    Drawn(Vec<Light>),
+}
+
+/// The host's environment (`ml_environment`): uniform over the sphere (the direction from
+/// `u0`, `u1`), grey radiance from `radiance` (its magnitude, at most 1e4; 1 if not finite),
+/// pdf 1/4π from both callbacks; `sample` gives no direction where `misses` says so
+/// (cycled). `raw` passes the radiance and the pdf `pdf` as drawn (NaN, negative, infinite
+/// included), and `zero` a zero direction.
+#[derive(Arbitrary, Debug, Clone)]
+pub struct EnvDesc {
+    /// `sample` NULL (rarely).
+    pub no_sample: Rare,
+    /// `eval` NULL (rarely).
+    pub no_eval: Rare,
+    /// The radiance.
+    pub radiance: F,
+    /// `sample`'s answers: `true` for no direction (the first [`MAX_LEN`]).
+    pub misses: Vec<bool>,
+    /// Radiance and pdf as drawn (rarely).
+    pub raw: Rare,
+    /// The pdf of both callbacks when `raw`.
+    pub pdf: F,
+    /// `sample` gives a zero direction (rarely).
+    pub zero: Rare,
 }
 
 /// `len` numbers: the drawn ones, then 0.5.

@@ -1,8 +1,9 @@
 //! The host's callbacks: uniform numbers (`ml_uniforms`), visibility and first-surface
-//! distances (`ml_visibility`), VPL visibility (`ml_vpl_visibility`) and the BSDF hits
-//! reported (`ml_hit_fn`), all through one [`Host`] as user data.
+//! distances (`ml_visibility`), VPL visibility (`ml_vpl_visibility`), the BSDF hits
+//! reported (`ml_hit_fn`) and an environment (`ml_environment`), all through one [`Host`] as
+//! user data.
 
-use super::grammar::{Uniforms, Visibility, VplVisibility, MAX_LEN};
+use super::grammar::{grey, EnvDesc, Uniforms, Visibility, VplVisibility, MAX_LEN};
 use core::ffi::c_void;
 use manylights_ffi::*;
 
@@ -20,6 +21,19 @@ pub(super) struct Host {
     visible: Vec<bool>,
     vis_at: usize,
     pub(super) hits: Vec<ml_light_hit>,
+    env: Env,
+    /// Calls of the environment's callbacks.
+    pub(super) env_calls: usize,
+}
+
+/// The environment's values (see [`EnvDesc`]).
+#[derive(Default)]
+struct Env {
+    radiance: f32,
+    pdf: f32,
+    zero: bool,
+    misses: Vec<bool>,
+    at: usize,
 }
 
 impl Host {
@@ -44,6 +58,38 @@ impl Host {
         } else {
             crate::bounded::unit(crate::bounded::unit(v) + 0.618_034 * i as f32)
         }
+    }
+}
+
+impl Host {
+    /// The environment's sample for `u0`, `u1`: a direction, its radiance and pdf, or none.
+    pub(super) fn env_sample(&mut self, u0: f32, u1: f32) -> Option<(ml_vec3, ml_rgb, f32)> {
+        self.env_calls += 1;
+        let e = &mut self.env;
+        let i = e.at;
+        e.at += 1;
+        if !e.misses.is_empty() && e.misses[i % e.misses.len()] {
+            return None;
+        }
+        let d = if e.zero {
+            ml_vec3::default()
+        } else {
+            let z = 1.0 - 2.0 * u0;
+            let r = (1.0 - z * z).max(0.0).sqrt();
+            let phi = 2.0 * core::f32::consts::PI * u1;
+            ml_vec3 {
+                x: r * phi.cos(),
+                y: r * phi.sin(),
+                z,
+            }
+        };
+        Some((d, grey(e.radiance), e.pdf))
+    }
+
+    /// The environment's radiance and pdf of a direction.
+    pub(super) fn env_eval(&mut self) -> (ml_rgb, f32) {
+        self.env_calls += 1;
+        (grey(self.env.radiance), self.env.pdf)
     }
 }
 
@@ -134,6 +180,72 @@ pub(super) fn vpl_visibility(v: &VplVisibility, h: &mut Host) -> ml_vpl_visibili
         v.visible.as_ref().map(|_| visible as _);
     ml_vpl_visibility {
         visible: f,
+        user_data: (h as *mut Host).cast(),
+    }
+}
+
+extern "C" fn env_sample(
+    user: *mut c_void,
+    u0: f32,
+    u1: f32,
+    d: *mut ml_vec3,
+    r: *mut ml_rgb,
+    pdf: *mut f32,
+) -> i32 {
+    match host(user).env_sample(u0, u1) {
+        Some((dv, rv, pv)) => {
+            // SAFETY: the library passes valid out-pointers for the call.
+            unsafe {
+                *d = dv;
+                *r = rv;
+                *pdf = pv;
+            }
+            1
+        }
+        None => 0,
+    }
+}
+
+extern "C" fn env_eval(user: *mut c_void, _d: ml_vec3, r: *mut ml_rgb, pdf: *mut f32) {
+    let (rv, pv) = host(user).env_eval();
+    // SAFETY: the library passes valid out-pointers for the call.
+    unsafe {
+        *r = rv;
+        *pdf = pv;
+    }
+}
+
+/// The environment `e` describes, its values in `h`.
+pub(super) fn environment(e: &EnvDesc, h: &mut Host) -> ml_environment {
+    let v = e.radiance.value();
+    h.env = Env {
+        radiance: if e.raw.set() {
+            v
+        } else if v.is_finite() {
+            v.abs().min(1e4)
+        } else {
+            1.0
+        },
+        pdf: if e.raw.set() {
+            e.pdf.value()
+        } else {
+            0.25 * core::f32::consts::FRAC_1_PI
+        },
+        zero: e.zero.set(),
+        misses: e.misses.iter().take(MAX_LEN).copied().collect(),
+        at: 0,
+    };
+    ml_environment {
+        sample: if e.no_sample.set() {
+            None
+        } else {
+            Some(env_sample)
+        },
+        eval: if e.no_eval.set() {
+            None
+        } else {
+            Some(env_eval)
+        },
         user_data: (h as *mut Host).cast(),
     }
 }

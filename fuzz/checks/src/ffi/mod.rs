@@ -1,6 +1,7 @@
 //! The C ABI (`manylights-ffi`) called from Rust as a host would call it, with arbitrary
 //! arguments: a sequence of operations on handles the harness keeps (trees built from light
-//! descriptors of every kind or loaded from serialized bytes, edited or not; cuts; estimators;
+//! descriptors of every kind, serially or in parallel, or loaded from serialized bytes, with
+//! or without their lights, edited or not; cuts; estimators;
 //! VPL acceptors), each pointer argument NULL, valid or misaligned, each value raw or in range,
 //! each count at most the length of the buffer behind it (the ABI trusts a pointer and count
 //! the host passes: only NULL pointers go with larger counts), light indices in or out of
@@ -12,16 +13,24 @@
 //!   `ml_last_error_message()` starts with the function's name and says something;
 //! - on success no misaligned pointer was accepted, no output is NaN, a sampled light is in
 //!   range with pmf in (0, 1] (`ML_NO_LIGHT` with pmf 0), pmfs are in [0, 1], estimates and
-//!   MIS scales are finite and non-negative, weights in [0, 1], a batch leaves the elements
-//!   past its count alone and equals the single calls bit for bit, and the unedited bytes of a
-//!   serialized tree load back.
+//!   MIS scales are finite and non-negative, weights in [0, 1], a batch (samples and pmfs,
+//!   points on lights, estimates) leaves the elements past its count alone and equals the
+//!   single calls bit for bit (the estimates drawing the same uniform numbers), and with valid
+//!   arrays a batch fails only where one of its single calls fails; the unedited bytes of a
+//!   serialized tree load back, with the lights of their tree too, giving a tree that
+//!   serializes to the same bytes and answers the pmfs, samples and points on lights of the
+//!   tree they were saved from bit for bit; the parallel build gives `ml_tree_build`'s status
+//!   and tree, byte for byte; the host's environment is never called for a tree without an
+//!   environment light (where `ml_direct_estimate_env` is `ml_direct_estimate` bit for bit;
+//!   with one, `ml_direct_estimate` is `ML_ERR_STATE`), and an escaping BSDF ray's environment
+//!   hit is black.
 //!
 //! The module's parts: `grammar` decodes the fuzzer's bytes into the operations (the
 //! [`Input`] a target takes) and their values into the ABI's arguments; `buffers` holds the
 //! arguments behind aligned, misaligned or NULL pointers, every output pre-filled with a
-//! sentinel; `host` provides the callbacks (uniform numbers, visibility, hits); `harness` keeps
-//! the handles, replays the operations, one module a family of the ABI, and makes the checks
-//! above ([`check`]).
+//! sentinel; `host` provides the callbacks (uniform numbers, visibility, hits, an
+//! environment); `harness` keeps the handles, replays the operations, one module a family of
+//! the ABI, and makes the checks above ([`check`]).
 
 mod buffers;
 mod grammar;
@@ -51,6 +60,232 @@ mod tests {
                 (z ^ (z >> 31)) as u8
             })
             .collect()
+    }
+
+    /// Twelve lights of every kind, then the same with an environment light, through the
+    /// operations of the builds, the loads with lights, the points on lights, the estimate
+    /// batches and the environment with valid arguments, every technique: the checks pass
+    /// (on the deep paths random bytes seldom reach).
+    #[test]
+    fn valid_scene_passes() {
+        use super::grammar::*;
+        let s = |k: i16| F::Small(k);
+        let light = |kind: u8, z: i16| Light {
+            kind: Enum(kind),
+            two_sided: Enum(0),
+            position: [s(64), s(-32), s(z)],
+            direction: [s(0), s(0), s(-256)],
+            vertex2: [s(256), s(0), s(z)],
+            power: s(256),
+            radius: s(32),
+            half_angle: s(200),
+            falloff_start: F::Unit(32768),
+        };
+        let lights: Vec<Light> = (0..12)
+            .map(|i| light([0, 1, 2, 3, 4, 5, 6][i % 7], 256 + 64 * i as i16))
+            .chain([light(7, 0)])
+            .collect();
+        let sp = Sp {
+            position: [s(0), s(0), s(0)],
+            normal: [s(0), s(0), s(256)],
+            wo: [s(40), s(0), s(256)],
+            material: MaterialDesc {
+                kind: Enum(2),
+                albedo: F::Unit(32768),
+                specular: F::Unit(32768),
+                alpha: F::Unit(20000),
+            },
+        };
+        let tl = TlPoint {
+            position: sp.position,
+            normal: sp.normal,
+        };
+        let uni = Uniforms {
+            no_f32: Rare(0),
+            f64: true,
+            raw: Rare(0),
+            values: vec![],
+        };
+        let env = EnvDesc {
+            no_sample: Rare(0),
+            no_eval: Rare(0),
+            radiance: s(128),
+            misses: vec![false, false, true],
+            raw: Rare(0),
+            pdf: F::Unit(0),
+            zero: Rare(0),
+        };
+        fn arg<T>(value: T) -> Arg<T> {
+            Arg {
+                ptr: Ptr::Valid,
+                value,
+            }
+        }
+        let mut ops = Vec::new();
+        for n in [12, 13] {
+            let ls = lights[..n].to_vec();
+            ops.push(Op::Build {
+                lights: ls.clone(),
+                count: Count::All,
+                ptr: Ptr::Valid,
+                options: None,
+                out: Ptr::Valid,
+            });
+            ops.push(Op::BuildParallel {
+                lights: ls,
+                count: Count::All,
+                ptr: Ptr::Valid,
+                options: None,
+                threads: Threads(2),
+                out: Ptr::Valid,
+            });
+            ops.push(Op::Serialize {
+                tree: Handle::Live(0),
+                capacity: Capacity::Exact,
+                buffer: Ptr::Valid,
+                written: Ptr::Valid,
+            });
+            ops.push(Op::LoadWithLights {
+                bytes: Bytes::Serialized {
+                    edits: vec![],
+                    keep: None,
+                },
+                lights: LightsArg::Own,
+                count: Count::All,
+                ptrs: [Ptr::Valid; 2],
+                out: Ptr::Valid,
+                points: vec![tl; 2],
+                sps: vec![sp; 2],
+            });
+            ops.push(Op::LoadWithLights {
+                bytes: Bytes::Serialized {
+                    edits: vec![],
+                    keep: None,
+                },
+                lights: LightsArg::Edited(vec![(3, light(0, 9000))]),
+                count: Count::All,
+                ptrs: [Ptr::Valid; 2],
+                out: Ptr::Valid,
+                points: vec![],
+                sps: vec![],
+            });
+            ops.push(Op::FreeTree(Handle::Live(0)));
+            ops.push(Op::LoadWithLights {
+                bytes: Bytes::Serialized {
+                    edits: vec![],
+                    keep: None,
+                },
+                lights: LightsArg::Own,
+                count: Count::All,
+                ptrs: [Ptr::Valid; 2],
+                out: Ptr::Valid,
+                points: vec![tl],
+                sps: vec![sp],
+            });
+            ops.push(Op::LightSamplePointBatch {
+                tree: Handle::Live(0),
+                xs: vec![tl.position; 5],
+                lights: (0..5).map(Index::In).collect(),
+                u0s: vec![F::Unit(100), F::Unit(30000)],
+                u1s: vec![F::Unit(60000)],
+                count: Count::All,
+                ptrs: [Ptr::Valid; 5],
+            });
+            for technique in 0..10 {
+                ops.push(Op::DirectEstimateBatch {
+                    tree: Handle::Live(0),
+                    points: vec![sp; 3],
+                    count: Count::All,
+                    per_point: technique % 2,
+                    technique: Enum(technique),
+                    params: None,
+                    visibility: Some(arg(Visibility {
+                        occluded: Some(vec![false, true, false]),
+                        first_hit: None,
+                    })),
+                    uniforms: arg(uni.clone()),
+                    ptrs: [Ptr::Valid; 2],
+                });
+                ops.push(Op::DirectEstimateEnv {
+                    tree: Handle::Live(0),
+                    sp: arg(sp),
+                    technique: Enum(technique),
+                    params: None,
+                    visibility: None,
+                    environment: Some(arg(env.clone())),
+                    uniforms: arg(uni.clone()),
+                    out: Ptr::Valid,
+                });
+                ops.push(Op::RunEnv {
+                    tree: Handle::Live(0),
+                    sp,
+                    technique: Enum(technique),
+                    params: None,
+                    uniforms: uni.clone(),
+                    visibility: None,
+                    environment: env.clone(),
+                    distances: vec![F::Special(1)],
+                    keep: true,
+                });
+                ops.push(Op::EstimateEnv {
+                    est: Handle::Live(0),
+                    visibility: None,
+                    environment: Some(arg(env.clone())),
+                    uniforms: arg(uni.clone()),
+                    out: Ptr::Valid,
+                });
+                ops.push(Op::EstimatorFree(Handle::Live(0)));
+            }
+            ops.push(Op::FreeTree(Handle::Live(0)));
+            ops.push(Op::FreeTree(Handle::Live(0)));
+            ops.push(Op::FreeTree(Handle::Live(0)));
+        }
+        assert!(ops.len() <= 2 * super::grammar::MAX_OPS);
+        for half in ops.chunks(ops.len() / 2) {
+            super::check(&super::Input { ops: half.to_vec() });
+        }
+    }
+
+    /// The `.rs` files of `dir`, concatenated.
+    fn sources(dir: &std::path::Path) -> String {
+        let mut files: Vec<_> = std::fs::read_dir(dir)
+            .expect("a source directory")
+            .map(|e| e.expect("a readable directory").path())
+            .filter(|p| p.extension().is_some_and(|x| x == "rs"))
+            .collect();
+        files.sort();
+        files
+            .iter()
+            .map(|f| std::fs::read_to_string(f).expect("a readable source"))
+            .collect()
+    }
+
+    /// Every function the C ABI exports (`pub extern "C" fn` in `ffi/src/`) is called by the
+    /// harness (named in `harness/`, as a whole word).
+    #[test]
+    fn every_abi_function_is_driven() {
+        let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR"));
+        let ffi = sources(&dir.join("../../ffi/src"));
+        let harness = sources(&dir.join("src/ffi/harness"));
+        let ident = |c: char| c.is_ascii_alphanumeric() || c == '_';
+        let named = |name: &str| {
+            harness.match_indices(name).any(|(i, _)| {
+                let before = harness[..i].chars().next_back().is_none_or(|c| !ident(c));
+                let after = harness[i + name.len()..]
+                    .chars()
+                    .next()
+                    .is_none_or(|c| !ident(c));
+                before && after
+            })
+        };
+        let exported: Vec<&str> = ffi
+            .split("pub extern \"C\" fn ")
+            .skip(1)
+            .map(|rest| rest.split(|c: char| !ident(c)).next().unwrap_or(""))
+            .collect();
+        assert!(exported.len() > 60, "{} exported functions", exported.len());
+        let missing: Vec<&str> = exported.into_iter().filter(|n| !named(n)).collect();
+        assert!(missing.is_empty(), "not called by the harness: {missing:?}");
     }
 
     /// Seeded inputs of every length up to 4 KiB pass the checks (the harness itself works:

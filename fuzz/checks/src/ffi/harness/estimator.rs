@@ -1,11 +1,16 @@
-//! The estimator family: the whole method in one call (`ml_direct_estimate`) and estimators
-//! (`ml_estimator_*`): created on a tree, set up at a shading point, one-call estimates, the
-//! lower-level steps, weights and BSDF hits, freed.
+//! The estimator family: the whole method in one call (`ml_direct_estimate`, with the host's
+//! environment `ml_direct_estimate_env`, at many points `ml_direct_estimate_batch`, checked
+//! against the single calls) and estimators (`ml_estimator_*`): created on a tree, set up at
+//! a shading point, one-call estimates (with or without the environment), the lower-level
+//! steps, weights and BSDF hits (with or without the environment's pdf), freed.
 
-use super::{estimate_ok, Est, Harness};
+use super::{estimate_ok, message, same_bits, Est, Harness};
 use crate::ffi::buffers::{HandleArg, In, Out};
-use crate::ffi::grammar::{grey, v3, Op, Ptr, Uniforms, Visibility, F, MAX_STEPS};
-use crate::ffi::host::{each_hit, host, uniforms, visibility, Host};
+use crate::ffi::grammar::{
+    grey, v3, Arg, Count, Enum, EnvDesc, Handle, Op, Params, Ptr, Sp, Uniforms, Visibility, F,
+    MAX_ESTIMATE_BATCH, MAX_STEPS,
+};
+use crate::ffi::host::{each_hit, environment, host, uniforms, visibility, Host};
 use manylights_ffi::*;
 use std::ptr;
 
@@ -42,6 +47,7 @@ impl Harness<'_> {
             }
             Op::EstimatorCreate { tree, out } => {
                 let (t, n, th) = self.tree(*tree);
+                let env = self.tree_at(*tree).and_then(|t| t.environment());
                 let mut o = Out::<*mut ml_estimator>::one(*out);
                 let s = ml_estimator_create(t, o.p());
                 if self.status("ml_estimator_create", s, &[&th, &o]) {
@@ -50,6 +56,7 @@ impl Harness<'_> {
                     self.ests.push(Est {
                         p,
                         lights: n,
+                        env,
                         sp: None,
                     });
                 }
@@ -152,9 +159,168 @@ impl Harness<'_> {
                     v3(direction),
                     bsdf_pdf.value(),
                     hit_distance.value(),
+                    None,
                     !no_each.set(),
                     *any_hit,
                 );
+            }
+            Op::BsdfHitsEnv {
+                est,
+                direction,
+                bsdf_pdf,
+                hit_distance,
+                environment_pdf,
+                no_each,
+                any_hit,
+            } => {
+                let (ei, e, eh) = self.est(*est);
+                let n = ei.map_or(0, |i| self.ests[i].lights);
+                let env = ei.and_then(|i| self.ests[i].env);
+                self.bsdf_hits(
+                    e,
+                    &eh,
+                    n,
+                    v3(direction),
+                    bsdf_pdf.value(),
+                    hit_distance.value(),
+                    Some((environment_pdf.value(), env)),
+                    !no_each.set(),
+                    *any_hit,
+                );
+            }
+            Op::DirectEstimateBatch {
+                tree,
+                points,
+                count,
+                per_point,
+                technique,
+                params,
+                visibility: vis,
+                uniforms: uni,
+                ptrs,
+            } => {
+                let pp = if *per_point < 240 {
+                    1 + u32::from(*per_point) % 3
+                } else {
+                    u32::from(*per_point - 240)
+                };
+                self.estimate_batch(
+                    *tree,
+                    points,
+                    *count,
+                    pp,
+                    technique.value(10),
+                    params.as_ref(),
+                    vis.as_ref(),
+                    uni,
+                    *ptrs,
+                );
+            }
+            Op::DirectEstimateEnv {
+                tree,
+                sp,
+                technique,
+                params,
+                visibility: vis,
+                environment: env,
+                uniforms: uni,
+                out,
+            } => {
+                let name = "ml_direct_estimate_env";
+                let (t, _, th) = self.tree(*tree);
+                let has_env = self.tree_at(*tree).and_then(|t| t.environment());
+                let p = In::one(sp.value.ml(), sp.ptr);
+                let tech = technique.value(10);
+                let prm = In::opt(params.as_ref().map(|o| (o.value.ml(), o.ptr)));
+                let mut h = Host::with_uniforms(&uni.value);
+                let hp: *mut Host = &mut h;
+                let v = In::opt(
+                    vis.as_ref()
+                        .map(|v| (visibility(&v.value, host(hp.cast())), v.ptr)),
+                );
+                let en = In::opt(
+                    env.as_ref()
+                        .map(|e| (environment(&e.value, host(hp.cast())), e.ptr)),
+                );
+                let u = In::one(uniforms(&uni.value, hp), uni.ptr);
+                let mut o = Out::<ml_rgb64>::one(*out);
+                let s =
+                    ml_direct_estimate_env(t, p.p(), tech, prm.p(), v.p(), en.p(), u.p(), o.p());
+                let ok = self.status(name, s, &[&th, &p, &prm, &v, &en, &u, &o]);
+                if has_env == Some(None) {
+                    self.ensure(h.env_calls == 0, || {
+                        format!(
+                            "{name}: the environment called {} times on a tree without one",
+                            h.env_calls
+                        )
+                    });
+                }
+                if !ok {
+                    return;
+                }
+                let r = o.get(0);
+                self.ensure(estimate_ok(r), || format!("{name}: {r:?}"));
+                // The same call without the environment, from the same numbers.
+                let Some(has_env) = has_env else { return };
+                let mut h = Host::with_uniforms(&uni.value);
+                let hp: *mut Host = &mut h;
+                let v = In::opt(
+                    vis.as_ref()
+                        .map(|v| (visibility(&v.value, host(hp.cast())), v.ptr)),
+                );
+                let u = In::one(uniforms(&uni.value, hp), uni.ptr);
+                let mut o = Out::<ml_rgb64>::one(Ptr::Valid);
+                let s = ml_direct_estimate(t, p.p(), tech, prm.p(), v.p(), u.p(), o.p());
+                if has_env.is_some() {
+                    self.ensure(s == ML_ERR_STATE, || {
+                        format!("{name} succeeded; ml_direct_estimate of a tree with an environment light gave {s}")
+                    });
+                } else {
+                    self.ensure(s == ML_OK && same_bits(&o.get(0), &r), || {
+                        format!(
+                            "{name}: {r:?} on a tree without an environment light, \
+                             ml_direct_estimate {s} {:?}",
+                            o.get(0)
+                        )
+                    });
+                }
+            }
+            Op::EstimateEnv {
+                est,
+                visibility: vis,
+                environment: env,
+                uniforms: uni,
+                out,
+            } => {
+                let name = "ml_estimator_estimate_env";
+                let (ei, e, eh) = self.est(*est);
+                let has_env = ei.and_then(|i| self.ests[i].env);
+                let mut h = Host::with_uniforms(&uni.value);
+                let hp: *mut Host = &mut h;
+                let v = In::opt(
+                    vis.as_ref()
+                        .map(|v| (visibility(&v.value, host(hp.cast())), v.ptr)),
+                );
+                let en = In::opt(
+                    env.as_ref()
+                        .map(|e| (environment(&e.value, host(hp.cast())), e.ptr)),
+                );
+                let u = In::one(uniforms(&uni.value, hp), uni.ptr);
+                let mut o = Out::<ml_rgb64>::one(*out);
+                let s = ml_estimator_estimate_env(e, v.p(), en.p(), u.p(), o.p());
+                let ok = self.status(name, s, &[&eh, &v, &en, &u, &o]);
+                if has_env == Some(None) {
+                    self.ensure(h.env_calls == 0, || {
+                        format!(
+                            "{name}: the environment called {} times on a tree without one",
+                            h.env_calls
+                        )
+                    });
+                }
+                if ok {
+                    let r = o.get(0);
+                    self.ensure(estimate_ok(r), || format!("{name}: {r:?}"));
+                }
             }
             Op::Run {
                 tree,
@@ -165,43 +331,93 @@ impl Harness<'_> {
                 visibility: vis,
                 distances,
                 keep,
-            } => {
-                let (t, n, th) = self.tree(*tree);
-                let mut o = Out::<*mut ml_estimator>::one(Ptr::Valid);
-                let s = ml_estimator_create(t, o.p());
-                if !self.status("ml_estimator_create", s, &[&th, &o]) {
-                    return;
-                }
-                let e = o.get(0);
-                self.ensure(!e.is_null(), || "ml_estimator_create: NULL".into());
-                let sp = sp.ml();
-                let prm = params.map(|p| p.ml());
-                let s = ml_estimator_set_point(
-                    e,
-                    &sp,
-                    technique.value(10),
-                    prm.as_ref().map_or(ptr::null(), |p| p as *const _),
-                );
-                let ok = self.status("ml_estimator_set_point", s, &[]);
-                self.ests.push(Est {
-                    p: e,
-                    lights: n,
-                    sp: ok.then_some(sp),
-                });
-                if ok {
-                    self.run_estimator(e, n, sp, uni, vis.as_ref(), distances);
-                }
-                if !keep {
-                    let e = self.ests.pop().map(|e| e.p);
-                    let s = ml_estimator_free(e.unwrap_or(ptr::null_mut()));
-                    self.status("ml_estimator_free", s, &[]);
-                }
-            }
+            } => self.run_op(
+                *tree,
+                sp,
+                *technique,
+                params.as_ref(),
+                uni,
+                vis.as_ref(),
+                None,
+                distances,
+                *keep,
+            ),
+            Op::RunEnv {
+                tree,
+                sp,
+                technique,
+                params,
+                uniforms: uni,
+                visibility: vis,
+                environment: env,
+                distances,
+                keep,
+            } => self.run_op(
+                *tree,
+                sp,
+                *technique,
+                params.as_ref(),
+                uni,
+                vis.as_ref(),
+                Some(env),
+                distances,
+                *keep,
+            ),
             _ => unreachable!("{op:?} is no estimator operation"),
         }
     }
 
-    /// One estimate, then a lower-level one, of an estimator set up at `sp`.
+    /// [`Op::Run`] (`env`: [`Op::RunEnv`]).
+    #[allow(clippy::too_many_arguments)]
+    fn run_op(
+        &mut self,
+        tree: Handle,
+        sp: &Sp,
+        technique: Enum,
+        params: Option<&Params>,
+        uni: &Uniforms,
+        vis: Option<&Visibility>,
+        env: Option<&EnvDesc>,
+        distances: &[F],
+        keep: bool,
+    ) {
+        let (t, n, th) = self.tree(tree);
+        let has_env = self.tree_at(tree).and_then(|t| t.environment());
+        let mut o = Out::<*mut ml_estimator>::one(Ptr::Valid);
+        let s = ml_estimator_create(t, o.p());
+        if !self.status("ml_estimator_create", s, &[&th, &o]) {
+            return;
+        }
+        let e = o.get(0);
+        self.ensure(!e.is_null(), || "ml_estimator_create: NULL".into());
+        let sp = sp.ml();
+        let prm = params.map(|p| p.ml());
+        let s = ml_estimator_set_point(
+            e,
+            &sp,
+            technique.value(10),
+            prm.as_ref().map_or(ptr::null(), |p| p as *const _),
+        );
+        let ok = self.status("ml_estimator_set_point", s, &[]);
+        self.ests.push(Est {
+            p: e,
+            lights: n,
+            env: has_env,
+            sp: ok.then_some(sp),
+        });
+        if ok {
+            self.run_estimator(e, n, sp, uni, vis, env, has_env, distances);
+        }
+        if !keep {
+            let e = self.ests.pop().map(|e| e.p);
+            let s = ml_estimator_free(e.unwrap_or(ptr::null_mut()));
+            self.status("ml_estimator_free", s, &[]);
+        }
+    }
+
+    /// One estimate, then a lower-level one, of an estimator set up at `sp` (with the host's
+    /// environment `env`, of a tree whose environment light is `has_env` when known).
+    #[allow(clippy::too_many_arguments)]
     fn run_estimator(
         &self,
         e: *mut ml_estimator,
@@ -209,23 +425,36 @@ impl Harness<'_> {
         sp: ml_shading_point,
         uni: &Uniforms,
         vis: Option<&Visibility>,
+        env: Option<&EnvDesc>,
+        has_env: Option<Option<u32>>,
         distances: &[F],
     ) {
         {
             let mut h = Host::with_uniforms(uni);
             let hp: *mut Host = &mut h;
             let v = vis.map(|v| visibility(v, host(hp.cast())));
+            let en = env.map(|d| environment(d, host(hp.cast())));
             let u = uniforms(uni, hp);
+            let vp = v.as_ref().map_or(ptr::null(), |v| v as *const _);
             let mut o = Out::<ml_rgb64>::one(Ptr::Valid);
-            let s = ml_estimator_estimate(
-                e,
-                v.as_ref().map_or(ptr::null(), |v| v as *const _),
-                &u,
-                o.p(),
-            );
-            if self.status("ml_estimator_estimate", s, &[&o]) {
+            let (name, s) = match &en {
+                Some(en) => (
+                    "ml_estimator_estimate_env",
+                    ml_estimator_estimate_env(e, vp, en, &u, o.p()),
+                ),
+                None => (
+                    "ml_estimator_estimate",
+                    ml_estimator_estimate(e, vp, &u, o.p()),
+                ),
+            };
+            if self.status(name, s, &[&o]) {
                 let r = o.get(0);
-                self.ensure(estimate_ok(r), || format!("ml_estimator_estimate: {r:?}"));
+                self.ensure(estimate_ok(r), || format!("{name}: {r:?}"));
+            }
+            if en.is_some() && has_env == Some(None) {
+                self.ensure(h.env_calls == 0, || {
+                    format!("{name}: the environment called on a tree without one")
+                });
             }
         }
         let s = ml_estimator_start(e);
@@ -234,6 +463,9 @@ impl Harness<'_> {
         }
         let mut h = Host::with_uniforms(uni);
         let hp: *mut Host = &mut h;
+        if let Some(d) = env {
+            environment(d, host(hp.cast()));
+        }
         let u = uniforms(uni, hp);
         let spp: *const ml_shading_point = &sp;
         let mut bsdf = 0;
@@ -261,15 +493,18 @@ impl Harness<'_> {
                     self.weighted("ml_estimator_weigh", &o.get(0));
                 }
             } else if step.kind == 3 {
-                // The host's environment: a direction about the normal, radiance 1, pdf 1/4π.
+                // The host's environment (without one: a direction about the normal,
+                // radiance 1, pdf 1/4π).
+                let (d, l, pdf) = if env.is_some() {
+                    match host(hp.cast()).env_sample(step.u0, step.u1) {
+                        Some(x) => x,
+                        None => continue,
+                    }
+                } else {
+                    (sp.normal, grey(1.0), 0.25 * core::f32::consts::FRAC_1_PI)
+                };
                 let mut o = Out::<ml_step>::one(Ptr::Valid);
-                let s = ml_estimator_environment_point(
-                    e,
-                    sp.normal,
-                    grey(1.0),
-                    0.25 * core::f32::consts::FRAC_1_PI,
-                    o.p(),
-                );
+                let s = ml_estimator_environment_point(e, d, l, pdf, o.p());
                 if !self.status("ml_estimator_environment_point", s, &[&o]) {
                     return;
                 }
@@ -297,7 +532,18 @@ impl Harness<'_> {
                         distances[bsdf % distances.len()].value()
                     };
                     bsdf += 1;
-                    self.bsdf_hits(e, &HandleArg(false), n, d.wi, d.pdf, t, true, Ptr::Valid);
+                    let env_pdf = env.map(|_| (host(hp.cast()).env_eval().1, has_env));
+                    self.bsdf_hits(
+                        e,
+                        &HandleArg(false),
+                        n,
+                        d.wi,
+                        d.pdf,
+                        t,
+                        env_pdf,
+                        true,
+                        Ptr::Valid,
+                    );
                 }
             } else {
                 return;
@@ -333,6 +579,8 @@ impl Harness<'_> {
         }
     }
 
+    /// `ml_estimator_bsdf_hits`, or with `env` (the environment's pdf, and the tree's
+    /// environment light when known) `ml_estimator_bsdf_hits_env`.
     #[allow(clippy::too_many_arguments)]
     fn bsdf_hits(
         &self,
@@ -342,6 +590,7 @@ impl Harness<'_> {
         d: ml_vec3,
         pdf: f32,
         t: f32,
+        env: Option<(f32, Option<Option<u32>>)>,
         each: bool,
         any_hit: Ptr,
     ) {
@@ -349,22 +598,157 @@ impl Harness<'_> {
         let hp: *mut Host = &mut h;
         let mut o = Out::<u32>::one(any_hit);
         let f: ml_hit_fn = if each { Some(each_hit) } else { None };
-        let s = ml_estimator_bsdf_hits(e, d, pdf, t, f, hp.cast(), o.p());
-        if self.status("ml_estimator_bsdf_hits", s, &[eh, &o]) {
+        let (name, s) = match env {
+            Some((env_pdf, _)) => (
+                "ml_estimator_bsdf_hits_env",
+                ml_estimator_bsdf_hits_env(e, d, pdf, t, env_pdf, f, hp.cast(), o.p()),
+            ),
+            None => (
+                "ml_estimator_bsdf_hits",
+                ml_estimator_bsdf_hits(e, d, pdf, t, f, hp.cast(), o.p()),
+            ),
+        };
+        if self.status(name, s, &[eh, &o]) {
             let any = o.get(0);
             self.ensure(any == u32::from(!h.hits.is_empty()), || {
-                format!(
-                    "ml_estimator_bsdf_hits: any_hit {any} with {} hits",
-                    h.hits.len()
-                )
+                format!("{name}: any_hit {any} with {} hits", h.hits.len())
             });
+            let env_light = env.and_then(|e| e.1).flatten();
             for hit in &h.hits {
                 self.ensure((hit.light as usize) < n, || {
-                    format!("ml_estimator_bsdf_hits: light {} of {n}", hit.light)
+                    format!("{name}: light {} of {n}", hit.light)
                 });
-                self.light_point("ml_estimator_bsdf_hits", &hit.point);
-                self.weighted("ml_estimator_bsdf_hits", &hit.weighted);
+                self.light_point(name, &hit.point);
+                self.weighted(name, &hit.weighted);
+                if Some(hit.light) == env_light {
+                    let r = hit.point.radiance;
+                    self.ensure(
+                        r.r == 0.0 && r.g == 0.0 && r.b == 0.0 && t == f32::INFINITY,
+                        || format!("{name}: the environment's hit {hit:?} (hit distance {t})"),
+                    );
+                }
             }
+        }
+    }
+
+    /// `ml_direct_estimate_batch`, then the same estimates one call at a time, from a host
+    /// with the same numbers and answers: `ml_direct_estimate` per point when `pp` is 1,
+    /// else one estimator set up at each point and `pp` estimates.
+    #[allow(clippy::too_many_arguments)]
+    fn estimate_batch(
+        &self,
+        tree: Handle,
+        points: &[Sp],
+        count: Count,
+        pp: u32,
+        technique: u32,
+        params: Option<&Arg<Params>>,
+        vis: Option<&Arg<Visibility>>,
+        uni: &Arg<Uniforms>,
+        ptrs: [Ptr; 2],
+    ) {
+        let name = "ml_direct_estimate_batch";
+        let (t, _, th) = self.tree(tree);
+        let pts: Vec<ml_shading_point> =
+            points.iter().take(MAX_ESTIMATE_BATCH).map(Sp::ml).collect();
+        let len = pts.len();
+        let all_null = ptrs.iter().all(|&p| p == Ptr::Null);
+        let c = count.value(len, all_null);
+        let per = pp as usize;
+        let arr = In::new(&pts, ptrs[0], c);
+        let prm = In::opt(params.map(|o| (o.value.ml(), o.ptr)));
+        let mut h = Host::with_uniforms(&uni.value);
+        let hp: *mut Host = &mut h;
+        let v = In::opt(vis.map(|v| (visibility(&v.value, host(hp.cast())), v.ptr)));
+        let u = In::one(uniforms(&uni.value, hp), uni.ptr);
+        let mut o = Out::<ml_rgb64>::new(len * per.max(1), ptrs[1], c.saturating_mul(per));
+        let s =
+            ml_direct_estimate_batch(t, arr.p(), c, pp, technique, prm.p(), v.p(), u.p(), o.p());
+        let ok = self.status(name, s, &[&th, &arr, &prm, &v, &u, &o]);
+        if pp == 0 {
+            self.ensure(!ok, || format!("{name}: succeeded with per_point 0"));
+            return;
+        }
+        let valid = ptrs.iter().all(|&p| p == Ptr::Valid);
+        if !(ok || valid && c > 0) {
+            return;
+        }
+        if ok {
+            self.ensure(o.untouched_from(c * per), || {
+                format!("{name}: wrote past count · per_point")
+            });
+            for i in 0..c * per {
+                let r = o.get(i);
+                self.ensure(estimate_ok(r), || format!("{name}: out[{i}] {r:?}"));
+            }
+        }
+        // The single calls, from a host with the same numbers and answers.
+        let mut h = Host::with_uniforms(&uni.value);
+        let hp: *mut Host = &mut h;
+        let v = In::opt(vis.map(|v| (visibility(&v.value, host(hp.cast())), v.ptr)));
+        let u = In::one(uniforms(&uni.value, hp), uni.ptr);
+        let mut est = ptr::null_mut();
+        if per > 1 {
+            let mut eo = Out::<*mut ml_estimator>::one(Ptr::Valid);
+            let s = ml_estimator_create(t, eo.p());
+            if s == ML_OK {
+                est = eo.get(0);
+            } else {
+                self.ensure(!ok, || {
+                    format!(
+                        "{name} succeeded, ml_estimator_create gave {s} ({})",
+                        message()
+                    )
+                });
+                return;
+            }
+        }
+        let mut failed = None;
+        'points: for (j, sp) in pts.iter().enumerate().take(c) {
+            if per > 1 {
+                let s = ml_estimator_set_point(est, sp, technique, prm.p());
+                if s != ML_OK {
+                    failed = Some((j, 0, "ml_estimator_set_point", s));
+                    break;
+                }
+            }
+            for i in 0..per {
+                let mut one = Out::<ml_rgb64>::one(Ptr::Valid);
+                let (single, s) = if per == 1 {
+                    let s = ml_direct_estimate(t, sp, technique, prm.p(), v.p(), u.p(), one.p());
+                    ("ml_direct_estimate", s)
+                } else {
+                    let s = ml_estimator_estimate(est, v.p(), u.p(), one.p());
+                    ("ml_estimator_estimate", s)
+                };
+                if s != ML_OK {
+                    failed = Some((j, i, single, s));
+                    break 'points;
+                }
+                if ok {
+                    let (r, q) = (o.get(j * per + i), one.get(0));
+                    self.ensure(same_bits(&r, &q), || {
+                        format!("{name}: out[{}] is {r:?}, {single} {q:?}", j * per + i)
+                    });
+                }
+            }
+        }
+        if !est.is_null() {
+            ml_estimator_free(est);
+        }
+        match failed {
+            Some((j, i, single, s)) => self.ensure(!ok, || {
+                format!(
+                    "{name} succeeded; {single} at points[{j}], estimate {i}: {s} ({})",
+                    message()
+                )
+            }),
+            None => self.ensure(ok, || {
+                format!(
+                    "{name}: {s} ({}), yet every single call succeeds",
+                    message()
+                )
+            }),
         }
     }
 }

@@ -1,8 +1,9 @@
-//! The light family (`ml_light_*`): a point sampled on one light of a tree and its pdf.
+//! The light family (`ml_light_*`): a point sampled on one light of a tree and its pdf, and
+//! batches of them against the single calls.
 
-use super::{nan32, Harness};
-use crate::ffi::buffers::Out;
-use crate::ffi::grammar::{v3, Op, Ptr};
+use super::{message, nan32, same_bits, Harness};
+use crate::ffi::buffers::{In, Out};
+use crate::ffi::grammar::{indices, numbers, v3, Op, Ptr, MAX_LEN};
 use manylights_ffi::*;
 
 impl Harness<'_> {
@@ -48,6 +49,68 @@ impl Harness<'_> {
                 if self.status("ml_light_pdf_point", s, &[&th, &o]) {
                     let q = o.get(0);
                     self.ensure(q >= 0.0 && !nan32(q), || format!("ml_light_pdf_point: {q}"));
+                }
+            }
+            Op::LightSamplePointBatch {
+                tree,
+                xs,
+                lights,
+                u0s,
+                u1s,
+                count,
+                ptrs,
+            } => {
+                let name = "ml_light_sample_point_batch";
+                let (t, n, th) = self.tree(*tree);
+                let x: Vec<ml_vec3> = xs.iter().take(MAX_LEN).map(v3).collect();
+                let len = x.len();
+                let ls = indices(lights, len, n);
+                let (u0, u1) = (numbers(u0s, len), numbers(u1s, len));
+                let all_null = ptrs.iter().all(|&p| p == Ptr::Null);
+                let c = count.value(len, all_null);
+                let la = In::new(&ls, ptrs[0], c);
+                let xa = In::new(&x, ptrs[1], c);
+                let u0a = In::new(&u0, ptrs[2], c);
+                let u1a = In::new(&u1, ptrs[3], c);
+                let mut o = Out::<ml_light_point>::new(len, ptrs[4], c);
+                let s = ml_light_sample_point_batch(t, la.p(), xa.p(), u0a.p(), u1a.p(), c, o.p());
+                let single = |j: usize, out: *mut ml_light_point| {
+                    ml_light_sample_point(t, ls[j], x[j], u0[j], u1[j], out)
+                };
+                if !self.status(name, s, &[&th, &la, &xa, &u0a, &u1a, &o]) {
+                    // Every input checked first: with valid arrays, some single call fails.
+                    if c > 0 && ptrs.iter().all(|&p| p == Ptr::Valid) {
+                        let fails = (0..c).any(|j| {
+                            let mut one = Out::<ml_light_point>::one(Ptr::Valid);
+                            single(j, one.p()) != ML_OK
+                        });
+                        self.ensure(fails, || {
+                            format!(
+                                "{name}: {s} ({}), yet every single call succeeds",
+                                message()
+                            )
+                        });
+                    }
+                    return;
+                }
+                self.ensure(o.untouched_from(c), || {
+                    format!("{name}: wrote past the count")
+                });
+                for j in 0..c {
+                    let r = o.get(j);
+                    self.light_point(name, &r);
+                    let mut one = Out::<ml_light_point>::one(Ptr::Valid);
+                    let s = single(j, one.p());
+                    self.ensure(s == ML_OK, || {
+                        format!(
+                            "{name}: element {j} succeeded, its single call gave {s} ({})",
+                            message()
+                        )
+                    });
+                    let q = one.get(0);
+                    self.ensure(same_bits(&r, &q), || {
+                        format!("{name}: element {j} is {r:?}, its single call {q:?}")
+                    });
                 }
             }
             _ => unreachable!("{op:?} is no light operation"),

@@ -20,10 +20,24 @@ use std::ffi::CStr;
 use std::fmt;
 use std::ptr;
 
-/// A live tree: its handle and light count.
+/// A live tree: its handle, light count and, when it holds them, the light descriptors it
+/// was built from.
 struct Tree {
     p: *mut ml_tree,
     lights: usize,
+    descs: Option<Vec<ml_light>>,
+}
+
+impl Tree {
+    /// Whether it has an environment light, and its index (`None`: not known, a tree
+    /// without its descriptors).
+    fn environment(&self) -> Option<Option<u32>> {
+        self.descs.as_ref().map(|d| {
+            d.iter()
+                .position(|l| l.kind == ml_light_kind::Environment as u32)
+                .map(|i| i as u32)
+        })
+    }
 }
 
 /// A live cut: its handle and, once built, the light count of its tree and its size, and
@@ -34,15 +48,17 @@ struct Cut {
     bl: bool,
 }
 
-/// A live estimator: its handle, its tree's light count, and the shading point it was set
-/// up at.
+/// A live estimator: its handle, its tree's light count and environment light (as
+/// [`Tree::environment`]), and the shading point it was set up at.
 struct Est {
     p: *mut ml_estimator,
     lights: usize,
+    env: Option<Option<u32>>,
     sp: Option<ml_shading_point>,
 }
 
-/// The live handles of one input's run, and the bytes of its last serialized tree.
+/// The live handles of one input's run, and the bytes of its last serialized tree (with
+/// that tree's light descriptors when it holds them, and its handle while it is live).
 struct Harness<'a> {
     input: &'a Input,
     at: usize,
@@ -51,6 +67,8 @@ struct Harness<'a> {
     ests: Vec<Est>,
     accs: Vec<*mut ml_acceptor>,
     serialized: Option<Vec<u8>>,
+    serialized_lights: Option<Vec<ml_light>>,
+    serialized_tree: Option<*mut ml_tree>,
 }
 
 fn message() -> String {
@@ -83,6 +101,19 @@ fn nan32(v: f32) -> bool {
 /// Every channel finite and ≥ 0.
 fn colour_ok(c: ml_rgb) -> bool {
     [c.r, c.g, c.b].iter().all(|v| v.is_finite() && *v >= 0.0)
+}
+
+/// The same bytes (values of types without padding: bit for bit, NaN included).
+fn same_bits<T: Copy>(a: &T, b: &T) -> bool {
+    let n = core::mem::size_of::<T>();
+    // SAFETY: both are `n` initialised bytes (the types compared have no padding).
+    let (x, y) = unsafe {
+        (
+            core::slice::from_raw_parts((a as *const T).cast::<u8>(), n),
+            core::slice::from_raw_parts((b as *const T).cast::<u8>(), n),
+        )
+    };
+    x == y
 }
 
 /// Every channel of an estimate finite and ≥ 0.
@@ -127,6 +158,12 @@ impl Harness<'_> {
             format!("{name}: status {s} ({m}) and an output written")
         });
         false
+    }
+
+    /// The live tree `h` refers to (none for NULL and misaligned handles).
+    fn tree_at(&self, h: Handle) -> Option<&Tree> {
+        let ptrs: Vec<_> = self.trees.iter().map(|t| t.p).collect();
+        pick(h, &ptrs).0.map(|i| &self.trees[i])
     }
 
     fn tree(&self, h: Handle) -> (*mut ml_tree, usize, HandleArg) {
@@ -250,8 +287,12 @@ impl Harness<'_> {
             | Op::SampleTlBatch { .. }
             | Op::PmfTlBatch { .. }
             | Op::SampleBlBatch { .. }
-            | Op::PmfBlBatch { .. } => self.tree_op(op),
-            Op::LightSamplePoint { .. } | Op::LightPdfPoint { .. } => self.light_op(op),
+            | Op::PmfBlBatch { .. }
+            | Op::BuildParallel { .. }
+            | Op::LoadWithLights { .. } => self.tree_op(op),
+            Op::LightSamplePoint { .. }
+            | Op::LightPdfPoint { .. }
+            | Op::LightSamplePointBatch { .. } => self.light_op(op),
             Op::CutCreate { .. }
             | Op::CutFree(_)
             | Op::CutBuild { .. }
@@ -271,7 +312,12 @@ impl Harness<'_> {
             | Op::Next { .. }
             | Op::Weigh { .. }
             | Op::BsdfHits { .. }
-            | Op::Run { .. } => self.estimator_op(op),
+            | Op::Run { .. }
+            | Op::DirectEstimateBatch { .. }
+            | Op::DirectEstimateEnv { .. }
+            | Op::EstimateEnv { .. }
+            | Op::BsdfHitsEnv { .. }
+            | Op::RunEnv { .. } => self.estimator_op(op),
             Op::AcceptorCreate { .. }
             | Op::AcceptorFree(_)
             | Op::SetImportons { .. }
@@ -314,6 +360,8 @@ pub fn check(input: &Input) {
         ests: Vec::new(),
         accs: Vec::new(),
         serialized: None,
+        serialized_lights: None,
+        serialized_tree: None,
     };
     h.run();
 }

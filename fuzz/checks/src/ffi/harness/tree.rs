@@ -1,11 +1,14 @@
-//! The tree family (`ml_tree_*`): built from light descriptors or loaded from (edited)
-//! serialized bytes, serialized, its statistics, freed; TL and BL samples checked against the
-//! queried pmfs, and the batches against the single calls.
+//! The tree family (`ml_tree_*`): built from light descriptors (serially, or in parallel and
+//! checked against the serial build byte for byte) or loaded from (edited) serialized bytes,
+//! with or without (edited) lights, serialized, its statistics, freed; TL and BL samples
+//! checked against the queried pmfs, the batches against the single calls, and a tree
+//! loaded with its lights against the one it was saved from.
 
 use super::{message, pick, Harness, Tree};
 use crate::ffi::buffers::{HandleArg, In, Out};
 use crate::ffi::grammar::{
-    indices, numbers, Bytes, Capacity, Count, Handle, Light, Op, Ptr, Sp, TlPoint, MAX_LEN,
+    indices, numbers, Arg, Bytes, Capacity, Count, Handle, Light, LightsArg, Op, Ptr, Sp, TlPoint,
+    MAX_COMPARE, MAX_LEN,
 };
 use manylights_ffi::*;
 use std::fmt;
@@ -35,7 +38,7 @@ impl Harness<'_> {
                 let mut o = Out::<*mut ml_tree>::one(*out);
                 let s = ml_tree_build(arr.p(), c, opts.p(), o.p());
                 if self.status("ml_tree_build", s, &[&arr, &opts, &o]) {
-                    self.add_tree(o.get(0), Some(c));
+                    self.add_tree(o.get(0), Some(ls[..c].to_vec()));
                 }
             }
             Op::Load {
@@ -44,28 +47,8 @@ impl Harness<'_> {
                 ptr: bp,
                 out,
             } => {
-                let (data, pristine) = match bytes {
-                    Bytes::Serialized { edits, keep } => {
-                        let Some(mut b) = self.serialized.clone() else {
-                            return;
-                        };
-                        let mut changed = false;
-                        for &(i, x) in edits.iter().take(MAX_LEN) {
-                            if !b.is_empty() && x != 0 {
-                                let n = b.len();
-                                b[usize::from(i) % n] ^= x;
-                                changed = true;
-                            }
-                        }
-                        if let Some(k) = keep {
-                            if usize::from(*k) < b.len() {
-                                b.truncate(usize::from(*k));
-                                changed = true;
-                            }
-                        }
-                        (b, !changed)
-                    }
-                    Bytes::Raw(b) => (b.clone(), false),
+                let Some((data, pristine)) = self.load_bytes(bytes) else {
+                    return;
                 };
                 // Bytes have no alignment: a misaligned pointer is a valid one.
                 let bp = if *bp == Ptr::Null {
@@ -123,6 +106,9 @@ impl Harness<'_> {
                         "ml_tree_serialize: wrote past its bytes".into()
                     });
                     self.serialized = Some((0..n).map(|i| buf.get(i)).collect());
+                    let src = self.tree_at(*tree).map(|t| (t.descs.clone(), t.p));
+                    self.serialized_lights = src.as_ref().and_then(|t| t.0.clone());
+                    self.serialized_tree = src.map(|t| t.1);
                 }
             }
             Op::Stats { tree, out } => {
@@ -147,6 +133,9 @@ impl Harness<'_> {
                 let s = ml_tree_free(p);
                 if self.status("ml_tree_free", s, &[&HandleArg(mis)]) {
                     if let Some(i) = i {
+                        if self.serialized_tree == Some(self.trees[i].p) {
+                            self.serialized_tree = None;
+                        }
                         self.trees.swap_remove(i);
                     }
                 }
@@ -288,20 +277,311 @@ impl Harness<'_> {
                     |t, p, l, o| ml_tree_pmf_bl(t, p, l, o),
                 );
             }
+            Op::BuildParallel {
+                lights,
+                count,
+                ptr,
+                options,
+                threads,
+                out,
+            } => self.build_parallel(
+                lights,
+                *count,
+                *ptr,
+                options.as_ref(),
+                threads.value(),
+                *out,
+            ),
+            Op::LoadWithLights {
+                bytes,
+                lights,
+                count,
+                ptrs,
+                out,
+                points,
+                sps,
+            } => self.load_with_lights(bytes, lights, *count, *ptrs, *out, points, sps),
             _ => unreachable!("{op:?} is no tree operation"),
         }
     }
 
-    fn add_tree(&mut self, p: *mut ml_tree, count: Option<usize>) {
+    /// A new tree, with the descriptors it holds (`None`: loaded without them).
+    fn add_tree(&mut self, p: *mut ml_tree, descs: Option<Vec<ml_light>>) {
         self.ensure(!p.is_null(), || "a NULL tree".into());
         let mut st = Out::<ml_tree_statistics>::one(Ptr::Valid);
         let s = ml_tree_stats(p, st.p());
         self.ensure(s == ML_OK, || format!("ml_tree_stats of a new tree: {s}"));
-        let lights = st.get(0).lights;
-        if let Some(c) = count {
-            self.ensure(lights == c, || format!("a tree of {c} lights has {lights}"));
+        let st = st.get(0);
+        let lights = st.lights;
+        if let Some(d) = &descs {
+            let c = d.len();
+            self.ensure(lights == c && st.has_lights == 1, || {
+                format!("a tree of {c} lights with them has {st:?}")
+            });
+        } else {
+            self.ensure(st.has_lights == 0, || {
+                format!("a tree loaded without lights has {st:?}")
+            });
         }
-        self.trees.push(Tree { p, lights });
+        self.trees.push(Tree { p, lights, descs });
+    }
+
+    /// The serialized bytes of a tree (valid pointers; `None` when that fails).
+    fn bytes_of(&self, t: *const ml_tree) -> Option<Vec<u8>> {
+        let mut size = Out::<usize>::one(Ptr::Valid);
+        if !self.status(
+            "ml_tree_serialized_size",
+            ml_tree_serialized_size(t, size.p()),
+            &[],
+        ) {
+            return None;
+        }
+        let n = size.get(0);
+        let mut buf = Out::<u8>::new(n, Ptr::Valid, n);
+        let mut w = Out::<usize>::one(Ptr::Valid);
+        let s = ml_tree_serialize(t, buf.p(), n, w.p());
+        if !self.status("ml_tree_serialize", s, &[]) {
+            return None;
+        }
+        self.ensure(w.get(0) == n, || {
+            format!("ml_tree_serialize: wrote {} of {n}", w.get(0))
+        });
+        Some((0..n).map(|i| buf.get(i)).collect())
+    }
+
+    /// `ml_tree_build_parallel`, then `ml_tree_build` of the same arguments.
+    fn build_parallel(
+        &mut self,
+        lights: &[Light],
+        count: Count,
+        lp: Ptr,
+        options: Option<&Arg<u8>>,
+        threads: u32,
+        out: Ptr,
+    ) {
+        let ls: Vec<ml_light> = lights.iter().take(MAX_LEN).map(Light::ml).collect();
+        let c = count.value(ls.len(), lp == Ptr::Null);
+        let arr = In::new(&ls, lp, c);
+        let opts = In::opt(options.map(|o| {
+            (
+                ml_build_options {
+                    buckets: u32::from(o.value),
+                },
+                o.ptr,
+            )
+        }));
+        let mut o = Out::<*mut ml_tree>::one(out);
+        let s = ml_tree_build_parallel(arr.p(), c, opts.p(), threads, o.p());
+        let ok = self.status("ml_tree_build_parallel", s, &[&arr, &opts, &o]);
+        if threads > 1024 {
+            self.ensure(s == ML_ERR_INVALID_ARGUMENT || s == ML_ERR_NULL, || {
+                format!("ml_tree_build_parallel: {s} with {threads} threads")
+            });
+            return;
+        }
+        let mut o1 = Out::<*mut ml_tree>::one(out);
+        let s1 = ml_tree_build(arr.p(), c, opts.p(), o1.p());
+        self.ensure(s1 == s, || {
+            format!("ml_tree_build_parallel: {s}, ml_tree_build of the same arguments: {s1}")
+        });
+        if !ok {
+            return;
+        }
+        let (tp, ts) = (o.get(0), o1.get(0));
+        self.add_tree(tp, Some(ls[..c].to_vec()));
+        let (a, b) = (self.bytes_of(tp), self.bytes_of(ts));
+        ml_tree_free(ts);
+        self.ensure(a.is_some() && a == b, || {
+            "ml_tree_build_parallel: serialized bytes other than ml_tree_build's".into()
+        });
+    }
+
+    /// `ml_tree_load_with_lights` (see [`Op::LoadWithLights`]).
+    #[allow(clippy::too_many_arguments)]
+    fn load_with_lights(
+        &mut self,
+        bytes: &Bytes,
+        lights: &LightsArg,
+        count: Count,
+        ptrs: [Ptr; 2],
+        out: Ptr,
+        points: &[TlPoint],
+        sps: &[Sp],
+    ) {
+        let Some((data, pristine)) = self.load_bytes(bytes) else {
+            return;
+        };
+        let (ls, own): (Vec<ml_light>, bool) = match lights {
+            LightsArg::Own => match &self.serialized_lights {
+                Some(l) => (l.clone(), true),
+                None => return,
+            },
+            LightsArg::Edited(edits) => {
+                let Some(mut l) = self.serialized_lights.clone() else {
+                    return;
+                };
+                let mut changed = false;
+                for (i, e) in edits.iter().take(MAX_LEN) {
+                    if !l.is_empty() {
+                        let n = l.len();
+                        l[usize::from(*i) % n] = e.ml();
+                        changed = true;
+                    }
+                }
+                (l, !changed)
+            }
+            LightsArg::Drawn(d) => (d.iter().take(MAX_LEN).map(Light::ml).collect(), false),
+        };
+        let bp = if ptrs[0] == Ptr::Null {
+            Ptr::Null
+        } else {
+            Ptr::Valid
+        };
+        let bc = data.len();
+        let b = In::new(&data, bp, bc);
+        let c = count.value(ls.len(), ptrs[1] == Ptr::Null);
+        let arr = In::new(&ls, ptrs[1], c);
+        let mut o = Out::<*mut ml_tree>::one(out);
+        let s = ml_tree_load_with_lights(b.p(), bc, arr.p(), c, o.p());
+        let ok = self.status("ml_tree_load_with_lights", s, &[&b, &arr, &o]);
+        let exact = pristine
+            && own
+            && bp == Ptr::Valid
+            && ptrs[1] == Ptr::Valid
+            && out == Ptr::Valid
+            && c == ls.len();
+        if exact {
+            self.ensure(ok, || {
+                format!(
+                    "ml_tree_load_with_lights of serialized bytes and their lights: {s} ({})",
+                    message()
+                )
+            });
+        }
+        if !ok {
+            return;
+        }
+        let t = o.get(0);
+        self.add_tree(t, Some(ls[..c].to_vec()));
+        if !exact {
+            return;
+        }
+        let again = self.bytes_of(t);
+        self.ensure(again.as_deref() == Some(&data[..]), || {
+            "ml_tree_load_with_lights: the tree serializes to other bytes".into()
+        });
+        // The tree the bytes were saved from, or (freed) the bytes loaded without lights.
+        let (reference, temporary) = match self.serialized_tree {
+            Some(p) => (p, false),
+            None => {
+                let mut o = Out::<*mut ml_tree>::one(Ptr::Valid);
+                let s = ml_tree_load(data.as_ptr(), data.len(), o.p());
+                self.ensure(self.status("ml_tree_load", s, &[]), || {
+                    "ml_tree_load of serialized bytes failed".into()
+                });
+                (o.get(0), true)
+            }
+        };
+        self.compare_trees(t, reference, !temporary, c, points, sps);
+        if temporary {
+            ml_tree_free(reference);
+        }
+    }
+
+    /// A tree loaded with its lights against the tree `r` (holding its lights when
+    /// `points_on_lights`): TL and BL pmfs of every light, samples and points on lights,
+    /// bit for bit.
+    fn compare_trees(
+        &self,
+        t: *const ml_tree,
+        r: *const ml_tree,
+        points_on_lights: bool,
+        n: usize,
+        points: &[TlPoint],
+        sps: &[Sp],
+    ) {
+        let name = "ml_tree_load_with_lights";
+        let pair = |what: &str, f: &dyn Fn(*const ml_tree, *mut u8) -> ml_status, size: usize| {
+            let mut a = Out::<[u8; 64]>::one(Ptr::Valid);
+            let mut b = Out::<[u8; 64]>::one(Ptr::Valid);
+            let (sa, sb) = (f(t, a.p().cast()), f(r, b.p().cast()));
+            let (a, b) = (a.get(0), b.get(0));
+            self.ensure(sa == sb && a[..size] == b[..size], || {
+                format!(
+                    "{name}: {what}: {sa} {:?}, the saved tree's {sb} {:?}",
+                    &a[..size],
+                    &b[..size]
+                )
+            });
+        };
+        let us = [0.0f32, 0.3, 0.7, 1.0 - f32::EPSILON / 2.0];
+        for p in points.iter().take(MAX_COMPARE) {
+            let p = p.ml();
+            for l in 0..n as u32 {
+                pair(
+                    &format!("ml_tree_pmf_tl of light {l}"),
+                    &|t, o| ml_tree_pmf_tl(t, &p, l, o.cast()),
+                    4,
+                );
+                if points_on_lights {
+                    pair(
+                        &format!("ml_light_sample_point of light {l}"),
+                        &|t, o| ml_light_sample_point(t, l, p.position, 0.5, 0.25, o.cast()),
+                        core::mem::size_of::<ml_light_point>(),
+                    );
+                }
+            }
+            for u in us {
+                pair(
+                    &format!("ml_tree_sample_tl with u {u}"),
+                    &|t, o| ml_tree_sample_tl(t, &p, u, o.cast()),
+                    8,
+                );
+            }
+        }
+        for sp in sps.iter().take(MAX_COMPARE) {
+            let sp = sp.ml();
+            for l in 0..n as u32 {
+                pair(
+                    &format!("ml_tree_pmf_bl of light {l}"),
+                    &|t, o| ml_tree_pmf_bl(t, &sp, l, o.cast()),
+                    4,
+                );
+            }
+            for u in us {
+                pair(
+                    &format!("ml_tree_sample_bl with u {u}"),
+                    &|t, o| ml_tree_sample_bl(t, &sp, u, o.cast()),
+                    8,
+                );
+            }
+        }
+    }
+
+    /// The bytes `bytes` stands for and whether they are the serialized ones unedited
+    /// (`None`: none serialized yet).
+    fn load_bytes(&self, bytes: &Bytes) -> Option<(Vec<u8>, bool)> {
+        Some(match bytes {
+            Bytes::Serialized { edits, keep } => {
+                let mut b = self.serialized.clone()?;
+                let mut changed = false;
+                for &(i, x) in edits.iter().take(MAX_LEN) {
+                    if !b.is_empty() && x != 0 {
+                        let n = b.len();
+                        b[usize::from(i) % n] ^= x;
+                        changed = true;
+                    }
+                }
+                if let Some(k) = keep {
+                    if usize::from(*k) < b.len() {
+                        b.truncate(usize::from(*k));
+                        changed = true;
+                    }
+                }
+                (b, !changed)
+            }
+            Bytes::Raw(b) => (b.clone(), false),
+        })
     }
 
     /// A batch call, then the single calls it equals bit for bit.
@@ -326,6 +606,19 @@ impl Harness<'_> {
         let mut o = Out::<R>::new(len, ptrs[2], c);
         let s = call(t, p.p(), a.p(), c, o.p());
         if !self.status(name, s, &[&th, &p, &a, &o]) {
+            // Every input checked first: with valid arrays, some element's single call fails.
+            if c > 0 && ptrs.iter().all(|&p| p == Ptr::Valid) {
+                let fails = (0..c).any(|j| {
+                    let mut one = Out::<R>::one(Ptr::Valid);
+                    single(t, &points[j], args[j], one.p()) != ML_OK
+                });
+                self.ensure(fails, || {
+                    format!(
+                        "{name}: {s} ({}), yet every single call succeeds",
+                        message()
+                    )
+                });
+            }
             return;
         }
         self.ensure(o.untouched_from(c), || {
