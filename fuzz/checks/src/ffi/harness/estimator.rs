@@ -32,10 +32,7 @@ impl Harness<'_> {
                 let prm = In::opt(params.as_ref().map(|o| (o.value.ml(), o.ptr)));
                 let mut h = Host::with_uniforms(&uni.value);
                 let hp: *mut Host = &mut h;
-                let v = In::opt(
-                    vis.as_ref()
-                        .map(|v| (visibility(&v.value, host(hp.cast())), v.ptr)),
-                );
+                let v = visibility_arg(hp, vis.as_ref());
                 let u = In::one(uniforms(&uni.value, hp), uni.ptr);
                 let mut o = Out::<ml_rgb64>::one(*out);
                 let s =
@@ -96,10 +93,7 @@ impl Harness<'_> {
                 let (_, e, eh) = self.est(*est);
                 let mut h = Host::with_uniforms(&uni.value);
                 let hp: *mut Host = &mut h;
-                let v = In::opt(
-                    vis.as_ref()
-                        .map(|v| (visibility(&v.value, host(hp.cast())), v.ptr)),
-                );
+                let v = visibility_arg(hp, vis.as_ref());
                 let u = In::one(uniforms(&uni.value, hp), uni.ptr);
                 let mut o = Out::<ml_rgb64>::one(*out);
                 let s = ml_estimator_estimate(e, v.p(), u.p(), o.p());
@@ -234,14 +228,8 @@ impl Harness<'_> {
                 let prm = In::opt(params.as_ref().map(|o| (o.value.ml(), o.ptr)));
                 let mut h = Host::with_uniforms(&uni.value);
                 let hp: *mut Host = &mut h;
-                let v = In::opt(
-                    vis.as_ref()
-                        .map(|v| (visibility(&v.value, host(hp.cast())), v.ptr)),
-                );
-                let en = In::opt(
-                    env.as_ref()
-                        .map(|e| (environment(&e.value, host(hp.cast())), e.ptr)),
-                );
+                let v = visibility_arg(hp, vis.as_ref());
+                let en = environment_arg(hp, env.as_ref());
                 let u = In::one(uniforms(&uni.value, hp), uni.ptr);
                 let mut o = Out::<ml_rgb64>::one(*out);
                 let s =
@@ -264,10 +252,7 @@ impl Harness<'_> {
                 let Some(has_env) = has_env else { return };
                 let mut h = Host::with_uniforms(&uni.value);
                 let hp: *mut Host = &mut h;
-                let v = In::opt(
-                    vis.as_ref()
-                        .map(|v| (visibility(&v.value, host(hp.cast())), v.ptr)),
-                );
+                let v = visibility_arg(hp, vis.as_ref());
                 let u = In::one(uniforms(&uni.value, hp), uni.ptr);
                 let mut o = Out::<ml_rgb64>::one(Ptr::Valid);
                 let s = ml_direct_estimate(t, p.p(), tech, prm.p(), v.p(), u.p(), o.p());
@@ -297,14 +282,8 @@ impl Harness<'_> {
                 let has_env = ei.and_then(|i| self.ests[i].env);
                 let mut h = Host::with_uniforms(&uni.value);
                 let hp: *mut Host = &mut h;
-                let v = In::opt(
-                    vis.as_ref()
-                        .map(|v| (visibility(&v.value, host(hp.cast())), v.ptr)),
-                );
-                let en = In::opt(
-                    env.as_ref()
-                        .map(|e| (environment(&e.value, host(hp.cast())), e.ptr)),
-                );
+                let v = visibility_arg(hp, vis.as_ref());
+                let en = environment_arg(hp, env.as_ref());
                 let u = In::one(uniforms(&uni.value, hp), uni.ptr);
                 let mut o = Out::<ml_rgb64>::one(*out);
                 let s = ml_estimator_estimate_env(e, v.p(), en.p(), u.p(), o.p());
@@ -659,7 +638,7 @@ impl Harness<'_> {
         let prm = In::opt(params.map(|o| (o.value.ml(), o.ptr)));
         let mut h = Host::with_uniforms(&uni.value);
         let hp: *mut Host = &mut h;
-        let v = In::opt(vis.map(|v| (visibility(&v.value, host(hp.cast())), v.ptr)));
+        let v = visibility_arg(hp, vis);
         let u = In::one(uniforms(&uni.value, hp), uni.ptr);
         let mut o = Out::<ml_rgb64>::new(len * per.max(1), ptrs[1], c.saturating_mul(per));
         let s =
@@ -685,7 +664,7 @@ impl Harness<'_> {
         // The single calls, from a host with the same numbers and answers.
         let mut h = Host::with_uniforms(&uni.value);
         let hp: *mut Host = &mut h;
-        let v = In::opt(vis.map(|v| (visibility(&v.value, host(hp.cast())), v.ptr)));
+        let v = visibility_arg(hp, vis);
         let u = In::one(uniforms(&uni.value, hp), uni.ptr);
         let mut est = ptr::null_mut();
         if per > 1 {
@@ -751,4 +730,16 @@ impl Harness<'_> {
             }),
         }
     }
+}
+
+/// The host's visibility callbacks as the ABI takes them (calling back into `hp`), NULL where
+/// the input has none.
+fn visibility_arg(hp: *mut Host, vis: Option<&Arg<Visibility>>) -> In<ml_visibility> {
+    In::opt(vis.map(|v| (visibility(&v.value, host(hp.cast())), v.ptr)))
+}
+
+/// The host's environment callbacks as the ABI takes them (calling back into `hp`), NULL where
+/// the input has none.
+fn environment_arg(hp: *mut Host, env: Option<&Arg<EnvDesc>>) -> In<ml_environment> {
+    In::opt(env.map(|e| (environment(&e.value, host(hp.cast())), e.ptr)))
 }
