@@ -111,13 +111,7 @@ pub fn estimate_each<O: Occluder + ?Sized>(
         .enumerate()
     {
         let at = |error| BatchError::Point { index, error };
-        let e = match &mut est {
-            Some(e) => {
-                e.reset(sp).map_err(at)?;
-                e
-            }
-            None => est.insert(Estimator::new(set, sp, technique, params).map_err(at)?),
-        };
+        let e = Estimator::reuse(&mut est, set, sp, technique, params).map_err(at)?;
         for v in o {
             *v = e.estimate(occluder, u).map_err(at)?;
         }

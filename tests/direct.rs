@@ -1107,3 +1107,42 @@ fn reset_is_a_new_estimator_in_place() {
         }
     }
 }
+
+/// `Estimator::reuse` gives what `new` gives: from an empty slot, from one of the same
+/// technique (moved in place) and from one of another technique (replaced); an invalid point
+/// leaves the slot as it was.
+#[test]
+fn reuse_is_new_from_any_slot() {
+    let set = LightSet::build(random_lights(23, 80)).unwrap();
+    let sp = |x: f32| ShadingPoint {
+        position: Vec3::new(x, 0.1, 0.0),
+        normal: Vec3::Z,
+        wo: Vec3::new(0.3, 0.2, 0.9),
+        material: Material::Plastic {
+            albedo: Rgb::grey(0.5),
+            specular: 0.5,
+            alpha: 0.1,
+        },
+    };
+    let params = Params::default();
+    let mut slot = None;
+    // Each technique at two points in a row: replaced, then moved in place.
+    for (i, t) in (0..30).map(|i| (i, Technique::ALL[(i / 2) % Technique::ALL.len()])) {
+        let at = sp(i as f32 * 0.1);
+        let bad = ShadingPoint {
+            wo: Vec3::ZERO,
+            ..at
+        };
+        let before = slot.as_ref().map(|e: &Estimator| e.technique());
+        assert!(Estimator::reuse(&mut slot, &set, &bad, t, &params).is_err());
+        assert_eq!(slot.as_ref().map(|e| e.technique()), before);
+        let a = Estimator::reuse(&mut slot, &set, &at, t, &params).unwrap();
+        let mut b = Estimator::new(&set, &at, t, &params).unwrap();
+        let (mut ua, mut ub) = (U(Rng::new(i as u64)), U(Rng::new(i as u64)));
+        for _ in 0..4 {
+            let x = a.estimate(&Unoccluded, &mut ua).unwrap();
+            let y = b.estimate(&Unoccluded, &mut ub).unwrap();
+            assert_eq!(x.map(f64::to_bits), y.map(f64::to_bits), "{t} at {i}");
+        }
+    }
+}

@@ -616,15 +616,8 @@ pub extern "C" fn ml_direct_estimate_batch(
         let mut slot: Option<Estimator<'_>> = None;
         for (j, (sp, r)) in sps.iter().zip(res.chunks_exact_mut(per)).enumerate() {
             let name = || format!("points[{j}]");
-            let est = match &mut slot {
-                Some(e) => {
-                    e.reset(sp).map_err(|e| direct_error_at(e, &name()))?;
-                    e
-                }
-                None => slot.insert(
-                    Estimator::new(set, sp, t, &p).map_err(|e| direct_error_at(e, &name()))?,
-                ),
-            };
+            let est = Estimator::reuse(&mut slot, set, sp, t, &p)
+                .map_err(|e| direct_error_at(e, &name()))?;
             for v in r {
                 *v = estimate_with(est, vis, None, u).map_err(|e| e.within(&name()))?;
             }
@@ -704,12 +697,7 @@ pub extern "C" fn ml_estimator_set_point(
         let set: &'static LightSet = unsafe { &*(set as *const LightSet) };
         // The same technique and parameters: the estimator is moved to the point in place
         // (`reset`, the same set-up as a new one without its copy).
-        match &mut h.est {
-            Some(e) if e.technique() == t && *e.params() == p => {
-                e.reset(&sp).map_err(direct_error)?;
-            }
-            slot => *slot = Some(Estimator::new(set, &sp, t, &p).map_err(direct_error)?),
-        }
+        Estimator::reuse(&mut h.est, set, &sp, t, &p).map_err(direct_error)?;
         h.last_light = None;
         h.last_bsdf = None;
         h.last_environment = None;

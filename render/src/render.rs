@@ -232,29 +232,11 @@ fn pixel(
                 let Some(sp) = primary_at(scene, px, py, w, h, offset) else {
                     return [0.0; 3];
                 };
-                match estimator_at(&mut slot, scene, &sp, cfg.technique, params) {
-                    Some(est) => estimate(scene, est, rng),
-                    None => [0.0; 3],
+                match Estimator::reuse(&mut slot, &scene.lights, &sp, cfg.technique, params) {
+                    Ok(est) => estimate(scene, est, rng),
+                    Err(_) => [0.0; 3],
                 }
             })
-        }
-    }
-}
-
-/// The estimator at `sp`: the one in `slot` moved there, or a new one when `slot` has none;
-/// `None` where the point is invalid.
-fn estimator_at<'s, 'a>(
-    slot: &'s mut Option<Estimator<'a>>,
-    scene: &'a RenderScene,
-    sp: &ShadingPoint,
-    technique: Technique,
-    params: &Params,
-) -> Option<&'s mut Estimator<'a>> {
-    match slot {
-        Some(est) => est.reset(sp).ok().map(|()| est),
-        None => {
-            *slot = Estimator::new(&scene.lights, sp, technique, params).ok();
-            slot.as_mut()
         }
     }
 }

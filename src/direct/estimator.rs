@@ -17,7 +17,7 @@ use crate::light_sample::{intersect, sample_point, LightPoint};
 use crate::light_set::LightSet;
 use crate::material::{Material, ShadingError, ShadingField, ShadingPoint};
 use crate::mis::{
-    brdf_budget, sample_budget, AdaptiveAllocator, CombinedWeights, Factors, Heuristic, Mixture,
+    brdf_budget, sample_budget, AdaptiveAllocator, CombinedWeights, Factors, Mixture,
     SequentialWeights,
 };
 use crate::sample::ONE_MINUS_EPSILON;
@@ -273,6 +273,22 @@ struct Run {
     pending_tb: Option<f32>,
 }
 
+impl Run {
+    /// A run in `phase` with nothing drawn yet, its allocator and sequential weights given
+    /// (what [`Estimator::start`] and a new set-up begin from; the split samples beyond
+    /// `tl_len = 0` are never read).
+    #[inline]
+    fn begin(&mut self, phase: Phase, alloc: AdaptiveAllocator, sw: SequentialWeights) {
+        self.phase = phase;
+        self.tl_len = 0;
+        self.tl_next = 0;
+        self.j = 0;
+        self.alloc = alloc;
+        self.sw = sw;
+        self.pending_tb = None;
+    }
+}
+
 /// Direct illumination at one shading point with one technique (see the
 /// [module documentation](super)). Set up once per shading point; any number of estimates.
 #[derive(Clone, Debug)]
@@ -293,7 +309,6 @@ pub struct Estimator<'a> {
     n_mix: u32,
     /// BL takes part in `full`'s mixture.
     bl_in_full: bool,
-    heuristic: Heuristic,
     pmfs: PmfCache,
     run: Run,
 }
@@ -443,7 +458,6 @@ impl<'a> Estimator<'a> {
             pinf,
             n_mix,
             bl_in_full: plan.bl_in_full(params),
-            heuristic: params.heuristic,
             pmfs: PmfCache::EMPTY,
             run: Run {
                 phase: Phase::Done,
@@ -491,15 +505,37 @@ impl<'a> Estimator<'a> {
         self.material = sp.material;
         self.bl_in_full = plan.bl_in_full(&params);
         self.pmfs = PmfCache::EMPTY;
-        let r = &mut self.run;
-        r.phase = Phase::Done;
-        r.tl_len = 0;
-        r.tl_next = 0;
-        r.j = 0;
-        r.alloc = AdaptiveAllocator::new(false);
-        r.sw = SequentialWeights::new(0, 1.0, params.heuristic);
-        r.pending_tb = None;
+        self.run.begin(
+            Phase::Done,
+            AdaptiveAllocator::new(false),
+            SequentialWeights::new(0, 1.0, params.heuristic),
+        );
         Ok(())
+    }
+
+    /// The estimator at `sp` from a per-thread `slot`: the one in it moved there by
+    /// [`Estimator::reset`] when it was made for `set`, `technique` and `params`, else a new
+    /// one put in it. Either way what [`Estimator::new`] gives at `sp`. On error (an invalid
+    /// `sp`, `new`'s error) the slot keeps what it held.
+    pub fn reuse<'s>(
+        slot: &'s mut Option<Estimator<'a>>,
+        set: &'a LightSet,
+        sp: &ShadingPoint,
+        technique: Technique,
+        params: &Params,
+    ) -> Result<&'s mut Estimator<'a>, DirectError> {
+        let same = slot.as_ref().is_some_and(|e| {
+            core::ptr::eq(e.set, set) && e.technique == technique && e.params == *params
+        });
+        match slot {
+            Some(e) if same => e.reset(sp)?,
+            _ => return Ok(slot.insert(Estimator::new(set, sp, technique, params)?)),
+        }
+        // Reset in place; `same` held, so the slot holds it.
+        match slot {
+            Some(e) => Ok(e),
+            None => Ok(slot.insert(Estimator::new(set, sp, technique, params)?)),
+        }
     }
 
     /// The parameters.
@@ -557,7 +593,7 @@ impl<'a> Estimator<'a> {
             n_tl: 1.0,
             n_mixture: self.n_mix as f32,
             p_ref: if self.bl.is_some() { 0.5 } else { 0.0 },
-            heuristic: self.heuristic,
+            heuristic: self.params.heuristic,
         }
     }
 
@@ -598,14 +634,11 @@ impl<'a> Estimator<'a> {
         } else {
             0
         };
-        let r = &mut self.run;
-        r.phase = Phase::Start;
-        r.tl_len = 0;
-        r.tl_next = 0;
-        r.j = 0;
-        r.alloc = AdaptiveAllocator::new(self.bl.is_some() && self.bl_in_full);
-        r.sw = SequentialWeights::new(budget, 1.0, self.heuristic);
-        r.pending_tb = None;
+        self.run.begin(
+            Phase::Start,
+            AdaptiveAllocator::new(self.bl.is_some() && self.bl_in_full),
+            SequentialWeights::new(budget, 1.0, self.params.heuristic),
+        );
     }
 
     /// Whether a light sample of `role` is weighed with the BSDF's pdf of its direction.
@@ -969,7 +1002,7 @@ impl<'a> Estimator<'a> {
     fn mixture_weight(&self, p: f32, pdf_tl: f32, pdf_bl: f32, pdf_tb: f32) -> Weighted {
         if self.technique == Technique::Full {
             // The term depends on the budget and the sample's own p only.
-            let terms = SequentialWeights::new(self.n_mix, 1.0, self.heuristic);
+            let terms = SequentialWeights::new(self.n_mix, 1.0, self.params.heuristic);
             match terms.mixture_factors(p, pdf_tl, pdf_bl, pdf_tb) {
                 Some(f) => Weighted::checked(f),
                 None => Weighted::ZERO,
