@@ -525,13 +525,20 @@ typedef struct ml_brdf_draw {
  */
 typedef struct ml_bl_cut_options {
     /**
-     * Split a cluster whose BRDF integral over its cap exceeds δ (finite, ≥ 0; default 0.5).
+     * Split a cluster whose BRDF integral over its cap exceeds δ (finite, ≥ 0; default 0.3).
      */
     float delta;
     /**
-     * Most clusters, in [`ML_MIN_CUT_SIZE`, `ML_CUT_CAPACITY`] = [4, 64] (default 32).
+     * Most clusters, in [`ML_MIN_CUT_SIZE`, `ML_CUT_CAPACITY`] = [4, 64] (default 64).
      */
     size_t max_size;
+    /**
+     * Split a cluster whose cap is wide: its bounding sphere's radius r at least `split_sin`
+     * times its distance d from the shading point (the sine of the cap's half-angle). In
+     * [0, 1] (default 0.9); 1 splits only the clusters whose sphere holds the point, as Liu
+     * et al. 2019 do.
+     */
+    float split_sin;
 } ml_bl_cut_options;
 
 /**
@@ -1152,7 +1159,8 @@ ml_status ml_brdf_pdf(const struct ml_shading_point *sp, struct ml_vec3 wi, floa
 ml_status ml_brdf_eval(const struct ml_shading_point *sp, struct ml_vec3 wi, float *out);
 
 /**
- * Fills `*out` with the default BRDF-oriented cut options (δ = 0.5, 32 clusters).
+ * Fills `*out` with the default BRDF-oriented cut options (δ = 0.3, 64 clusters, caps with
+ * a sine above 0.9 split).
  *
  * Errors: `ML_ERR_NULL` if `out` is NULL.
  */

@@ -322,6 +322,7 @@ pub extern "C" fn ml_direct_params_default(out: *mut ml_direct_params) -> ml_sta
             bl_cut: ml_bl_cut_options {
                 delta: p.bl_cut.delta,
                 max_size: p.bl_cut.max_size,
+                split_sin: p.bl_cut.split_sin,
             },
             n_max: p.n_max,
             lambert: ml_lambert_mode::TlOnly as u32,

@@ -21,6 +21,10 @@ pub struct ParamArgs {
     /// Largest BRDF-oriented cut (BlCutOptions::max_size).
     #[arg(long)]
     pub bl_cut_max_size: Option<usize>,
+    /// BRDF-oriented cut: split clusters whose cap's sine is at least this
+    /// (BlCutOptions::split_sin; 1: only clusters holding the point).
+    #[arg(long)]
+    pub bl_cut_split_sin: Option<f32>,
     /// Nmax of the BRDF-aware budget.
     #[arg(long)]
     pub n_max: Option<u32>,
@@ -47,6 +51,9 @@ impl ParamArgs {
         }
         if let Some(v) = self.bl_cut_max_size {
             p.bl_cut.max_size = v;
+        }
+        if let Some(v) = self.bl_cut_split_sin {
+            p.bl_cut.split_sin = v;
         }
         if let Some(v) = self.n_max {
             p.n_max = v;

@@ -1751,6 +1751,10 @@ static void scenario_bad_input(const ml_tree *tree, size_t n) {
     BAD_VALUE(ml_cut_build_bl, ml_cut_build_bl(cut, tree, &sp, &co), ML_ERR_INVALID_ARGUMENT,
               "options.delta must be finite and non-negative");
     co.delta = 0.5f;
+    co.split_sin = 1.5f;
+    BAD_VALUE(ml_cut_build_bl, ml_cut_build_bl(cut, tree, &sp, &co), ML_ERR_INVALID_ARGUMENT,
+              "options.split_sin must be in [0, 1] (got 1.5)");
+    co.split_sin = 1.0f;
     OK(ml_cut_build_bl(cut, tree, &sp, &co));
     OK(ml_split_cut_options_default(&so));
     so.threshold = -1;

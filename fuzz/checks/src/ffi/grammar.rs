@@ -366,6 +366,8 @@ pub struct CutOpts {
     pub delta: F,
     /// Most clusters.
     pub max_size: Size,
+    /// The wide-cap rule.
+    pub split_sin: F,
 }
 
 impl CutOpts {
@@ -373,6 +375,7 @@ impl CutOpts {
         ml_bl_cut_options {
             delta: self.delta.value(),
             max_size: self.max_size.value(),
+            split_sin: self.split_sin.value(),
         }
     }
 }

@@ -21,9 +21,12 @@ impl Harness<'_> {
         let s = ml_bl_cut_options_default(o.p());
         if self.status("ml_bl_cut_options_default", s, &[&o]) {
             let c = o.get(0);
-            self.ensure(c.delta >= 0.0 && (4..=64).contains(&c.max_size), || {
-                format!("{c:?}")
-            });
+            self.ensure(
+                c.delta >= 0.0
+                    && (4..=64).contains(&c.max_size)
+                    && (0.0..=1.0).contains(&c.split_sin),
+                || format!("{c:?}"),
+            );
         }
         let mut o = Out::<ml_split_cut_options>::one(out);
         let s = ml_split_cut_options_default(o.p());
