@@ -112,8 +112,7 @@ impl Default for SplitCutOptions {
 
 /// Options of the BRDF-oriented light cut (Liu et al. 2019, section 4.1, with the wide-cap
 /// rule of docs/formulas.md, section 6). The defaults are the library's: δ = 0.3, caps wider
-/// than asin 0.9 split, up to 64 clusters; Liu et al.'s own cut is `delta: 0.5, split_sin: 1.0`
-/// (split only clusters the point is inside).
+/// than asin 0.9 split, up to 64 clusters; Liu et al.'s own cut is [`BlCutOptions::PAPER`].
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct BlCutOptions {
     /// Split a cluster whose BRDF cap integral SC exceeds δ.
@@ -125,6 +124,17 @@ pub struct BlCutOptions {
     /// `split_sin`). 1 splits only the clusters whose sphere holds the point, 0 every cluster
     /// (as far as `max_size` allows); values above 1 and NaN act as 1, negative ones as 0.
     pub split_sin: f32,
+}
+
+impl BlCutOptions {
+    /// The cut of Liu et al. 2019 (section 4.1): δ = 0.5, split only the clusters whose
+    /// sphere holds the point, at most 32 clusters; what `mis-equal` and `full` build by
+    /// default ([`crate::direct::Params::mixture_cut`]).
+    pub const PAPER: BlCutOptions = BlCutOptions {
+        delta: 0.5,
+        max_size: 32,
+        split_sin: 1.0,
+    };
 }
 
 impl Default for BlCutOptions {

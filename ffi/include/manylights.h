@@ -109,6 +109,12 @@
 #define ML_MAX_BUDGET 64
 
 /**
+ * Largest `ml_direct_params.bl_light_samples`, the light samples of one `bl-mis` estimate
+ * (the smallest is 1).
+ */
+#define ML_MAX_LIGHT_SAMPLES 64
+
+/**
  * The GGX roughness floor: a material's α (accepted in (0, 1]) is used as max(α,
  * `ML_MIN_ALPHA`) by the BRDFs, the BRDF-oriented importance and the estimators.
  */
@@ -596,9 +602,20 @@ typedef struct ml_direct_params {
      */
     struct ml_split_cut_options split_cut;
     /**
-     * The BRDF-oriented cut (`bl`, `bl-mis`, `mis-equal`, `full`).
+     * The BRDF-oriented cut of `bl` and `bl-mis` (default δ = 0.3, 64 clusters, `split_sin`
+     * 0.9).
      */
     struct ml_bl_cut_options bl_cut;
+    /**
+     * The BRDF-oriented cut of `mis-equal` and `full`, whose IB(x) also sets their budget
+     * (default Liu et al. 2019's: δ = 0.5, 32 clusters, `split_sin` 1).
+     */
+    struct ml_bl_cut_options mixture_cut;
+    /**
+     * Light samples per estimate of `bl-mis`, all from its one cut, in [1,
+     * `ML_MAX_LIGHT_SAMPLES`] = [1, 64] (default 2).
+     */
+    uint32_t bl_light_samples;
     /**
      * Nmax of the BRDF-aware budget N = ceil(Nmax · IB(x)), in [1, `ML_MAX_BUDGET`] = [1, 64]
      * (default 50).

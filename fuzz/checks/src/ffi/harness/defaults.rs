@@ -40,7 +40,10 @@ impl Harness<'_> {
         let s = ml_direct_params_default(o.p());
         if self.status("ml_direct_params_default", s, &[&o]) {
             let p = o.get(0);
-            self.ensure((1..=64).contains(&p.n_max), || format!("{p:?}"));
+            self.ensure(
+                (1..=64).contains(&p.n_max) && (1..=64).contains(&p.bl_light_samples),
+                || format!("{p:?}"),
+            );
         }
         let mut o = Out::<ml_acceptor_options>::one(out);
         let s = ml_acceptor_options_default(o.p());
