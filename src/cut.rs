@@ -13,10 +13,11 @@
 //!   large, and always when the shading point is inside its bounding sphere. Each cluster of the
 //!   cut is then sampled once ([`LightCut::sample_in`]) and the estimator sums the clusters'
 //!   estimates.
-//! - **BRDF-oriented light cuts** (Liu et al. 2019, section 4.1; docs/formulas.md, section 6), built by the
-//!   BRDF-oriented importance: a cluster is split when x is inside its sphere or when the BRDF
-//!   integral over its cap exceeds δ; [`LightCut::sample`] then picks one cluster by importance
-//!   and descends in it.
+//! - **BRDF-oriented light cuts** (Liu et al. 2019, section 4.1; docs/formulas.md, section 6),
+//!   built by the BRDF-oriented importance: a cluster is split when its cap is wide (x inside
+//!   its sphere, or close to it: [`BlCutOptions::split_sin`]) or when the BRDF integral over
+//!   its cap exceeds δ; [`LightCut::sample`] then picks one cluster by importance and descends
+//!   in it.
 //!
 //! Many queries at once: [`LightCut::sample_each`] (one light in each cluster, what split
 //! sampling needs), [`LightCut::pmf_in_each`] and [`LightCut::pmf_each`] return exactly what
@@ -109,20 +110,39 @@ impl Default for SplitCutOptions {
     }
 }
 
-/// Options of the BRDF-oriented light cut (Liu et al. 2019, section 4.1).
+/// Options of the BRDF-oriented light cut (Liu et al. 2019, section 4.1, with the wide-cap
+/// rule of docs/formulas.md, section 6). The defaults are the library's: δ = 0.3, caps wider
+/// than asin 0.9 split, up to 64 clusters; Liu et al.'s own cut is [`BlCutOptions::PAPER`].
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct BlCutOptions {
     /// Split a cluster whose BRDF cap integral SC exceeds δ.
     pub delta: f32,
     /// Most clusters (clamped to [`MIN_CUT_SIZE`]..=[`CUT_CAPACITY`]).
     pub max_size: usize,
+    /// Split a cluster whose cap is wide: `r ≥ split_sin · d` for a bounding sphere of radius
+    /// r at distance d from the shading point (the sine of the cap's half-angle is at least
+    /// `split_sin`). 1 splits only the clusters whose sphere holds the point, 0 every cluster
+    /// (as far as `max_size` allows); values above 1 and NaN act as 1, negative ones as 0.
+    pub split_sin: f32,
+}
+
+impl BlCutOptions {
+    /// The cut of Liu et al. 2019 (section 4.1): δ = 0.5, split only the clusters whose
+    /// sphere holds the point, at most 32 clusters; what `mis-equal` and `full` build by
+    /// default ([`crate::direct::Params::mixture_cut`]).
+    pub const PAPER: BlCutOptions = BlCutOptions {
+        delta: 0.5,
+        max_size: 32,
+        split_sin: 1.0,
+    };
 }
 
 impl Default for BlCutOptions {
     fn default() -> Self {
         BlCutOptions {
-            delta: 0.5,
-            max_size: 32,
+            delta: 0.3,
+            max_size: 64,
+            split_sin: 0.9,
         }
     }
 }
@@ -386,9 +406,9 @@ impl LightCut {
 
 impl LightCut {
     /// The BRDF-oriented light cut of Liu et al. 2019 at the shading point of `imp`: a cluster
-    /// is split when x is inside its bounding sphere or when its BRDF cap integral SC exceeds
-    /// `opts.delta`. Weights are BL importances, scores the SC values, so
-    /// [`LightCut::max_score`] is IB(x).
+    /// is split when its cap is wide (`opts.split_sin`; x inside its bounding sphere is the
+    /// widest) or when its BRDF cap integral SC exceeds `opts.delta`. Weights are BL
+    /// importances, scores the SC values, so [`LightCut::max_score`] is IB(x).
     pub fn build_bl(tree: &LightTree, imp: &BlImportance, opts: &BlCutOptions) -> LightCut {
         let mut cut = LightCut::new();
         cut.rebuild_bl(tree, imp, opts);
@@ -401,6 +421,13 @@ impl LightCut {
     pub fn rebuild_bl(&mut self, tree: &LightTree, imp: &BlImportance, opts: &BlCutOptions) {
         let x = imp.position();
         let delta = opts.delta;
+        // `r ≥ s·d` as `r² ≥ s²·d²`; s = 1 is `d² ≤ r²`, the point inside the sphere.
+        let s = if opts.split_sin < 1.0 {
+            opts.split_sin.max(0.0)
+        } else {
+            1.0
+        };
+        let s2 = s * s;
         // The root is evaluated once: its importances (those of `eval4`, bit for bit) give the
         // total, and its integrals its slots' decisions.
         let root = tree.nodes.first();
@@ -415,12 +442,12 @@ impl LightCut {
             for k in 0..4 {
                 let sphere = node.sphere(k);
                 let (c, r) = (sphere.center, sphere.radius);
-                let inside = (c - x).length_squared() <= r * r;
+                let wide = s2 * (c - x).length_squared() <= r * r;
                 out[k] = SlotDecision {
                     weight: w[k],
                     score: sc[k],
                     glossy_score: glossy[k],
-                    split: inside || sc[k] > delta,
+                    split: wide || sc[k] > delta,
                 };
             }
             out

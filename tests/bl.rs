@@ -62,6 +62,10 @@ const ALPHAS: [f32; 5] = [0.005, 0.05, 0.2, 0.6, 1.0];
 /// The δ of the BL cut every check draws from (NaN: no SC exceeds it).
 const DELTAS: [f32; 6] = [0.0, 0.1, 0.5, 1.0, f32::INFINITY, f32::NAN];
 
+/// Wide-cap rules of the cut tests: every cluster (0), the default, Liu et al.'s (1), and
+/// values out of range.
+const SPLIT_SINS: [f32; 7] = [0.0, 0.5, 0.9, 1.0, 2.0, -1.0, f32::NAN];
+
 macro_rules! ensure {
     ($cond:expr, $($fmt:tt)*) => {{
         let ok: bool = $cond;
@@ -205,9 +209,19 @@ fn reaches(light: &Light, imp: &BlImportance) -> bool {
 
 /// The f32 test `build` uses for "x is inside the slot's bounding sphere", same operations.
 fn inside(node: &Node4, k: usize, x: Vec3) -> bool {
+    wide(node, k, x, 1.0)
+}
+
+/// The wide-cap rule of [`BlCutOptions::split_sin`]: `r ≥ s·d` (s clamped to [0, 1], NaN as 1).
+fn wide(node: &Node4, k: usize, x: Vec3, split_sin: f32) -> bool {
     let c = node.sphere(k).center;
     let r = node.sphere(k).radius;
-    (c - x).length_squared() <= r * r
+    let s = if split_sin < 1.0 {
+        split_sin.max(0.0)
+    } else {
+        1.0
+    };
+    s * s * (c - x).length_squared() <= r * r
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -523,9 +537,11 @@ fn check_conservative_at(
     Ok(())
 }
 
-/// Random cut options: δ from [`DELTAS`], `max_size` 4..=64 (and sometimes below 4).
+/// Random cut options: δ from [`DELTAS`], `max_size` 4..=64 (and sometimes below 4),
+/// `split_sin` from [`SPLIT_SINS`].
 fn random_cut_options(rng: &mut Rng) -> BlCutOptions {
     BlCutOptions {
+        split_sin: SPLIT_SINS[rng.below(SPLIT_SINS.len())],
         delta: DELTAS[rng.below(DELTAS.len())],
         max_size: match rng.below(5) {
             0 => rng.below(MIN_CUT_SIZE + 1),
@@ -554,6 +570,7 @@ fn contributing_lights_have_positive_bl_pmf() {
                 BlCutOptions {
                     delta: 0.0,
                     max_size: CUT_CAPACITY,
+                    split_sin: 1.0,
                 },
             ];
             check_conservative_at(&tree, &lights, &imp, &opts, &mut report)
@@ -658,6 +675,7 @@ fn glossy_tiny_caps_far_from_the_mirror_keep_a_positive_pmf() {
                 .map(|&delta| BlCutOptions {
                     delta,
                     max_size: [4, 16, 64][rng.below(3)],
+                    split_sin: SPLIT_SINS[rng.below(SPLIT_SINS.len())],
                 })
                 .collect();
             let before = report.contributing;
@@ -821,6 +839,7 @@ fn bl_cut_chi_square_against_pmf() {
             BlCutOptions {
                 delta: 0.1,
                 max_size: 8,
+                ..BlCutOptions::default()
             },
         ),
         (
@@ -837,6 +856,7 @@ fn bl_cut_chi_square_against_pmf() {
             BlCutOptions {
                 delta: 0.01,
                 max_size: 32,
+                ..BlCutOptions::default()
             },
         ),
         (
@@ -851,6 +871,7 @@ fn bl_cut_chi_square_against_pmf() {
             BlCutOptions {
                 delta: 0.0,
                 max_size: 64,
+                ..BlCutOptions::default()
             },
         ),
     ];
@@ -997,7 +1018,7 @@ fn check_bl_cut(
         weight_sum += f64::from(c.weight);
         max_score = max_score.max(c.score);
 
-        // Ancestors were split: x inside them or SC > δ.
+        // Ancestors were split: their caps wide or SC > δ.
         for up in 1..levels(c.path) {
             let p = c.path >> (2 * up);
             let (an, ak) = tree
@@ -1006,9 +1027,9 @@ fn check_bl_cut(
             let anode = &nodes[an as usize];
             let asc = imp.eval4_with_integrals(anode).1.to_array()[ak];
             ensure!(
-                inside(anode, ak, x) || asc > delta,
-                "cluster {i} {c:?}: ancestor slot ({an}, {ak}) was split, but x is outside it \
-                 and its SC {asc} ≤ δ {ctx}"
+                wide(anode, ak, x, opts.split_sin) || asc > delta,
+                "cluster {i} {c:?}: ancestor slot ({an}, {ak}) was split, but its cap is not \
+                 wide and its SC {asc} ≤ δ {ctx}"
             );
         }
         let mut m = Vec::new();
@@ -1203,6 +1224,7 @@ fn bl_cut_invariants_on_random_scenes() {
                 .map(|&delta| BlCutOptions {
                     delta,
                     max_size: MIN_CUT_SIZE + rng.below(CUT_CAPACITY - MIN_CUT_SIZE + 1),
+                    split_sin: SPLIT_SINS[rng.below(SPLIT_SINS.len())],
                 })
                 .collect();
             all.push(BlCutOptions::default());
@@ -1258,6 +1280,7 @@ fn bl_cut_delta_zero_and_infinite() {
             let zero = BlCutOptions {
                 delta: 0.0,
                 max_size: 64,
+                split_sin: SPLIT_SINS[rng.below(SPLIT_SINS.len())],
             };
             let (cut, _) = check_bl_cut(&tree, &lights, &imp, None, &zero, &us)
                 .unwrap_or_else(|e| panic!("scene {scene}: {e}"));
@@ -1267,7 +1290,7 @@ fn bl_cut_delta_zero_and_infinite() {
                 match tree.slot(node, k) {
                     Slot::Light(_) => singles += 1,
                     _ => assert!(
-                        c.score == 0.0 && !inside(node, k, imp.position()),
+                        c.score == 0.0 && !wide(node, k, imp.position(), zero.split_sin),
                         "scene {scene}: δ = 0 left {c:?} unsplit at {imp:?}"
                     ),
                 }
@@ -1276,6 +1299,7 @@ fn bl_cut_delta_zero_and_infinite() {
                 let opts = BlCutOptions {
                     delta,
                     max_size: rng.below(CUT_CAPACITY + 1),
+                    split_sin: SPLIT_SINS[rng.below(SPLIT_SINS.len())],
                 };
                 let (cut, _) = check_bl_cut(&tree, &lights, &imp, None, &opts, &us)
                     .unwrap_or_else(|e| panic!("scene {scene}: {e}"));
@@ -1286,14 +1310,15 @@ fn bl_cut_delta_zero_and_infinite() {
                     for up in 1..l {
                         let (an, ak) = tree.slot_at(c.path >> (2 * up)).unwrap();
                         assert!(
-                            inside(&tree.nodes()[an as usize], ak, x),
+                            wide(&tree.nodes()[an as usize], ak, x, opts.split_sin),
                             "scene {scene} {opts:?}: ancestor ({an}, {ak}) of {c:?} was split \
-                             without containing x"
+                             without a wide cap"
                         );
                     }
                 }
-                if i == 0 {
-                    let root_slots = positive_slots(&imp, &tree.nodes()[0]);
+                // A far point sees only narrow caps (unless every cap is wide: split_sin ≤ 0).
+                if let (0, false, Some(root)) = (i, opts.split_sin <= 0.0, tree.nodes().first()) {
+                    let root_slots = positive_slots(&imp, root);
                     assert_eq!(cut.len(), root_slots, "scene {scene}: far point {opts:?}");
                 }
             }
@@ -1316,8 +1341,14 @@ fn bl_cut_max_size_is_clamped() {
         for _ in 0..6 {
             let (imp, _) = bl_point(&mut rng, &tree, &lights, half);
             let delta = DELTAS[rng.below(DELTAS.len())];
-            let build =
-                |max_size| LightCut::build_bl(&tree, &imp, &BlCutOptions { delta, max_size });
+            let build = |max_size| {
+                let opts = BlCutOptions {
+                    delta,
+                    max_size,
+                    ..BlCutOptions::default()
+                };
+                LightCut::build_bl(&tree, &imp, &opts)
+            };
             for small in 0..MIN_CUT_SIZE {
                 assert_eq!(build(small).clusters(), build(MIN_CUT_SIZE).clusters());
             }
@@ -1348,7 +1379,12 @@ fn bl_cut_edges() {
         let tree = LightTree::build(&lights).unwrap();
         for delta in DELTAS {
             for max_size in [0, 1, 4, 64, 1000] {
-                let cut = LightCut::build_bl(&tree, &imp, &BlCutOptions { delta, max_size });
+                let opts = BlCutOptions {
+                    delta,
+                    max_size,
+                    ..BlCutOptions::default()
+                };
+                let cut = LightCut::build_bl(&tree, &imp, &opts);
                 assert!(cut.is_empty());
                 assert_eq!(cut.max_score(), 0.0);
                 assert_eq!(cut.sample(&tree, &imp, 0.5), None);
@@ -1366,7 +1402,12 @@ fn bl_cut_edges() {
             let (imp, _) = bl_point(&mut rng, &tree, &lights, half);
             for max_size in 0..=70 {
                 let delta = DELTAS[rng.below(DELTAS.len())];
-                let cut = LightCut::build_bl(&tree, &imp, &BlCutOptions { delta, max_size });
+                let opts = BlCutOptions {
+                    delta,
+                    max_size,
+                    split_sin: SPLIT_SINS[rng.below(SPLIT_SINS.len())],
+                };
+                let cut = LightCut::build_bl(&tree, &imp, &opts);
                 assert!(
                     cut.len() <= max_size.clamp(MIN_CUT_SIZE, CUT_CAPACITY),
                     "scene {scene}: {} clusters for max_size {max_size}",

@@ -23,7 +23,7 @@ use manylights::direct::{
 use manylights::mis::{AdaptiveAllocator, CombinedWeights, Heuristic, SequentialWeights};
 use manylights::trace::trace_all;
 use manylights::Rgb;
-use manylights::{AliasTable, Brdf, Frame, Light, LightSet, Material, ShadingPoint};
+use manylights::{AliasTable, BlCutOptions, Brdf, Frame, Light, LightSet, Material, ShadingPoint};
 
 /// The one channel of an estimate of a grey scene (every channel must be the same, bit for
 /// bit: grey inputs weigh and shade each channel as the scalar estimate was).
@@ -179,6 +179,26 @@ fn check_unbiased(set: &LightSet, sp: &ShadingPoint, exact: f64, k: usize, seed:
             t,
             Params {
                 heuristic: Heuristic::Balance,
+                ..base
+            },
+        ));
+    }
+    // `bl-mis` with other numbers of light samples (0 is clamped to 1), `full` and
+    // `mis-equal` with the library's cut instead of the paper's.
+    for k in [0, 1, 3, 7] {
+        cases.push((
+            Technique::BlMis,
+            Params {
+                bl_light_samples: k,
+                ..base
+            },
+        ));
+    }
+    for t in [Technique::MisEqual, Technique::Full] {
+        cases.push((
+            t,
+            Params {
+                mixture_cut: BlCutOptions::default(),
                 ..base
             },
         ));

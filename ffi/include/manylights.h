@@ -109,6 +109,12 @@
 #define ML_MAX_BUDGET 64
 
 /**
+ * Largest `ml_direct_params.bl_light_samples`, the light samples of one `bl-mis` estimate
+ * (the smallest is 1).
+ */
+#define ML_MAX_LIGHT_SAMPLES 64
+
+/**
  * The GGX roughness floor: a material's α (accepted in (0, 1]) is used as max(α,
  * `ML_MIN_ALPHA`) by the BRDFs, the BRDF-oriented importance and the estimators.
  */
@@ -525,13 +531,20 @@ typedef struct ml_brdf_draw {
  */
 typedef struct ml_bl_cut_options {
     /**
-     * Split a cluster whose BRDF integral over its cap exceeds δ (finite, ≥ 0; default 0.5).
+     * Split a cluster whose BRDF integral over its cap exceeds δ (finite, ≥ 0; default 0.3).
      */
     float delta;
     /**
-     * Most clusters, in [`ML_MIN_CUT_SIZE`, `ML_CUT_CAPACITY`] = [4, 64] (default 32).
+     * Most clusters, in [`ML_MIN_CUT_SIZE`, `ML_CUT_CAPACITY`] = [4, 64] (default 64).
      */
     size_t max_size;
+    /**
+     * Split a cluster whose cap is wide: its bounding sphere's radius r at least `split_sin`
+     * times its distance d from the shading point (the sine of the cap's half-angle). In
+     * [0, 1] (default 0.9); 1 splits only the clusters whose sphere holds the point, as Liu
+     * et al. 2019 do.
+     */
+    float split_sin;
 } ml_bl_cut_options;
 
 /**
@@ -589,9 +602,20 @@ typedef struct ml_direct_params {
      */
     struct ml_split_cut_options split_cut;
     /**
-     * The BRDF-oriented cut (`bl`, `bl-mis`, `mis-equal`, `full`).
+     * The BRDF-oriented cut of `bl` and `bl-mis` (default δ = 0.3, 64 clusters, `split_sin`
+     * 0.9).
      */
     struct ml_bl_cut_options bl_cut;
+    /**
+     * The BRDF-oriented cut of `mis-equal` and `full`, whose IB(x) also sets their budget
+     * (default Liu et al. 2019's: δ = 0.5, 32 clusters, `split_sin` 1).
+     */
+    struct ml_bl_cut_options mixture_cut;
+    /**
+     * Light samples per estimate of `bl-mis`, all from its one cut, in [1,
+     * `ML_MAX_LIGHT_SAMPLES`] = [1, 64] (default 2).
+     */
+    uint32_t bl_light_samples;
     /**
      * Nmax of the BRDF-aware budget N = ceil(Nmax · IB(x)), in [1, `ML_MAX_BUDGET`] = [1, 64]
      * (default 50).
@@ -1152,7 +1176,8 @@ ml_status ml_brdf_pdf(const struct ml_shading_point *sp, struct ml_vec3 wi, floa
 ml_status ml_brdf_eval(const struct ml_shading_point *sp, struct ml_vec3 wi, float *out);
 
 /**
- * Fills `*out` with the default BRDF-oriented cut options (δ = 0.5, 32 clusters).
+ * Fills `*out` with the default BRDF-oriented cut options (δ = 0.3, 64 clusters, caps with
+ * a sine above 0.9 split).
  *
  * Errors: `ML_ERR_NULL` if `out` is NULL.
  */

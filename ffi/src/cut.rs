@@ -22,10 +22,15 @@ pub const ML_NO_CLUSTER: u32 = u32::MAX;
 #[repr(C)]
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct ml_bl_cut_options {
-    /// Split a cluster whose BRDF integral over its cap exceeds δ (finite, ≥ 0; default 0.5).
+    /// Split a cluster whose BRDF integral over its cap exceeds δ (finite, ≥ 0; default 0.3).
     pub delta: f32,
-    /// Most clusters, in [`ML_MIN_CUT_SIZE`, `ML_CUT_CAPACITY`] = [4, 64] (default 32).
+    /// Most clusters, in [`ML_MIN_CUT_SIZE`, `ML_CUT_CAPACITY`] = [4, 64] (default 64).
     pub max_size: usize,
+    /// Split a cluster whose cap is wide: its bounding sphere's radius r at least `split_sin`
+    /// times its distance d from the shading point (the sine of the cap's half-angle). In
+    /// [0, 1] (default 0.9); 1 splits only the clusters whose sphere holds the point, as Liu
+    /// et al. 2019 do.
+    pub split_sin: f32,
 }
 
 /// Options of the split-sampling cut (`ml_split_cut_options_default` fills the defaults).
@@ -89,7 +94,18 @@ fn non_negative(v: f32, name: &str) -> Result<f32> {
     }
 }
 
-/// Fills `*out` with the default BRDF-oriented cut options (δ = 0.5, 32 clusters).
+fn unit_interval(v: f32, name: &str) -> Result<f32> {
+    if (0.0..=1.0).contains(&v) {
+        Ok(v)
+    } else {
+        Err(Error::invalid(format_args!(
+            "{name} must be in [0, 1] (got {v})"
+        )))
+    }
+}
+
+/// Fills `*out` with the default BRDF-oriented cut options (δ = 0.3, 64 clusters, caps with
+/// a sine above 0.9 split).
 ///
 /// Errors: `ML_ERR_NULL` if `out` is NULL.
 #[no_mangle]
@@ -99,6 +115,7 @@ pub extern "C" fn ml_bl_cut_options_default(out: *mut ml_bl_cut_options) -> ml_s
         arg::out(out, "out")?.write(ml_bl_cut_options {
             delta: d.delta,
             max_size: d.max_size,
+            split_sin: d.split_sin,
         });
         Ok(())
     })
@@ -126,6 +143,7 @@ pub(crate) fn cut_options(o: Option<&ml_bl_cut_options>, name: &str) -> Result<B
         Some(o) => BlCutOptions {
             delta: non_negative(o.delta, &format!("{name}.delta"))?,
             max_size: max_size(o.max_size, &format!("{name}.max_size"))?,
+            split_sin: unit_interval(o.split_sin, &format!("{name}.split_sin"))?,
         },
     })
 }

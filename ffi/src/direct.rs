@@ -13,6 +13,7 @@ use crate::types::{
 };
 use core::ffi::c_void;
 use glam::Vec3;
+use manylights::direct::MAX_LIGHT_SAMPLES;
 use manylights::direct::{
     BsdfDraw, DirectError, Environment, EnvironmentDraw, EnvironmentSample, LambertMode, LightDraw,
     Occluder, Params, Step, Technique, Uniforms,
@@ -84,8 +85,15 @@ pub enum ml_heuristic {
 pub struct ml_direct_params {
     /// The split-sampling cut (`tl-split`, `mis-equal`, `full`).
     pub split_cut: ml_split_cut_options,
-    /// The BRDF-oriented cut (`bl`, `bl-mis`, `mis-equal`, `full`).
+    /// The BRDF-oriented cut of `bl` and `bl-mis` (default δ = 0.3, 64 clusters, `split_sin`
+    /// 0.9).
     pub bl_cut: ml_bl_cut_options,
+    /// The BRDF-oriented cut of `mis-equal` and `full`, whose IB(x) also sets their budget
+    /// (default Liu et al. 2019's: δ = 0.5, 32 clusters, `split_sin` 1).
+    pub mixture_cut: ml_bl_cut_options,
+    /// Light samples per estimate of `bl-mis`, all from its one cut, in [1,
+    /// `ML_MAX_LIGHT_SAMPLES`] = [1, 64] (default 2).
+    pub bl_light_samples: u32,
     /// Nmax of the BRDF-aware budget N = ceil(Nmax · IB(x)), in [1, `ML_MAX_BUDGET`] = [1, 64]
     /// (default 50).
     pub n_max: u32,
@@ -322,7 +330,14 @@ pub extern "C" fn ml_direct_params_default(out: *mut ml_direct_params) -> ml_sta
             bl_cut: ml_bl_cut_options {
                 delta: p.bl_cut.delta,
                 max_size: p.bl_cut.max_size,
+                split_sin: p.bl_cut.split_sin,
             },
+            mixture_cut: ml_bl_cut_options {
+                delta: p.mixture_cut.delta,
+                max_size: p.mixture_cut.max_size,
+                split_sin: p.mixture_cut.split_sin,
+            },
+            bl_light_samples: p.bl_light_samples,
             n_max: p.n_max,
             lambert: ml_lambert_mode::TlOnly as u32,
             heuristic: ml_heuristic::Power as u32,
@@ -357,9 +372,18 @@ fn params_of(p: Option<&ml_direct_params>) -> Result<Params> {
             )))
         }
     };
+    if !(1..=MAX_LIGHT_SAMPLES).contains(&p.bl_light_samples) {
+        return Err(Error::invalid(format_args!(
+            "params.bl_light_samples must be in [1, {MAX_LIGHT_SAMPLES}], 1 to \
+             ML_MAX_LIGHT_SAMPLES (got {})",
+            p.bl_light_samples
+        )));
+    }
     Ok(Params {
         split_cut: split_options(Some(&p.split_cut), "params.split_cut")?,
         bl_cut: cut_options(Some(&p.bl_cut), "params.bl_cut")?,
+        mixture_cut: cut_options(Some(&p.mixture_cut), "params.mixture_cut")?,
+        bl_light_samples: p.bl_light_samples,
         n_max: p.n_max,
         lambert,
         heuristic,

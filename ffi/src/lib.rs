@@ -121,6 +121,7 @@ mod tests {
             ("ML_MIN_CUT_SIZE", "4"),
             ("ML_CUT_CAPACITY", "64"),
             ("ML_MAX_BUDGET", "64"),
+            ("ML_MAX_LIGHT_SAMPLES", "64"),
             ("ML_MIN_ALPHA", "5e-3"),
             ("ML_LIGHT_SAMPLE_NONE", "{ ML_NO_LIGHT, 0.0f }"),
         ] {

@@ -48,6 +48,11 @@ const _: () = assert!(ML_MIN_CUT_SIZE == MIN_CUT_SIZE);
 pub const ML_MAX_BUDGET: u32 = 64;
 const _: () = assert!(ML_MAX_BUDGET == manylights::mis::MAX_BUDGET);
 
+/// Largest `ml_direct_params.bl_light_samples`, the light samples of one `bl-mis` estimate
+/// (the smallest is 1).
+pub const ML_MAX_LIGHT_SAMPLES: u32 = 64;
+const _: () = assert!(ML_MAX_LIGHT_SAMPLES == manylights::direct::MAX_LIGHT_SAMPLES);
+
 /// The GGX roughness floor: a material's α (accepted in (0, 1]) is used as max(α,
 /// `ML_MIN_ALPHA`) by the BRDFs, the BRDF-oriented importance and the estimators.
 pub const ML_MIN_ALPHA: f32 = 5e-3;

@@ -21,6 +21,22 @@ pub struct ParamArgs {
     /// Largest BRDF-oriented cut (BlCutOptions::max_size).
     #[arg(long)]
     pub bl_cut_max_size: Option<usize>,
+    /// BRDF-oriented cut: split clusters whose cap's sine is at least this
+    /// (BlCutOptions::split_sin; 1: only clusters holding the point).
+    #[arg(long)]
+    pub bl_cut_split_sin: Option<f32>,
+    /// Light samples per estimate of `bl-mis` (Params::bl_light_samples).
+    #[arg(long)]
+    pub bl_light_samples: Option<u32>,
+    /// The `mis-equal` and `full` cut's δ (Params::mixture_cut).
+    #[arg(long)]
+    pub mixture_cut_delta: Option<f32>,
+    /// Largest `mis-equal` and `full` cut (Params::mixture_cut).
+    #[arg(long)]
+    pub mixture_cut_max_size: Option<usize>,
+    /// The `mis-equal` and `full` cut's wide-cap rule (Params::mixture_cut).
+    #[arg(long)]
+    pub mixture_cut_split_sin: Option<f32>,
     /// Nmax of the BRDF-aware budget.
     #[arg(long)]
     pub n_max: Option<u32>,
@@ -47,6 +63,21 @@ impl ParamArgs {
         }
         if let Some(v) = self.bl_cut_max_size {
             p.bl_cut.max_size = v;
+        }
+        if let Some(v) = self.bl_cut_split_sin {
+            p.bl_cut.split_sin = v;
+        }
+        if let Some(v) = self.bl_light_samples {
+            p.bl_light_samples = v;
+        }
+        if let Some(v) = self.mixture_cut_delta {
+            p.mixture_cut.delta = v;
+        }
+        if let Some(v) = self.mixture_cut_max_size {
+            p.mixture_cut.max_size = v;
+        }
+        if let Some(v) = self.mixture_cut_split_sin {
+            p.mixture_cut.split_sin = v;
         }
         if let Some(v) = self.n_max {
             p.n_max = v;

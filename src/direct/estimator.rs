@@ -5,10 +5,10 @@ use super::sampler::{
     CutSampler, LightSampler, PinfSampler, PowerSampler, TreeSampler, UniformSampler,
 };
 use super::sky::Environment;
-use super::{DirectError, LambertMode, Occluder, Params, Technique, Uniforms};
+use super::{DirectError, LambertMode, Occluder, Params, Technique, Uniforms, MAX_LIGHT_SAMPLES};
 use crate::brdf::{Brdf, Frame};
 use crate::colour::Rgb;
-use crate::cut::{LightCut, CUT_CAPACITY};
+use crate::cut::{BlCutOptions, LightCut, CUT_CAPACITY};
 use crate::error::Problem;
 use crate::importance::{BlImportance, Importance, TlImportance};
 use crate::infinite::{InfiniteKind, MAX_INFINITE_LIGHTS};
@@ -68,7 +68,8 @@ impl Weighted {
 
     /// The density the weight is relative to (in the measure of its value: solid angle, or 1
     /// for point, spot and VPL lights): for a light sample, its technique's density (pmf ·
-    /// point pdf; for a BRDF-aware sample of `mis-equal` or `full`, the mixture's density);
+    /// point pdf, times k for the k light samples of `bl-mis`; for a BRDF-aware sample of
+    /// `mis-equal` or `full`, the mixture's density);
     /// for a BSDF hit ([`LightHit`]), the BSDF's pdf for `tl-mis` and `bl-mis`, and the
     /// combined density of the BRDF-aware mixture (BL and BSDF, as the technique mixes them)
     /// for `mis-equal` and `full`. The contribution is `value · weight / pdf` in every case.
@@ -127,7 +128,7 @@ enum Role {
     /// A BL sample of the BRDF-aware mixture, drawn with BL probability `p`; `pmf_bl` is BL's
     /// probability of the light (its density is `pmf_bl` times the point's).
     MixtureBl { p: f32, pmf_bl: f32 },
-    /// The light sample of `tl-mis` or `bl-mis`, weighted against one BSDF sample.
+    /// A light sample of `tl-mis` or `bl-mis`, weighted against one BSDF sample.
     OneMis,
 }
 
@@ -218,6 +219,8 @@ enum Phase {
     Mixture,
     /// Yielding the TL split samples after the mixture (`full`).
     TlLast,
+    /// The next light sample of `bl-mis` (its `j`-th), when it takes more than one.
+    OneMisLight,
     /// The BSDF sample of `tl-mis` or `bl-mis` is next.
     OneMisBsdf,
     /// Finished.
@@ -264,7 +267,8 @@ struct Run {
     tl: [(u32, f32, [f32; 2]); SPLIT_CAPACITY],
     tl_len: usize,
     tl_next: usize,
-    /// The next BRDF-aware sample's index.
+    /// The next BRDF-aware sample's index (`mis-equal`, `full`), or the next light sample's
+    /// (`bl-mis`).
     j: u32,
     alloc: AdaptiveAllocator,
     /// The BL probabilities recorded so far (`full`).
@@ -311,6 +315,27 @@ pub struct Estimator<'a> {
     bl_in_full: bool,
     pmfs: PmfCache,
     run: Run,
+}
+
+/// The BRDF-oriented cut `technique` builds: `bl_cut` for `bl` and `bl-mis`, `mixture_cut`
+/// for `mis-equal` and `full`.
+#[inline]
+fn bl_cut_options(technique: Technique, params: &Params) -> &BlCutOptions {
+    match technique {
+        Technique::MisEqual | Technique::Full => &params.mixture_cut,
+        _ => &params.bl_cut,
+    }
+}
+
+/// The number of light samples of a `bl-mis` estimate (1 for every other technique with one
+/// light sample and one BSDF sample).
+#[inline]
+fn one_mis_light_samples(technique: Technique, params: &Params) -> u32 {
+    if technique == Technique::BlMis {
+        params.bl_light_samples.clamp(1, MAX_LIGHT_SAMPLES)
+    } else {
+        1
+    }
 }
 
 /// Checks a host's uniform number.
@@ -438,9 +463,10 @@ impl<'a> Estimator<'a> {
         } else {
             LightCut::new()
         };
+        let cut = bl_cut_options(technique, params);
         let bl = plan
             .bl
-            .map(|imp| CutSampler::with_importance(tree, imp, &params.bl_cut));
+            .map(|imp| CutSampler::with_importance(tree, imp, cut));
         let n_mix = plan.budget(technique, params, bl.as_ref());
         let pinf = (technique == Technique::TlMisPinf)
             .then(|| PinfSampler::with_importance(tree, *tl.importance()));
@@ -489,11 +515,10 @@ impl<'a> Estimator<'a> {
             let tl = *self.tl.importance();
             self.split.rebuild_split(tree, &tl, &params.split_cut);
         }
+        let cut = bl_cut_options(self.technique, &params);
         match (&mut self.bl, plan.bl) {
-            (Some(b), Some(imp)) => b.reset(imp, &params.bl_cut),
-            (bl, imp) => {
-                *bl = imp.map(|imp| CutSampler::with_importance(tree, imp, &params.bl_cut))
-            }
+            (Some(b), Some(imp)) => b.reset(imp, cut),
+            (bl, imp) => *bl = imp.map(|imp| CutSampler::with_importance(tree, imp, cut)),
         }
         self.n_mix = plan.budget(self.technique, &params, self.bl.as_ref());
         if self.technique == Technique::TlMisPinf {
@@ -808,21 +833,8 @@ impl<'a> Estimator<'a> {
                             }
                         }
                         Technique::TlMis | Technique::BlMis | Technique::TlMisPinf => {
-                            let v = next1(u)?;
-                            let uv = next2(u)?;
-                            self.run.phase = Phase::OneMisBsdf;
-                            let s = match self.technique {
-                                Technique::TlMis => self.tl.sample(v),
-                                Technique::TlMisPinf => {
-                                    self.pinf.as_ref().and_then(|p| p.sample(v))
-                                }
-                                _ => self.bl.as_ref().and_then(|b| b.sample(v)),
-                            };
-                            if let Some(s) = s {
-                                if let Some(d) = self.draw(s.light, s.pmf, uv, Role::OneMis) {
-                                    return Ok(d);
-                                }
-                            }
+                            self.run.j = 0;
+                            self.run.phase = Phase::OneMisLight;
                         }
                         Technique::TlSplit | Technique::MisEqual => {
                             self.draw_split(u)?;
@@ -835,6 +847,33 @@ impl<'a> Estimator<'a> {
                             } else {
                                 Phase::Mixture
                             };
+                        }
+                    }
+                }
+                Phase::OneMisLight => {
+                    // Sample i of k takes its uniform number in [i/k, (i+1)/k): the k samples
+                    // stratify the light choice (k = 1: the number itself).
+                    let k = one_mis_light_samples(self.technique, &self.params);
+                    let i = self.run.j;
+                    self.run.j += 1;
+                    if self.run.j >= k {
+                        self.run.phase = Phase::OneMisBsdf;
+                    }
+                    let v = next1(u)?;
+                    let uv = next2(u)?;
+                    let v = if k == 1 {
+                        v
+                    } else {
+                        ((i as f32 + v) / k as f32).min(ONE_MINUS_EPSILON)
+                    };
+                    let s = match self.technique {
+                        Technique::TlMis => self.tl.sample(v),
+                        Technique::TlMisPinf => self.pinf.as_ref().and_then(|p| p.sample(v)),
+                        _ => self.bl.as_ref().and_then(|b| b.sample(v)),
+                    };
+                    if let Some(s) = s {
+                        if let Some(d) = self.draw(s.light, s.pmf, uv, Role::OneMis) {
+                            return Ok(d);
                         }
                     }
                 }
@@ -948,16 +987,19 @@ impl<'a> Estimator<'a> {
         Ok(match draw.role {
             Role::Plain => Weighted::plain(pdf),
             Role::OneMis => {
+                // k light samples: each contributes 1/k of its estimate, weighed against the
+                // one BSDF sample with the counts (k, 1); their density together is k·pdf.
+                let k = one_mis_light_samples(self.technique, &self.params) as f32;
+                let a = pdf * k;
                 if pdf_tb > 0.0 {
-                    let (a, b) = (pdf, pdf_tb);
-                    let w = crate::mis::power(1.0, a, &[(1.0, b)]);
+                    let w = crate::mis::power(k, pdf, &[(1.0, pdf_tb)]);
                     Weighted::checked(Factors {
                         num: w,
                         den: a,
                         pdf: a,
                     })
                 } else {
-                    Weighted::plain(pdf)
+                    Weighted::plain(a)
                 }
             }
             Role::Split => match self.technique {
@@ -1214,7 +1256,8 @@ impl<'a> Estimator<'a> {
                     _ => self.tl.pmf(light),
                 };
                 let pdf_l = pmf * point_pdf;
-                let w = crate::mis::power(1.0, bsdf_pdf, &[(1.0, pdf_l)]);
+                let k = one_mis_light_samples(self.technique, &self.params) as f32;
+                let w = crate::mis::power(1.0, bsdf_pdf, &[(k, pdf_l)]);
                 Weighted::checked(Factors {
                     num: w,
                     den: bsdf_pdf,

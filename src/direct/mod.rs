@@ -71,12 +71,19 @@
 //! - `bl`: one light from the BRDF-oriented cut of Liu et al. 2019 ([`CutSampler`]).
 //! - `tl-mis`: one `tl` light sample plus one BSDF sample, combined by the power heuristic
 //!   (β = 2): what pbrt-v4 and Blender Cycles do at a shading point.
-//! - `bl-mis`: one `bl` light sample plus one BSDF sample, combined by the power heuristic:
+//! - `bl-mis`: k `bl` light samples from the one cut ([`Params::bl_light_samples`], 2 by
+//!   default) plus one BSDF sample, combined by the power heuristic with the sample counts:
 //!   the BRDF-oriented cut's light choice, with the BSDF sample covering what a light sample
-//!   of a glossy lobe misses. Unbiased as any two-technique MIS with weights summing to 1
-//!   (Veach 1997, section 9.2): the weights are fixed functions of the point, and the BSDF
-//!   sample reaches every light point the light sample cannot give (point and spot lights
-//!   are the light sample's alone, with weight 1).
+//!   of a glossy lobe misses. Sample i of k takes its first uniform number in
+//!   `[i/k, (i+1)/k)`, so the k samples stratify the cut's choice; each contributes
+//!   `g w_L / (k p_L)` with `w_L = (k p_L)² / ((k p_L)² + p_B²)`, a BSDF hit `g w_B / p_B`
+//!   with `w_B = p_B² / ((k p_L)² + p_B²)`. Unbiased as any multi-sample MIS with weights
+//!   summing to 1 (Veach 1997, section 9.2; the stratified samples keep the expectation of
+//!   k independent ones): the weights are fixed functions of the point, and the BSDF
+//!   sample reaches every light point the light samples cannot give (point and spot lights
+//!   are the light samples' alone, with weight 1). The cut is the per-point set-up every
+//!   sample shares, which is why more than one light sample pays
+//!   (docs/measurements.md).
 //! - `mis-equal`: `tl-split` plus `N = brdf_budget(cut, n_max)` BRDF-aware samples (none at
 //!   Lambert points): ⌊N/2⌋ BL, ⌊N/2⌋ BSDF (TB) and, for an odd N, one more that is BL or TB
 //!   with probability 1/2. A BRDF-aware sample y contributes `g(y) w_M(y) / (N q_ref(y))`,
@@ -96,14 +103,15 @@
 //!
 //! The default for a renderer is [`Technique::DEFAULT`], `bl-mis`: where every estimate is a
 //! new shading point (as in a renderer: each camera sample and path vertex), a technique's
-//! per-point set-up and its number of shadow rays count as much as its variance, and one
-//! BRDF-oriented light sample plus one BSDF sample costs a small fraction of split sampling's
+//! per-point set-up and its number of shadow rays count as much as its variance, and two
+//! BRDF-oriented light samples plus one BSDF sample cost a small fraction of split sampling's
 //! dozens of light samples and shadow rays while keeping both the BRDF-oriented choice of
 //! light and the BSDF sample's coverage of glossy lobes. `full` remains the method of Liu et
 //! al. 2019 for hosts that take many samples at one shading point.
 //!
 //! Densities, for MIS: TL's of a light point y on light l is `split.pmf_in(l) · pdf_point(y)`,
-//! BL's `cut.pmf(l) · pdf_point(y)`, TB's the BSDF's solid-angle pdf. Point and spot lights
+//! BL's `cut.pmf(l) · pdf_point(y)` (`k` times it for the k light samples of `bl-mis`
+//! together), TB's the BSDF's solid-angle pdf. Point and spot lights
 //! cannot be reached by a BSDF ray, so their TB density is 0 in every weight. A BSDF ray
 //! reaches the lights through the tree's bounding spheres ([`LightTree::trace`]); lights do not
 //! block each other. The TB "hit" the allocator counts: the ray reached at least one light with
@@ -218,7 +226,7 @@ impl Technique {
     ];
 
     /// The technique a renderer should use when it has no reason to choose another: `bl-mis`,
-    /// one sample of the BRDF-oriented cut and one BSDF sample (see the module documentation;
+    /// two samples of the BRDF-oriented cut and one BSDF sample (see the module documentation;
     /// docs/measurements.md has the measurements it was chosen from).
     pub const DEFAULT: Technique = Technique::BlMis;
 
@@ -309,13 +317,24 @@ impl LambertMode {
     }
 }
 
+/// Most light samples of one `bl-mis` estimate ([`Params::bl_light_samples`]).
+pub const MAX_LIGHT_SAMPLES: u32 = 64;
+
 /// Everything a host configures: the cuts, the budget and the weights.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Params {
     /// The split-sampling cut (`tl-split`, `mis-equal`, `full`).
     pub split_cut: SplitCutOptions,
-    /// The BRDF-oriented cut (`bl`, `bl-mis`, `mis-equal`, `full`).
+    /// The BRDF-oriented cut of `bl` and `bl-mis` (the library's defaults,
+    /// [`BlCutOptions::default`]).
     pub bl_cut: BlCutOptions,
+    /// The BRDF-oriented cut of `mis-equal` and `full`, whose IB(x) also sets their budget
+    /// (Liu et al. 2019's by default, [`BlCutOptions::PAPER`]).
+    pub mixture_cut: BlCutOptions,
+    /// Light samples per estimate of `bl-mis`, all from its one cut (clamped to
+    /// 1..=[`MAX_LIGHT_SAMPLES`]; default 2): stratified over the cut's choice and weighed
+    /// against its one BSDF sample with the sample counts.
+    pub bl_light_samples: u32,
     /// Nmax of the BRDF-aware budget `N = ceil(Nmax · IB(x))` (clamped to
     /// 1..=[`MAX_BUDGET`](crate::mis::MAX_BUDGET)).
     pub n_max: u32,
@@ -330,6 +349,8 @@ impl Default for Params {
         Params {
             split_cut: SplitCutOptions::default(),
             bl_cut: BlCutOptions::default(),
+            mixture_cut: BlCutOptions::PAPER,
+            bl_light_samples: 2,
             n_max: N_MAX,
             lambert: LambertMode::TlOnly,
             heuristic: Heuristic::Power,

@@ -1751,6 +1751,10 @@ static void scenario_bad_input(const ml_tree *tree, size_t n) {
     BAD_VALUE(ml_cut_build_bl, ml_cut_build_bl(cut, tree, &sp, &co), ML_ERR_INVALID_ARGUMENT,
               "options.delta must be finite and non-negative");
     co.delta = 0.5f;
+    co.split_sin = 1.5f;
+    BAD_VALUE(ml_cut_build_bl, ml_cut_build_bl(cut, tree, &sp, &co), ML_ERR_INVALID_ARGUMENT,
+              "options.split_sin must be in [0, 1] (got 1.5)");
+    co.split_sin = 1.0f;
     OK(ml_cut_build_bl(cut, tree, &sp, &co));
     OK(ml_split_cut_options_default(&so));
     so.threshold = -1;
@@ -1806,6 +1810,15 @@ static void scenario_bad_input(const ml_tree *tree, size_t n) {
     BAD_VALUE(ml_direct_estimate, ml_direct_estimate(tree, &sp, 0, &dp, NULL, &u, &e),
               ML_ERR_INVALID_ARGUMENT, "params.n_max must be in [1, 64], 1 to ML_MAX_BUDGET (got 0)");
     dp.n_max = 50;
+    dp.bl_light_samples = ML_MAX_LIGHT_SAMPLES + 1;
+    BAD_VALUE(ml_direct_estimate, ml_direct_estimate(tree, &sp, ML_TECHNIQUE_BL_MIS, &dp, NULL, &u, &e),
+              ML_ERR_INVALID_ARGUMENT,
+              "params.bl_light_samples must be in [1, 64], 1 to ML_MAX_LIGHT_SAMPLES (got 65)");
+    dp.bl_light_samples = 2;
+    dp.mixture_cut.split_sin = -1;
+    BAD_VALUE(ml_direct_estimate, ml_direct_estimate(tree, &sp, ML_TECHNIQUE_FULL, &dp, NULL, &u, &e),
+              ML_ERR_INVALID_ARGUMENT, "params.mixture_cut.split_sin must be in [0, 1] (got -1)");
+    dp.mixture_cut.split_sin = 1;
     BAD_VALUE(ml_direct_estimate, ml_direct_estimate(loaded, &sp, 0, NULL, NULL, &u, &e), ML_ERR_STATE,
               "loaded from bytes");
     sps[0] = sp;

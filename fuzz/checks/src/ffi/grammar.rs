@@ -366,6 +366,8 @@ pub struct CutOpts {
     pub delta: F,
     /// Most clusters.
     pub max_size: Size,
+    /// The wide-cap rule.
+    pub split_sin: F,
 }
 
 impl CutOpts {
@@ -373,6 +375,7 @@ impl CutOpts {
         ml_bl_cut_options {
             delta: self.delta.value(),
             max_size: self.max_size.value(),
+            split_sin: self.split_sin.value(),
         }
     }
 }
@@ -400,8 +403,13 @@ impl SplitOpts {
 pub struct Params {
     /// The split cut's options.
     pub split: SplitOpts,
-    /// The BRDF-oriented cut's options.
+    /// The BRDF-oriented cut's options (`bl`, `bl-mis`).
     pub cut: CutOpts,
+    /// The mixture's cut options (`mis-equal`, `full`).
+    pub mixture_cut: CutOpts,
+    /// `bl-mis`'s light samples: `1 + b mod 4` for `b` < 240, 0 for `b` < 248 (out of range),
+    /// else `57 + b − 240` (up to 72: 65 and above are out of range).
+    pub bl_light_samples: u8,
     /// Nmax: `1 + b mod 64` for `b` < 240, else `b − 240` (0 to 15: 0 is out of range).
     pub n_max: u8,
     /// An `ml_lambert_mode` (four values).
@@ -415,6 +423,12 @@ impl Params {
         ml_direct_params {
             split_cut: self.split.ml(),
             bl_cut: self.cut.ml(),
+            mixture_cut: self.mixture_cut.ml(),
+            bl_light_samples: match self.bl_light_samples {
+                b @ 0..240 => 1 + u32::from(b) % 4,
+                240..248 => 0,
+                b => 57 + u32::from(b - 240),
+            },
             n_max: if self.n_max < 240 {
                 1 + u32::from(self.n_max) % 64
             } else {

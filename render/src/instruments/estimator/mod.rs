@@ -686,6 +686,13 @@ fn report(
         "split_max_size": cfg.params.split_cut.max_size,
         "cut_delta": cfg.params.bl_cut.delta,
         "cut_max_size": cfg.params.bl_cut.max_size,
+        "cut_split_sin": cfg.params.bl_cut.split_sin,
+        "bl_light_samples": cfg.params.bl_light_samples,
+        "mixture_cut": {
+            "delta": cfg.params.mixture_cut.delta,
+            "max_size": cfg.params.mixture_cut.max_size,
+            "split_sin": cfg.params.mixture_cut.split_sin,
+        },
         "n_max": cfg.params.n_max,
         "lambert_mode": format!("{:?}", cfg.params.lambert),
         "power_heuristic": cfg.params.heuristic == manylights::Heuristic::Power,

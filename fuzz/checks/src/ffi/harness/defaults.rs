@@ -21,9 +21,12 @@ impl Harness<'_> {
         let s = ml_bl_cut_options_default(o.p());
         if self.status("ml_bl_cut_options_default", s, &[&o]) {
             let c = o.get(0);
-            self.ensure(c.delta >= 0.0 && (4..=64).contains(&c.max_size), || {
-                format!("{c:?}")
-            });
+            self.ensure(
+                c.delta >= 0.0
+                    && (4..=64).contains(&c.max_size)
+                    && (0.0..=1.0).contains(&c.split_sin),
+                || format!("{c:?}"),
+            );
         }
         let mut o = Out::<ml_split_cut_options>::one(out);
         let s = ml_split_cut_options_default(o.p());
@@ -37,7 +40,10 @@ impl Harness<'_> {
         let s = ml_direct_params_default(o.p());
         if self.status("ml_direct_params_default", s, &[&o]) {
             let p = o.get(0);
-            self.ensure((1..=64).contains(&p.n_max), || format!("{p:?}"));
+            self.ensure(
+                (1..=64).contains(&p.n_max) && (1..=64).contains(&p.bl_light_samples),
+                || format!("{p:?}"),
+            );
         }
         let mut o = Out::<ml_acceptor_options>::one(out);
         let s = ml_acceptor_options_default(o.p());
