@@ -2,7 +2,7 @@
 
 use clap::{Parser, Subcommand};
 use manylights::Technique;
-use manylights_render::instruments::{bench, compare, sptd_accuracy, sptd_fit};
+use manylights_render::instruments::{bench, compare, selection, sptd_accuracy, sptd_fit};
 use manylights_render::params::{ParamArgs, TechniqueArg};
 use manylights_render::{image, render, scene};
 use std::path::PathBuf;
@@ -84,6 +84,37 @@ enum Command {
     /// Unbiasedness, variance and time per estimate of every technique against exact values,
     /// without visibility.
     Estimator(manylights_render::instruments::estimator::EstimatorArgs),
+    /// The variance of the light choice (BRDF-oriented cut and TL descent) at a scene's
+    /// shading points, from every light's contribution and probability: where a cut fails.
+    Selection {
+        /// Scene: cornell, exhibition, city, city-sun, stairs, or a path to an .obj file.
+        #[arg(long, default_value = "city")]
+        scene: String,
+        /// Number of lights (cornell only; default 1,494).
+        #[arg(long)]
+        lights: Option<usize>,
+        /// Shading points (jittered primary hits).
+        #[arg(long, default_value_t = 4000, value_parser = at_least_one())]
+        points: usize,
+        /// Image width the pixel positions are drawn in.
+        #[arg(long, default_value_t = 192, value_parser = image_size())]
+        width: usize,
+        /// Image height the pixel positions are drawn in.
+        #[arg(long, default_value_t = 192, value_parser = image_size())]
+        height: usize,
+        /// Seed of the points.
+        #[arg(long, default_value_t = 3)]
+        seed: u64,
+        /// The scene in grey.
+        #[arg(long)]
+        grey: bool,
+        /// Print one JSON object as the last line of stdout.
+        #[arg(long)]
+        json: bool,
+        /// The estimators' parameters (the cut's: `--bl-cut-*`).
+        #[command(flatten)]
+        params: ParamArgs,
+    },
     /// Instant radiosity for the indirect diffuse light, plain and with probabilistic VPL
     /// acceptance (Georgiev & Slusallek 2010), gathered from all VPLs or through a light tree,
     /// against a cached converged reference: images under out/vpl/SCENE/, a table.
@@ -327,6 +358,34 @@ fn main() {
             println!("{}", sptd_accuracy::table(&cs, &report));
             if json {
                 println!("{report}");
+            }
+        }
+        Command::Selection {
+            scene,
+            lights,
+            points,
+            width,
+            height,
+            seed,
+            grey,
+            json,
+            params,
+        } => {
+            let rs = scene::by_name_with(&scene, lights, palette(grey)).unwrap_or_else(|e| {
+                eprintln!("{e}");
+                std::process::exit(2)
+            });
+            let cfg = selection::SelectionConfig {
+                points,
+                width,
+                height,
+                seed,
+                cut: params.params().bl_cut,
+            };
+            let report = selection::run(&rs, &cfg);
+            print!("{}", report.table(&scene, &cfg));
+            if json {
+                println!("{}", report.json(&scene, &cfg));
             }
         }
         Command::Render {

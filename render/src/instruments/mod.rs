@@ -7,6 +7,8 @@
 //!   from, and how much of it is the reference's own;
 //! - [`estimator`]: unbiasedness, variance and cost per estimate against exact values
 //!   (`mlrender estimator`);
+//! - [`selection`]: the variance of the light choice of the BRDF-oriented cut and of TL at a
+//!   scene's shading points (`mlrender selection`);
 //! - [`sptd_fit`], [`sptd_accuracy`]: the fit of the SPTD table and its accuracy
 //!   (`mlrender sptd-fit`, `mlrender sptd-accuracy`), with an f64 GGX reference ([`ggx`]).
 
@@ -15,6 +17,7 @@ pub mod compare;
 pub mod error_split;
 pub mod estimator;
 pub mod ggx;
+pub mod selection;
 pub mod sptd_accuracy;
 pub mod sptd_fit;
 pub mod vpl;

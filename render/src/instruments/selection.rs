@@ -1,0 +1,254 @@
+//! `mlrender selection`: how well the light choice of the BRDF-oriented cut (BL) and of the
+//! tree's classic descent (TL) follows the lights' contributions at a scene's shading points,
+//! without the noise of rendering.
+//!
+//! At `points` shading points seen through jittered pixel positions (the primary hits of the
+//! jittered protocol, [`primary_at`]), each light's contribution `c_l = ∫_l f L cos θ dω` is
+//! estimated from four stratified points on it ([`sample_point`]), each with a shadow ray
+//! through the scene, and each light's probability `p_l` is queried from the technique at the
+//! point: [`LightCut::pmf`] of the BRDF-oriented cut built with [`Params::bl_cut`], and
+//! [`LightTree::pmf`](manylights::LightTree::pmf) of the TL descent. The variance of the light
+//! choice is
+//!
+//! ```text
+//! V = Σ_l c_l² / p_l − (Σ_l c_l)²
+//! ```
+//!
+//! the variance of `c_L / p_L` for the light L drawn with probabilities p: the part of a
+//! one-light-sample estimate's variance that comes from which light it takes (a light with
+//! `c_l > 0` and `p_l = 0` makes it infinite; conservativeness rules that out). Its mean over
+//! the points is that part of the image's mean squared error per estimate. A few points where
+//! a light carrying most of the light gets a small probability dominate it: the report gives
+//! the share of the mean from the worst 1 % of the points, the mean cut size and how many cuts
+//! ran out of room (reached `max_size`).
+
+use crate::render::primary_at;
+use crate::scene::RenderScene;
+use manylights::light_sample::sample_point;
+use manylights::{BlCutOptions, BlImportance, Brdf, Frame, LightCut, ShadingPoint, TlImportance};
+use rand::{Rng, SeedableRng};
+use rand_pcg::Pcg64Mcg;
+use rayon::prelude::*;
+use serde_json::json;
+
+/// What to measure.
+#[derive(Clone, Copy, Debug)]
+pub struct SelectionConfig {
+    /// Shading points.
+    pub points: usize,
+    /// Image size the jittered pixel positions are drawn in.
+    pub width: usize,
+    /// See `width`.
+    pub height: usize,
+    /// Seed of the points.
+    pub seed: u64,
+    /// The BRDF-oriented cut's options.
+    pub cut: BlCutOptions,
+}
+
+/// The light choice's variance of one technique over the points.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Choice {
+    /// Mean over the points of `V`.
+    pub mean_variance: f64,
+    /// Share of `Σ V` from the 1 % of the points with the largest `V`.
+    pub worst_1pc_share: f64,
+}
+
+/// The report.
+#[derive(Clone, Debug, PartialEq)]
+pub struct SelectionReport {
+    /// Points with a primary hit and some light.
+    pub points: usize,
+    /// Mean over the points of `Σ_l c_l`.
+    pub mean_light: f64,
+    /// The BRDF-oriented cut.
+    pub bl: Choice,
+    /// The TL descent.
+    pub tl: Choice,
+    /// Mean number of clusters of the cut.
+    pub mean_cut: f64,
+    /// Share of the points whose cut reached `max_size`.
+    pub cut_full: f64,
+}
+
+/// Each light's contribution at `sp` (4 stratified points, shadow rays), those above 0.
+fn contributions(scene: &RenderScene, sp: &ShadingPoint) -> Vec<(u32, f64)> {
+    let Some(frame) = Frame::from_normal(sp.normal) else {
+        return Vec::new();
+    };
+    let wo = frame.to_local(sp.wo.normalize());
+    let mut out = Vec::new();
+    for (l, light) in scene.lights.lights().iter().enumerate() {
+        let mut sum = 0.0f64;
+        for u in [[0.25f32, 0.25f32], [0.75, 0.25], [0.25, 0.75], [0.75, 0.75]] {
+            let Some(p) = sample_point(light, sp.position, u) else {
+                continue;
+            };
+            let wi = frame.to_local(p.direction);
+            if wi.z <= 0.0 || p.radiance.is_black() {
+                continue;
+            }
+            let g = f64::from(sp.material.eval(wo, wi) * wi.z) * f64::from(p.radiance.luminance());
+            if g > 0.0
+                && !manylights::Occluder::occluded(
+                    &scene.geometry,
+                    sp.position,
+                    p.direction,
+                    p.distance,
+                )
+            {
+                sum += g / f64::from(p.pdf);
+            }
+        }
+        if sum > 0.0 {
+            out.push((l as u32, sum / 4.0));
+        }
+    }
+    out
+}
+
+/// `Σ c² / p − (Σ c)²`.
+fn variance(cs: &[(u32, f64)], pmf: impl Fn(u32) -> f32) -> f64 {
+    let total: f64 = cs.iter().map(|c| c.1).sum();
+    let second: f64 = cs
+        .iter()
+        .map(|&(l, c)| {
+            let p = f64::from(pmf(l));
+            if p > 0.0 {
+                c * c / p
+            } else {
+                f64::INFINITY
+            }
+        })
+        .sum();
+    second - total * total
+}
+
+fn choice(v: &[f64]) -> Choice {
+    let mut sorted = v.to_vec();
+    sorted.sort_by(|a, b| b.total_cmp(a));
+    let sum: f64 = sorted.iter().sum();
+    let worst = sorted[..sorted.len().div_ceil(100)].iter().sum::<f64>();
+    Choice {
+        mean_variance: sum / v.len().max(1) as f64,
+        worst_1pc_share: if sum > 0.0 { worst / sum } else { 0.0 },
+    }
+}
+
+/// Measures `scene` under `cfg` (in parallel; the result does not depend on threads).
+pub fn run(scene: &RenderScene, cfg: &SelectionConfig) -> SelectionReport {
+    let mut rng = Pcg64Mcg::seed_from_u64(cfg.seed);
+    let (w, h) = (cfg.width.max(1), cfg.height.max(1));
+    let mut pts = Vec::with_capacity(cfg.points);
+    let mut tries = 0usize;
+    while pts.len() < cfg.points && tries < 100 * cfg.points.max(1) {
+        tries += 1;
+        let (px, py) = (rng.random_range(0..w), rng.random_range(0..h));
+        let off = [rng.random::<f32>(), rng.random::<f32>()];
+        if let Some(sp) = primary_at(scene, px, py, w, h, off) {
+            pts.push(sp);
+        }
+    }
+    let tree = scene.lights.tree();
+    let rows: Vec<(f64, f64, f64, usize, bool)> = pts
+        .par_iter()
+        .filter_map(|sp| {
+            let cs = contributions(scene, sp);
+            let total: f64 = cs.iter().map(|c| c.1).sum();
+            if total <= 0.0 {
+                return None;
+            }
+            let bl = BlImportance::new(sp).ok()?;
+            let cut = LightCut::build_bl(tree, &bl, &cfg.cut);
+            let tl = TlImportance::new(sp.position, sp.normal);
+            let vb = variance(&cs, |l| cut.pmf(tree, &bl, l));
+            let vt = variance(&cs, |l| tree.pmf(&tl, l));
+            let full = cut.len() >= cfg.cut.max_size.clamp(4, manylights::CUT_CAPACITY);
+            Some((total, vb, vt, cut.len(), full))
+        })
+        .collect();
+    let n = rows.len().max(1) as f64;
+    let vb: Vec<f64> = rows.iter().map(|r| r.1).collect();
+    let vt: Vec<f64> = rows.iter().map(|r| r.2).collect();
+    SelectionReport {
+        points: rows.len(),
+        mean_light: rows.iter().map(|r| r.0).sum::<f64>() / n,
+        bl: choice(&vb),
+        tl: choice(&vt),
+        mean_cut: rows.iter().map(|r| r.3 as f64).sum::<f64>() / n,
+        cut_full: rows.iter().filter(|r| r.4).count() as f64 / n,
+    }
+}
+
+impl SelectionReport {
+    /// The table printed by `mlrender selection`.
+    pub fn table(&self, scene: &str, cfg: &SelectionConfig) -> String {
+        format!(
+            "{scene}: {} points, mean light Σc {:.4e}; BRDF-oriented cut (δ {}, max {}, split_sin {})\n\
+             | choice | mean V | worst 1 % share |\n|---|---:|---:|\n\
+             | BL cut | {:.4e} | {:.3} |\n| TL descent | {:.4e} | {:.3} |\n\
+             BL / TL {:.4}; cut {:.1} clusters on average, {:.2} % of the cuts full\n",
+            self.points,
+            self.mean_light,
+            cfg.cut.delta,
+            cfg.cut.max_size,
+            cfg.cut.split_sin,
+            self.bl.mean_variance,
+            self.bl.worst_1pc_share,
+            self.tl.mean_variance,
+            self.tl.worst_1pc_share,
+            self.bl.mean_variance / self.tl.mean_variance,
+            self.mean_cut,
+            100.0 * self.cut_full,
+        )
+    }
+
+    /// The JSON object of `--json`.
+    pub fn json(&self, scene: &str, cfg: &SelectionConfig) -> serde_json::Value {
+        json!({
+            "scene": scene,
+            "points": self.points,
+            "seed": cfg.seed,
+            "cut": {"delta": cfg.cut.delta, "max_size": cfg.cut.max_size, "split_sin": cfg.cut.split_sin},
+            "mean_light": self.mean_light,
+            "bl_mean_variance": self.bl.mean_variance,
+            "bl_worst_1pc_share": self.bl.worst_1pc_share,
+            "tl_mean_variance": self.tl.mean_variance,
+            "tl_worst_1pc_share": self.tl.worst_1pc_share,
+            "bl_vs_tl": self.bl.mean_variance / self.tl.mean_variance,
+            "mean_cut": self.mean_cut,
+            "cut_full": self.cut_full,
+        })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn variance_is_zero_for_probabilities_proportional_to_contributions() {
+        let cs = [(0u32, 1.0f64), (1, 3.0), (2, 4.0)];
+        let v = variance(&cs, |l| [0.125f32, 0.375, 0.5][l as usize]);
+        assert!(v.abs() < 1e-12, "{v}");
+        // Uniform over the three: Σ c²/(1/3) − (Σ c)² = 3 · 26 − 64 = 14.
+        let u = variance(&cs, |_| 1.0 / 3.0);
+        assert!((u - 14.0).abs() < 1e-5, "{u}");
+        // A contributing light that is never chosen makes it infinite.
+        assert_eq!(
+            variance(&cs, |l| if l == 0 { 0.0 } else { 0.5 }),
+            f64::INFINITY
+        );
+    }
+
+    #[test]
+    fn worst_share_is_the_top_percent() {
+        let mut v = vec![1.0; 199];
+        v.push(801.0);
+        let c = choice(&v);
+        assert_eq!(c.mean_variance, 1000.0 / 200.0);
+        // The worst 1 % of 200 points: the two largest, 801 + 1.
+        assert!((c.worst_1pc_share - 802.0 / 1000.0).abs() < 1e-12);
+    }
+}
