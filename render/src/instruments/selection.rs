@@ -6,9 +6,10 @@
 //! jittered protocol, [`primary_at`]), each light's contribution `c_l = ∫_l f L cos θ dω` is
 //! estimated from four stratified points on it ([`sample_point`]), each with a shadow ray
 //! through the scene, and each light's probability `p_l` is queried from the technique at the
-//! point: [`LightCut::pmf`] of the BRDF-oriented cut built with [`Params::bl_cut`], and
-//! [`LightTree::pmf`](manylights::LightTree::pmf) of the TL descent. The variance of the light
-//! choice is
+//! point, as the estimators draw it: [`CutSampler`] (the BRDF-oriented cut built with the
+//! given options; `Params::bl_cut` in the CLI) and [`TreeSampler`] (the TL descent), lights at
+//! infinity chosen at the root by each. An environment light, whose radiance is the host's, is
+//! left out. The variance of the light choice is
 //!
 //! ```text
 //! V = Σ_l c_l² / p_l − (Σ_l c_l)²
@@ -24,8 +25,9 @@
 
 use crate::render::primary_at;
 use crate::scene::RenderScene;
+use manylights::direct::{CutSampler, LightSampler, TreeSampler};
 use manylights::light_sample::sample_point;
-use manylights::{BlCutOptions, BlImportance, Brdf, Frame, LightCut, ShadingPoint, TlImportance};
+use manylights::{BlCutOptions, Brdf, Frame, Light, ShadingPoint};
 use rand::{Rng, SeedableRng};
 use rand_pcg::Pcg64Mcg;
 use rayon::prelude::*;
@@ -80,6 +82,9 @@ fn contributions(scene: &RenderScene, sp: &ShadingPoint) -> Vec<(u32, f64)> {
     let wo = frame.to_local(sp.wo.normalize());
     let mut out = Vec::new();
     for (l, light) in scene.lights.lights().iter().enumerate() {
+        if matches!(light, Light::Environment { .. }) {
+            continue;
+        }
         let mut sum = 0.0f64;
         for u in [[0.25f32, 0.25f32], [0.75, 0.25], [0.25, 0.75], [0.75, 0.75]] {
             let Some(p) = sample_point(light, sp.position, u) else {
@@ -159,13 +164,13 @@ pub fn run(scene: &RenderScene, cfg: &SelectionConfig) -> SelectionReport {
             if total <= 0.0 {
                 return None;
             }
-            let bl = BlImportance::new(sp).ok()?;
-            let cut = LightCut::build_bl(tree, &bl, &cfg.cut);
-            let tl = TlImportance::new(sp.position, sp.normal);
-            let vb = variance(&cs, |l| cut.pmf(tree, &bl, l));
-            let vt = variance(&cs, |l| tree.pmf(&tl, l));
-            let full = cut.len() >= cfg.cut.max_size.clamp(4, manylights::CUT_CAPACITY);
-            Some((total, vb, vt, cut.len(), full))
+            let bl = CutSampler::new(tree, sp, &cfg.cut).ok()?;
+            let tl = TreeSampler::new(tree, sp.position, sp.normal);
+            let vb = variance(&cs, |l| bl.pmf(l));
+            let vt = variance(&cs, |l| tl.pmf(l));
+            let n = bl.cut().len();
+            let full = n >= cfg.cut.max_size.clamp(4, manylights::CUT_CAPACITY);
+            Some((total, vb, vt, n, full))
         })
         .collect();
     let n = rows.len().max(1) as f64;
