@@ -560,10 +560,8 @@ impl<'a> Collapser<'a> {
         self.nodes
             .extend(sub.nodes[1..].iter().map(|n| moved(n, base, lights)));
         self.variances.extend_from_slice(&sub.variances[1..]);
-        for j in 0..sub.n_leaves {
-            self.leaves
-                .set(self.n_leaves + j, sub.leaves.get(j).unwrap_or_default());
-        }
+        debug_assert_eq!(sub.n_leaves, sub.leaves.len());
+        self.leaves.fill_from(self.n_leaves, &sub.leaves);
         self.n_leaves += sub.n_leaves;
         self.depth = self.depth.max(sub.depth);
     }
@@ -571,7 +569,8 @@ impl<'a> Collapser<'a> {
     /// Lays out node `node` from `src` (an inner binary node, a free-form run, or the lone
     /// light of a one-light tree), then, depth first, its children, and quantises it. Returns
     /// the sums of its lights. The children of a node of [`PARALLEL_MIN`] lights or more are
-    /// laid out apart, split over `join`, then appended in order.
+    /// laid out apart, split over `join`, then appended in order, when `join` is parallel
+    /// ([`Join::is_parallel`]); in place otherwise.
     fn fill<J: Join>(
         &mut self,
         node: usize,
@@ -592,7 +591,8 @@ impl<'a> Collapser<'a> {
                 out
             }
         };
-        let parallel = matches!(src, Src::Bin(b) if self.bin[b].count as usize >= PARALLEL_MIN);
+        let parallel = join.is_parallel()
+            && matches!(src, Src::Bin(b) if self.bin[b].count as usize >= PARALLEL_MIN);
         let first = self.nodes.len();
         let mut n_inner = 0;
         let mut mask = 0u8;

@@ -54,13 +54,25 @@ pub trait Join: Sync {
         let ra = a();
         (ra, b())
     }
+
+    /// Whether the two closures of [`Join::join`] may run at the same time. Where it is
+    /// `false` the build does not set work apart to hand it to the other closure (which
+    /// costs a copy), and does it in place instead; the tree is the same either way. The
+    /// default is `true`.
+    fn is_parallel(&self) -> bool {
+        true
+    }
 }
 
 /// The serial [`Join`]: both closures on the calling thread, one after the other.
 #[derive(Clone, Copy, Debug, Default)]
 pub struct Serial;
 
-impl Join for Serial {}
+impl Join for Serial {
+    fn is_parallel(&self) -> bool {
+        false
+    }
+}
 
 /// Validates every light and returns the binary SAOH tree of the ones with positive energy
 /// (empty when there are none).
