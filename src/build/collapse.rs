@@ -161,7 +161,7 @@ fn g_of(bin: &[BinNode], plans: &[Plan], b: usize) -> [u64; 5] {
 /// `g(k)` of binary node `b` whose plan (when it is an inner node) is `p`.
 #[inline]
 fn g_with(bin: &[BinNode], b: usize, p: Plan) -> [u64; 5] {
-    if bin[b].light.is_some() {
+    if bin[b].light().is_some() {
         return [0; 5];
     }
     let g4 = p.g(4);
@@ -348,7 +348,7 @@ fn frontier(
     k: usize,
     out: &mut ([Src; 4], usize),
 ) {
-    let j = if k >= 2 && bin[b].light.is_none() {
+    let j = if k >= 2 && bin[b].light().is_none() {
         plans[b].split(k)
     } else {
         0
@@ -583,7 +583,7 @@ impl<'a> Collapser<'a> {
         }
         self.depth = self.depth.max(level + 1);
         let (set, len) = match src {
-            Src::Bin(b) if self.bin[b].light.is_some() => ([src; 4], 1), // a single light
+            Src::Bin(b) if self.bin[b].light().is_some() => ([src; 4], 1), // a single light
             Src::Bin(b) => open(self.bin, self.plans, self.free, b),
             Src::Run(run) => {
                 let mut out = ([Src::Bin(0); 4], 0usize);
@@ -599,8 +599,8 @@ impl<'a> Collapser<'a> {
         let leaf_base = self.n_leaves as u32;
         for (k, &c) in set[..len].iter().enumerate() {
             match c {
-                Src::Bin(b) if self.bin[b].light.is_some() => {
-                    let light = self.bin[b].light.unwrap_or(0);
+                Src::Bin(b) if self.bin[b].light().is_some() => {
+                    let light = self.bin[b].light().unwrap_or(0);
                     mask |= 1 << (4 + k);
                     self.leaves.set(self.n_leaves, u64::from(light));
                     self.n_leaves += 1;
@@ -631,7 +631,7 @@ impl<'a> Collapser<'a> {
             let mut inner = [Src::Bin(0); 4];
             let mut m = 0;
             for &c in &set[..len] {
-                if !matches!(c, Src::Bin(b) if self.bin[b].light.is_some()) {
+                if !matches!(c, Src::Bin(b) if self.bin[b].light().is_some()) {
                     inner[m] = c;
                     m += 1;
                 }
@@ -643,7 +643,7 @@ impl<'a> Collapser<'a> {
         .into_iter();
         for (k, &c) in set[..len].iter().enumerate() {
             parts[k] = match c {
-                Src::Bin(b) if self.bin[b].light.is_some() => {
+                Src::Bin(b) if self.bin[b].light().is_some() => {
                     let n = &self.bin[b];
                     let e = f64::from(n.bounds.energy);
                     Part {

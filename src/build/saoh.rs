@@ -20,6 +20,7 @@ use super::Join;
 use crate::bounds::{Aabb, Cone, LightBounds, Sphere};
 use crate::light::outward;
 use alloc::vec::Vec;
+use bytemuck::Zeroable;
 use glam::{Vec3, Vec3A};
 use wide::f32x4;
 
@@ -28,7 +29,7 @@ pub(crate) const MAX_BINARY_DEPTH: u32 = crate::tree::MAX_DEPTH;
 
 /// What a node of the binary tree keeps of its cluster's bounds: the box is needed only while
 /// building, so it is not kept.
-#[derive(Clone, Copy, Debug, PartialEq)]
+#[derive(Clone, Copy, Debug, PartialEq, Zeroable)]
 pub(crate) struct NodeBounds {
     /// A sphere holding the emitting geometry.
     pub sphere: Sphere,
@@ -40,16 +41,16 @@ pub(crate) struct NodeBounds {
 
 /// A node of the binary tree (64 bytes, one cache line). In [`BinTree::nodes`] the inner
 /// nodes come first, in depth-first order, then the leaves in left-to-right order; [`children`]
-/// finds the left and right child of an inner node.
-#[derive(Clone, Copy, Debug)]
+/// finds the left and right child of an inner node. All zeros is an inner node not yet built.
+#[derive(Clone, Copy, Debug, Zeroable)]
 #[repr(align(64))]
 pub(crate) struct BinNode {
     pub bounds: NodeBounds,
     /// `E · M_A · M_Ω`: how much the node costs; the collapse opens the costliest first.
     pub cost: f32,
     pub count: u32,
-    /// `Some(light)` for a leaf.
-    pub light: Option<u32>,
+    /// The light of a leaf plus one; 0 for an inner node.
+    leaf: u32,
     /// Position of the subtree's first light among the leaves.
     first: u32,
 }
@@ -67,9 +68,15 @@ impl BinNode {
         },
         cost: 0.0,
         count: 0,
-        light: None,
+        leaf: 0,
         first: 0,
     };
+
+    /// `Some(light)` for a leaf, `None` for an inner node.
+    #[inline(always)]
+    pub fn light(&self) -> Option<u32> {
+        self.leaf.checked_sub(1)
+    }
 
     /// The leaf of light `light` with bounds `b`.
     pub fn leaf(b: &LightBounds, light: u32) -> BinNode {
@@ -81,7 +88,7 @@ impl BinNode {
             },
             cost: b.energy * b.aabb.measure() * b.cone.measure_fast(),
             count: 1,
-            light: Some(light),
+            leaf: light + 1,
             first: 0,
         }
     }
@@ -97,16 +104,6 @@ impl BinNode {
 /// The binary tree; node 0 is the root.
 pub(crate) struct BinTree {
     pub nodes: Vec<BinNode>,
-}
-
-impl BinTree {
-    /// The array for `n ≥ 1` lights: room for 2n − 1 nodes, the n − 1 inner ones in place
-    /// (placeholders); the caller pushes the n leaves, then calls [`build`].
-    pub fn with_inner(n: usize) -> Vec<BinNode> {
-        let mut nodes = Vec::with_capacity(2 * n - 1);
-        nodes.resize(n - 1, BinNode::PLACEHOLDER);
-        nodes
-    }
 }
 
 /// The children (left, right) of inner node `b` of `bin` (a whole tree).
@@ -443,7 +440,7 @@ impl Ctx {
             },
             cost: energy * geo.measure() * cone.measure_fast(),
             count,
-            light: None,
+            leaf: 0,
             first: lo as u32,
         };
         energy_sum
