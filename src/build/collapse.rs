@@ -33,8 +33,8 @@ use crate::error::BuildError;
 use crate::packed::{index_bits, Packed};
 use crate::quantize;
 use crate::tree::{LightTree, Node4, MAX_DEPTH};
-use alloc::vec;
 use alloc::vec::Vec;
+use bytemuck::Zeroable;
 
 /// Weight of one node against one level of one light's path in the collapse objective
 /// `Σ_nodes (NODE_WEIGHT + lights under the node)`.
@@ -100,7 +100,7 @@ impl FreeTable {
 /// its best 4-slot cover), so it is not stored. Every `g` is at most the root's `g(1)`, which
 /// is at most `Σ_inner (NODE_WEIGHT + count) ≤ (NODE_WEIGHT + MAX_DEPTH) · n < 2^37` for
 /// `n < 2^31` lights, so 40 bits always hold it.
-#[derive(Clone, Copy, Default)]
+#[derive(Clone, Copy, Default, Zeroable)]
 struct Plan(u128);
 
 const G_BITS: u32 = 40;
@@ -185,7 +185,8 @@ const PARALLEL_MIN: usize = 1 << 14;
 /// the binary one.
 fn plan<J: Join>(bin: &[BinNode], free: &FreeTable, free_max: usize, join: &J) -> Vec<Plan> {
     let inner = bin.len() / 2;
-    let mut plans = vec![Plan::default(); inner];
+    // Zeroed, so that its pages are first touched by the threads that plan.
+    let mut plans: Vec<Plan> = bytemuck::zeroed_vec(inner);
     if inner > 0 {
         plan_sub(bin, free, free_max, &mut plans, 0, join);
     }

@@ -43,7 +43,6 @@ pub(crate) struct NodeBounds {
 /// nodes come first, in depth-first order, then the leaves in left-to-right order; [`children`]
 /// finds the left and right child of an inner node. All zeros is an inner node not yet built.
 #[derive(Clone, Copy, Debug, Zeroable)]
-#[repr(align(64))]
 pub(crate) struct BinNode {
     pub bounds: NodeBounds,
     /// `E · M_A · M_Ω`: how much the node costs; the collapse opens the costliest first.
@@ -53,7 +52,12 @@ pub(crate) struct BinNode {
     leaf: u32,
     /// Position of the subtree's first light among the leaves.
     first: u32,
+    /// To 64 bytes. The node is not aligned to them: an array of nodes aligned to 64 would
+    /// be zeroed by writing it, where one of 4-byte alignment is zeroed memory as allocated.
+    _pad: [u32; 2],
 }
+
+const _: () = assert!(core::mem::size_of::<BinNode>() == 64);
 
 impl BinNode {
     /// An inner node not yet built.
@@ -70,6 +74,7 @@ impl BinNode {
         count: 0,
         leaf: 0,
         first: 0,
+        _pad: [0; 2],
     };
 
     /// `Some(light)` for a leaf, `None` for an inner node.
@@ -90,6 +95,7 @@ impl BinNode {
             count: 1,
             leaf: light + 1,
             first: 0,
+            _pad: [0; 2],
         }
     }
 
@@ -442,6 +448,7 @@ impl Ctx {
             count,
             leaf: 0,
             first: lo as u32,
+            _pad: [0; 2],
         };
         energy_sum
     }
