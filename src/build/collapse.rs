@@ -728,10 +728,11 @@ fn round_up(x: f64) -> f32 {
 /// Turns the binary tree into the flat, quantised 4-wide tree; `n_lights` is the length of
 /// the build's input (lights absent from `bin` get path 0).
 /// With `compact`, subtrees of at most [`FREE_MAX`] lights may be packed free-form.
-/// The planning and the layout of large subtrees are split over `join`; the tree does not
-/// depend on it.
+/// The planning and the layout of large subtrees are split over `join`, and the binary tree
+/// is freed as the other half of a join with the walk that writes the paths; the tree does
+/// not depend on it.
 pub(crate) fn collapse<J: Join>(
-    bin: &BinTree,
+    bin: BinTree,
     n_lights: usize,
     compact: bool,
     join: &J,
@@ -746,11 +747,16 @@ pub(crate) fn collapse<J: Join>(
         c.fill(0, Src::Bin(0), 0, join)?;
     }
     debug_assert_eq!(c.n_leaves, n_leaves);
-    Ok(LightTree::with_paths(
-        c.nodes,
-        c.variances,
-        c.leaves,
-        n_lights,
-        c.depth,
-    ))
+    let Collapser {
+        nodes,
+        variances,
+        leaves,
+        depth,
+        ..
+    } = c;
+    let (tree, ()) = join.join(
+        || LightTree::with_paths(nodes, variances, leaves, n_lights, depth),
+        move || drop((bin, plans)),
+    );
+    Ok(tree)
 }

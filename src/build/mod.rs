@@ -191,7 +191,7 @@ impl LightTree {
         let (tree, (light_checks, infinite)) = join.join(
             || {
                 let bin = binary(lights, opts, join)?;
-                collapse::collapse(&bin, lights.len(), opts.compact, join)
+                collapse::collapse(bin, lights.len(), opts.compact, join)
             },
             || {
                 (
