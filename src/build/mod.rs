@@ -85,10 +85,11 @@ const LEAF_PARALLEL_MIN: usize = 1 << 15;
 /// Validates every light and returns the binary SAOH tree of the ones with positive energy
 /// (empty when there are none).
 ///
-/// Two passes over the lights: the first validates them and counts the ones with energy, so
-/// that the second can bound them straight into the leaves of the tree's one array (zeroed,
-/// so that no pass but the build's own writes the inner nodes), its runs of lights split
-/// over `join`.
+/// Two passes over the lights, their runs split over `join`: the first validates them and
+/// notes their energies (the first invalid light's error is the one returned), then the
+/// ones with energy are counted and their energies summed in order, so that the second can
+/// bound them straight into the leaves of the tree's one array (zeroed, so that no pass but
+/// the build's own writes the inner nodes).
 pub(crate) fn binary<J: Join>(
     lights: &[Light],
     opts: &BuildOptions,
@@ -99,14 +100,15 @@ pub(crate) fn binary<J: Join>(
             count: lights.len(),
         });
     }
+    let mut energies: Vec<f32> = bytemuck::zeroed_vec(lights.len());
+    validate(lights, 0, &mut energies, join)?;
     let mut n = 0usize;
     let mut total = 0.0f64;
     let mut starts = Vec::with_capacity(lights.len().div_ceil(LEAF_BLOCK));
-    for (i, l) in lights.iter().enumerate() {
+    for (i, &e) in energies.iter().enumerate() {
         if i % LEAF_BLOCK == 0 {
             starts.push(n);
         }
-        let e = l.validated_energy(i)?;
         if e > 0.0 {
             n += 1;
             total += f64::from(e);
@@ -120,7 +122,16 @@ pub(crate) fn binary<J: Join>(
     }
     let mut nodes: Vec<BinNode> = bytemuck::zeroed_vec(2 * n - 1);
     let mut boxes: Vec<Aabb> = bytemuck::zeroed_vec(n);
-    bound_leaves(lights, 0, &starts, &mut nodes[n - 1..], &mut boxes, join);
+    bound_leaves(
+        lights,
+        &energies,
+        0,
+        &starts,
+        &mut nodes[n - 1..],
+        &mut boxes,
+        join,
+    );
+    drop(energies);
     saoh::build(
         &mut nodes,
         &mut boxes,
@@ -130,11 +141,37 @@ pub(crate) fn binary<J: Join>(
     Ok(BinTree { nodes })
 }
 
-/// Bounds the lights of positive energy among `lights` (validated; the lights from block
-/// `block` on, whole blocks but for the last one) into `leaves` and `boxes`, in order;
-/// `starts[b]` is the number of lights of positive energy before block `b`.
+/// Validates `lights` (the input's from index `first` on) and writes their energies
+/// ([`Light::energy`]) to `energies`; the error of the first invalid one.
+fn validate<J: Join>(
+    lights: &[Light],
+    first: usize,
+    energies: &mut [f32],
+    join: &J,
+) -> Result<(), BuildError> {
+    if lights.len() >= LEAF_PARALLEL_MIN {
+        let half = lights.len() / 2;
+        let (la, lb) = lights.split_at(half);
+        let (ea, eb) = energies.split_at_mut(half);
+        let (ra, rb) = join.join(
+            || validate(la, first, ea, join),
+            || validate(lb, first + half, eb, join),
+        );
+        return ra.and(rb);
+    }
+    for (i, (l, e)) in lights.iter().zip(energies).enumerate() {
+        *e = l.validated_energy(first + i)?;
+    }
+    Ok(())
+}
+
+/// Bounds the lights of positive energy among `lights` (validated, with energies
+/// `energies`; the lights from block `block` on, whole blocks but for the last one) into
+/// `leaves` and `boxes`, in order; `starts[b]` is the number of lights of positive energy
+/// before block `b`.
 fn bound_leaves<J: Join>(
     lights: &[Light],
+    energies: &[f32],
     block: usize,
     starts: &[usize],
     leaves: &mut [BinNode],
@@ -144,18 +181,18 @@ fn bound_leaves<J: Join>(
     if lights.len() >= LEAF_PARALLEL_MIN {
         let half = lights.len().div_ceil(2 * LEAF_BLOCK);
         let (la, lb) = lights.split_at(half * LEAF_BLOCK);
+        let (ea, eb) = energies.split_at(half * LEAF_BLOCK);
         let k = starts[block + half] - starts[block];
         let (na, nb) = leaves.split_at_mut(k);
         let (ba, bb) = boxes.split_at_mut(k);
         join.join(
-            || bound_leaves(la, block, starts, na, ba, join),
-            || bound_leaves(lb, block + half, starts, nb, bb, join),
+            || bound_leaves(la, ea, block, starts, na, ba, join),
+            || bound_leaves(lb, eb, block + half, starts, nb, bb, join),
         );
         return;
     }
     let mut out = leaves.iter_mut().zip(boxes.iter_mut());
-    for (i, l) in lights.iter().enumerate() {
-        let e = l.energy();
+    for (i, (l, &e)) in lights.iter().zip(energies).enumerate() {
         if e > 0.0 {
             let bounds = l.bounds_with_energy(e);
             if let Some((leaf, aabb)) = out.next() {
