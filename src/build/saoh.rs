@@ -39,7 +39,7 @@ pub(crate) struct NodeBounds {
     pub energy: f32,
 }
 
-/// A node of the binary tree (64 bytes, one cache line). In [`BinTree::nodes`] the inner
+/// A node of the binary tree (56 bytes). In [`BinTree::nodes`] the inner
 /// nodes come first, in depth-first order, then the leaves in left-to-right order; [`children`]
 /// finds the left and right child of an inner node. All zeros is an inner node not yet built.
 #[derive(Clone, Copy, Debug, Zeroable)]
@@ -52,12 +52,11 @@ pub(crate) struct BinNode {
     leaf: u32,
     /// Position of the subtree's first light among the leaves.
     first: u32,
-    /// To 64 bytes. The node is not aligned to them: an array of nodes aligned to 64 would
-    /// be zeroed by writing it, where one of 4-byte alignment is zeroed memory as allocated.
-    _pad: [u32; 2],
 }
 
-const _: () = assert!(core::mem::size_of::<BinNode>() == 64);
+// 56 bytes, 4-byte aligned: an array of nodes aligned to 64 would be zeroed by writing it,
+// where one of 4-byte alignment is zeroed memory as allocated.
+const _: () = assert!(core::mem::size_of::<BinNode>() == 56);
 
 impl BinNode {
     /// An inner node not yet built.
@@ -74,7 +73,6 @@ impl BinNode {
         count: 0,
         leaf: 0,
         first: 0,
-        _pad: [0; 2],
     };
 
     /// `Some(light)` for a leaf, `None` for an inner node.
@@ -95,7 +93,6 @@ impl BinNode {
             count: 1,
             leaf: light + 1,
             first: 0,
-            _pad: [0; 2],
         }
     }
 
@@ -467,7 +464,6 @@ impl Ctx {
             count,
             leaf: 0,
             first: lo as u32,
-            _pad: [0; 2],
         };
         energy_sum
     }
