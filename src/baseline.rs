@@ -91,7 +91,7 @@ impl BinaryLightTree {
             let b = &bin.nodes[i];
             let c = &b.bounds.cone;
             let (sin_o, cos_o) = math::sin_cos(c.theta_o);
-            let child = match b.light {
+            let child = match b.light() {
                 Some(l) => LEAF_BIT | l,
                 None => {
                     let (l, r) = children(&bin.nodes, i);

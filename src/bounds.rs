@@ -3,12 +3,13 @@
 //! orientation measure M_Ω used by the SAOH build.
 
 use crate::math::{self, Exact, Fast, Trig};
+use bytemuck::Zeroable;
 use core::f32::consts::{FRAC_PI_2, PI};
 use glam::{Vec3, Vec3A};
 
 /// Axis-aligned bounding box, held in 16-byte lanes so unions are one SIMD min and max. An
 /// empty box has `min > max`.
-#[derive(Clone, Copy, Debug, PartialEq)]
+#[derive(Clone, Copy, Debug, PartialEq, Zeroable)]
 pub struct Aabb {
     /// Lower corner.
     pub min: Vec3A,
@@ -107,7 +108,7 @@ impl Aabb {
 /// An orientation cone: every emitting normal lies within `theta_o` of `axis`, and each point
 /// emits within `theta_e` of its normal. Angles in radians, `theta_o` in [0, π],
 /// `theta_e` in [0, π/2].
-#[derive(Clone, Copy, Debug, PartialEq)]
+#[derive(Clone, Copy, Debug, PartialEq, Zeroable)]
 pub struct Cone {
     /// Unit axis.
     pub axis: Vec3,
@@ -251,7 +252,7 @@ impl Cone {
 }
 
 /// A bounding sphere.
-#[derive(Clone, Copy, Debug, PartialEq)]
+#[derive(Clone, Copy, Debug, PartialEq, Zeroable)]
 pub struct Sphere {
     /// Centre.
     pub center: Vec3,

@@ -84,6 +84,28 @@ impl Packed {
         self.words[w + 1] = (both >> 64) as u64;
     }
 
+    /// Sets values `at..at + src.len()`, all zero before, to the values of `src` (of the same
+    /// width), a word at a time.
+    pub(crate) fn fill_from(&mut self, at: usize, src: &Packed) {
+        debug_assert!(src.bits == self.bits && at + src.len <= self.len);
+        let bits = u64::from(self.bits);
+        let (start, total) = (at as u64 * bits, src.len as u64 * bits);
+        let (first, shift) = ((start >> 6) as usize, (start & 63) as u32);
+        let words = total.div_ceil(64) as usize;
+        let rest = (total & 63) as u32;
+        for (i, &word) in src.words[..words].iter().enumerate() {
+            let v = if i + 1 == words && rest != 0 {
+                word & (u64::MAX >> (64 - rest))
+            } else {
+                word
+            };
+            self.words[first + i] |= v << shift;
+            if shift != 0 {
+                self.words[first + i + 1] |= v >> (64 - shift);
+            }
+        }
+    }
+
     /// Number of values.
     pub(crate) fn len(&self) -> usize {
         self.len
@@ -153,6 +175,31 @@ mod tests {
             let q = Packed::from_words(p.len(), bits, p.words().to_vec()).unwrap();
             assert_eq!(p, q);
             assert!(Packed::from_words(p.len(), bits, p.words()[1..].to_vec()).is_none());
+        }
+    }
+
+    #[test]
+    fn fill_from_writes_what_set_writes() {
+        let mut state = 0x2545_f491_4f6c_dd1du64;
+        let mut next = || {
+            state ^= state << 13;
+            state ^= state >> 7;
+            state ^= state << 17;
+            state
+        };
+        for bits in 1..=64u32 {
+            let mask = u64::MAX >> (64 - bits);
+            for (len, parts) in [(0, &[0usize][..]), (1, &[1]), (130, &[3, 0, 64, 63])] {
+                let values: Vec<u64> = (0..len).map(|_| next() & mask).collect();
+                let want = Packed::from_values(bits, &values);
+                let mut got = Packed::zeros(len, bits);
+                let mut at = 0;
+                for &m in parts.iter().chain([&(len - parts.iter().sum::<usize>())]) {
+                    got.fill_from(at, &Packed::from_values(bits, &values[at..at + m]));
+                    at += m;
+                }
+                assert_eq!(got, want, "bits {bits}, {len} values");
+            }
         }
     }
 

@@ -398,8 +398,9 @@ struct Walk<'a> {
 
 impl LightTree {
     /// A tree of finished nodes, node variances and leaf array over `n_lights` lights, `depth`
-    /// levels deep, with the paths written by one walk from the root (so that they are packed
-    /// in the width the depth needs, and nothing is kept for them while the nodes are made).
+    /// levels deep, with the paths written by one pass over the nodes, parents before their
+    /// children as the build lays them out (so that they are packed in the width the depth
+    /// needs, and nothing is kept for them while the nodes are made).
     pub(crate) fn with_paths(
         nodes: Vec<Node4>,
         variances: Vec<u16>,
@@ -408,18 +409,28 @@ impl LightTree {
         depth: u32,
     ) -> LightTree {
         let mut paths = Packed::zeros(n_lights, path_bits(depth));
-        let mut stack: Vec<(u32, u64)> = Vec::with_capacity(3 * depth as usize + 1);
-        if !nodes.is_empty() {
-            stack.push((0, 1));
+        // One pass over the nodes in order: a node's children come after it, so its path
+        // (0 for a node no path reaches) is known when it is read.
+        let mut node_paths: Vec<u64> = vec![0; nodes.len()];
+        if let Some(root) = node_paths.first_mut() {
+            *root = 1;
         }
-        while let Some((index, path)) = stack.pop() {
-            let Some(node) = nodes.get(index as usize) else {
+        for (index, node) in nodes.iter().enumerate() {
+            let path = node_paths[index];
+            if path == 0 {
                 continue;
-            };
+            }
             for k in 0..4 {
                 let slot_path = (path << 2) | k as u64;
                 match node.child(k) {
-                    Child::Node(c) => stack.push((c, slot_path)),
+                    Child::Node(c) => {
+                        if let Some(p) = node_paths
+                            .get_mut(c as usize)
+                            .filter(|_| c as usize > index)
+                        {
+                            *p = slot_path;
+                        }
+                    }
                     Child::Leaf(i) => match leaves.get(i as usize) {
                         Some(l) if (l as usize) < n_lights => paths.set(l as usize, slot_path),
                         _ => {}

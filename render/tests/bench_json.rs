@@ -14,13 +14,14 @@ enum Kind {
 use Kind::{Float, Int, Str};
 
 /// The keys of a build-only report, and the first keys of a full one.
-const BUILD_KEYS: [(&str, Kind); 17] = [
+const BUILD_KEYS: [(&str, Kind); 18] = [
     ("baseline_build_cpu_ms", Float),
     ("baseline_build_ms", Float),
     ("baseline_build_peak_bytes_per_light", Float),
     ("baseline_bytes_per_light", Float),
     ("build_cpu_ms", Float),
     ("build_ms", Float),
+    ("build_parallel_cpu_ms", Float),
     ("build_parallel_ms", Float),
     ("build_peak_bytes_per_light", Float),
     ("build_threads", Int),

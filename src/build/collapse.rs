@@ -33,8 +33,8 @@ use crate::error::BuildError;
 use crate::packed::{index_bits, Packed};
 use crate::quantize;
 use crate::tree::{LightTree, Node4, MAX_DEPTH};
-use alloc::vec;
 use alloc::vec::Vec;
+use bytemuck::Zeroable;
 
 /// Weight of one node against one level of one light's path in the collapse objective
 /// `Σ_nodes (NODE_WEIGHT + lights under the node)`.
@@ -100,7 +100,7 @@ impl FreeTable {
 /// its best 4-slot cover), so it is not stored. Every `g` is at most the root's `g(1)`, which
 /// is at most `Σ_inner (NODE_WEIGHT + count) ≤ (NODE_WEIGHT + MAX_DEPTH) · n < 2^37` for
 /// `n < 2^31` lights, so 40 bits always hold it.
-#[derive(Clone, Copy, Default)]
+#[derive(Clone, Copy, Default, Zeroable)]
 struct Plan(u128);
 
 const G_BITS: u32 = 40;
@@ -161,7 +161,7 @@ fn g_of(bin: &[BinNode], plans: &[Plan], b: usize) -> [u64; 5] {
 /// `g(k)` of binary node `b` whose plan (when it is an inner node) is `p`.
 #[inline]
 fn g_with(bin: &[BinNode], b: usize, p: Plan) -> [u64; 5] {
-    if bin[b].light.is_some() {
+    if bin[b].light().is_some() {
         return [0; 5];
     }
     let g4 = p.g(4);
@@ -185,7 +185,8 @@ const PARALLEL_MIN: usize = 1 << 14;
 /// the binary one.
 fn plan<J: Join>(bin: &[BinNode], free: &FreeTable, free_max: usize, join: &J) -> Vec<Plan> {
     let inner = bin.len() / 2;
-    let mut plans = vec![Plan::default(); inner];
+    // Zeroed, so that its pages are first touched by the threads that plan.
+    let mut plans: Vec<Plan> = bytemuck::zeroed_vec(inner);
     if inner > 0 {
         plan_sub(bin, free, free_max, &mut plans, 0, join);
     }
@@ -348,7 +349,7 @@ fn frontier(
     k: usize,
     out: &mut ([Src; 4], usize),
 ) {
-    let j = if k >= 2 && bin[b].light.is_none() {
+    let j = if k >= 2 && bin[b].light().is_none() {
         plans[b].split(k)
     } else {
         0
@@ -560,10 +561,8 @@ impl<'a> Collapser<'a> {
         self.nodes
             .extend(sub.nodes[1..].iter().map(|n| moved(n, base, lights)));
         self.variances.extend_from_slice(&sub.variances[1..]);
-        for j in 0..sub.n_leaves {
-            self.leaves
-                .set(self.n_leaves + j, sub.leaves.get(j).unwrap_or_default());
-        }
+        debug_assert_eq!(sub.n_leaves, sub.leaves.len());
+        self.leaves.fill_from(self.n_leaves, &sub.leaves);
         self.n_leaves += sub.n_leaves;
         self.depth = self.depth.max(sub.depth);
     }
@@ -571,7 +570,8 @@ impl<'a> Collapser<'a> {
     /// Lays out node `node` from `src` (an inner binary node, a free-form run, or the lone
     /// light of a one-light tree), then, depth first, its children, and quantises it. Returns
     /// the sums of its lights. The children of a node of [`PARALLEL_MIN`] lights or more are
-    /// laid out apart, split over `join`, then appended in order.
+    /// laid out apart, split over `join`, then appended in order, when `join` is parallel
+    /// ([`Join::is_parallel`]); in place otherwise.
     fn fill<J: Join>(
         &mut self,
         node: usize,
@@ -584,7 +584,7 @@ impl<'a> Collapser<'a> {
         }
         self.depth = self.depth.max(level + 1);
         let (set, len) = match src {
-            Src::Bin(b) if self.bin[b].light.is_some() => ([src; 4], 1), // a single light
+            Src::Bin(b) if self.bin[b].light().is_some() => ([src; 4], 1), // a single light
             Src::Bin(b) => open(self.bin, self.plans, self.free, b),
             Src::Run(run) => {
                 let mut out = ([Src::Bin(0); 4], 0usize);
@@ -592,15 +592,16 @@ impl<'a> Collapser<'a> {
                 out
             }
         };
-        let parallel = matches!(src, Src::Bin(b) if self.bin[b].count as usize >= PARALLEL_MIN);
+        let parallel = join.is_parallel()
+            && matches!(src, Src::Bin(b) if self.bin[b].count as usize >= PARALLEL_MIN);
         let first = self.nodes.len();
         let mut n_inner = 0;
         let mut mask = 0u8;
         let leaf_base = self.n_leaves as u32;
         for (k, &c) in set[..len].iter().enumerate() {
             match c {
-                Src::Bin(b) if self.bin[b].light.is_some() => {
-                    let light = self.bin[b].light.unwrap_or(0);
+                Src::Bin(b) if self.bin[b].light().is_some() => {
+                    let light = self.bin[b].light().unwrap_or(0);
                     mask |= 1 << (4 + k);
                     self.leaves.set(self.n_leaves, u64::from(light));
                     self.n_leaves += 1;
@@ -631,7 +632,7 @@ impl<'a> Collapser<'a> {
             let mut inner = [Src::Bin(0); 4];
             let mut m = 0;
             for &c in &set[..len] {
-                if !matches!(c, Src::Bin(b) if self.bin[b].light.is_some()) {
+                if !matches!(c, Src::Bin(b) if self.bin[b].light().is_some()) {
                     inner[m] = c;
                     m += 1;
                 }
@@ -643,7 +644,7 @@ impl<'a> Collapser<'a> {
         .into_iter();
         for (k, &c) in set[..len].iter().enumerate() {
             parts[k] = match c {
-                Src::Bin(b) if self.bin[b].light.is_some() => {
+                Src::Bin(b) if self.bin[b].light().is_some() => {
                     let n = &self.bin[b];
                     let e = f64::from(n.bounds.energy);
                     Part {
@@ -727,10 +728,11 @@ fn round_up(x: f64) -> f32 {
 /// Turns the binary tree into the flat, quantised 4-wide tree; `n_lights` is the length of
 /// the build's input (lights absent from `bin` get path 0).
 /// With `compact`, subtrees of at most [`FREE_MAX`] lights may be packed free-form.
-/// The planning and the layout of large subtrees are split over `join`; the tree does not
-/// depend on it.
+/// The planning and the layout of large subtrees are split over `join`, and the binary tree
+/// is freed as the other half of a join with the walk that writes the paths; the tree does
+/// not depend on it.
 pub(crate) fn collapse<J: Join>(
-    bin: &BinTree,
+    bin: BinTree,
     n_lights: usize,
     compact: bool,
     join: &J,
@@ -745,11 +747,16 @@ pub(crate) fn collapse<J: Join>(
         c.fill(0, Src::Bin(0), 0, join)?;
     }
     debug_assert_eq!(c.n_leaves, n_leaves);
-    Ok(LightTree::with_paths(
-        c.nodes,
-        c.variances,
-        c.leaves,
-        n_lights,
-        c.depth,
-    ))
+    let Collapser {
+        nodes,
+        variances,
+        leaves,
+        depth,
+        ..
+    } = c;
+    let (tree, ()) = join.join(
+        || LightTree::with_paths(nodes, variances, leaves, n_lights, depth),
+        move || drop((bin, plans)),
+    );
+    Ok(tree)
 }

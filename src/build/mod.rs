@@ -10,6 +10,7 @@
 pub(crate) mod collapse;
 pub(crate) mod saoh;
 
+use crate::bounds::Aabb;
 use crate::error::BuildError;
 use crate::light::{Light, MAX_TOTAL_ENERGY};
 use crate::tree::{LightTree, MAX_LIGHTS};
@@ -54,19 +55,41 @@ pub trait Join: Sync {
         let ra = a();
         (ra, b())
     }
+
+    /// Whether the two closures of [`Join::join`] may run at the same time. Where it is
+    /// `false` the build does not set work apart to hand it to the other closure (which
+    /// costs a copy), and does it in place instead; the tree is the same either way. The
+    /// default is `true`.
+    fn is_parallel(&self) -> bool {
+        true
+    }
 }
 
 /// The serial [`Join`]: both closures on the calling thread, one after the other.
 #[derive(Clone, Copy, Debug, Default)]
 pub struct Serial;
 
-impl Join for Serial {}
+impl Join for Serial {
+    fn is_parallel(&self) -> bool {
+        false
+    }
+}
+
+/// Lights per block of the leaves' making: the first pass notes how many lights of positive
+/// energy precede each block, so that runs of blocks can be bounded apart.
+const LEAF_BLOCK: usize = 1 << 12;
+
+/// Runs of at least this many lights are bounded as a [`Join`]'s two halves.
+const LEAF_PARALLEL_MIN: usize = 1 << 15;
 
 /// Validates every light and returns the binary SAOH tree of the ones with positive energy
 /// (empty when there are none).
 ///
-/// Two passes over the lights: the first validates them and counts the ones with energy, so
-/// that the second can bound them straight into the leaves of the tree's one array.
+/// Two passes over the lights, their runs split over `join`: the first validates them and
+/// notes their energies (the first invalid light's error is the one returned), then the
+/// ones with energy are counted and their energies summed in order, so that the second can
+/// bound them straight into the leaves of the tree's one array (zeroed, so that no pass but
+/// the build's own writes the inner nodes).
 pub(crate) fn binary<J: Join>(
     lights: &[Light],
     opts: &BuildOptions,
@@ -77,10 +100,15 @@ pub(crate) fn binary<J: Join>(
             count: lights.len(),
         });
     }
+    let mut energies: Vec<f32> = bytemuck::zeroed_vec(lights.len());
+    validate(lights, 0, &mut energies, join)?;
     let mut n = 0usize;
     let mut total = 0.0f64;
-    for (i, l) in lights.iter().enumerate() {
-        let e = l.validated_energy(i)?;
+    let mut starts = Vec::with_capacity(lights.len().div_ceil(LEAF_BLOCK));
+    for (i, &e) in energies.iter().enumerate() {
+        if i % LEAF_BLOCK == 0 {
+            starts.push(n);
+        }
         if e > 0.0 {
             n += 1;
             total += f64::from(e);
@@ -92,17 +120,18 @@ pub(crate) fn binary<J: Join>(
     if n == 0 {
         return Ok(BinTree { nodes: Vec::new() });
     }
-    let mut nodes = BinTree::with_inner(n);
-    let mut boxes = Vec::with_capacity(n);
-    for (i, l) in lights.iter().enumerate() {
-        let e = l.energy();
-        if e > 0.0 {
-            let bounds = l.bounds_with_energy(e);
-            nodes.push(BinNode::leaf(&bounds, i as u32));
-            boxes.push(bounds.aabb);
-        }
-    }
-    debug_assert_eq!(boxes.len(), n);
+    let mut nodes: Vec<BinNode> = bytemuck::zeroed_vec(2 * n - 1);
+    let mut boxes: Vec<Aabb> = bytemuck::zeroed_vec(n);
+    bound_leaves(
+        lights,
+        &energies,
+        0,
+        &starts,
+        &mut nodes[n - 1..],
+        &mut boxes,
+        join,
+    );
+    drop(energies);
     saoh::build(
         &mut nodes,
         &mut boxes,
@@ -110,6 +139,69 @@ pub(crate) fn binary<J: Join>(
         join,
     );
     Ok(BinTree { nodes })
+}
+
+/// Validates `lights` (the input's from index `first` on) and writes their energies
+/// ([`Light::energy`]) to `energies`; the error of the first invalid one.
+fn validate<J: Join>(
+    lights: &[Light],
+    first: usize,
+    energies: &mut [f32],
+    join: &J,
+) -> Result<(), BuildError> {
+    if lights.len() >= LEAF_PARALLEL_MIN {
+        let half = lights.len() / 2;
+        let (la, lb) = lights.split_at(half);
+        let (ea, eb) = energies.split_at_mut(half);
+        let (ra, rb) = join.join(
+            || validate(la, first, ea, join),
+            || validate(lb, first + half, eb, join),
+        );
+        return ra.and(rb);
+    }
+    for (i, (l, e)) in lights.iter().zip(energies).enumerate() {
+        *e = l.validated_energy(first + i)?;
+    }
+    Ok(())
+}
+
+/// Bounds the lights of positive energy among `lights` (validated, with energies
+/// `energies`; the lights from block `block` on, whole blocks but for the last one) into
+/// `leaves` and `boxes`, in order; `starts[b]` is the number of lights of positive energy
+/// before block `b`.
+fn bound_leaves<J: Join>(
+    lights: &[Light],
+    energies: &[f32],
+    block: usize,
+    starts: &[usize],
+    leaves: &mut [BinNode],
+    boxes: &mut [Aabb],
+    join: &J,
+) {
+    if lights.len() >= LEAF_PARALLEL_MIN {
+        let half = lights.len().div_ceil(2 * LEAF_BLOCK);
+        let (la, lb) = lights.split_at(half * LEAF_BLOCK);
+        let (ea, eb) = energies.split_at(half * LEAF_BLOCK);
+        let k = starts[block + half] - starts[block];
+        let (na, nb) = leaves.split_at_mut(k);
+        let (ba, bb) = boxes.split_at_mut(k);
+        join.join(
+            || bound_leaves(la, ea, block, starts, na, ba, join),
+            || bound_leaves(lb, eb, block + half, starts, nb, bb, join),
+        );
+        return;
+    }
+    let mut out = leaves.iter_mut().zip(boxes.iter_mut());
+    for (i, (l, &e)) in lights.iter().zip(energies).enumerate() {
+        if e > 0.0 {
+            let bounds = l.bounds_with_energy(e);
+            if let Some((leaf, aabb)) = out.next() {
+                *leaf = BinNode::leaf(&bounds, (block * LEAF_BLOCK + i) as u32);
+                *aabb = bounds.aabb;
+            }
+        }
+    }
+    debug_assert!(out.next().is_none());
 }
 
 impl LightTree {
@@ -131,10 +223,23 @@ impl LightTree {
         opts: &BuildOptions,
         join: &J,
     ) -> Result<LightTree, BuildError> {
-        let bin = binary(lights, opts, join)?;
-        let mut tree = collapse::collapse(&bin, lights.len(), opts.compact, join)?;
-        tree.light_checks = crate::checksum::light_checks(lights);
-        tree.infinite = crate::infinite::collect(lights)?;
+        // The lights' checksums and the lights at infinity do not depend on the tree: they are
+        // made as the other half of a join, beside the tree's serial start.
+        let (tree, (light_checks, infinite)) = join.join(
+            || {
+                let bin = binary(lights, opts, join)?;
+                collapse::collapse(bin, lights.len(), opts.compact, join)
+            },
+            || {
+                (
+                    crate::checksum::light_checks(lights),
+                    crate::infinite::collect(lights),
+                )
+            },
+        );
+        let mut tree = tree?;
+        tree.light_checks = light_checks;
+        tree.infinite = infinite?;
         #[cfg(debug_assertions)]
         if let Err(e) = tree.validate() {
             panic!("manylights: internal error, built tree fails validation: {e}");

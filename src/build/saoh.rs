@@ -20,6 +20,7 @@ use super::Join;
 use crate::bounds::{Aabb, Cone, LightBounds, Sphere};
 use crate::light::outward;
 use alloc::vec::Vec;
+use bytemuck::Zeroable;
 use glam::{Vec3, Vec3A};
 use wide::f32x4;
 
@@ -28,7 +29,7 @@ pub(crate) const MAX_BINARY_DEPTH: u32 = crate::tree::MAX_DEPTH;
 
 /// What a node of the binary tree keeps of its cluster's bounds: the box is needed only while
 /// building, so it is not kept.
-#[derive(Clone, Copy, Debug, PartialEq)]
+#[derive(Clone, Copy, Debug, PartialEq, Zeroable)]
 pub(crate) struct NodeBounds {
     /// A sphere holding the emitting geometry.
     pub sphere: Sphere,
@@ -38,21 +39,24 @@ pub(crate) struct NodeBounds {
     pub energy: f32,
 }
 
-/// A node of the binary tree (64 bytes, one cache line). In [`BinTree::nodes`] the inner
+/// A node of the binary tree (56 bytes). In [`BinTree::nodes`] the inner
 /// nodes come first, in depth-first order, then the leaves in left-to-right order; [`children`]
-/// finds the left and right child of an inner node.
-#[derive(Clone, Copy, Debug)]
-#[repr(align(64))]
+/// finds the left and right child of an inner node. All zeros is an inner node not yet built.
+#[derive(Clone, Copy, Debug, Zeroable)]
 pub(crate) struct BinNode {
     pub bounds: NodeBounds,
     /// `E · M_A · M_Ω`: how much the node costs; the collapse opens the costliest first.
     pub cost: f32,
     pub count: u32,
-    /// `Some(light)` for a leaf.
-    pub light: Option<u32>,
+    /// The light of a leaf plus one; 0 for an inner node.
+    leaf: u32,
     /// Position of the subtree's first light among the leaves.
     first: u32,
 }
+
+// 56 bytes, 4-byte aligned: an array of nodes aligned to 64 would be zeroed by writing it,
+// where one of 4-byte alignment is zeroed memory as allocated.
+const _: () = assert!(core::mem::size_of::<BinNode>() == 56);
 
 impl BinNode {
     /// An inner node not yet built.
@@ -67,9 +71,15 @@ impl BinNode {
         },
         cost: 0.0,
         count: 0,
-        light: None,
+        leaf: 0,
         first: 0,
     };
+
+    /// `Some(light)` for a leaf, `None` for an inner node.
+    #[inline(always)]
+    pub fn light(&self) -> Option<u32> {
+        self.leaf.checked_sub(1)
+    }
 
     /// The leaf of light `light` with bounds `b`.
     pub fn leaf(b: &LightBounds, light: u32) -> BinNode {
@@ -81,7 +91,7 @@ impl BinNode {
             },
             cost: b.energy * b.aabb.measure() * b.cone.measure_fast(),
             count: 1,
-            light: Some(light),
+            leaf: light + 1,
             first: 0,
         }
     }
@@ -97,16 +107,6 @@ impl BinNode {
 /// The binary tree; node 0 is the root.
 pub(crate) struct BinTree {
     pub nodes: Vec<BinNode>,
-}
-
-impl BinTree {
-    /// The array for `n ≥ 1` lights: room for 2n − 1 nodes, the n − 1 inner ones in place
-    /// (placeholders); the caller pushes the n leaves, then calls [`build`].
-    pub fn with_inner(n: usize) -> Vec<BinNode> {
-        let mut nodes = Vec::with_capacity(2 * n - 1);
-        nodes.resize(n - 1, BinNode::PLACEHOLDER);
-        nodes
-    }
 }
 
 /// The children (left, right) of inner node `b` of `bin` (a whole tree).
@@ -321,6 +321,20 @@ impl Ctx {
 /// [`Join`]; smaller ones on the thread that reaches them.
 const PARALLEL_MIN: usize = 1 << 14;
 
+/// The root's passes over the lights (its bounds, binning and partition) are split over the
+/// [`Join`] when it has at least this many lights: nothing else runs beside them.
+const ROOT_SPLIT_MIN: usize = 1 << 16;
+
+/// [`bounds_of`], its two halves (the first a whole number of 64 lights) as `join`'s two
+/// halves. A box's minimum over lights keeps the last of equal values (`min` keeps its
+/// right operand on ties), and so does the minimum of the halves' minima: the result is
+/// [`bounds_of`]'s, bit for bit; likewise the maxima.
+fn bounds_of_split<J: Join>(boxes: &[Aabb], join: &J) -> (Aabb, Aabb) {
+    let (a, b) = boxes.split_at(boxes.len() / 128 * 64);
+    let ((ga, ca), (gb, cb)) = join.join(|| bounds_of(a), || bounds_of(b));
+    (ga.union(gb), ca.union(cb))
+}
+
 /// Box of the geometry and box of the centroids of the lights with boxes `boxes`.
 fn bounds_of(boxes: &[Aabb]) -> (Aabb, Aabb) {
     let mut geo = Aabb::EMPTY;
@@ -341,7 +355,11 @@ pub(crate) fn build<J: Join>(nodes: &mut [BinNode], boxes: &mut [Aabb], buckets:
     debug_assert!(n >= 1 && nodes.len() == 2 * n - 1);
     let (inner, leaves) = nodes.split_at_mut(n - 1);
     let mut ctx = Ctx::new(buckets.clamp(2, MAX_BUCKETS), n);
-    let (geo, cbox) = bounds_of(boxes);
+    let (geo, cbox) = if n >= ROOT_SPLIT_MIN && join.is_parallel() {
+        bounds_of_split(boxes, join)
+    } else {
+        bounds_of(boxes)
+    };
     ctx.build_rec(inner, leaves, boxes, 0, 0, geo, cbox, join);
 }
 
@@ -378,7 +396,8 @@ impl Ctx {
         let (split, radius) = if n <= SWEEP_MAX {
             sweep_split(leaves, boxes, depth, geo)
         } else {
-            self.choose_split(leaves, boxes, depth, geo, cbox)
+            let root = (depth == 0 && n >= ROOT_SPLIT_MIN && join.is_parallel()).then_some(join);
+            self.choose_split(leaves, boxes, depth, geo, cbox, root)
         };
         let mid = split.mid;
         let (ll, lr) = leaves.split_at_mut(mid);
@@ -443,7 +462,7 @@ impl Ctx {
             },
             cost: energy * geo.measure() * cone.measure_fast(),
             count,
-            light: None,
+            leaf: 0,
             first: lo as u32,
         };
         energy_sum
@@ -452,13 +471,15 @@ impl Ctx {
     /// Chooses a split and partitions the lights around it. Also returns the radius of the
     /// sphere around the box centre holding every light's own sphere, found in the same pass
     /// as the bins.
-    fn choose_split(
+    /// With `root`, the node is the root, whose passes over the lights are split over it.
+    fn choose_split<J: Join>(
         &mut self,
         leaves: &mut [BinNode],
         boxes: &mut [Aabb],
         depth: u32,
         geo: Aabb,
         cbox: Aabb,
+        root: Option<&J>,
     ) -> (Split, f32) {
         let center = geo.center();
         let n = leaves.len();
@@ -493,12 +514,19 @@ impl Ctx {
             scale: Vec3A::from(scale),
             top: Vec3A::splat((buckets - 1) as f32),
         };
-        let radius = fill_bins(&mut self.bins, leaves, boxes, &to_bucket, center);
+        let radius = fill_bins(&mut self.bins, leaves, boxes, &to_bucket, center, root);
         let best = self.best_boundary(axes, node_ext, limit);
         match best {
             Some((_, axis, boundary)) => {
-                let (mid, lc, rc) =
-                    partition(leaves, boxes, &mut self.sides, &to_bucket, axis, boundary);
+                let (mid, lc, rc) = partition(
+                    leaves,
+                    boxes,
+                    &mut self.sides,
+                    &to_bucket,
+                    axis,
+                    boundary,
+                    root,
+                );
                 debug_assert!(mid > 0 && mid < n);
                 let acc = &self.bins.acc[axis];
                 let side = |acc: &[Bucket]| {
@@ -644,12 +672,16 @@ impl ToBucket {
 /// turn ([`Acc`]); but one that receives an omnidirectional light has the whole sphere for
 /// cone whatever came before, so the cone unions are made in a second pass, only for the
 /// buckets without one (and of those only the ones [`Ctx::best_boundary`] reads).
-fn fill_bins(
+///
+/// With `split`, the first pass is split over it by axes: one half bins axis 0 and finds the
+/// radius, the other bins axes 1 and 2; each bucket receives its lights in the same order.
+fn fill_bins<J: Join>(
     bins: &mut Buckets,
     leaves: &[BinNode],
     boxes: &[Aabb],
     to_bucket: &ToBucket,
     center: Vec3,
+    split: Option<&J>,
 ) -> f32 {
     for (acc, used) in bins.acc.iter_mut().zip(bins.used.iter_mut()) {
         for i in bits(*used) {
@@ -657,6 +689,24 @@ fn fill_bins(
         }
         *used = 0;
     }
+    let radius = match split {
+        Some(join) => bin_by_axes(bins, leaves, boxes, to_bucket, center, join),
+        None => bin(bins, leaves, boxes, to_bucket, center),
+    };
+    cone_pass(bins, leaves, boxes, to_bucket);
+    radius
+}
+
+/// The first pass of [`fill_bins`]: every light into its bucket on each axis; returns the
+/// radius.
+#[inline(always)]
+fn bin(
+    bins: &mut Buckets,
+    leaves: &[BinNode],
+    boxes: &[Aabb],
+    to_bucket: &ToBucket,
+    center: Vec3,
+) -> f32 {
     let mut radius = 0.0f32;
     for (leaf, aabb) in leaves.iter().zip(boxes) {
         let s = &leaf.bounds.sphere;
@@ -675,6 +725,63 @@ fn fill_bins(
             *used |= 1 << k;
         }
     }
+    radius
+}
+
+/// Adds a light (`leaf`, `aabb`) to bucket `k` of an axis whose used buckets are `used`.
+#[inline(always)]
+fn add_light(
+    acc: &mut [Bucket; MAX_BUCKETS],
+    used: &mut u64,
+    k: usize,
+    leaf: &BinNode,
+    aabb: &Aabb,
+) {
+    let b = &mut acc[k];
+    b.lo = b.lo.min(aabb.min);
+    b.hi = b.hi.max(aabb.max);
+    b.energy += leaf.bounds.energy;
+    b.count += 1;
+    b.omni |= leaf.bounds.cone.is_sphere();
+    *used |= 1 << k;
+}
+
+/// [`bin`] as `join`'s two halves: axis 0 and the radius, then axes 1 and 2.
+fn bin_by_axes<J: Join>(
+    bins: &mut Buckets,
+    leaves: &[BinNode],
+    boxes: &[Aabb],
+    to_bucket: &ToBucket,
+    center: Vec3,
+    join: &J,
+) -> f32 {
+    let [a0, a1, a2] = &mut bins.acc;
+    let [u0, u1, u2] = &mut bins.used;
+    let (radius, ()) = join.join(
+        || {
+            let mut radius = 0.0f32;
+            for (leaf, aabb) in leaves.iter().zip(boxes) {
+                let s = &leaf.bounds.sphere;
+                let r = (s.center - center).length() + s.radius;
+                radius = if r > radius { r } else { radius };
+                let k = to_bucket.of(aabb.center_a());
+                add_light(a0, u0, k[0], leaf, aabb);
+            }
+            radius
+        },
+        || {
+            for (leaf, aabb) in leaves.iter().zip(boxes) {
+                let k = to_bucket.of(aabb.center_a());
+                add_light(a1, u1, k[1], leaf, aabb);
+                add_light(a2, u2, k[2], leaf, aabb);
+            }
+        },
+    );
+    radius
+}
+
+/// The second pass of [`fill_bins`]: the cones of the buckets that need them.
+fn cone_pass(bins: &mut Buckets, leaves: &[BinNode], boxes: &[Aabb], to_bucket: &ToBucket) {
     // The cones of buckets without an omnidirectional light (all of whose lights have a
     // cone of their own); `directed` counts the lights already united. Only the buckets
     // before the first omnidirectional one and after the last one need theirs: the scans of
@@ -716,7 +823,6 @@ fn fill_bins(
             }
         }
     }
-    radius
 }
 
 /// Reorders the lights so that the one of rank `mid` by centroid on `axis` is at `mid`, the
@@ -863,13 +969,17 @@ fn split_at(boxes: &[Aabb], mid: usize) -> Split {
 /// while the first is before the second. Here the sides are found first, a bit per light in
 /// `sides` (no branch on them), then the pairs are found a word of bits at a time and
 /// swapped, as in block partitioning (Edelkamp & Weiß 2016, "BlockQuicksort", section 3).
-fn partition(
+///
+/// With `split`, the sides are found as its two halves (the boxes of the centroids merged as
+/// in [`bounds_of_split`]).
+fn partition<J: Join>(
     leaves: &mut [BinNode],
     boxes: &mut [Aabb],
     sides: &mut [u64],
     to_bucket: &ToBucket,
     axis: usize,
     boundary: usize,
+    split: Option<&J>,
 ) -> (usize, Aabb, Aabb) {
     // A bucket index is `(c − min) · scale` truncated (and capped at the last bucket, which
     // is above `boundary`): at most `boundary` exactly when the product is below
@@ -877,10 +987,20 @@ fn partition(
     let (min, scale) = (to_bucket.min[axis], to_bucket.scale[axis]);
     let below = (boundary + 1) as f32;
     let words = &mut sides[..boxes.len().div_ceil(64)];
-    let (lc, rc) = match axis {
+    let find = |boxes: &[Aabb], words: &mut [u64]| match axis {
         0 => find_sides::<0>(boxes, words, min, scale, below),
         1 => find_sides::<1>(boxes, words, min, scale, below),
         _ => find_sides::<2>(boxes, words, min, scale, below),
+    };
+    let (lc, rc) = match split {
+        Some(join) => {
+            let half = boxes.len() / 128;
+            let (ba, bb) = boxes.split_at(half * 64);
+            let (wa, wb) = words.split_at_mut(half);
+            let ((la, ra), (lb, rb)) = join.join(|| find(ba, wa), || find(bb, wb));
+            (la.union(lb), ra.union(rb))
+        }
+        None => find(boxes, words),
     };
     (swap_sides(leaves, boxes, words), lc, rc)
 }
