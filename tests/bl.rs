@@ -1864,10 +1864,10 @@ impl Accuracy {
 /// `BlImportance::eval`. Ground truth: MIS of cap and VNDF sampling, 128² stratified pairs
 /// (f64 GGX, height-correlated Smith, no Fresnel).
 ///
-/// The SPTD is an approximation. The issue's targets for it are a median relative error
-/// ≤ 0.15, a 90th percentile ≤ 0.5, Spearman ≥ 0.97 and no false zeros (the published SPTD fit:
-/// median ≈ 0.25). Asserted here with room for 300 cases and 128² pairs (whose standard error
-/// adds a few % to each case): median ≤ 0.2, p90 ≤ 0.6, Spearman ≥ 0.95, no false zeros, and
+/// The model is an approximation. Its targets over these caps are a median relative error
+/// ≤ 0.05, a 90th percentile ≤ 0.25, Spearman ≥ 0.97 and no false zeros (the published SPTD
+/// fit alone: median ≈ 0.25). Asserted here for 300 cases and 128² pairs (whose standard error
+/// adds a few % to each case): median ≤ 0.05, p90 ≤ 0.25, Spearman ≥ 0.97, no false zeros, and
 /// SC = 0 for every cap wholly below the horizon. Reports every figure.
 #[test]
 fn ggx_cap_integral_on_random_caps() {
@@ -1912,9 +1912,88 @@ fn ggx_cap_integral_on_random_caps() {
         "SC > 0 for caps wholly below the horizon:\n{}",
         false_nonzero.join("\n")
     );
-    assert!(median <= 0.2, "median relative error {median}");
-    assert!(p90 <= 0.6, "90th percentile relative error {p90}");
-    assert!(rank >= 0.95, "Spearman rank correlation {rank}");
+    assert!(median <= 0.05, "median relative error {median}");
+    assert!(p90 <= 0.25, "90th percentile relative error {p90}");
+    assert!(rank >= 0.97, "Spearman rank correlation {rank}");
+}
+
+/// Property 5, GGX, at grazing views, on the grazing stratum of `mlrender sptd-accuracy`:
+/// `√α` uniform in [0.1, 0.7], θo uniform in [70°, 89°], small caps off the mirror direction
+/// (the axis `k α` off it, k uniform in [1, 4], in a direction uniform around it; σ = `s α`,
+/// s log-uniform in [0.01, 0.5]), one in four moved onto the horizon (elevation uniform in
+/// `(−σ, σ)`, azimuth kept); caps wholly below the horizon are drawn again. There the GGX
+/// lobe is a narrow ridge along the plane of incidence, which an SPTD (round level sets)
+/// overestimates away from it by up to a thousandfold. Ground truth as above, 128² pairs.
+///
+/// Asserted: every case that counts (its standard error under 10 % of the truth, so the
+/// truth is known within ±40 % at 4σ) within a factor of 3 of the truth, a 90th percentile
+/// relative error ≤ 0.5, Spearman ≥ 0.97 and no false zeros. Reports every figure.
+#[test]
+fn ggx_cap_integral_at_grazing_views() {
+    let mut rng = Rng::new(0x66C5_0002);
+    let mut acc = Accuracy::default();
+    let mut far = Vec::new();
+    let mut case = 0;
+    while case < 200 {
+        let u = f64::from(rng.range(0.1, 0.7));
+        let alpha = u * u;
+        let to = f64::from(rng.range(70.0, 89.0)).to_radians();
+        let k = f64::from(rng.range(1.0, 4.0));
+        let psi = f64::from(rng.range(0.0, 2.0 * std::f32::consts::PI));
+        let sigma = alpha * f64::from(rng.log_range(0.01, 0.5));
+        let mirror = DVec3::new(-to.sin(), 0.0, to.cos());
+        let e1 = DVec3::new(to.cos(), 0.0, to.sin());
+        let d = k * alpha;
+        let axis =
+            (mirror * d.cos() + (e1 * psi.cos() + DVec3::Y * psi.sin()) * d.sin()).normalize();
+        let axis = if rng.below(4) == 0 {
+            let e = sigma * f64::from(rng.range(-1.0, 1.0));
+            let h = DVec3::new(axis.x, axis.y, 0.0).normalize();
+            h * e.cos() + DVec3::Z * e.sin()
+        } else {
+            axis
+        };
+        if axis.z <= -sigma.sin() {
+            continue;
+        }
+        let ggx = Ggx64 {
+            alpha: f64::from(alpha as f32),
+        };
+        let wo = DVec3::new(to.sin(), 0.0, to.cos());
+        let (sc, truth, se, area) = ggx_case(&ggx, wo, axis, sigma, 128, &mut rng);
+        let rho = ggx.albedo(wo, 64);
+        let ctx = format!(
+            "case {case}: α = {alpha:.4}, θo = {:.1}°, σ = {sigma:.2e}, axis {axis:.4}: SC \
+             {sc:.4e}, truth {truth:.4e} ± {se:.1e}",
+            to.to_degrees()
+        );
+        if truth / area > 1e-6 * rho / (2.0 * PI) && se < 0.1 * truth {
+            let ratio = sc / truth;
+            if !(1.0 / 3.0..=3.0).contains(&ratio) {
+                far.push(format!("S/T {ratio:.3} at {ctx}"));
+            }
+        }
+        acc.add(sc, truth, se, area, rho, ctx);
+        case += 1;
+    }
+    let (_, p90, rank) = acc.report("GGX SC vs MIS MC, grazing views");
+    assert!(
+        acc.errors.len() > 150,
+        "only {} cases count",
+        acc.errors.len()
+    );
+    assert!(
+        far.is_empty(),
+        "cases off by more than 3×:\n{}",
+        far.join("\n")
+    );
+    assert!(
+        acc.false_zero.is_empty(),
+        "SC = 0 where the truth is above 1e-6 of the albedo:\n{}",
+        acc.false_zero.join("\n")
+    );
+    assert!(p90 <= 0.5, "90th percentile relative error {p90}");
+    assert!(rank >= 0.97, "Spearman rank correlation {rank}");
 }
 
 /// Property 5, GGX, on chosen configurations: α ∈ {0.005, 0.05, 0.2, 0.6, 1}, θo ∈ {0°, 30°,

@@ -66,11 +66,15 @@ enum Command {
         #[arg(long, default_value_t = 384)]
         caps: usize,
     },
-    /// Accuracy of the GGX SPTD against MIS ground truth on random caps.
+    /// Accuracy of the GGX cap-integral model against MIS ground truth: random caps (overall)
+    /// and small caps off the mirror direction at grazing views (grazing), reported separately.
     SptdAccuracy {
-        /// Number of random cases.
+        /// Number of random cases (the overall stratum).
         #[arg(long, default_value_t = 500)]
         cases: usize,
+        /// Number of grazing cases (the grazing stratum).
+        #[arg(long, default_value_t = 500)]
+        grazing_cases: usize,
         /// Seed of the cases and of the ground truth.
         #[arg(long, default_value_t = 1)]
         seed: u64,
@@ -349,11 +353,17 @@ fn main() {
         } => std::process::exit(sptd_fit::run_cli(out, check, cells, caps)),
         Command::SptdAccuracy {
             cases,
+            grazing_cases,
             seed,
             grid,
             json,
         } => {
-            let cfg = sptd_accuracy::AccuracyConfig { cases, seed, grid };
+            let cfg = sptd_accuracy::AccuracyConfig {
+                cases,
+                seed,
+                grid,
+                grazing_cases,
+            };
             let (cs, report) = sptd_accuracy::run(&cfg);
             println!("{}", sptd_accuracy::table(&cs, &report));
             if json {

@@ -7,15 +7,17 @@
 //! `Ω_C` is the cap the cluster's bounding sphere subtends at x (the whole hemisphere when x is
 //! inside it), θ' and the distance clamp are those of the TL importance. The cap integral
 //! `SC = ∫_{Ω_C ∩ H} f cos θi dωi` is exact for the Lambert lobe (the horizon-clipped form factor)
-//! and approximated by an SPTD for the GGX lobe; plastic is the weighted sum. SC also drives the
-//! light cut ([`crate::LightCut::build_bl`]): a cluster is split when SC > δ.
+//! and approximated for the GGX lobe ([`SptdGgx`]: an SPTD for large caps, the exact `f cos`
+//! averaged across the plane of incidence for small ones); plastic is the weighted sum. SC also
+//! drives the light cut ([`crate::LightCut::build_bl`]): a cluster is split when SC > δ.
 //!
-//! **Staying unbiased.** The SPTD can round a tiny or grazing cap's integral to 0 while a light in
-//! it still contributes. So every BL importance carries a defensive share of the TL importance:
+//! **Staying unbiased.** The approximation can round a cap's integral to 0 (in f32, or the
+//! SPTD part for a cap that only grazes the horizon) while a light in it still contributes.
+//! So every BL importance carries a defensive share of the TL importance:
 //! `B_C + DEFENSIVE · (ρ/π) · cos θi'`, with ρ the material's total albedo and cos θi' TL's
 //! receiver factor. It is positive wherever TL is, so every light with a positive contribution
 //! keeps a positive pmf; at 5 % of a Lambert lobe of the same albedo it does not change the
-//! ranking of clusters the SPTD sees.
+//! ranking of clusters the model sees.
 
 use super::conty_kulla::{ClusterView, ClusterView4, Receiver, COS_FLOOR, COS_SLACK};
 use super::sptd::{lambert_visible, lambert_visible4, SptdGgx, SptdGgx4};

@@ -8,10 +8,12 @@
 //!   the intersection of two caps in a form that does not cancel for tiny caps.
 //! - [`Pivot`]: the pivot transform `P`, its Jacobian, the SPTD density and the closed-form
 //!   cap-to-cap map with the stable `1 − z'`.
-//! - [`SptdGgx`]: GGX (height-correlated Smith, no Fresnel) as an SPTD fitted per (α, θo) by
-//!   `mlrender sptd-fit` into the generated table [`table`]; horizon clipping through
-//!   `P(H)`, computed once per shading point; with a fitted Lambert share and a masking
-//!   correction for caps that graze the horizon (see the `ggx` submodule's docs).
+//! - [`SptdGgx`]: GGX's cap integral (height-correlated Smith, no Fresnel): an SPTD fitted
+//!   per (α, θo) by `mlrender sptd-fit` into the generated table [`table`], horizon-clipped
+//!   through `P(H)` (computed once per shading point), with a fitted Lambert share and a
+//!   masking correction for caps that graze the horizon, for large caps; for small ones the
+//!   exact `f cos` averaged in closed form across the plane of incidence, where GGX's lobe is
+//!   far narrower than along it at oblique views (see the `ggx` submodule's docs).
 //! - [`lambert_cap`], [`lambert_visible`]: the exact horizon-clipped cosine integral over a cap
 //!   (Lambert BRDFs), and the solid angle of the cap's visible part.
 //!

@@ -33,13 +33,15 @@ use crate::bounded::{unit64, Dir, Real};
 /// How far a cap integral may exceed the albedo `ρ`, relative to `ρ`.
 ///
 /// The exact integral over a cap never exceeds the one over the whole hemisphere, but the
-/// model (`sptd/ggx.rs`: `S(C) = ρ[(1 − β)·|P(C) ∩ P(H)|/|P(H)|·M(c̄)/M(½) + β·L(C)/π]`) is
-/// only bounded by `ρ[(1 − β)/M(½) + β]`: its masking correction `M(c̄)/M(½)` exceeds 1 where
-/// the visible part of a cap has a mean cosine `c̄` above ½ and the fitted `c_ref` is above ½
-/// too, so that bound reaches 1.5 ρ. A search over α, θo, the axis and σ (2,000 random starts,
-/// each climbed to its local maximum) found at most 1.0041 ρ, but this target found 1.0125 ρ
+/// model (`sptd/ggx.rs`) is not bounded by it: its SPTD part
+/// `ρ[(1 − β)·|P(C) ∩ P(H)|/|P(H)|·M(c̄)/M(½) + β·L(C)/π]` only by `ρ[(1 − β)/M(½) + β]`
+/// (its masking correction `M(c̄)/M(½)` exceeds 1 where the visible part of a cap has a mean
+/// cosine `c̄` above ½ and the fitted `c_ref` is above ½ too, so that bound reaches 1.5 ρ), and
+/// its lateral rule for small caps is exact only in the limit of vanishing ones. A search over
+/// α, θo, the axis and σ (2,000 random starts, each climbed to its local maximum) found the
+/// SPTD part at most 1.0041 ρ, but this target found 1.0125 ρ
 /// (`regressions/sptd/crash-4c42e5a7…`: α ≈ 0.9, ωo near grazing, a cap past the
-/// hemisphere through `integral_cap`), so the model now clamps every cap integral to `ρ`
+/// hemisphere through `integral_cap`), so the model clamps every cap integral to `ρ`
 /// and the cap checks hold exactly up to f32 rounding. 1 % stays for the material-level
 /// check (`BlImportance`'s SC against the material's albedo, which sums the lobes' rounded
 /// values) and is below the accuracy of the table's albedo itself, within 2 % of the

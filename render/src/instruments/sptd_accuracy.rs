@@ -1,9 +1,20 @@
 //! `mlrender sptd-accuracy`: how well the fitted GGX SPTD ([`SptdGgx`]) predicts the
 //! cosine-weighted BRDF integral over random caps (docs/formulas.md, section 8).
 //!
-//! Random cases: `√α` uniform in [0.1, 1], θo uniform in [0°, 85°], cap half-angle σ
-//! log-uniform in [1e-3, 1.2] rad, cap axis uniform on the sphere (so caps straddle and fall
-//! below the horizon). Ground truth: `∫_C f cos dω` by MIS (balance heuristic) of uniform-in-cap
+//! Two strata, reported separately:
+//!
+//! - *overall* (random caps): `√α` uniform in [0.1, 1], θo uniform in [0°, 85°], cap half-angle
+//!   σ log-uniform in [1e-3, 1.2] rad, cap axis uniform on the sphere (so caps straddle and
+//!   fall below the horizon);
+//! - *grazing*: `√α` uniform in [0.1, 0.7], θo uniform in [70°, 89°], small caps away from the
+//!   mirror direction `r = 2 cos θo n − ωo`: the axis `k α` off `r` (k uniform in [1, 4]) in a
+//!   direction uniform around it, σ = `s α` with s log-uniform in [0.01, 0.5]; a cap wholly
+//!   below the horizon is drawn again. One case in four is then moved onto the horizon: its
+//!   axis keeps its azimuth and gets an elevation uniform in `(−σ, σ)`, so the cap straddles
+//!   it. At these views the GGX lobe is a narrow ridge along the plane of incidence whose
+//!   tails fall off far faster across it than along it.
+//!
+//! Ground truth: `∫_C f cos dω` by MIS (balance heuristic) of uniform-in-cap
 //! and GGX VNDF sampling, `grid²` stratified pairs (default 256²), in f64; an estimate whose
 //! standard error (an unstratified upper bound) exceeds 3 % is redone on a 4× finer grid, up to
 //! twice, and the remaining standard errors are reported. The directional albedo comes from 256² stratified
@@ -16,7 +27,12 @@
 //! - relative error `|S − T| / T`; `spearman` is the rank correlation of S and T over the cases
 //!   where either is positive (ties get average ranks);
 //! - `false_zero`: `T > 1e-6 ρ` but `S = 0`; `false_nonzero`: the cap lies entirely below the
-//!   horizon (`axis·n ≤ −sin σ`, so the exact integral is 0) but `S > 0`.
+//!   horizon (`axis·n ≤ −sin σ`, so the exact integral is 0) but `S > 0`;
+//! - `ratio_min`, `ratio_max`: the extremes of `S/T` over the cases that count, and
+//!   `outside_3x` how many of them fall outside `[1/3, 3]`;
+//! - `straddling`: cases whose cap crosses the horizon (`|axis·n| < sin σ`).
+//!
+//! The JSON keys of the overall stratum have no prefix, those of the grazing one `grazing_`.
 
 use crate::instruments::ggx::{cap_integral, wo_local, Cap64, Ggx};
 use glam::DVec3;
@@ -37,6 +53,8 @@ pub struct AccuracyConfig {
     pub seed: u64,
     /// Ground truth from `grid²` MIS pairs.
     pub grid: usize,
+    /// Number of grazing cases.
+    pub grazing_cases: usize,
 }
 
 /// One case and its results.
@@ -75,6 +93,11 @@ impl Case {
     pub fn rel_err(&self) -> f64 {
         (self.sptd - self.truth).abs() / self.truth
     }
+
+    /// Whether the cap crosses the horizon.
+    pub fn straddles(&self) -> bool {
+        self.axis.z.abs() < self.sigma.sin()
+    }
 }
 
 fn draw(rng: &mut Pcg64Mcg) -> (f64, f64, f64, DVec3) {
@@ -90,6 +113,38 @@ fn draw(rng: &mut Pcg64Mcg) -> (f64, f64, f64, DVec3) {
         sigma,
         DVec3::new(s * phi.cos(), s * phi.sin(), z),
     )
+}
+
+/// A grazing case (see the module docs): `(α, θo, σ, axis)`, the cap not wholly below the
+/// horizon.
+fn draw_grazing(rng: &mut Pcg64Mcg) -> (f64, f64, f64, DVec3) {
+    loop {
+        let u: f64 = rng.random_range(0.1..=0.7);
+        let alpha = u * u;
+        let theta_o = rng.random_range(70f64.to_radians()..=89f64.to_radians());
+        let k: f64 = rng.random_range(1.0..=4.0);
+        let psi: f64 = rng.random_range(0.0..2.0 * PI);
+        let s = (0.01f64.ln() + (0.5f64.ln() - 0.01f64.ln()) * rng.random::<f64>()).exp();
+        let sigma = s * alpha;
+        // The mirror direction and two unit vectors orthogonal to it.
+        let (st, ct) = theta_o.sin_cos();
+        let r = DVec3::new(-st, 0.0, ct);
+        let e1 = DVec3::new(ct, 0.0, st);
+        let d = k * alpha;
+        let axis = (r * d.cos() + (e1 * psi.cos() + DVec3::Y * psi.sin()) * d.sin()).normalize();
+        let straddle = rng.random_range(0..4) == 0;
+        let lift: f64 = rng.random_range(-1.0..1.0);
+        let axis = if straddle {
+            let h = DVec3::new(axis.x, axis.y, 0.0).normalize();
+            let (se, ce) = (lift * sigma).sin_cos();
+            h * ce + DVec3::Z * se
+        } else {
+            axis
+        };
+        if axis.z > -sigma.sin() {
+            return (alpha, theta_o, sigma, axis);
+        }
+    }
 }
 
 fn eval_case(alpha: f64, theta_o: f64, sigma: f64, axis: DVec3, seed: u64, grid: usize) -> Case {
@@ -121,11 +176,25 @@ fn eval_case(alpha: f64, theta_o: f64, sigma: f64, axis: DVec3, seed: u64, grid:
     }
 }
 
-/// Draws and evaluates the cases (in parallel; the result does not depend on threads).
+/// Draws and evaluates the overall stratum's cases (in parallel; the result does not depend
+/// on threads).
 pub fn cases(cfg: &AccuracyConfig) -> Vec<Case> {
     let mut rng = Pcg64Mcg::seed_from_u64(cfg.seed);
     let drawn: Vec<_> = (0..cfg.cases)
         .map(|_| (draw(&mut rng), rng.random::<u64>()))
+        .collect();
+    drawn
+        .into_par_iter()
+        .map(|((a, t, s, ax), seed)| eval_case(a, t, s, ax, seed, cfg.grid))
+        .collect()
+}
+
+/// Draws and evaluates the grazing stratum's cases (in parallel; the result does not depend
+/// on threads).
+pub fn grazing_cases(cfg: &AccuracyConfig) -> Vec<Case> {
+    let mut rng = Pcg64Mcg::seed_from_u64(cfg.seed ^ 0x6772_617a_696e_6721);
+    let drawn: Vec<_> = (0..cfg.grazing_cases)
+        .map(|_| (draw_grazing(&mut rng), rng.random::<u64>()))
         .collect();
     drawn
         .into_par_iter()
@@ -193,24 +262,25 @@ fn median_where(cases: &[Case], f: impl Fn(&Case) -> bool) -> (f64, usize) {
     (quantile(&e, 0.5), e.len())
 }
 
-/// The report of a run: JSON with the keys of the issue plus details.
-pub fn report(cases: &[Case], cfg: &AccuracyConfig, seconds: f64) -> serde_json::Value {
+/// The figures of one stratum, as JSON keys with `prefix`.
+fn stratum(cases: &[Case], prefix: &str) -> serde_json::Map<String, serde_json::Value> {
     let mut errs: Vec<f64> = cases
         .iter()
         .filter(|c| c.counts())
         .map(Case::rel_err)
         .collect();
     errs.sort_by(f64::total_cmp);
+    let ratios: Vec<f64> = cases
+        .iter()
+        .filter(|c| c.counts())
+        .map(|c| c.sptd / c.truth)
+        .collect();
     let positive: Vec<&Case> = cases
         .iter()
         .filter(|c| c.truth > 0.0 || c.sptd > 0.0)
         .collect();
     let s: Vec<f64> = positive.iter().map(|c| c.sptd).collect();
     let t: Vec<f64> = positive.iter().map(|c| c.truth).collect();
-    let deg = |d: f64| d.to_radians();
-    let (m45, n45) = median_where(cases, |c| c.theta_o < deg(45.0));
-    let (m70, n70) = median_where(cases, |c| c.theta_o >= deg(45.0) && c.theta_o < deg(70.0));
-    let (m85, n85) = median_where(cases, |c| c.theta_o >= deg(70.0));
     let false_zero = cases
         .iter()
         .filter(|c| c.truth > 1e-6 * c.albedo && c.sptd == 0.0)
@@ -219,7 +289,45 @@ pub fn report(cases: &[Case], cfg: &AccuracyConfig, seconds: f64) -> serde_json:
         .iter()
         .filter(|c| c.axis.z <= -c.sigma.sin() && c.sptd > 0.0)
         .count();
-    let se_rel: Vec<f64> = cases
+    let over = |x: f64| errs.iter().filter(|&&e| e > x).count();
+    let value = json!({
+        "cases": cases.len(),
+        "counted": errs.len(),
+        "median_rel_err": quantile(&errs, 0.5),
+        "p90_rel_err": quantile(&errs, 0.9),
+        "spearman": spearman(&s, &t),
+        "spearman_cases": positive.len(),
+        "rel_err_over_0_5": over(0.5),
+        "rel_err_over_1": over(1.0),
+        "ratio_min": ratios.iter().copied().fold(f64::INFINITY, f64::min),
+        "ratio_max": ratios.iter().copied().fold(f64::NEG_INFINITY, f64::max),
+        "outside_3x": ratios.iter().filter(|&&r| !(1.0 / 3.0..=3.0).contains(&r)).count(),
+        "false_zero": false_zero,
+        "false_nonzero": false_nonzero,
+        "straddling": cases.iter().filter(|c| c.straddles()).count(),
+    });
+    let serde_json::Value::Object(map) = value else {
+        unreachable!("json! of an object")
+    };
+    map.into_iter()
+        .map(|(k, v)| (format!("{prefix}{k}"), v))
+        .collect()
+}
+
+/// The report of a run: JSON with the keys of the issue plus details, the overall stratum's
+/// without a prefix, the grazing one's with `grazing_`.
+pub fn report(
+    cases: &[Case],
+    grazing: &[Case],
+    cfg: &AccuracyConfig,
+    seconds: f64,
+) -> serde_json::Value {
+    let deg = |d: f64| d.to_radians();
+    let (m45, n45) = median_where(cases, |c| c.theta_o < deg(45.0));
+    let (m70, n70) = median_where(cases, |c| c.theta_o >= deg(45.0) && c.theta_o < deg(70.0));
+    let (m85, n85) = median_where(cases, |c| c.theta_o >= deg(70.0));
+    let all: Vec<&Case> = cases.iter().chain(grazing).collect();
+    let se_rel: Vec<f64> = all
         .iter()
         .filter(|c| c.counts())
         .map(|c| c.std_err / c.truth)
@@ -227,32 +335,23 @@ pub fn report(cases: &[Case], cfg: &AccuracyConfig, seconds: f64) -> serde_json:
     let over_3 = se_rel.iter().filter(|&&x| x > 0.03).count();
     let mut se_sorted = se_rel.clone();
     se_sorted.sort_by(f64::total_cmp);
-    let hemi_truth = cases
+    let hemi_truth = all
         .iter()
         .map(|c| (c.truth_hemisphere / c.albedo - 1.0).abs())
         .fold(0.0, f64::max);
-    let hemi_sptd = cases
+    let hemi_sptd = all
         .iter()
         .map(|c| (c.sptd_hemisphere / c.albedo - 1.0).abs())
         .fold(0.0, f64::max);
-    let over = |x: f64| errs.iter().filter(|&&e| e > x).count();
-    json!({
-        "cases": cases.len(),
-        "counted": errs.len(),
-        "median_rel_err": quantile(&errs, 0.5),
-        "p90_rel_err": quantile(&errs, 0.9),
-        "spearman": spearman(&s, &t),
-        "spearman_cases": positive.len(),
+    let mut map = stratum(cases, "");
+    map.extend(stratum(grazing, "grazing_"));
+    let serde_json::Value::Object(rest) = json!({
         "median_rel_err_below_45": m45,
         "median_rel_err_45_70": m70,
         "median_rel_err_above_70": m85,
         "counted_below_45": n45,
         "counted_45_70": n70,
         "counted_above_70": n85,
-        "rel_err_over_0_5": over(0.5),
-        "rel_err_over_1": over(1.0),
-        "false_zero": false_zero,
-        "false_nonzero": false_nonzero,
         "truth_median_rel_std_err": quantile(&se_sorted, 0.5),
         "truth_max_rel_std_err": se_sorted.last().copied().unwrap_or(0.0),
         "truth_rel_std_err_over_3pct": over_3,
@@ -261,36 +360,90 @@ pub fn report(cases: &[Case], cfg: &AccuracyConfig, seconds: f64) -> serde_json:
         "seed": cfg.seed,
         "mis_pairs": cfg.grid * cfg.grid,
         "seconds": seconds,
-    })
+    }) else {
+        unreachable!("json! of an object")
+    };
+    map.extend(rest);
+    serde_json::Value::Object(map)
 }
 
-/// Runs everything: the per-case table (worst cases) and the report.
-pub fn run(cfg: &AccuracyConfig) -> (Vec<Case>, serde_json::Value) {
+/// The cases of a run, both strata.
+#[derive(Clone, Debug)]
+pub struct Cases {
+    /// The overall stratum (random caps).
+    pub overall: Vec<Case>,
+    /// The grazing stratum.
+    pub grazing: Vec<Case>,
+}
+
+/// Runs everything: the cases of both strata and the report.
+pub fn run(cfg: &AccuracyConfig) -> (Cases, serde_json::Value) {
     let t = Instant::now();
-    let cs = cases(cfg);
-    let r = report(&cs, cfg, t.elapsed().as_secs_f64());
+    let cs = Cases {
+        overall: cases(cfg),
+        grazing: grazing_cases(cfg),
+    };
+    let r = report(&cs.overall, &cs.grazing, cfg, t.elapsed().as_secs_f64());
     (cs, r)
 }
 
-/// The human-readable summary, with the ten worst counted cases.
-pub fn table(cases: &[Case], r: &serde_json::Value) -> String {
+/// The worst `n` counted cases of a stratum, one line each.
+fn worst_lines(cases: &[Case], n: usize) -> String {
+    let mut worst: Vec<&Case> = cases.iter().filter(|c| c.counts()).collect();
+    worst.sort_by(|a, b| {
+        let (ra, rb) = ((a.sptd / a.truth).ln().abs(), (b.sptd / b.truth).ln().abs());
+        rb.total_cmp(&ra)
+    });
+    let mut out = String::from(
+        "                alpha  theta_o  sigma      axis.z    truth        sptd         S/T\n",
+    );
+    for c in worst.iter().take(n) {
+        out.push_str(&format!(
+            "                {:.3}  {:5.1}°   {:.3e}  {:+.3}    {:.4e}   {:.4e}   {:.3}\n",
+            c.alpha,
+            c.theta_o.to_degrees(),
+            c.sigma,
+            c.axis.z,
+            c.truth,
+            c.sptd,
+            c.sptd / c.truth
+        ));
+    }
+    out
+}
+
+/// The human-readable summary, with the ten worst counted cases of each stratum (the furthest
+/// from the truth by ratio, either way).
+pub fn table(cases: &Cases, r: &serde_json::Value) -> String {
     let g = |k: &str| r[k].as_f64().unwrap_or(f64::NAN);
     let mut out = format!(
-        "SPTD GGX accuracy over {} random caps ({} with meaningful truth), {} MIS pairs each\n\
+        "SPTD GGX accuracy, {} MIS pairs per case\n\
+         overall: {} random caps ({} with meaningful truth, {} across the horizon)\n\
          relative error       median {:.3}   p90 {:.3}   (>0.5: {}, >1: {})\n\
+         S/T                  min {:.3}   max {:.3}   outside [1/3, 3]: {}\n\
          by view angle        <45° {:.3} ({})   45–70° {:.3} ({})   >70° {:.3} ({})\n\
+         rank correlation     spearman {:.4} over {} cases\n\
+         zeros                false_zero {}   false_nonzero {}\n\
+         grazing: {} small caps 1–4 α off the mirror direction, θo 70–89° ({} with meaningful \
+         truth, {} across the horizon)\n\
+         relative error       median {:.3}   p90 {:.3}   (>0.5: {}, >1: {})\n\
+         S/T                  min {:.3}   max {:.3}   outside [1/3, 3]: {}\n\
          rank correlation     spearman {:.4} over {} cases\n\
          zeros                false_zero {}   false_nonzero {}\n\
          ground truth         median rel. std. err {:.4}, max {:.4} ({} over 3 %)\n\
          hemisphere vs albedo truth {:.4}, SPTD {:.4} (max rel. diff)\n\
          time                 {:.1} s\n",
+        r["mis_pairs"],
         r["cases"],
         r["counted"],
-        r["mis_pairs"],
+        r["straddling"],
         g("median_rel_err"),
         g("p90_rel_err"),
         r["rel_err_over_0_5"],
         r["rel_err_over_1"],
+        g("ratio_min"),
+        g("ratio_max"),
+        r["outside_3x"],
         g("median_rel_err_below_45"),
         r["counted_below_45"],
         g("median_rel_err_45_70"),
@@ -301,6 +454,20 @@ pub fn table(cases: &[Case], r: &serde_json::Value) -> String {
         r["spearman_cases"],
         r["false_zero"],
         r["false_nonzero"],
+        r["grazing_cases"],
+        r["grazing_counted"],
+        r["grazing_straddling"],
+        g("grazing_median_rel_err"),
+        g("grazing_p90_rel_err"),
+        r["grazing_rel_err_over_0_5"],
+        r["grazing_rel_err_over_1"],
+        g("grazing_ratio_min"),
+        g("grazing_ratio_max"),
+        r["grazing_outside_3x"],
+        g("grazing_spearman"),
+        r["grazing_spearman_cases"],
+        r["grazing_false_zero"],
+        r["grazing_false_nonzero"],
         g("truth_median_rel_std_err"),
         g("truth_max_rel_std_err"),
         r["truth_rel_std_err_over_3pct"],
@@ -308,23 +475,10 @@ pub fn table(cases: &[Case], r: &serde_json::Value) -> String {
         g("max_hemisphere_sptd_vs_albedo"),
         g("seconds"),
     );
-    let mut worst: Vec<&Case> = cases.iter().filter(|c| c.counts()).collect();
-    worst.sort_by(|a, b| b.rel_err().total_cmp(&a.rel_err()));
-    out.push_str(
-        "worst cases:    alpha  theta_o  sigma      axis.z    truth        sptd         rel.err\n",
-    );
-    for c in worst.iter().take(10) {
-        out.push_str(&format!(
-            "                {:.3}  {:5.1}°   {:.3e}  {:+.3}    {:.4e}   {:.4e}   {:.3}\n",
-            c.alpha,
-            c.theta_o.to_degrees(),
-            c.sigma,
-            c.axis.z,
-            c.truth,
-            c.sptd,
-            c.rel_err()
-        ));
-    }
+    out.push_str("worst overall cases:\n");
+    out.push_str(&worst_lines(&cases.overall, 10));
+    out.push_str("worst grazing cases:\n");
+    out.push_str(&worst_lines(&cases.grazing, 10));
     out
 }
 

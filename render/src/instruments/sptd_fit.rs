@@ -11,11 +11,13 @@
 //!    lobe (where the important clusters are), half-angles log-uniform in `[1e-3, 1.5]` rad,
 //!    caps entirely below the horizon rejected; ground truth `∫_C f cos` of each by MIS of
 //!    uniform-in-cap and VNDF sampling (16² stratified pairs).
-//! 3. The model's cap integral `S(C)` (SPTD + Lambert share + masking correction, amplitude
-//!    tied to the albedo so the whole hemisphere is exact; see the core's `sptd/ggx.rs`) is
-//!    computed with the core's own f32 code, and the objective is the mean pseudo-Huber loss
-//!    (5 % knee) of the log ratio `ln((S + ε)/(T + ε))`, `ε = 1e-6 ρ |C|/2π`: relative errors,
-//!    robust to the few caps the model cannot follow, which is what ranking clusters needs.
+//! 3. The model's SPTD part `S_sptd(C)` (SPTD + Lambert share + masking correction, amplitude
+//!    tied to the albedo so the whole hemisphere is exact; `SptdGgx::sptd_integral_cap`, see
+//!    the core's `sptd/ggx.rs`: the part the model takes for caps that are not small against
+//!    their distance from the pivot) is computed with the core's own f32 code, and the
+//!    objective is the mean pseudo-Huber loss (5 % knee) of the log ratio
+//!    `ln((S_sptd + ε)/(T + ε))` (T: the truth), `ε = 1e-6 ρ |C|/2π`: relative errors, robust
+//!    to the few caps the model cannot follow, which is what ranking clusters needs.
 //! 4. Nelder–Mead over `x = (ln(1 − R), Gθ, logit β, ln c_ref)`, minimising the objective
 //!    plus a small smoothness term `1e-3 Σ wₖ (xₖ − nₖ)²` towards the already fitted
 //!    neighbours `n` at `(i − 1, j)` and `(i, j − 1)` (weights 1, 1, 0.3, 0.3): it only decides
@@ -229,7 +231,7 @@ fn objective(d: &NodeData, p: &GgxParams) -> f64 {
     let sptd = SptdGgx::with_params(d.alpha as f32, d.theta_o.cos() as f32, *p, Vec3::Z, Vec3::X);
     let mut loss = 0.0;
     for c in &d.caps {
-        let s = f64::from(sptd.integral_cap(&c.cap));
+        let s = f64::from(sptd.sptd_integral_cap(&c.cap));
         let lr = ((s + c.eps) / (c.truth + c.eps)).ln();
         loss += (lr * lr + HUBER * HUBER).sqrt() - HUBER;
     }
@@ -243,7 +245,7 @@ fn median_err(d: &NodeData, p: &GgxParams) -> f64 {
         .caps
         .iter()
         .filter(|c| c.truth > c.eps)
-        .map(|c| (f64::from(sptd.integral_cap(&c.cap)) - c.truth).abs() / c.truth)
+        .map(|c| (f64::from(sptd.sptd_integral_cap(&c.cap)) - c.truth).abs() / c.truth)
         .collect();
     e.sort_by(f64::total_cmp);
     e.get(e.len() / 2).copied().unwrap_or(0.0)

@@ -132,6 +132,12 @@ impl Pivot {
         self.k * self.k / (d2 * d2)
     }
 
+    /// `|ω − rp|²` for a unit `ω`, as `(1 − R)² + R |ω − p̂|²` (no cancellation near `p̂`).
+    #[inline]
+    pub fn distance2(&self, w: Vec3) -> f32 {
+        self.dist2(w).0
+    }
+
     /// The SPTD density of a uniform base distribution, `Dp(ω) = k²/(4π |ω − rp|⁴)`;
     /// it integrates to 1 over the sphere.
     #[inline]
@@ -191,6 +197,15 @@ impl Pivot {
     }
 }
 
+/// Four unit directions relative to a pivot's direction `p̂`: `e = ω − p̂` and `|e|²`.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct Offset4 {
+    ex: f32x4,
+    ey: f32x4,
+    ez: f32x4,
+    e2: f32x4,
+}
+
 /// A [`Pivot`]'s constants in four lanes, for its 4-wide evaluators (set up once per shading
 /// point so that the evaluators load them instead of splatting them at every call).
 #[derive(Clone, Copy, Debug)]
@@ -222,26 +237,41 @@ impl Pivot4 {
         }
     }
 
-    /// The 4-wide twin of [`Pivot::density`], lane by lane the same operations, for unit
-    /// directions `(wx, wy, wz)`.
-    #[inline(always)]
-    pub(crate) fn density(&self, wx: f32x4, wy: f32x4, wz: f32x4) -> f32x4 {
-        let (ex, ey, ez) = (self.px - wx, self.py - wy, self.pz - wz);
-        let e2 = ex * ex + ey * ey + ez * ez;
-        let d2 = self.g2 + self.r * e2;
-        self.k2 / (d2 * d2) / f32x4::splat(4.0 * PI)
-    }
-
     /// [`Pivot::map_cap4`].
     #[inline(always)]
     pub(crate) fn map_cap(&self, cap: &Cap4) -> Cap4 {
+        self.map_cap_at(cap, &self.offset(cap.ax, cap.ay, cap.az))
+    }
+
+    /// Where the unit directions `(wx, wy, wz)` lie relative to the pivot: what
+    /// [`Pivot4::distance2`] and [`Pivot4::map_cap_at`] take.
+    #[inline(always)]
+    pub(crate) fn offset(&self, wx: f32x4, wy: f32x4, wz: f32x4) -> Offset4 {
+        let (ex, ey, ez) = (wx - self.px, wy - self.py, wz - self.pz);
+        Offset4 {
+            ex,
+            ey,
+            ez,
+            e2: ex * ex + ey * ey + ez * ez,
+        }
+    }
+
+    /// The 4-wide twin of [`Pivot::distance2`], lane by lane the same operations.
+    #[inline(always)]
+    pub(crate) fn distance2(&self, off: &Offset4) -> f32x4 {
+        self.g2 + self.r * off.e2
+    }
+
+    /// [`Pivot4::map_cap`] for caps whose axes have the offset `off` ([`Pivot4::offset`]).
+    #[inline(always)]
+    pub(crate) fn map_cap_at(&self, cap: &Cap4, off: &Offset4) -> Cap4 {
         let one = f32x4::ONE;
         let two = f32x4::splat(2.0);
         let (px, py, pz) = (self.px, self.py, self.pz);
         let (r, k, g2) = (self.r, self.k, self.g2);
         let a = cap.one_minus_cos;
-        let (ex, ey, ez) = (cap.ax - px, cap.ay - py, cap.az - pz);
-        let delta = f32x4::splat(0.5) * (ex * ex + ey * ey + ez * ez);
+        let (ex, ey, ez) = (off.ex, off.ey, off.ez);
+        let delta = f32x4::splat(0.5) * off.e2;
         let along = (g2 + two * r * a) - two * r * r * delta;
         let mx = along * px + k * ex;
         let my = along * py + k * ey;
