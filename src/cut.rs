@@ -332,10 +332,31 @@ impl LightCut {
             f32::from_bits((127 - 64) << 23)
         };
         let scale = self.scale;
-        let all = self
-            .clusters()
-            .iter()
-            .fold(0.0f32, |acc, c| acc + c.weight * scale);
+        // One pass: the scaled weights' sum `all`, added in the clusters' order, its running
+        // sums (what `ends` holds when no cluster is left out) and the smallest scaled weight.
+        let n = self.len.min(CUT_CAPACITY);
+        let mut all = 0.0f32;
+        let mut least = f32::INFINITY;
+        for (c, end) in self.clusters[..n].iter().zip(&mut self.ends[..n]) {
+            let w = c.weight * scale;
+            all += w;
+            least = if w < least { w } else { least };
+            *end = all;
+        }
+        // No cluster is left out when the smallest share passes the test below: with
+        // `least > 0` and `least / all ≥ 2 · MIN_PMF > 0`, `all` is positive (it is not NaN,
+        // so no scaled weight is NaN), and every scaled weight `w ≥ least` gives
+        // `w / all ≥ least / all`, correctly rounded division being non-decreasing in its
+        // numerator for a positive divisor. Then `skipped` is 0, `sample_total` is `all`, the
+        // running sums are those above and the last cluster can be chosen: what the loops
+        // below give, without a division per cluster. (An empty cut passes too: `inf / 0`,
+        // and `last` stays 0.)
+        if least > 0.0 && least / all >= 2.0 * MIN_PMF {
+            self.skipped = 0;
+            self.sample_total = all;
+            self.last = n.saturating_sub(1);
+            return;
+        }
         let mut skipped = 0u64;
         let mut kept = 0.0f32;
         for (i, c) in self.clusters().iter().enumerate() {
@@ -794,6 +815,89 @@ impl LightTree {
                 },
             ),
             _ => 0.0,
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// `finish` as the per-cluster test defines it: a division per cluster, the running sums
+    /// of the clusters kept.
+    fn reference(cut: &LightCut) -> (u64, f32, [f32; CUT_CAPACITY], usize) {
+        let scale = cut.scale;
+        let all = cut
+            .clusters()
+            .iter()
+            .fold(0.0f32, |acc, c| acc + c.weight * scale);
+        let (mut skipped, mut kept) = (0u64, 0.0f32);
+        for (i, c) in cut.clusters().iter().enumerate() {
+            if (c.weight * scale) / all >= 2.0 * MIN_PMF {
+                kept += c.weight * scale;
+            } else {
+                skipped |= 1 << i;
+            }
+        }
+        let (mut ends, mut acc, mut last) = ([0.0f32; CUT_CAPACITY], 0.0f32, 0);
+        for (i, c) in cut.clusters().iter().enumerate() {
+            if skipped & (1 << i) == 0 {
+                acc += c.weight * scale;
+                last = i;
+            }
+            ends[i] = acc;
+        }
+        (skipped, if skipped == 0 { all } else { kept }, ends, last)
+    }
+
+    /// The one-division shortcut of `finish` decides exactly what the per-cluster test does:
+    /// weights spread over the whole f32 range, shares at and around `2 · MIN_PMF`, sums that
+    /// overflow.
+    #[test]
+    fn finish_equals_the_per_cluster_test() {
+        let mut state = 0x9E37_79B9_7F4A_7C15u64;
+        let mut next = move || {
+            state = state
+                .wrapping_mul(6_364_136_223_846_793_005)
+                .wrapping_add(1_442_695_040_888_963_407);
+            (state >> 33) as u32
+        };
+        let threshold = 2.0 * MIN_PMF;
+        for round in 0..20_000 {
+            let n = 1 + next() as usize % CUT_CAPACITY;
+            let mut cut = LightCut::new();
+            cut.clear();
+            let base = f32::from_bits(1 + next() % 0x7F00_0000);
+            for k in 0..n {
+                let u = next() as f32 / u32::MAX as f32;
+                let weight = match (round % 4, k % 5) {
+                    // Any positive finite f32.
+                    (0, 0) => f32::from_bits(1 + next() % (f32::MAX.to_bits() - 1)),
+                    (0, 1) => f32::MAX,
+                    // Shares near 2 · MIN_PMF of the total.
+                    (0 | 1, 2) => base * threshold * (n as f32) * (0.5 + u),
+                    (1, 3) => base * threshold * (n as f32),
+                    // Sums that overflow.
+                    (2, _) => f32::MAX * (0.25 + u),
+                    _ => base * (1.0 + u),
+                };
+                cut.push(Cluster {
+                    node: 0,
+                    slot: 0,
+                    path: k as u64 + 1,
+                    weight,
+                    score: 0.0,
+                    glossy_score: 0.0,
+                });
+            }
+            cut.finish();
+            let (skipped, total, ends, last) = reference(&cut);
+            assert_eq!(cut.skipped, skipped, "round {round}");
+            assert_eq!(cut.sample_total.to_bits(), total.to_bits(), "round {round}");
+            assert_eq!(cut.last, last, "round {round}");
+            for (i, (a, b)) in cut.ends[..n].iter().zip(&ends).enumerate() {
+                assert_eq!(a.to_bits(), b.to_bits(), "round {round}, {i}");
+            }
         }
     }
 }
