@@ -57,6 +57,7 @@ use crate::importance::{BlImportance, Importance, TlImportance};
 use crate::sample::{sanitize, LightSample, Start, WalkStart, MIN_PMF, ONE_MINUS_EPSILON};
 use crate::tree::{path_len, Child, LightTree, Node4, Slot};
 use core::cell::Cell;
+use wide::f32x4;
 
 /// `x > 0` (false for NaN).
 #[inline(always)]
@@ -420,28 +421,28 @@ impl LightCut {
     /// returns, whatever it held before, without a copy of its arrays (a cut kept per thread
     /// and rebuilt at each shading point).
     pub fn rebuild_bl(&mut self, tree: &LightTree, imp: &BlImportance, opts: &BlCutOptions) {
-        let x = imp.position();
         let delta = opts.delta;
         // The root is evaluated once: its importances (those of `eval4`, bit for bit) give the
         // total, and its integrals its slots' decisions.
         let root = tree.nodes.first();
-        let root_eval = root.map(|r| imp.eval4_with_lobe_integrals(r));
+        let root_eval = root.map(|r| imp.eval4_for_cut(r));
+        let delta4 = f32x4::splat(delta);
         let decide = |node: &Node4, _: f32| {
-            let (w, sc, glossy) = match (root, root_eval) {
+            let (w, sc, glossy, inside) = match (root, root_eval) {
                 (Some(r), Some(e)) if core::ptr::eq(node, r) => e,
-                _ => imp.eval4_with_lobe_integrals(node),
+                _ => imp.eval4_for_cut(node),
             };
+            // Split where x is inside the slot's sphere or SC exceeds δ (`sc > delta`, false
+            // for NaN, lane by lane).
+            let split = (inside | sc.simd_gt(delta4)).to_bitmask();
             let (w, sc, glossy) = (w.to_array(), sc.to_array(), glossy.to_array());
             let mut out = [SlotDecision::default(); 4];
             for k in 0..4 {
-                let sphere = node.sphere(k);
-                let (c, r) = (sphere.center, sphere.radius);
-                let inside = (c - x).length_squared() <= r * r;
                 out[k] = SlotDecision {
                     weight: w[k],
                     score: sc[k],
                     glossy_score: glossy[k],
-                    split: inside || sc[k] > delta,
+                    split: split & (1 << k) != 0,
                 };
             }
             out

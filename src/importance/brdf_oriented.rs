@@ -313,6 +313,16 @@ impl BlImportance {
     /// (`ks ∫ f_GGX cos`, 0 for Lambert): `(importances, cap integrals, glossy parts)`.
     #[inline]
     pub fn eval4_with_lobe_integrals(&self, node: &Node4) -> (f32x4, f32x4, f32x4) {
+        let (w, sc, glossy, _) = self.eval4_core::<true>(node);
+        (w, sc, glossy)
+    }
+
+    /// [`BlImportance::eval4_with_lobe_integrals`] and the mask of the slots whose bounding
+    /// sphere holds the shading point, `|c − x|² ≤ r²` evaluated as
+    /// `(c − x).length_squared() <= r * r` is for the decoded sphere ([`Node4::sphere`]):
+    /// `(importances, cap integrals, glossy parts, inside)`.
+    #[inline(always)]
+    pub(crate) fn eval4_for_cut(&self, node: &Node4) -> (f32x4, f32x4, f32x4, f32x4) {
         self.eval4_core::<true>(node)
     }
 
@@ -329,13 +339,14 @@ impl BlImportance {
         cos_omega.simd_le(f32x4::ZERO).select(f32x4::ZERO, v)
     }
 
-    /// The body of the 4-wide evaluations: `(importances, cap integrals, glossy parts)`. With
+    /// The body of the 4-wide evaluations: `(importances, cap integrals, glossy parts, the
+    /// mask of the slots whose sphere holds the point)`. With
     /// `INTEGRALS` false only the importances are asked for, and the cap integrals are
     /// computed only where an importance depends on them (lanes that take the point limit
     /// or are not live do not): the other two results then have no meaning, and the
     /// importances are bit for bit those of `INTEGRALS` true.
     #[inline(always)]
-    fn eval4_core<const INTEGRALS: bool>(&self, node: &Node4) -> (f32x4, f32x4, f32x4) {
+    fn eval4_core<const INTEGRALS: bool>(&self, node: &Node4) -> (f32x4, f32x4, f32x4, f32x4) {
         let zero = f32x4::ZERO;
         let one = f32x4::ONE;
         let l = &self.lanes;
@@ -374,7 +385,7 @@ impl BlImportance {
         let energy = node.energy4();
         let value = (energy * v.cos_tp.fast_max(floor) / v.d2c * brdf)
             .fast_min(f32x4::splat(MAX_IMPORTANCE));
-        (live.select(value, zero), sc, glossy)
+        (live.select(value, zero), sc, glossy, v.inside)
     }
 }
 
