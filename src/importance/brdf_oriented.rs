@@ -149,9 +149,16 @@ impl BlImportance {
         if n.dot(wo) < 0.0 {
             n = -n;
         }
-        let ggx = SptdGgx::oriented(alpha.max(MIN_ALPHA), n, wo);
         let ks = if specular > 0.0 { specular } else { 0.0 };
-        let albedo = albedo_d + ks * ggx.albedo();
+        // Without a glossy lobe no evaluation reads the SPTD (each asks for `ks > 0` first)
+        // and `ks · ρ_GGX` is +0 (ρ_GGX is finite and ≥ 0): its set-up is skipped.
+        let (ggx, glossy_albedo) = if ks > 0.0 {
+            let ggx = SptdGgx::oriented(alpha.max(MIN_ALPHA), n, wo);
+            (ggx, ks * ggx.albedo())
+        } else {
+            (SptdGgx::zero(), 0.0)
+        };
+        let albedo = albedo_d + glossy_albedo;
         let kd = albedo_d * FRAC_1_PI;
         let defensive = DEFENSIVE * albedo * FRAC_1_PI;
         Ok(BlImportance {

@@ -254,7 +254,8 @@ impl SptdGgx {
         g
     }
 
-    fn zero() -> SptdGgx {
+    /// The zero lobe (what a zero or non-finite direction gives).
+    pub(crate) fn zero() -> SptdGgx {
         SptdGgx {
             normal: Vec3::Z,
             pivot: Pivot::new(Vec3::ZERO),
