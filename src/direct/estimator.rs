@@ -352,8 +352,9 @@ struct Plan {
     frame: Frame,
     wo: Vec3,
     tl: TlImportance,
-    /// The BRDF-oriented importance, where the technique builds a BL cut.
-    bl: Option<BlImportance>,
+    /// Where the technique builds a BL cut, the unit normal and ωo of its importance
+    /// ([`BlImportance::directions`]): what is left of its set-up cannot fail.
+    bl: Option<(Vec3, Vec3)>,
     needs_split: bool,
     diffuse: bool,
 }
@@ -381,7 +382,7 @@ impl Plan {
             _ => false,
         };
         let bl = if needs_bl {
-            Some(BlImportance::new(sp)?)
+            Some(BlImportance::directions(sp)?)
         } else {
             None
         };
@@ -438,9 +439,10 @@ impl<'a> Estimator<'a> {
         } else {
             LightCut::new()
         };
-        let bl = plan
-            .bl
-            .map(|imp| CutSampler::with_importance(tree, imp, &params.bl_cut));
+        let bl = plan.bl.map(|(n, wo)| {
+            let imp = BlImportance::with_directions(sp, n, wo);
+            CutSampler::with_importance(tree, imp, &params.bl_cut)
+        });
         let n_mix = plan.budget(technique, params, bl.as_ref());
         let pinf = (technique == Technique::TlMisPinf)
             .then(|| PinfSampler::with_importance(tree, *tl.importance()));
@@ -490,9 +492,12 @@ impl<'a> Estimator<'a> {
             self.split.rebuild_split(tree, &tl, &params.split_cut);
         }
         match (&mut self.bl, plan.bl) {
-            (Some(b), Some(imp)) => b.reset(imp, &params.bl_cut),
-            (bl, imp) => {
-                *bl = imp.map(|imp| CutSampler::with_importance(tree, imp, &params.bl_cut))
+            (Some(b), Some((n, wo))) => b.reset_with_directions(sp, n, wo, &params.bl_cut),
+            (bl, dirs) => {
+                *bl = dirs.map(|(n, wo)| {
+                    let imp = BlImportance::with_directions(sp, n, wo);
+                    CutSampler::with_importance(tree, imp, &params.bl_cut)
+                })
             }
         }
         self.n_mix = plan.budget(self.technique, &params, self.bl.as_ref());

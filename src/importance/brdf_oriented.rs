@@ -143,12 +143,27 @@ impl BlImportance {
     /// normal and ωo may have any finite, non-zero length.
     pub fn new(sp: &ShadingPoint) -> Result<BlImportance, ShadingError> {
         sp.validate()?;
-        let (albedo_d, specular, alpha) = sp.material.lobes();
+        let (n, wo) = BlImportance::directions(sp)?;
+        Ok(BlImportance::with_directions(sp, n, wo))
+    }
+
+    /// The checks [`BlImportance::new`] makes after validating `sp`: the unit normal, turned
+    /// to the side of ωo, and the unit ωo.
+    #[inline]
+    pub(crate) fn directions(sp: &ShadingPoint) -> Result<(Vec3, Vec3), ShadingError> {
         let mut n = unit_direction(ShadingField::Normal, sp.normal)?;
         let wo = unit_direction(ShadingField::Wo, sp.wo)?;
         if n.dot(wo) < 0.0 {
             n = -n;
         }
+        Ok((n, wo))
+    }
+
+    /// [`BlImportance::new`] for the validated `sp` and its [`BlImportance::directions`]: what
+    /// is left of it cannot fail.
+    #[inline(always)]
+    pub(crate) fn with_directions(sp: &ShadingPoint, n: Vec3, wo: Vec3) -> BlImportance {
+        let (albedo_d, specular, alpha) = sp.material.lobes();
         let ks = if specular > 0.0 { specular } else { 0.0 };
         // Without a glossy lobe no evaluation reads the SPTD (each asks for `ks > 0` first)
         // and `ks · ρ_GGX` is +0 (ρ_GGX is finite and ≥ 0): its set-up is skipped.
@@ -161,7 +176,7 @@ impl BlImportance {
         let albedo = albedo_d + glossy_albedo;
         let kd = albedo_d * FRAC_1_PI;
         let defensive = DEFENSIVE * albedo * FRAC_1_PI;
-        Ok(BlImportance {
+        BlImportance {
             position: sp.position,
             normal: n,
             kd,
@@ -178,7 +193,7 @@ impl BlImportance {
                 defensive: f32x4::splat(defensive),
                 ggx: SptdGgx4::new(&ggx),
             },
-        })
+        }
     }
 
     /// The shading position.
