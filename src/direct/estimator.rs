@@ -227,26 +227,51 @@ enum Phase {
 /// Per-light pmfs remembered at one shading point (direct-mapped): an estimate queries the
 /// same few lights again and again, and the pmfs are fixed functions of the light there.
 /// (It caches whole pmfs of lights; [`crate::Memo`] caches node importances of a descent.)
+/// A slot holds a pmf only where its bit is set in the table's mask, so that forgetting them
+/// all at a new point is clearing two words.
 #[derive(Clone, Debug)]
 struct PmfCache {
-    tl: [(u32, f32); CACHE_SLOTS],
-    bl: [(u32, f32); CACHE_SLOTS],
+    tl: PmfTable,
+    bl: PmfTable,
 }
 
-/// Slots of each cache table.
+/// One table of a [`PmfCache`]: the slots, and the mask of those that hold a pmf.
+#[derive(Clone, Debug)]
+struct PmfTable {
+    slots: [(u32, f32); CACHE_SLOTS],
+    filled: u64,
+}
+
+/// Slots of each cache table (at most 64: one bit each in [`PmfTable::filled`]).
 const CACHE_SLOTS: usize = 64;
 
 impl PmfCache {
     const EMPTY: PmfCache = PmfCache {
-        tl: [(u32::MAX, 0.0); CACHE_SLOTS],
-        bl: [(u32::MAX, 0.0); CACHE_SLOTS],
+        tl: PmfTable {
+            slots: [(u32::MAX, 0.0); CACHE_SLOTS],
+            filled: 0,
+        },
+        bl: PmfTable {
+            slots: [(u32::MAX, 0.0); CACHE_SLOTS],
+            filled: 0,
+        },
     };
 
+    /// Forgets every pmf (what [`PmfCache::EMPTY`] holds).
     #[inline]
-    fn get(table: &mut [(u32, f32); CACHE_SLOTS], light: u32, f: impl FnOnce() -> f32) -> f32 {
-        let slot = &mut table[light as usize % CACHE_SLOTS];
-        if slot.0 != light {
+    fn clear(&mut self) {
+        self.tl.filled = 0;
+        self.bl.filled = 0;
+    }
+
+    #[inline]
+    fn get(table: &mut PmfTable, light: u32, f: impl FnOnce() -> f32) -> f32 {
+        let i = light as usize % CACHE_SLOTS;
+        let bit = 1u64 << i;
+        let slot = &mut table.slots[i];
+        if table.filled & bit == 0 || slot.0 != light {
             *slot = (light, f());
+            table.filled |= bit;
         }
         slot.1
     }
@@ -509,7 +534,7 @@ impl<'a> Estimator<'a> {
         self.wo = plan.wo;
         self.material = sp.material;
         self.bl_in_full = plan.bl_in_full(&params);
-        self.pmfs = PmfCache::EMPTY;
+        self.pmfs.clear();
         self.run.begin(
             Phase::Done,
             AdaptiveAllocator::new(false),
