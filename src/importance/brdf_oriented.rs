@@ -70,16 +70,20 @@ fn lambert_pair4(cos_omega: f32x4, sin_sigma: f32x4, lanes: f32x4) -> (f32x4, f3
     let one = f32x4::ONE;
     let pi = f32x4::splat(PI);
     let s = sin_sigma.fast_max(zero);
-    let crossing = ((s - cos_omega) * (s + cos_omega)).simd_gt(zero) | s.simd_ge(one);
+    // The whole hemisphere (x inside the sphere, `s ≥ 1` exactly where `sin_sigma ≥ 1`) is
+    // a crossing cap whose lens `lambert_visible4` gives as `(π, 2π)`: no need to call it
+    // for that alone.
+    let whole = s.simd_ge(one);
+    let crossing = ((s - cos_omega) * (s + cos_omega)).simd_gt(zero) | whole;
     let above = cos_omega.simd_gt(zero);
     let a = s * s / (one + ((one - s) * (one + s)).fast_max(zero).sqrt());
     let l = above.select(s * s * cos_omega * pi, zero);
     let v = above.select(f32x4::splat(2.0) * (a * pi), zero);
-    if (crossing & lanes).any() {
+    if (crossing & !whole & lanes).any() {
         let (lc, vc) = lambert_visible4(cos_omega, sin_sigma);
         (crossing.select(lc, l), crossing.select(vc, v))
     } else {
-        (l, v)
+        (whole.select(pi, l), whole.select(f32x4::splat(2.0 * PI), v))
     }
 }
 

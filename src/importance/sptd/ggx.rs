@@ -524,8 +524,11 @@ impl SptdGgx4 {
         let l = above.select(s * s * c * pi, zero);
         let v = above.select(f32x4::splat(2.0) * (cap.one_minus_cos * pi), zero);
         // Only groups with a cap across the horizon pay for the intersections (same per-lane
-        // choice as the scalar form, so the two agree lane by lane).
-        let (lens, l, v) = if (crossing & lanes).any() {
+        // choice as the scalar form, so the two agree lane by lane). The whole hemisphere
+        // (`sin σ ≥ 1`) alone does not: its lens is not read (its result is ρ) and
+        // `lambert_visible4` gives it `(π, 2π)`.
+        let inside = sin_sigma.simd_ge(f32x4::ONE);
+        let (lens, l, v) = if (crossing & !inside & lanes).any() {
             let (lc, vc) = lambert_visible4(cos_omega, sin_sigma);
             let lensc = intersection_area4(&mapped, &self.horizon);
             (
@@ -534,7 +537,12 @@ impl SptdGgx4 {
                 crossing.select(vc, v),
             )
         } else {
-            (lens, l, v)
+            let whole = crossing & inside;
+            (
+                lens,
+                whole.select(pi, l),
+                whole.select(f32x4::splat(2.0 * PI), v),
+            )
         };
         let live = v.simd_gt(zero);
         let cbar = l / live.select(v, f32x4::ONE);
@@ -544,7 +552,6 @@ impl SptdGgx4 {
         let r = r.simd_ge(zero).select(r, zero);
         let rho = self.albedo;
         let r = r.simd_ge(rho).select(rho, r);
-        let inside = sin_sigma.simd_ge(f32x4::ONE);
         CapIntegrals4 {
             ggx: inside.select(self.albedo, r),
             lambert: l,
