@@ -55,7 +55,7 @@
 
 use crate::importance::{BlImportance, Importance, TlImportance};
 use crate::sample::{sanitize, LightSample, Start, WalkStart, MIN_PMF, ONE_MINUS_EPSILON};
-use crate::tree::{path_len, Child, LightTree, Node4, Slot};
+use crate::tree::{count4, path_len, Child, LightTree, Node4, Slot};
 use core::cell::Cell;
 use wide::f32x4;
 
@@ -128,13 +128,14 @@ impl Default for BlCutOptions {
     }
 }
 
-/// What a cut builder decides for one slot.
+/// What a cut builder decides for the four slots of a node (slot k in lane or bit k).
 #[derive(Clone, Copy, Debug, Default)]
-pub(crate) struct SlotDecision {
-    pub weight: f32,
-    pub score: f32,
-    pub glossy_score: f32,
-    pub split: bool,
+pub(crate) struct SlotDecisions {
+    pub weight: [f32; 4],
+    pub score: [f32; 4],
+    pub glossy_score: [f32; 4],
+    /// The slots that want splitting.
+    pub split: u32,
 }
 
 /// A light cut (see the module documentation).
@@ -232,7 +233,7 @@ impl LightCut {
         cut: &mut LightCut,
         tree: &LightTree,
         max_size: usize,
-        mut decide: impl FnMut(&Node4, f32) -> [SlotDecision; 4],
+        mut decide: impl FnMut(&Node4, f32) -> SlotDecisions,
         root_total: impl FnOnce(&Node4) -> f32,
     ) {
         cut.clear();
@@ -245,67 +246,63 @@ impl LightCut {
         if !(positive(total) && total < f32::INFINITY) {
             return;
         }
-        // Clusters waiting to be opened: a ring buffer; accepted + queued ≤ max_size always.
-        let mut queue = [Cluster::default(); CUT_CAPACITY];
+        // Clusters waiting to be opened, with the node each holds: a ring buffer; accepted +
+        // queued ≤ max_size always.
+        let mut queue = [(Cluster::default(), 0u32); CUT_CAPACITY];
         let (mut head, mut queued) = (0usize, 0usize);
-        let mut children = [(Cluster::default(), false); 4];
-        let mut open = |node_index: u32, path: u64, out: &mut [(Cluster, bool); 4]| -> usize {
-            let node = &tree.nodes[node_index as usize];
+        // What `push` keeps, in locals until the end.
+        let mut acc = Accepted::default();
+        // The node being opened, its path, and the cluster it replaces (none for the root,
+        // whose slots are always taken). One call of `decide` serves every node.
+        let (mut index, mut path, mut parent) = (0u32, 1u64, None::<Cluster>);
+        loop {
+            let node = &tree.nodes[index as usize];
             let d = decide(node, total);
-            let mut n = 0;
-            for (k, dk) in d.iter().enumerate() {
-                if !positive(dk.weight) || node.child(k) == Child::Empty {
-                    continue;
+            // The slots that become clusters: positive weight (`positive`, lane by lane), and
+            // something in them (an inner node or a light: bit k or k + 4 of the mask).
+            let filled = u32::from(node.mask | (node.mask >> 4)) & 0xF;
+            let keep = f32x4::new(d.weight).simd_gt(f32x4::ZERO).to_bitmask() & filled;
+            match parent {
+                Some(c) if acc.len + queued + count4(keep) as usize > max_size => {
+                    acc.push(&mut cut.clusters, c)
                 }
-                let inner = matches!(node.child(k), Child::Node(_));
-                out[n] = (
-                    Cluster {
-                        node: node_index,
-                        slot: k as u8,
-                        path: (path << 2) | k as u64,
-                        weight: dk.weight,
-                        score: dk.score,
-                        glossy_score: dk.glossy_score,
-                    },
-                    dk.split && inner,
-                );
-                n += 1;
+                _ => {
+                    // Those to open: inner nodes that want splitting.
+                    let open = keep & d.split & u32::from(node.mask);
+                    let mut bits = keep;
+                    while bits != 0 {
+                        let k = bits.trailing_zeros() as usize & 3;
+                        bits &= bits - 1;
+                        let c = Cluster {
+                            node: index,
+                            slot: k as u8,
+                            path: (path << 2) | k as u64,
+                            weight: d.weight[k],
+                            score: d.score[k],
+                            glossy_score: d.glossy_score[k],
+                        };
+                        match node.child(k) {
+                            Child::Node(child) if open & (1 << k) != 0 => {
+                                queue[(head + queued) % CUT_CAPACITY] = (c, child);
+                                queued += 1;
+                            }
+                            _ => acc.push(&mut cut.clusters, c),
+                        }
+                    }
+                }
             }
-            n
-        };
-        let place = |cut: &mut LightCut,
-                     queue: &mut [Cluster; CUT_CAPACITY],
-                     head: usize,
-                     queued: &mut usize,
-                     c: (Cluster, bool)| {
-            if c.1 {
-                queue[(head + *queued) % CUT_CAPACITY] = c.0;
-                *queued += 1;
-            } else {
-                cut.push(c.0);
+            if queued == 0 {
+                break;
             }
-        };
-        let n = open(0, 1, &mut children);
-        for &c in &children[..n] {
-            place(cut, &mut queue, head, &mut queued, c);
-        }
-        while queued > 0 {
-            let c = queue[head];
+            let (c, child) = queue[head];
             head = (head + 1) % CUT_CAPACITY;
             queued -= 1;
-            let Child::Node(child) = tree.nodes[c.node as usize].child(usize::from(c.slot)) else {
-                cut.push(c);
-                continue;
-            };
-            let n = open(child, c.path, &mut children);
-            if cut.len + queued + n > max_size {
-                cut.push(c);
-                continue;
-            }
-            for &cc in &children[..n] {
-                place(cut, &mut queue, head, &mut queued, cc);
-            }
+            (index, path, parent) = (child, c.path, Some(c));
         }
+        cut.len = acc.len;
+        cut.total = acc.total;
+        cut.max_score = acc.max_score;
+        cut.max_glossy_score = acc.max_glossy_score;
         cut.finish();
     }
 
@@ -394,10 +391,23 @@ impl LightCut {
         let q = self.sample_weight(i)? / self.sample_total;
         Some((q, 2.0 * MIN_PMF / q))
     }
+}
 
-    fn push(&mut self, c: Cluster) {
+/// A cut's length, total weight and largest scores while [`LightCut::build_with`] accepts
+/// clusters, from an empty cut (as [`LightCut::clear`] leaves it), kept in locals.
+#[derive(Default)]
+struct Accepted {
+    len: usize,
+    total: f32,
+    max_score: f32,
+    max_glossy_score: f32,
+}
+
+impl Accepted {
+    #[inline(always)]
+    fn push(&mut self, clusters: &mut [Cluster; CUT_CAPACITY], c: Cluster) {
         if self.len < CUT_CAPACITY {
-            self.clusters[self.len] = c;
+            clusters[self.len] = c;
             self.len += 1;
             self.total += c.weight;
             self.max_score = self.max_score.max(c.score);
@@ -434,18 +444,12 @@ impl LightCut {
             };
             // Split where x is inside the slot's sphere or SC exceeds δ (`sc > delta`, false
             // for NaN, lane by lane).
-            let split = (inside | sc.simd_gt(delta4)).to_bitmask();
-            let (w, sc, glossy) = (w.to_array(), sc.to_array(), glossy.to_array());
-            let mut out = [SlotDecision::default(); 4];
-            for k in 0..4 {
-                out[k] = SlotDecision {
-                    weight: w[k],
-                    score: sc[k],
-                    glossy_score: glossy[k],
-                    split: split & (1 << k) != 0,
-                };
+            SlotDecisions {
+                weight: w.to_array(),
+                score: sc.to_array(),
+                glossy_score: glossy.to_array(),
+                split: (inside | sc.simd_gt(delta4)).to_bitmask(),
             }
-            out
         };
         let total = |_: &Node4| root_eval.map_or(0.0, |e| e.0.to_array().iter().sum());
         LightCut::build_with(self, tree, opts.max_size, decide, total);
@@ -469,9 +473,12 @@ impl LightCut {
             opts.max_size,
             |node, total| {
                 let w = imp.eval4(node).to_array();
-                let mut out = [SlotDecision::default(); 4];
-                for k in 0..4 {
-                    if !positive(w[k]) {
+                let mut out = SlotDecisions {
+                    weight: w,
+                    ..SlotDecisions::default()
+                };
+                for (k, &wk) in w.iter().enumerate() {
+                    if !positive(wk) {
                         continue;
                     }
                     // V[e]/E[e]² of the cluster's energies (0 for a single light).
@@ -490,15 +497,13 @@ impl LightCut {
                         let b = d + r;
                         let rel_g = (b - a) * (b - a) / (3.0 * a * b);
                         let rho = (1.0 + rel_e) * (1.0 + rel_g) - 1.0;
-                        let share = w[k] / total;
+                        let share = wk / total;
                         rho * share * share
                     };
-                    out[k] = SlotDecision {
-                        weight: w[k],
-                        score,
-                        glossy_score: 0.0,
-                        split: inside || score > threshold,
-                    };
+                    out.score[k] = score;
+                    if inside || score > threshold {
+                        out.split |= 1 << k;
+                    }
                 }
                 out
             },
@@ -867,7 +872,7 @@ mod tests {
         for round in 0..20_000 {
             let n = 1 + next() as usize % CUT_CAPACITY;
             let mut cut = LightCut::new();
-            cut.clear();
+            let mut acc = Accepted::default();
             let base = f32::from_bits(1 + next() % 0x7F00_0000);
             for k in 0..n {
                 let u = next() as f32 / u32::MAX as f32;
@@ -882,15 +887,17 @@ mod tests {
                     (2, _) => f32::MAX * (0.25 + u),
                     _ => base * (1.0 + u),
                 };
-                cut.push(Cluster {
+                let c = Cluster {
                     node: 0,
                     slot: 0,
                     path: k as u64 + 1,
                     weight,
                     score: 0.0,
                     glossy_score: 0.0,
-                });
+                };
+                acc.push(&mut cut.clusters, c);
             }
+            (cut.len, cut.total) = (acc.len, acc.total);
             cut.finish();
             let (skipped, total, ends, last) = reference(&cut);
             assert_eq!(cut.skipped, skipped, "round {round}");
