@@ -83,22 +83,51 @@ pub fn ggx_params(alpha: f32, cos_theta_o: f32) -> GgxParams {
     let n = (TABLE_SIZE - 1) as f32;
     let x = math::sqrt(alpha) * n;
     let y = theta * (2.0 / PI) * n;
-    let lerp2 = |t: &[[f32; table::SIZE]; table::SIZE]| {
-        let i = (x as usize).min(TABLE_SIZE - 2);
-        let j = (y as usize).min(TABLE_SIZE - 2);
-        let fx = (x - i as f32).clamp(0.0, 1.0);
-        let fy = (y - j as f32).clamp(0.0, 1.0);
-        let a = t[i][j] + (t[i][j + 1] - t[i][j]) * fy;
-        let b = t[i + 1][j] + (t[i + 1][j + 1] - t[i + 1][j]) * fy;
+    // The cell and the weights, once for the five parameters.
+    let i = (x as usize).min(TABLE_SIZE - 2);
+    let j = (y as usize).min(TABLE_SIZE - 2);
+    let fx = (x - i as f32).clamp(0.0, 1.0);
+    let fy = (y - j as f32).clamp(0.0, 1.0);
+    let (t00, t01) = (&PARAMS[i][j], &PARAMS[i][j + 1]);
+    let (t10, t11) = (&PARAMS[i + 1][j], &PARAMS[i + 1][j + 1]);
+    let lerp2 = |k: usize| {
+        let a = t00[k] + (t01[k] - t00[k]) * fy;
+        let b = t10[k] + (t11[k] - t10[k]) * fy;
         a + (b - a) * fx
     };
     GgxParams {
-        pivot_norm: lerp2(&table::PIVOT_NORM),
-        pivot_elevation: lerp2(&table::PIVOT_ELEVATION),
-        albedo: lerp2(&table::ALBEDO),
-        lambert_weight: lerp2(&table::LAMBERT_WEIGHT),
-        masking_cos: lerp2(&table::MASKING_COS),
+        pivot_norm: lerp2(0),
+        pivot_elevation: lerp2(1),
+        albedo: lerp2(2),
+        lambert_weight: lerp2(3),
+        masking_cos: lerp2(4),
     }
+}
+
+/// The table's five parameters interleaved per node, `[R, Gθ, ρ, β, c_ref]`, so that a lookup
+/// reads each of its four nodes' parameters from adjacent words: a copy of [`table`] made at
+/// compile time.
+static PARAMS: [[[f32; 5]; TABLE_SIZE]; TABLE_SIZE] = interleave();
+
+/// [`PARAMS`] from the table.
+const fn interleave() -> [[[f32; 5]; TABLE_SIZE]; TABLE_SIZE] {
+    let mut out = [[[0.0; 5]; TABLE_SIZE]; TABLE_SIZE];
+    let mut i = 0;
+    while i < TABLE_SIZE {
+        let mut j = 0;
+        while j < TABLE_SIZE {
+            out[i][j] = [
+                table::PIVOT_NORM[i][j],
+                table::PIVOT_ELEVATION[i][j],
+                table::ALBEDO[i][j],
+                table::LAMBERT_WEIGHT[i][j],
+                table::MASKING_COS[i][j],
+            ];
+            j += 1;
+        }
+        i += 1;
+    }
+    out
 }
 
 /// One cap's integrals ([`SptdGgx::cap_integrals`]).
