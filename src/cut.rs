@@ -56,8 +56,9 @@
 
 use crate::importance::{BlImportance, Importance, TlImportance};
 use crate::sample::{sanitize, LightSample, Start, WalkStart, MIN_PMF, ONE_MINUS_EPSILON};
-use crate::tree::{path_len, Child, LightTree, Node4, Slot};
+use crate::tree::{count4, path_len, Child, LightTree, Node4, Slot};
 use core::cell::Cell;
+use wide::f32x4;
 
 /// `x > 0` (false for NaN).
 #[inline(always)]
@@ -147,13 +148,14 @@ impl Default for BlCutOptions {
     }
 }
 
-/// What a cut builder decides for one slot.
+/// What a cut builder decides for the four slots of a node (slot k in lane or bit k).
 #[derive(Clone, Copy, Debug, Default)]
-pub(crate) struct SlotDecision {
-    pub weight: f32,
-    pub score: f32,
-    pub glossy_score: f32,
-    pub split: bool,
+pub(crate) struct SlotDecisions {
+    pub weight: [f32; 4],
+    pub score: [f32; 4],
+    pub glossy_score: [f32; 4],
+    /// The slots that want splitting.
+    pub split: u32,
 }
 
 /// A light cut (see the module documentation).
@@ -251,7 +253,7 @@ impl LightCut {
         cut: &mut LightCut,
         tree: &LightTree,
         max_size: usize,
-        mut decide: impl FnMut(&Node4, f32) -> [SlotDecision; 4],
+        mut decide: impl FnMut(&Node4, f32) -> SlotDecisions,
         root_total: impl FnOnce(&Node4) -> f32,
     ) {
         cut.clear();
@@ -264,67 +266,63 @@ impl LightCut {
         if !(positive(total) && total < f32::INFINITY) {
             return;
         }
-        // Clusters waiting to be opened: a ring buffer; accepted + queued ≤ max_size always.
-        let mut queue = [Cluster::default(); CUT_CAPACITY];
+        // Clusters waiting to be opened, with the node each holds: a ring buffer; accepted +
+        // queued ≤ max_size always.
+        let mut queue = [(Cluster::default(), 0u32); CUT_CAPACITY];
         let (mut head, mut queued) = (0usize, 0usize);
-        let mut children = [(Cluster::default(), false); 4];
-        let mut open = |node_index: u32, path: u64, out: &mut [(Cluster, bool); 4]| -> usize {
-            let node = &tree.nodes[node_index as usize];
+        // What `push` keeps, in locals until the end.
+        let mut acc = Accepted::default();
+        // The node being opened, its path, and the cluster it replaces (none for the root,
+        // whose slots are always taken). One call of `decide` serves every node.
+        let (mut index, mut path, mut parent) = (0u32, 1u64, None::<Cluster>);
+        loop {
+            let node = &tree.nodes[index as usize];
             let d = decide(node, total);
-            let mut n = 0;
-            for (k, dk) in d.iter().enumerate() {
-                if !positive(dk.weight) || node.child(k) == Child::Empty {
-                    continue;
+            // The slots that become clusters: positive weight (`positive`, lane by lane), and
+            // something in them (an inner node or a light: bit k or k + 4 of the mask).
+            let filled = u32::from(node.mask | (node.mask >> 4)) & 0xF;
+            let keep = f32x4::new(d.weight).simd_gt(f32x4::ZERO).to_bitmask() & filled;
+            match parent {
+                Some(c) if acc.len + queued + count4(keep) as usize > max_size => {
+                    acc.push(&mut cut.clusters, c)
                 }
-                let inner = matches!(node.child(k), Child::Node(_));
-                out[n] = (
-                    Cluster {
-                        node: node_index,
-                        slot: k as u8,
-                        path: (path << 2) | k as u64,
-                        weight: dk.weight,
-                        score: dk.score,
-                        glossy_score: dk.glossy_score,
-                    },
-                    dk.split && inner,
-                );
-                n += 1;
+                _ => {
+                    // Those to open: inner nodes that want splitting.
+                    let open = keep & d.split & u32::from(node.mask);
+                    let mut bits = keep;
+                    while bits != 0 {
+                        let k = bits.trailing_zeros() as usize & 3;
+                        bits &= bits - 1;
+                        let c = Cluster {
+                            node: index,
+                            slot: k as u8,
+                            path: (path << 2) | k as u64,
+                            weight: d.weight[k],
+                            score: d.score[k],
+                            glossy_score: d.glossy_score[k],
+                        };
+                        match node.child(k) {
+                            Child::Node(child) if open & (1 << k) != 0 => {
+                                queue[(head + queued) % CUT_CAPACITY] = (c, child);
+                                queued += 1;
+                            }
+                            _ => acc.push(&mut cut.clusters, c),
+                        }
+                    }
+                }
             }
-            n
-        };
-        let place = |cut: &mut LightCut,
-                     queue: &mut [Cluster; CUT_CAPACITY],
-                     head: usize,
-                     queued: &mut usize,
-                     c: (Cluster, bool)| {
-            if c.1 {
-                queue[(head + *queued) % CUT_CAPACITY] = c.0;
-                *queued += 1;
-            } else {
-                cut.push(c.0);
+            if queued == 0 {
+                break;
             }
-        };
-        let n = open(0, 1, &mut children);
-        for &c in &children[..n] {
-            place(cut, &mut queue, head, &mut queued, c);
-        }
-        while queued > 0 {
-            let c = queue[head];
+            let (c, child) = queue[head];
             head = (head + 1) % CUT_CAPACITY;
             queued -= 1;
-            let Child::Node(child) = tree.nodes[c.node as usize].child(usize::from(c.slot)) else {
-                cut.push(c);
-                continue;
-            };
-            let n = open(child, c.path, &mut children);
-            if cut.len + queued + n > max_size {
-                cut.push(c);
-                continue;
-            }
-            for &cc in &children[..n] {
-                place(cut, &mut queue, head, &mut queued, cc);
-            }
+            (index, path, parent) = (child, c.path, Some(c));
         }
+        cut.len = acc.len;
+        cut.total = acc.total;
+        cut.max_score = acc.max_score;
+        cut.max_glossy_score = acc.max_glossy_score;
         cut.finish();
     }
 
@@ -352,10 +350,31 @@ impl LightCut {
             f32::from_bits((127 - 64) << 23)
         };
         let scale = self.scale;
-        let all = self
-            .clusters()
-            .iter()
-            .fold(0.0f32, |acc, c| acc + c.weight * scale);
+        // One pass: the scaled weights' sum `all`, added in the clusters' order, its running
+        // sums (what `ends` holds when no cluster is left out) and the smallest scaled weight.
+        let n = self.len.min(CUT_CAPACITY);
+        let mut all = 0.0f32;
+        let mut least = f32::INFINITY;
+        for (c, end) in self.clusters[..n].iter().zip(&mut self.ends[..n]) {
+            let w = c.weight * scale;
+            all += w;
+            least = if w < least { w } else { least };
+            *end = all;
+        }
+        // No cluster is left out when the smallest share passes the test below: with
+        // `least > 0` and `least / all ≥ 2 · MIN_PMF > 0`, `all` is positive (it is not NaN,
+        // so no scaled weight is NaN), and every scaled weight `w ≥ least` gives
+        // `w / all ≥ least / all`, correctly rounded division being non-decreasing in its
+        // numerator for a positive divisor. Then `skipped` is 0, `sample_total` is `all`, the
+        // running sums are those above and the last cluster can be chosen: what the loops
+        // below give, without a division per cluster. (An empty cut passes too: `inf / 0`,
+        // and `last` stays 0.)
+        if least > 0.0 && least / all >= 2.0 * MIN_PMF {
+            self.skipped = 0;
+            self.sample_total = all;
+            self.last = n.saturating_sub(1);
+            return;
+        }
         let mut skipped = 0u64;
         let mut kept = 0.0f32;
         for (i, c) in self.clusters().iter().enumerate() {
@@ -392,10 +411,23 @@ impl LightCut {
         let q = self.sample_weight(i)? / self.sample_total;
         Some((q, 2.0 * MIN_PMF / q))
     }
+}
 
-    fn push(&mut self, c: Cluster) {
+/// A cut's length, total weight and largest scores while [`LightCut::build_with`] accepts
+/// clusters, from an empty cut (as [`LightCut::clear`] leaves it), kept in locals.
+#[derive(Default)]
+struct Accepted {
+    len: usize,
+    total: f32,
+    max_score: f32,
+    max_glossy_score: f32,
+}
+
+impl Accepted {
+    #[inline(always)]
+    fn push(&mut self, clusters: &mut [Cluster; CUT_CAPACITY], c: Cluster) {
         if self.len < CUT_CAPACITY {
-            self.clusters[self.len] = c;
+            clusters[self.len] = c;
             self.len += 1;
             self.total += c.weight;
             self.max_score = self.max_score.max(c.score);
@@ -419,7 +451,6 @@ impl LightCut {
     /// returns, whatever it held before, without a copy of its arrays (a cut kept per thread
     /// and rebuilt at each shading point).
     pub fn rebuild_bl(&mut self, tree: &LightTree, imp: &BlImportance, opts: &BlCutOptions) {
-        let x = imp.position();
         let delta = opts.delta;
         // `r ≥ s·d` as `r² ≥ s²·d²`; s = 1 is `d² ≤ r²`, the point inside the sphere.
         let s = if opts.split_sin < 1.0 {
@@ -428,29 +459,35 @@ impl LightCut {
             1.0
         };
         let s2 = s * s;
+        let s24 = f32x4::splat(s2);
+        let x = imp.position();
+        let x4 = [f32x4::splat(x.x), f32x4::splat(x.y), f32x4::splat(x.z)];
         // The root is evaluated once: its importances (those of `eval4`, bit for bit) give the
         // total, and its integrals its slots' decisions.
         let root = tree.nodes.first();
-        let root_eval = root.map(|r| imp.eval4_with_lobe_integrals(r));
+        let root_eval = root.map(|r| imp.eval4_for_cut(r));
+        let delta4 = f32x4::splat(delta);
         let decide = |node: &Node4, _: f32| {
-            let (w, sc, glossy) = match (root, root_eval) {
+            let (w, sc, glossy, inside) = match (root, root_eval) {
                 (Some(r), Some(e)) if core::ptr::eq(node, r) => e,
-                _ => imp.eval4_with_lobe_integrals(node),
+                _ => imp.eval4_for_cut(node),
             };
-            let (w, sc, glossy) = (w.to_array(), sc.to_array(), glossy.to_array());
-            let mut out = [SlotDecision::default(); 4];
-            for k in 0..4 {
-                let sphere = node.sphere(k);
-                let (c, r) = (sphere.center, sphere.radius);
-                let wide = s2 * (c - x).length_squared() <= r * r;
-                out[k] = SlotDecision {
-                    weight: w[k],
-                    score: sc[k],
-                    glossy_score: glossy[k],
-                    split: wide || sc[k] > delta,
-                };
+            // Split where the slot's cap is wide or SC exceeds δ (`sc > delta`, false for
+            // NaN, lane by lane). Wide: `s²·|c − x|² ≤ r²` for the decoded sphere, which for
+            // s = 1 is the evaluation's own inside mask.
+            let wide = if s2 < 1.0 {
+                let sp = node.spheres4();
+                let (vx, vy, vz) = (sp.x - x4[0], sp.y - x4[1], sp.z - x4[2]);
+                (s24 * (vx * vx + vy * vy + vz * vz)).simd_le(sp.r * sp.r)
+            } else {
+                inside
+            };
+            SlotDecisions {
+                weight: w.to_array(),
+                score: sc.to_array(),
+                glossy_score: glossy.to_array(),
+                split: (wide | sc.simd_gt(delta4)).to_bitmask(),
             }
-            out
         };
         let total = |_: &Node4| root_eval.map_or(0.0, |e| e.0.to_array().iter().sum());
         LightCut::build_with(self, tree, opts.max_size, decide, total);
@@ -474,9 +511,12 @@ impl LightCut {
             opts.max_size,
             |node, total| {
                 let w = imp.eval4(node).to_array();
-                let mut out = [SlotDecision::default(); 4];
-                for k in 0..4 {
-                    if !positive(w[k]) {
+                let mut out = SlotDecisions {
+                    weight: w,
+                    ..SlotDecisions::default()
+                };
+                for (k, &wk) in w.iter().enumerate() {
+                    if !positive(wk) {
                         continue;
                     }
                     // V[e]/E[e]² of the cluster's energies (0 for a single light).
@@ -495,15 +535,13 @@ impl LightCut {
                         let b = d + r;
                         let rel_g = (b - a) * (b - a) / (3.0 * a * b);
                         let rho = (1.0 + rel_e) * (1.0 + rel_g) - 1.0;
-                        let share = w[k] / total;
+                        let share = wk / total;
                         rho * share * share
                     };
-                    out[k] = SlotDecision {
-                        weight: w[k],
-                        score,
-                        glossy_score: 0.0,
-                        split: inside || score > threshold,
-                    };
+                    out.score[k] = score;
+                    if inside || score > threshold {
+                        out.split |= 1 << k;
+                    }
                 }
                 out
             },
@@ -821,6 +859,91 @@ impl LightTree {
                 },
             ),
             _ => 0.0,
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// `finish` as the per-cluster test defines it: a division per cluster, the running sums
+    /// of the clusters kept.
+    fn reference(cut: &LightCut) -> (u64, f32, [f32; CUT_CAPACITY], usize) {
+        let scale = cut.scale;
+        let all = cut
+            .clusters()
+            .iter()
+            .fold(0.0f32, |acc, c| acc + c.weight * scale);
+        let (mut skipped, mut kept) = (0u64, 0.0f32);
+        for (i, c) in cut.clusters().iter().enumerate() {
+            if (c.weight * scale) / all >= 2.0 * MIN_PMF {
+                kept += c.weight * scale;
+            } else {
+                skipped |= 1 << i;
+            }
+        }
+        let (mut ends, mut acc, mut last) = ([0.0f32; CUT_CAPACITY], 0.0f32, 0);
+        for (i, c) in cut.clusters().iter().enumerate() {
+            if skipped & (1 << i) == 0 {
+                acc += c.weight * scale;
+                last = i;
+            }
+            ends[i] = acc;
+        }
+        (skipped, if skipped == 0 { all } else { kept }, ends, last)
+    }
+
+    /// The one-division shortcut of `finish` decides exactly what the per-cluster test does:
+    /// weights spread over the whole f32 range, shares at and around `2 · MIN_PMF`, sums that
+    /// overflow.
+    #[test]
+    fn finish_equals_the_per_cluster_test() {
+        let mut state = 0x9E37_79B9_7F4A_7C15u64;
+        let mut next = move || {
+            state = state
+                .wrapping_mul(6_364_136_223_846_793_005)
+                .wrapping_add(1_442_695_040_888_963_407);
+            (state >> 33) as u32
+        };
+        let threshold = 2.0 * MIN_PMF;
+        for round in 0..20_000 {
+            let n = 1 + next() as usize % CUT_CAPACITY;
+            let mut cut = LightCut::new();
+            let mut acc = Accepted::default();
+            let base = f32::from_bits(1 + next() % 0x7F00_0000);
+            for k in 0..n {
+                let u = next() as f32 / u32::MAX as f32;
+                let weight = match (round % 4, k % 5) {
+                    // Any positive finite f32.
+                    (0, 0) => f32::from_bits(1 + next() % (f32::MAX.to_bits() - 1)),
+                    (0, 1) => f32::MAX,
+                    // Shares near 2 · MIN_PMF of the total.
+                    (0 | 1, 2) => base * threshold * (n as f32) * (0.5 + u),
+                    (1, 3) => base * threshold * (n as f32),
+                    // Sums that overflow.
+                    (2, _) => f32::MAX * (0.25 + u),
+                    _ => base * (1.0 + u),
+                };
+                let c = Cluster {
+                    node: 0,
+                    slot: 0,
+                    path: k as u64 + 1,
+                    weight,
+                    score: 0.0,
+                    glossy_score: 0.0,
+                };
+                acc.push(&mut cut.clusters, c);
+            }
+            (cut.len, cut.total) = (acc.len, acc.total);
+            cut.finish();
+            let (skipped, total, ends, last) = reference(&cut);
+            assert_eq!(cut.skipped, skipped, "round {round}");
+            assert_eq!(cut.sample_total.to_bits(), total.to_bits(), "round {round}");
+            assert_eq!(cut.last, last, "round {round}");
+            for (i, (a, b)) in cut.ends[..n].iter().zip(&ends).enumerate() {
+                assert_eq!(a.to_bits(), b.to_bits(), "round {round}, {i}");
+            }
         }
     }
 }

@@ -136,7 +136,7 @@ pub struct Spheres4 {
 /// constant: three operations on a descent's chain of dependences, where `count_ones` of a
 /// `u32` is two multiplications on baseline x86-64 (no popcount instruction).
 #[inline(always)]
-fn count4(x: u32) -> u32 {
+pub(crate) fn count4(x: u32) -> u32 {
     ((0x4332_3221_3221_2110u64 >> (4 * (x & 0xF))) & 0xF) as u32
 }
 

@@ -230,26 +230,51 @@ enum Phase {
 /// Per-light pmfs remembered at one shading point (direct-mapped): an estimate queries the
 /// same few lights again and again, and the pmfs are fixed functions of the light there.
 /// (It caches whole pmfs of lights; [`crate::Memo`] caches node importances of a descent.)
+/// A slot holds a pmf only where its bit is set in the table's mask, so that forgetting them
+/// all at a new point is clearing two words.
 #[derive(Clone, Debug)]
 struct PmfCache {
-    tl: [(u32, f32); CACHE_SLOTS],
-    bl: [(u32, f32); CACHE_SLOTS],
+    tl: PmfTable,
+    bl: PmfTable,
 }
 
-/// Slots of each cache table.
+/// One table of a [`PmfCache`]: the slots, and the mask of those that hold a pmf.
+#[derive(Clone, Debug)]
+struct PmfTable {
+    slots: [(u32, f32); CACHE_SLOTS],
+    filled: u64,
+}
+
+/// Slots of each cache table (at most 64: one bit each in [`PmfTable::filled`]).
 const CACHE_SLOTS: usize = 64;
 
 impl PmfCache {
     const EMPTY: PmfCache = PmfCache {
-        tl: [(u32::MAX, 0.0); CACHE_SLOTS],
-        bl: [(u32::MAX, 0.0); CACHE_SLOTS],
+        tl: PmfTable {
+            slots: [(u32::MAX, 0.0); CACHE_SLOTS],
+            filled: 0,
+        },
+        bl: PmfTable {
+            slots: [(u32::MAX, 0.0); CACHE_SLOTS],
+            filled: 0,
+        },
     };
 
+    /// Forgets every pmf (what [`PmfCache::EMPTY`] holds).
     #[inline]
-    fn get(table: &mut [(u32, f32); CACHE_SLOTS], light: u32, f: impl FnOnce() -> f32) -> f32 {
-        let slot = &mut table[light as usize % CACHE_SLOTS];
-        if slot.0 != light {
+    fn clear(&mut self) {
+        self.tl.filled = 0;
+        self.bl.filled = 0;
+    }
+
+    #[inline]
+    fn get(table: &mut PmfTable, light: u32, f: impl FnOnce() -> f32) -> f32 {
+        let i = light as usize % CACHE_SLOTS;
+        let bit = 1u64 << i;
+        let slot = &mut table.slots[i];
+        if table.filled & bit == 0 || slot.0 != light {
             *slot = (light, f());
+            table.filled |= bit;
         }
         slot.1
     }
@@ -377,8 +402,9 @@ struct Plan {
     frame: Frame,
     wo: Vec3,
     tl: TlImportance,
-    /// The BRDF-oriented importance, where the technique builds a BL cut.
-    bl: Option<BlImportance>,
+    /// Where the technique builds a BL cut, the unit normal and ωo of its importance
+    /// ([`BlImportance::directions`]): what is left of its set-up cannot fail.
+    bl: Option<(Vec3, Vec3)>,
     needs_split: bool,
     diffuse: bool,
 }
@@ -406,7 +432,7 @@ impl Plan {
             _ => false,
         };
         let bl = if needs_bl {
-            Some(BlImportance::new(sp)?)
+            Some(BlImportance::directions(sp)?)
         } else {
             None
         };
@@ -464,9 +490,10 @@ impl<'a> Estimator<'a> {
             LightCut::new()
         };
         let cut = bl_cut_options(technique, params);
-        let bl = plan
-            .bl
-            .map(|imp| CutSampler::with_importance(tree, imp, cut));
+        let bl = plan.bl.map(|(n, wo)| {
+            let imp = BlImportance::with_directions(sp, n, wo);
+            CutSampler::with_importance(tree, imp, cut)
+        });
         let n_mix = plan.budget(technique, params, bl.as_ref());
         let pinf = (technique == Technique::TlMisPinf)
             .then(|| PinfSampler::with_importance(tree, *tl.importance()));
@@ -517,8 +544,13 @@ impl<'a> Estimator<'a> {
         }
         let cut = bl_cut_options(self.technique, &params);
         match (&mut self.bl, plan.bl) {
-            (Some(b), Some(imp)) => b.reset(imp, cut),
-            (bl, imp) => *bl = imp.map(|imp| CutSampler::with_importance(tree, imp, cut)),
+            (Some(b), Some((n, wo))) => b.reset_with_directions(sp, n, wo, cut),
+            (bl, dirs) => {
+                *bl = dirs.map(|(n, wo)| {
+                    let imp = BlImportance::with_directions(sp, n, wo);
+                    CutSampler::with_importance(tree, imp, cut)
+                })
+            }
         }
         self.n_mix = plan.budget(self.technique, &params, self.bl.as_ref());
         if self.technique == Technique::TlMisPinf {
@@ -529,7 +561,7 @@ impl<'a> Estimator<'a> {
         self.wo = plan.wo;
         self.material = sp.material;
         self.bl_in_full = plan.bl_in_full(&params);
-        self.pmfs = PmfCache::EMPTY;
+        self.pmfs.clear();
         self.run.begin(
             Phase::Done,
             AdaptiveAllocator::new(false),

@@ -122,6 +122,21 @@ impl<'a> CutSampler<'a> {
         self.importance = importance;
     }
 
+    /// [`CutSampler::reset`] to the importance of [`BlImportance::with_directions`], set up in
+    /// place.
+    #[inline]
+    pub(crate) fn reset_with_directions(
+        &mut self,
+        sp: &ShadingPoint,
+        n: Vec3,
+        wo: Vec3,
+        options: &BlCutOptions,
+    ) {
+        self.importance = BlImportance::with_directions(sp, n, wo);
+        self.cut.rebuild_bl(self.tree, &self.importance, options);
+        self.root = CutSampler::root_of(self.tree, &self.importance, &self.cut);
+    }
+
     /// The root choice between `cut` and the tree's lights at infinity (`None` without any).
     fn root_of(tree: &LightTree, importance: &BlImportance, cut: &LightCut) -> Option<RootChoice> {
         (!tree.infinite_lights().is_empty()).then(|| {

@@ -72,16 +72,20 @@ fn lambert_pair4(cos_omega: f32x4, sin_sigma: f32x4, lanes: f32x4) -> (f32x4, f3
     let one = f32x4::ONE;
     let pi = f32x4::splat(PI);
     let s = sin_sigma.fast_max(zero);
-    let crossing = ((s - cos_omega) * (s + cos_omega)).simd_gt(zero) | s.simd_ge(one);
+    // The whole hemisphere (x inside the sphere, `s ≥ 1` exactly where `sin_sigma ≥ 1`) is
+    // a crossing cap whose lens `lambert_visible4` gives as `(π, 2π)`: no need to call it
+    // for that alone.
+    let whole = s.simd_ge(one);
+    let crossing = ((s - cos_omega) * (s + cos_omega)).simd_gt(zero) | whole;
     let above = cos_omega.simd_gt(zero);
     let a = s * s / (one + ((one - s) * (one + s)).fast_max(zero).sqrt());
     let l = above.select(s * s * cos_omega * pi, zero);
     let v = above.select(f32x4::splat(2.0) * (a * pi), zero);
-    if (crossing & lanes).any() {
+    if (crossing & !whole & lanes).any() {
         let (lc, vc) = lambert_visible4(cos_omega, sin_sigma);
         (crossing.select(lc, l), crossing.select(vc, v))
     } else {
-        (l, v)
+        (whole.select(pi, l), whole.select(f32x4::splat(2.0 * PI), v))
     }
 }
 
@@ -145,18 +149,40 @@ impl BlImportance {
     /// normal and ωo may have any finite, non-zero length.
     pub fn new(sp: &ShadingPoint) -> Result<BlImportance, ShadingError> {
         sp.validate()?;
-        let (albedo_d, specular, alpha) = sp.material.lobes();
+        let (n, wo) = BlImportance::directions(sp)?;
+        Ok(BlImportance::with_directions(sp, n, wo))
+    }
+
+    /// The checks [`BlImportance::new`] makes after validating `sp`: the unit normal, turned
+    /// to the side of ωo, and the unit ωo.
+    #[inline]
+    pub(crate) fn directions(sp: &ShadingPoint) -> Result<(Vec3, Vec3), ShadingError> {
         let mut n = unit_direction(ShadingField::Normal, sp.normal)?;
         let wo = unit_direction(ShadingField::Wo, sp.wo)?;
         if n.dot(wo) < 0.0 {
             n = -n;
         }
-        let ggx = SptdGgx::oriented(alpha.max(MIN_ALPHA), n, wo);
+        Ok((n, wo))
+    }
+
+    /// [`BlImportance::new`] for the validated `sp` and its [`BlImportance::directions`]: what
+    /// is left of it cannot fail.
+    #[inline(always)]
+    pub(crate) fn with_directions(sp: &ShadingPoint, n: Vec3, wo: Vec3) -> BlImportance {
+        let (albedo_d, specular, alpha) = sp.material.lobes();
         let ks = if specular > 0.0 { specular } else { 0.0 };
-        let albedo = albedo_d + ks * ggx.albedo();
+        // Without a glossy lobe no evaluation reads the SPTD (each asks for `ks > 0` first)
+        // and `ks · ρ_GGX` is +0 (ρ_GGX is finite and ≥ 0): its set-up is skipped.
+        let (ggx, glossy_albedo) = if ks > 0.0 {
+            let ggx = SptdGgx::oriented(alpha.max(MIN_ALPHA), n, wo);
+            (ggx, ks * ggx.albedo())
+        } else {
+            (SptdGgx::zero(), 0.0)
+        };
+        let albedo = albedo_d + glossy_albedo;
         let kd = albedo_d * FRAC_1_PI;
         let defensive = DEFENSIVE * albedo * FRAC_1_PI;
-        Ok(BlImportance {
+        BlImportance {
             position: sp.position,
             normal: n,
             kd,
@@ -173,7 +199,7 @@ impl BlImportance {
                 defensive: f32x4::splat(defensive),
                 ggx: SptdGgx4::new(&ggx),
             },
-        })
+        }
     }
 
     /// The shading position.
@@ -315,6 +341,16 @@ impl BlImportance {
     /// (`ks ∫ f_GGX cos`, 0 for Lambert): `(importances, cap integrals, glossy parts)`.
     #[inline]
     pub fn eval4_with_lobe_integrals(&self, node: &Node4) -> (f32x4, f32x4, f32x4) {
+        let (w, sc, glossy, _) = self.eval4_core::<true>(node);
+        (w, sc, glossy)
+    }
+
+    /// [`BlImportance::eval4_with_lobe_integrals`] and the mask of the slots whose bounding
+    /// sphere holds the shading point, `|c − x|² ≤ r²` evaluated as
+    /// `(c − x).length_squared() <= r * r` is for the decoded sphere ([`Node4::sphere`]):
+    /// `(importances, cap integrals, glossy parts, inside)`.
+    #[inline(always)]
+    pub(crate) fn eval4_for_cut(&self, node: &Node4) -> (f32x4, f32x4, f32x4, f32x4) {
         self.eval4_core::<true>(node)
     }
 
@@ -331,13 +367,14 @@ impl BlImportance {
         cos_omega.simd_le(f32x4::ZERO).select(f32x4::ZERO, v)
     }
 
-    /// The body of the 4-wide evaluations: `(importances, cap integrals, glossy parts)`. With
+    /// The body of the 4-wide evaluations: `(importances, cap integrals, glossy parts, the
+    /// mask of the slots whose sphere holds the point)`. With
     /// `INTEGRALS` false only the importances are asked for, and the cap integrals are
     /// computed only where an importance depends on them (lanes that take the point limit
     /// or are not live do not): the other two results then have no meaning, and the
     /// importances are bit for bit those of `INTEGRALS` true.
     #[inline(always)]
-    fn eval4_core<const INTEGRALS: bool>(&self, node: &Node4) -> (f32x4, f32x4, f32x4) {
+    fn eval4_core<const INTEGRALS: bool>(&self, node: &Node4) -> (f32x4, f32x4, f32x4, f32x4) {
         let zero = f32x4::ZERO;
         let one = f32x4::ONE;
         let l = &self.lanes;
@@ -376,7 +413,7 @@ impl BlImportance {
         let energy = node.energy4();
         let value = (energy * v.cos_tp.fast_max(floor) / v.d2c * brdf)
             .fast_min(f32x4::splat(MAX_IMPORTANCE));
-        (live.select(value, zero), sc, glossy)
+        (live.select(value, zero), sc, glossy, v.inside)
     }
 }
 

@@ -123,22 +123,51 @@ pub fn ggx_params(alpha: f32, cos_theta_o: f32) -> GgxParams {
     let n = (TABLE_SIZE - 1) as f32;
     let x = math::sqrt(alpha) * n;
     let y = theta * (2.0 / PI) * n;
-    let lerp2 = |t: &[[f32; table::SIZE]; table::SIZE]| {
-        let i = (x as usize).min(TABLE_SIZE - 2);
-        let j = (y as usize).min(TABLE_SIZE - 2);
-        let fx = (x - i as f32).clamp(0.0, 1.0);
-        let fy = (y - j as f32).clamp(0.0, 1.0);
-        let a = t[i][j] + (t[i][j + 1] - t[i][j]) * fy;
-        let b = t[i + 1][j] + (t[i + 1][j + 1] - t[i + 1][j]) * fy;
+    // The cell and the weights, once for the five parameters.
+    let i = (x as usize).min(TABLE_SIZE - 2);
+    let j = (y as usize).min(TABLE_SIZE - 2);
+    let fx = (x - i as f32).clamp(0.0, 1.0);
+    let fy = (y - j as f32).clamp(0.0, 1.0);
+    let (t00, t01) = (&PARAMS[i][j], &PARAMS[i][j + 1]);
+    let (t10, t11) = (&PARAMS[i + 1][j], &PARAMS[i + 1][j + 1]);
+    let lerp2 = |k: usize| {
+        let a = t00[k] + (t01[k] - t00[k]) * fy;
+        let b = t10[k] + (t11[k] - t10[k]) * fy;
         a + (b - a) * fx
     };
     GgxParams {
-        pivot_norm: lerp2(&table::PIVOT_NORM),
-        pivot_elevation: lerp2(&table::PIVOT_ELEVATION),
-        albedo: lerp2(&table::ALBEDO),
-        lambert_weight: lerp2(&table::LAMBERT_WEIGHT),
-        masking_cos: lerp2(&table::MASKING_COS),
+        pivot_norm: lerp2(0),
+        pivot_elevation: lerp2(1),
+        albedo: lerp2(2),
+        lambert_weight: lerp2(3),
+        masking_cos: lerp2(4),
     }
+}
+
+/// The table's five parameters interleaved per node, `[R, Gθ, ρ, β, c_ref]`, so that a lookup
+/// reads each of its four nodes' parameters from adjacent words: a copy of [`table`] made at
+/// compile time.
+static PARAMS: [[[f32; 5]; TABLE_SIZE]; TABLE_SIZE] = interleave();
+
+/// [`PARAMS`] from the table.
+const fn interleave() -> [[[f32; 5]; TABLE_SIZE]; TABLE_SIZE] {
+    let mut out = [[[0.0; 5]; TABLE_SIZE]; TABLE_SIZE];
+    let mut i = 0;
+    while i < TABLE_SIZE {
+        let mut j = 0;
+        while j < TABLE_SIZE {
+            out[i][j] = [
+                table::PIVOT_NORM[i][j],
+                table::PIVOT_ELEVATION[i][j],
+                table::ALBEDO[i][j],
+                table::LAMBERT_WEIGHT[i][j],
+                table::MASKING_COS[i][j],
+            ];
+            j += 1;
+        }
+        i += 1;
+    }
+    out
 }
 
 /// One cap's integrals ([`SptdGgx::cap_integrals`]).
@@ -354,7 +383,8 @@ impl SptdGgx {
         g
     }
 
-    fn zero() -> SptdGgx {
+    /// The zero lobe (what a zero or non-finite direction gives).
+    pub(crate) fn zero() -> SptdGgx {
         SptdGgx {
             normal: Vec3::Z,
             pivot: Pivot::new(Vec3::ZERO),
@@ -876,13 +906,17 @@ impl SptdGgx4 {
         let l = above.select(s * s * c * pi, zero);
         let v = above.select(two * (cap.one_minus_cos * pi), zero);
         // Only groups with a cap across the horizon pay for the exact Lambert pair (same
-        // per-lane choice as the scalar form, so the two agree lane by lane).
-        let any_crossing = (crossing & lanes).any();
+        // per-lane choice as the scalar form, so the two agree lane by lane). The whole
+        // hemisphere (`sin σ ≥ 1`) alone does not: `lambert_visible4` gives it `(π, 2π)`, and
+        // neither its lens nor its lateral rule is read (its result is ρ).
+        let inside = sin_sigma.simd_ge(one);
+        let any_crossing = (crossing & !inside & lanes).any();
         let (l, v) = if any_crossing {
             let (lc, vc) = lambert_visible4(cos_omega, sin_sigma);
             (crossing.select(lc, l), crossing.select(vc, v))
         } else {
-            (l, v)
+            let whole = crossing & inside;
+            (whole.select(pi, l), whole.select(two * pi, v))
         };
         let off = self.pivot.offset(ax, ay, az);
         let dist2 = self.pivot.distance2(&off);
@@ -923,7 +957,7 @@ impl SptdGgx4 {
         let r = if need_sptd.any() {
             let mapped = self.pivot.map_cap_at(&cap, &off);
             let lens = above.select(f32x4::splat(2.0 * PI) * mapped.one_minus_cos, zero);
-            let lens = if (crossing & need_sptd).any() {
+            let lens = if (crossing & !inside & need_sptd).any() {
                 crossing.select(intersection_area4(&mapped, &self.horizon), lens)
             } else {
                 lens
@@ -937,7 +971,6 @@ impl SptdGgx4 {
         let r = r.simd_ge(zero).select(r, zero);
         let rho = self.albedo;
         let r = r.simd_ge(rho).select(rho, r);
-        let inside = sin_sigma.simd_ge(one);
         CapIntegrals4 {
             ggx: inside.select(self.albedo, r),
             lambert: l,
