@@ -34,7 +34,7 @@
 /**
  * Minor version of the library.
  */
-#define ML_VERSION_MINOR 2
+#define ML_VERSION_MINOR 3
 
 /**
  * Patch version of the library.
