@@ -205,6 +205,10 @@ enum Command {
         /// Skip the convergence plot (renders at 1, 2, 4, … 4 × spp per technique).
         #[arg(long)]
         no_plot: bool,
+        /// Render only these techniques (comma-separated; default all). They must include
+        /// tl-mis, bl and the default, and full unless --time gives the budget.
+        #[arg(long, value_enum, value_delimiter = ',')]
+        techniques: Vec<TechniqueArg>,
         /// Print one JSON object as the last line of stdout.
         #[arg(long)]
         json: bool,
@@ -279,6 +283,7 @@ impl ImageArgs {
             time,
             protocol: protocol(self.fixed_point),
             params: self.params.params(),
+            techniques: Vec::new(),
         }
     }
 }
@@ -462,11 +467,13 @@ fn main() {
             time,
             ref_spp,
             no_plot,
+            techniques,
             json,
         } => {
             let scene = image.scene();
             let spp = spp.unwrap_or(if image.quick { 4 } else { 16 });
-            let cfg = image.config(spp, ref_spp.unwrap_or(64 * spp), !no_plot, time);
+            let mut cfg = image.config(spp, ref_spp.unwrap_or(64 * spp), !no_plot, time);
+            cfg.techniques = techniques.iter().map(|t| t.0).collect();
             match compare::run(&scene, &cfg) {
                 Ok(report) => {
                     println!("{}", report.table());

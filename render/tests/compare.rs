@@ -51,6 +51,7 @@ fn config(out: &Path, plot: bool, time: Option<f64>) -> CompareConfig {
         time,
         protocol: Protocol::Jittered,
         params: Default::default(),
+        techniques: Vec::new(),
     }
 }
 
@@ -414,6 +415,34 @@ fn compare_writes_every_output() {
     assert!(report.time_given);
     assert_eq!(report.json()["time_budget_s"], 0.002);
     assert_eq!(report.json()["time_budget_from"], "--time");
+
+    // A subset of the techniques (given out of order): only those, in Technique::ALL order.
+    let mut cfg = config(&out, false, Some(0.002));
+    cfg.techniques = vec![Technique::BlMis, Technique::TlMis, Technique::Bl];
+    let report = compare::run(&s, &cfg).expect("compare runs");
+    let names: Vec<&str> = report
+        .techniques
+        .iter()
+        .map(|t| t.technique.name())
+        .collect();
+    assert_eq!(names, ["bl", "tl-mis", "bl-mis"]);
+    assert!(report.table().contains("| bl-mis |"));
+    // tl-mis, bl and the default are needed, and full without a budget.
+    for (ts, time) in [
+        (
+            vec![Technique::Bl, Technique::BlMis, Technique::Full],
+            Some(0.002),
+        ),
+        (
+            vec![Technique::TlMis, Technique::Bl, Technique::BlMis],
+            None,
+        ),
+    ] {
+        let mut cfg = config(&out, false, time);
+        cfg.techniques = ts;
+        let e = compare::run(&s, &cfg).expect_err("refused");
+        assert_eq!(e.kind(), std::io::ErrorKind::InvalidInput, "{e}");
+    }
     std::fs::remove_dir_all(&out).ok();
 }
 

@@ -119,6 +119,20 @@ pub struct CompareConfig {
     pub protocol: Protocol,
     /// The estimators' parameters (the reference's are the defaults).
     pub params: Params,
+    /// The techniques to render, reported in [`Technique::ALL`] order (empty: all of them).
+    /// They must include `tl-mis` (every ratio's denominator), `bl` and the default, and
+    /// `full` unless `time` gives the budget.
+    pub techniques: Vec<Technique>,
+}
+
+impl CompareConfig {
+    /// The techniques rendered, in [`Technique::ALL`] order.
+    pub fn chosen(&self) -> Vec<Technique> {
+        Technique::ALL
+            .into_iter()
+            .filter(|t| self.techniques.is_empty() || self.techniques.contains(t))
+            .collect()
+    }
 }
 
 /// A technique's render time as `fixed + spp × per_spp` (busy seconds).
@@ -240,7 +254,7 @@ pub struct Report {
     pub time_given: bool,
     /// The folder of the images and table.
     pub dir: PathBuf,
-    /// Per technique, in [`Technique::ALL`] order.
+    /// Per technique rendered, in [`Technique::ALL`] order.
     pub techniques: Vec<TechReport>,
     /// Where the estimates were taken.
     pub protocol: Protocol,
@@ -255,12 +269,12 @@ pub struct Report {
     pub error_map_scale: f64,
 }
 
-/// The index of `t` in [`Technique::ALL`].
-fn index_of(t: Technique) -> usize {
-    Technique::ALL
+/// The index of `t` in `chosen` (a technique every report holds: see [`CompareConfig`]).
+fn index_of(chosen: &[Technique], t: Technique) -> usize {
+    chosen
         .iter()
         .position(|&x| x == t)
-        .expect("every technique is in Technique::ALL")
+        .expect("the report holds tl-mis, bl and the default")
 }
 
 /// `a / b`, NaN unless both are finite and `b` is positive.
@@ -375,9 +389,14 @@ impl Report {
         })
     }
 
+    /// The techniques reported, in order.
+    fn chosen(&self) -> Vec<Technique> {
+        self.techniques.iter().map(|t| t.technique).collect()
+    }
+
     /// The report of tl-mis, the peer strategy every ratio is taken against.
     fn tl_mis(&self) -> &TechReport {
-        &self.techniques[index_of(Technique::TlMis)]
+        &self.techniques[index_of(&self.chosen(), Technique::TlMis)]
     }
 
     /// The Markdown table.
@@ -454,7 +473,7 @@ impl Report {
             shown.push(Technique::DEFAULT);
         }
         let mis = self.tl_mis();
-        let default = &self.techniques[index_of(Technique::DEFAULT)];
+        let default = &self.techniques[index_of(&self.chosen(), Technique::DEFAULT)];
         let mut order: Vec<usize> = (0..c.names.len()).collect();
         let part = |i: usize| default.errors_equal_time.splits[k][i].mse_part_corrected(n);
         order.sort_by(|&a, &b| part(b).total_cmp(&part(a)));
@@ -477,7 +496,7 @@ impl Report {
         for &i in order.iter().take(rows) {
             s.push_str(&format!("| {} | {} |", c.names[i].0, pixels[i]));
             for &t in &shown {
-                let r = &self.techniques[index_of(t)];
+                let r = &self.techniques[index_of(&self.chosen(), t)];
                 for (e, m) in [
                     (&r.errors_equal_spp, &mis.errors_equal_spp),
                     (&r.errors_equal_time, &mis.errors_equal_time),
@@ -595,6 +614,20 @@ fn validate(cfg: &CompareConfig) -> std::io::Result<()> {
     }
     if let Some(t) = cfg.time {
         check_time(t).map_err(bad)?;
+    }
+    let chosen = cfg.chosen();
+    let mut needed = vec![Technique::TlMis, Technique::Bl, Technique::DEFAULT];
+    if cfg.time.is_none() {
+        needed.push(Technique::Full);
+    }
+    for t in needed {
+        if !chosen.contains(&t) {
+            return Err(bad(format!(
+                "the techniques must include {} (tl-mis, bl and the default always, full \
+                 unless --time gives the budget)",
+                t.name()
+            )));
+        }
     }
     Ok(())
 }
@@ -800,20 +833,19 @@ pub fn run(scene: &RenderScene, cfg: &CompareConfig) -> std::io::Result<Report> 
         params: cfg.params,
     };
     // Equal spp, and the cost model of each technique.
+    let chosen = cfg.chosen();
     let mut images = Vec::new();
     let mut costs = Vec::new();
-    for &t in &Technique::ALL {
+    for &t in &chosen {
         let fixed = render(scene, &rc(t, 0, cfg.seed)).seconds;
         let img = render(scene, &rc(t, cfg.spp, cfg.seed));
         costs.push(Cost::from_times(fixed, img.seconds, cfg.spp));
         write_both(&dir, t.name(), &img)?;
         images.push(img);
     }
-    let full_idx = Technique::ALL
-        .iter()
-        .position(|&t| t == Technique::Full)
-        .expect("full is a technique");
-    let budget = cfg.time.unwrap_or(images[full_idx].seconds);
+    let budget = cfg
+        .time
+        .unwrap_or_else(|| images[index_of(&chosen, Technique::Full)].seconds);
     eprintln!(
         "equal time: {budget:.3} busy s per technique ({})",
         if cfg.time.is_some() {
@@ -825,7 +857,7 @@ pub fn run(scene: &RenderScene, cfg: &CompareConfig) -> std::io::Result<Report> 
     // Equal time.
     let mut highest: Vec<Highest> = images.iter().map(Highest::of).collect();
     let mut eq_images = Vec::new();
-    for (i, &t) in Technique::ALL.iter().enumerate() {
+    for (i, &t) in chosen.iter().enumerate() {
         let spp_t = equal_time_spp(budget, costs[i]);
         let eq = render(scene, &rc(t, spp_t, cfg.seed.wrapping_add(0x5eed)));
         write_both(&dir, &format!("{}-equal-time", t.name()), &eq)?;
@@ -872,7 +904,7 @@ pub fn run(scene: &RenderScene, cfg: &CompareConfig) -> std::io::Result<Report> 
         .iter()
         .map(|sq| ErrorSummary::new(sq, &ref_var, &classes))
         .collect();
-    let mis_rmse = summaries[index_of(Technique::TlMis)].rmse();
+    let mis_rmse = summaries[index_of(&chosen, Technique::TlMis)].rmse();
     let error_map_scale = if mis_rmse.is_finite() && mis_rmse > 0.0 {
         ERROR_MAP_SCALE * mis_rmse
     } else {
@@ -892,10 +924,10 @@ pub fn run(scene: &RenderScene, cfg: &CompareConfig) -> std::io::Result<Report> 
             .iter()
             .map(|sq| map_image(&reference, error_map(sq, error_map_scale)))
             .collect();
-        for ((t, map), sq) in Technique::ALL.iter().zip(&maps).zip(sqs.iter()) {
+        for ((t, map), sq) in chosen.iter().zip(&maps).zip(sqs.iter()) {
             write_error_map(&dir, &format!("{}{suffix}-error", t.name()), map, sq)?;
         }
-        let captions: Vec<String> = Technique::ALL
+        let captions: Vec<String> = chosen
             .iter()
             .zip(sqs.iter())
             .map(|(t, sq)| caption(t.name(), (sq.iter().sum::<f64>() / sq.len() as f64).sqrt()))
@@ -914,7 +946,7 @@ pub fn run(scene: &RenderScene, cfg: &CompareConfig) -> std::io::Result<Report> 
         ("side_by_side.png", &images),
         ("side_by_side_equal_time.png", &eq_images),
     ] {
-        let captions: Vec<String> = Technique::ALL
+        let captions: Vec<String> = chosen
             .iter()
             .zip(imgs.iter())
             .map(|(t, img)| caption(t.name(), img.rmse(&reference)))
@@ -930,7 +962,7 @@ pub fn run(scene: &RenderScene, cfg: &CompareConfig) -> std::io::Result<Report> 
     }
     if cfg.plot {
         let mut series = Vec::new();
-        for (i, &t) in Technique::ALL.iter().enumerate() {
+        for (i, &t) in chosen.iter().enumerate() {
             let mut points = Vec::new();
             let mut spp = 1;
             while spp <= 4 * cfg.spp {
@@ -952,7 +984,7 @@ pub fn run(scene: &RenderScene, cfg: &CompareConfig) -> std::io::Result<Report> 
         std::fs::write(&path, convergence_svg(&title, &series))
             .map_err(|e| Error::new(e.kind(), format!("{}: {e}", path.display())))?;
     }
-    let techniques = Technique::ALL
+    let techniques = chosen
         .iter()
         .enumerate()
         .map(|(i, &t)| {
