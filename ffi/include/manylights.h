@@ -273,7 +273,8 @@ enum ml_technique
      */
     ML_TECHNIQUE_TL_MIS = 7,
     /**
-     * One `bl` light sample plus one BSDF sample, power heuristic: the default.
+     * `bl_light_samples` (2 by default) `bl` light samples from one cut plus one BSDF
+     * sample, power heuristic with the counts: the default.
      */
     ML_TECHNIQUE_BL_MIS = 8,
     /**

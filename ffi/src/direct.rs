@@ -44,7 +44,8 @@ pub enum ml_technique {
     Full = 6,
     /// One `tl` light sample plus one BSDF sample, power heuristic (pbrt-v4's and Cycles').
     TlMis = 7,
-    /// One `bl` light sample plus one BSDF sample, power heuristic: the default.
+    /// `bl_light_samples` (2 by default) `bl` light samples from one cut plus one BSDF
+    /// sample, power heuristic with the counts: the default.
     BlMis = 8,
     /// `tl-mis` with pbrt-v4's handling of distant and environment lights: each picked with
     /// the fixed probability 1 / (n + 1) whatever the point, the node tree otherwise.

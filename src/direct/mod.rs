@@ -202,7 +202,8 @@ pub enum Technique {
     Full,
     /// One TL tree sample + one BSDF sample, power heuristic (pbrt-v4, Cycles).
     TlMis,
-    /// One sample of the BRDF-oriented cut + one BSDF sample, power heuristic.
+    /// [`Params::bl_light_samples`] samples of one BRDF-oriented cut + one BSDF sample, power
+    /// heuristic with the counts.
     BlMis,
     /// `tl-mis` with pbrt-v4's handling of distant and environment lights: each picked with
     /// the fixed probability `1 / (n + 1)` whatever the point, the node tree otherwise
