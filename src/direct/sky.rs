@@ -86,10 +86,13 @@ impl Environment for UniformSky {
 }
 
 /// An analytic sky about the unit `up`: above the horizon (`c = up·ω > 0`) the radiance
-/// `horizon (1 − c) + zenith c`, below it `ground`. Sampled by the cosine lobe about `up`
-/// with probability q and uniformly over the lower hemisphere otherwise, q the upper
-/// hemisphere's share of `Y(zenith) + Y(horizon)` against `2 Y(ground)` (1 for a black
-/// ground): pdf `q c / π` above, `(1 − q) / 2π` below.
+/// `horizon (1 − c) + zenith c`, below it `ground`. The upper hemisphere is sampled with
+/// probability q, the lower one uniformly otherwise, q the upper hemisphere's share of
+/// `Y(zenith) + Y(horizon)` against `2 Y(ground)` (1 for a black ground); within the upper
+/// one, the cosine lobe about `up` with probability `1 − ε` and uniformly with probability
+/// ε = [`GradientSky::UNIFORM_SHARE`]: pdf `q ((1 − ε) c / π + ε / 2π)` above, `(1 − q) / 2π`
+/// below. The uniform share keeps the pdf away from 0 at the horizon, where the radiance is
+/// not, so that a sample's radiance over its pdf stays bounded.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct GradientSky {
     /// The up direction (unit).
@@ -103,6 +106,10 @@ pub struct GradientSky {
 }
 
 impl GradientSky {
+    /// ε: the share of the upper hemisphere's samples taken uniformly instead of by the
+    /// cosine about `up`.
+    pub const UNIFORM_SHARE: f32 = 0.2;
+
     /// The probability of sampling the upper hemisphere.
     fn q(&self) -> f32 {
         let up = self.zenith.luminance() + self.horizon.luminance();
@@ -147,12 +154,19 @@ impl Environment for GradientSky {
         let q = self.q();
         let up = self.up.normalize();
         let (t, b) = crate::brdf::Frame::from_normal(up).map(|f| (f.tangent, f.bitangent))?;
-        let local = if u[0] < q {
+        let eps = GradientSky::UNIFORM_SHARE;
+        let local = if u[0] < q * (1.0 - eps) {
             // Cosine-weighted about up (Malley), the first number rescaled.
-            let v = (u[0] / q).min(1.0);
+            let v = (u[0] / (q * (1.0 - eps))).min(1.0);
             let r = math::sqrt(v);
             let (s, c) = math::sin_cos(2.0 * PI * u[1]);
             Vec3::new(r * c, r * s, math::sqrt((1.0 - v).max(0.0)))
+        } else if u[0] < q {
+            // Uniform over the upper hemisphere: cos θ uniform in (0, 1].
+            let z = 1.0 - ((u[0] - q * (1.0 - eps)) / (q * eps)).min(1.0);
+            let r = math::sqrt((1.0 - z * z).max(0.0));
+            let (s, c) = math::sin_cos(2.0 * PI * u[1]);
+            Vec3::new(r * c, r * s, z)
         } else {
             let v = ((u[0] - q) / (1.0 - q)).min(1.0);
             let z = -v;
@@ -172,11 +186,84 @@ impl Environment for GradientSky {
     fn eval(&self, d: Vec3) -> (Rgb, f32) {
         let q = self.q();
         let c = d.dot(self.up.normalize());
+        let eps = GradientSky::UNIFORM_SHARE;
         let pdf = if c > 0.0 {
-            q * c / PI
+            q * ((1.0 - eps) * c / PI + eps / (2.0 * PI))
         } else {
             (1.0 - q) / (2.0 * PI)
         };
         (self.radiance(d), pdf)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::brdf::Frame;
+
+    fn sky(ground: Rgb) -> GradientSky {
+        GradientSky {
+            up: Vec3::new(0.2, 1.0, 0.1).normalize(),
+            zenith: Rgb::new(0.1, 0.2, 0.5),
+            horizon: Rgb::new(0.6, 0.5, 0.4),
+            ground,
+        }
+    }
+
+    /// The pdf a sample reports is `eval`'s, it integrates to 1 over the sphere, it is at least
+    /// `q ε / 2π` above the horizon, and the sampled directions follow it: the counts in ten
+    /// bands of `c = up·ω` (five above the horizon, five below) are within 5 standard
+    /// deviations of `N ∫_band pdf`.
+    #[test]
+    fn gradient_sky_samples_its_pdf() {
+        for ground in [Rgb::ZERO, Rgb::new(0.1, 0.08, 0.05)] {
+            let s = sky(ground);
+            let up = s.up;
+            // ∫ pdf over the sphere, by c (the pdf depends on c alone): 2π ∫ pdf(c) dc.
+            let m = 200_000;
+            let mut integral = 0.0f64;
+            for i in 0..m {
+                let c = -1.0 + 2.0 * (i as f64 + 0.5) / m as f64;
+                let d = up * c as f32
+                    + Frame::from_normal(up).unwrap().tangent * (1.0 - c * c).sqrt() as f32;
+                integral += f64::from(s.eval(d.normalize()).1) * 2.0 / m as f64;
+            }
+            integral *= 2.0 * core::f64::consts::PI;
+            assert!((integral - 1.0).abs() < 1e-3, "∫ pdf = {integral}");
+            let floor = s.q() * GradientSky::UNIFORM_SHARE / (2.0 * PI);
+            let grazing = Frame::from_normal(up).unwrap().tangent * 0.999_999 + up * 1e-3;
+            assert!(s.eval(grazing.normalize()).1 >= floor * 0.999);
+            // Stratified samples, binned by c.
+            let n = 400usize;
+            let mut bins = [0usize; 10];
+            for i in 0..n {
+                for j in 0..n {
+                    let u = [(i as f32 + 0.37) / n as f32, (j as f32 + 0.61) / n as f32];
+                    let e = s.sample(u).expect("a sample");
+                    let (r, pdf) = s.eval(e.direction);
+                    assert_eq!((e.radiance, e.pdf), (r, pdf), "sample vs eval at {u:?}");
+                    let c = f64::from(e.direction.dot(up)).clamp(-1.0, 1.0);
+                    bins[(((c + 1.0) * 5.0) as usize).min(9)] += 1;
+                }
+            }
+            let total = (n * n) as f64;
+            for (b, &count) in bins.iter().enumerate() {
+                let (lo, hi) = (-1.0 + 0.2 * b as f64, -0.8 + 0.2 * b as f64);
+                let k = 2000;
+                let mut p = 0.0f64;
+                for i in 0..k {
+                    let c = lo + (hi - lo) * (i as f64 + 0.5) / k as f64;
+                    let d = up * c as f32
+                        + Frame::from_normal(up).unwrap().tangent * (1.0 - c * c).sqrt() as f32;
+                    p += f64::from(s.eval(d.normalize()).1) * (hi - lo) / k as f64;
+                }
+                let want = total * 2.0 * core::f64::consts::PI * p;
+                let sd = (want * (1.0 - want / total)).sqrt().max(1.0);
+                assert!(
+                    (count as f64 - want).abs() <= 5.0 * sd,
+                    "band {b}: {count} samples, expected {want:.0} ± {sd:.0}"
+                );
+            }
+        }
     }
 }
