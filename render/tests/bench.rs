@@ -1,6 +1,7 @@
 //! `mlrender bench` in miniature: the build-only report has the build's figures (its peak heap
 //! measured by the counting allocator installed here, as in `mlrender`) and no sampling ones;
-//! the full report has both; the points-only scene is points only.
+//! the full report has both; the points-only scene is points only. The allocator's counters
+//! are global, so the tests that measure them run one at a time.
 
 use manylights::Light;
 use manylights_render::alloc_count::{self, CountingAlloc};
@@ -8,6 +9,14 @@ use manylights_render::instruments::bench::{run, table, BenchConfig, SceneKinds}
 
 #[global_allocator]
 static ALLOC: CountingAlloc = CountingAlloc;
+
+/// Held by every test that runs the bench: another test's allocations would be counted in
+/// its peak heap, and its reset of the peak would cut this one's short.
+static COUNTERS: std::sync::Mutex<()> = std::sync::Mutex::new(());
+
+fn counters() -> std::sync::MutexGuard<'static, ()> {
+    COUNTERS.lock().unwrap_or_else(|e| e.into_inner())
+}
 
 fn config(kinds: SceneKinds, build_only: bool) -> BenchConfig {
     BenchConfig {
@@ -22,6 +31,7 @@ fn config(kinds: SceneKinds, build_only: bool) -> BenchConfig {
 
 #[test]
 fn build_only_reports_the_build() {
+    let _serial = counters();
     assert!(alloc_count::installed());
     for kinds in [SceneKinds::Mixed, SceneKinds::Point] {
         let r = run(&config(kinds, true));
@@ -47,6 +57,7 @@ fn build_only_reports_the_build() {
 
 #[test]
 fn full_report_has_build_and_sampling() {
+    let _serial = counters();
     let mut cfg = config(SceneKinds::Point, false);
     cfg.repeats = 1;
     let r = run(&cfg);
@@ -58,6 +69,7 @@ fn full_report_has_build_and_sampling() {
 
 #[test]
 fn point_scene_is_points_in_the_cube() {
+    let _serial = counters();
     let lights = manylights_testkit::point_lights(500, 3);
     assert_eq!(lights.len(), 500);
     assert_eq!(lights, manylights_testkit::point_lights(500, 3));

@@ -78,7 +78,8 @@ fn timed_build<T>(f: impl FnOnce() -> T) -> (T, BuildTime) {
     let mut out = None;
     let cpu = crate::render::busy_time(|| out = Some(f()));
     let ms = t.elapsed().as_secs_f64() * 1e3;
-    let peak = alloc_count::peak() - base;
+    // Saturating: another thread of the process may have reset the peak meanwhile.
+    let peak = alloc_count::peak().saturating_sub(base);
     let time = BuildTime {
         ms,
         cpu_ms: cpu * 1e3,
