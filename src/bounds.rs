@@ -100,7 +100,7 @@ impl Aabb {
         if area > 0.0 {
             area
         } else {
-            e.length()
+            math::length(e)
         }
     }
 }
@@ -126,7 +126,7 @@ pub fn angle_between(a: Vec3, b: Vec3) -> f32 {
 
 #[inline]
 fn angle_with<T: Trig>(a: Vec3, b: Vec3) -> f32 {
-    T::atan2(a.cross(b).length(), a.dot(b))
+    T::atan2(math::length(a.cross(b)), a.dot(b))
 }
 
 /// Angle added to a union's θo to absorb the rounding of the rotated axis (radians).
@@ -189,12 +189,12 @@ impl Cone {
         let phi = theta_o - big.theta_o;
         let perp = small.axis - big.axis * cos_d;
         let perp = if perp.length_squared() > 1e-12 {
-            perp.normalize()
+            math::normalize(perp)
         } else {
             big.axis.any_orthonormal_vector()
         };
         let (s, c) = T::sin_cos(phi);
-        let axis = (big.axis * c + perp * s).normalize();
+        let axis = math::normalize(big.axis * c + perp * s);
         // Nearly opposite axes leave `perp` to f32 cancellation and the rotated axis off the
         // great circle through both: widen θo to what the axis really needs where the slack
         // does not cover it, so the union always contains both cones.

@@ -290,7 +290,7 @@ fn measure_full(lo: Vec3A, hi: Vec3A) -> f32 {
     if area > 0.0 {
         area
     } else {
-        e.length()
+        crate::math::length(e)
     }
 }
 
@@ -710,7 +710,7 @@ fn bin(
     let mut radius = 0.0f32;
     for (leaf, aabb) in leaves.iter().zip(boxes) {
         let s = &leaf.bounds.sphere;
-        let r = (s.center - center).length() + s.radius;
+        let r = crate::math::length(s.center - center) + s.radius;
         radius = if r > radius { r } else { radius };
         let k = to_bucket.of(aabb.center_a());
         let omni = leaf.bounds.cone.is_sphere();
@@ -762,7 +762,7 @@ fn bin_by_axes<J: Join>(
             let mut radius = 0.0f32;
             for (leaf, aabb) in leaves.iter().zip(boxes) {
                 let s = &leaf.bounds.sphere;
-                let r = (s.center - center).length() + s.radius;
+                let r = crate::math::length(s.center - center) + s.radius;
                 radius = if r > radius { r } else { radius };
                 let k = to_bucket.of(aabb.center_a());
                 add_light(a0, u0, k[0], leaf, aabb);
@@ -869,7 +869,7 @@ fn sweep_split(leaves: &mut [BinNode], boxes: &mut [Aabb], depth: u32, geo: Aabb
     let mut radius = 0.0f32;
     for leaf in leaves.iter() {
         let s = &leaf.bounds.sphere;
-        radius = radius.max((s.center - center).length() + s.radius);
+        radius = radius.max(crate::math::length(s.center - center) + s.radius);
     }
     if n <= 2 {
         return (split_at(boxes, n / 2), radius);
