@@ -193,24 +193,35 @@ fn moments(spp: usize, mut estimate: impl FnMut() -> [f64; 3]) -> (Pixel, Pixel)
 /// No light: black with no variance.
 const BLACK: (Pixel, Pixel) = ([0.0; 3], [0.0; 3]);
 
-/// One estimate at the estimator's point, with the scene's sky if it has one.
+/// One estimate at the estimator's point, with the scene's sky if it has one; an error
+/// counts in `failed` and as black.
 #[inline]
-fn estimate(scene: &RenderScene, est: &mut Estimator<'_>, rng: &mut Pcg64Mcg) -> [f64; 3] {
+fn estimate(
+    scene: &RenderScene,
+    est: &mut Estimator<'_>,
+    rng: &mut Pcg64Mcg,
+    failed: &mut u64,
+) -> [f64; 3] {
     let mut u = RngUniforms(rng);
-    match &scene.sky {
+    let r = match &scene.sky {
         Some(sky) => est.estimate_env(&scene.geometry, sky, &mut u),
         None => est.estimate(&scene.geometry, &mut u),
-    }
-    .unwrap_or([0.0; 3])
+    };
+    r.unwrap_or_else(|_| {
+        *failed += 1;
+        [0.0; 3]
+    })
 }
 
-/// One pixel's mean and variance under `cfg`'s protocol, with its own generator.
+/// One pixel's mean and variance under `cfg`'s protocol, with its own generator; the core's
+/// refusals (each counted as black) added to `failed`.
 fn pixel(
     scene: &RenderScene,
     cfg: &RenderConfig,
     params: &Params,
     (px, py): (usize, usize),
     rng: &mut Pcg64Mcg,
+    failed: &mut u64,
 ) -> (Pixel, Pixel) {
     let (w, h) = (cfg.width, cfg.height);
     match cfg.protocol {
@@ -219,9 +230,10 @@ fn pixel(
                 return BLACK;
             };
             let Ok(mut est) = Estimator::new(&scene.lights, &sp, cfg.technique, params) else {
+                *failed += cfg.spp as u64;
                 return BLACK;
             };
-            moments(cfg.spp, || estimate(scene, &mut est, rng))
+            moments(cfg.spp, || estimate(scene, &mut est, rng, failed))
         }
         Protocol::Jittered => {
             // One estimator per pixel, moved to each new shading point (`reset`: the same
@@ -233,8 +245,11 @@ fn pixel(
                     return [0.0; 3];
                 };
                 match Estimator::reuse(&mut slot, &scene.lights, &sp, cfg.technique, params) {
-                    Ok(est) => estimate(scene, est, rng),
-                    Err(_) => [0.0; 3],
+                    Ok(est) => estimate(scene, est, rng, failed),
+                    Err(_) => {
+                        *failed += 1;
+                        [0.0; 3]
+                    }
                 }
             })
         }
@@ -265,11 +280,12 @@ pub fn render(scene: &RenderScene, cfg: &RenderConfig) -> Image {
     let mut mean = vec![[0f32; 3]; w * h];
     let mut var = vec![[0f32; 3]; w * h];
     // Busy time: each row timed on its own thread, summed (see the module documentation).
-    let busy: f64 = mean
+    let (busy, failed): (f64, u64) = mean
         .par_chunks_mut(w.max(1))
         .zip(var.par_chunks_mut(w.max(1)))
         .enumerate()
         .map(|(py, (row_m, row_v))| {
+            let mut failed = 0u64;
             let t = busy_time(|| {
                 for px in 0..w {
                     let seed = cfg
@@ -278,13 +294,14 @@ pub fn render(scene: &RenderScene, cfg: &RenderConfig) -> Image {
                         .wrapping_add(((py * w + px) as u64) << 8)
                         .wrapping_add(tech_index);
                     let mut rng = Pcg64Mcg::seed_from_u64(seed);
-                    (row_m[px], row_v[px]) = pixel(scene, cfg, &params, (px, py), &mut rng);
+                    (row_m[px], row_v[px]) =
+                        pixel(scene, cfg, &params, (px, py), &mut rng, &mut failed);
                 }
             });
             bar.inc(1);
-            t
+            (t, failed)
         })
-        .sum();
+        .reduce(|| (0.0, 0), |a, b| (a.0 + b.0, a.1 + b.1));
     let wall_seconds = start.elapsed().as_secs_f64();
     bar.finish_and_clear();
     Image {
@@ -295,5 +312,6 @@ pub fn render(scene: &RenderScene, cfg: &RenderConfig) -> Image {
         spp: cfg.spp,
         seconds: busy,
         wall_seconds,
+        failed,
     }
 }

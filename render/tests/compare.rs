@@ -466,6 +466,7 @@ fn flat(width: usize, height: usize, value: f32) -> Image {
         spp: 1,
         seconds: 0.0,
         wall_seconds: 0.0,
+        failed: 0,
     }
 }
 

@@ -48,6 +48,7 @@ fn noisy(
         spp,
         seconds: 0.0,
         wall_seconds: 0.0,
+        failed: 0,
     }
 }
 
@@ -67,6 +68,7 @@ fn corrected_rmse_formula() {
         spp: 4,
         seconds: 0.0,
         wall_seconds: 0.0,
+        failed: 0,
     };
     assert_eq!(img.mean_variances(), vec![0.125, 0.5]);
     assert_eq!(

@@ -171,5 +171,6 @@ pub fn read_raw(path: &Path) -> Option<Image> {
         spp,
         seconds: 0.0,
         wall_seconds: 0.0,
+        failed: 0,
     })
 }

@@ -47,6 +47,10 @@ pub struct Image {
     pub seconds: f64,
     /// Wall-clock seconds of the render. 0 for an image read from disk.
     pub wall_seconds: f64,
+    /// Estimates (and shading points' set-ups) the core refused with an error, each counted
+    /// as black: 0 unless the renderer hands the core something it rejects. 0 for an image
+    /// read from disk.
+    pub failed: u64,
 }
 
 impl Image {

@@ -69,7 +69,7 @@
 //! `{scene, lights, resolution, spp, ref_spp, time_budget_s, time_budget_from, dir,
 //! techniques: [{name, rmse_equal_spp, rmse_equal_time, spp_equal_time, seconds_equal_time,
 //! ms_per_spp, ms_fixed, seconds_equal_spp, mean_rel_diff, mean_rel_diff_spp,
-//! mean_rel_diff_se, mean_rel_diff_sigma, mse_equal_spp_se, mse_equal_time_se,
+//! mean_rel_diff_se, mean_rel_diff_sigma, failed_estimates, mse_equal_spp_se, mse_equal_time_se,
 //! rmse_equal_spp_corrected, rmse_equal_time_corrected,
 //! rmse_equal_spp_vs_tl_mis, rmse_equal_time_vs_tl_mis, rmse_equal_spp_corrected_vs_tl_mis,
 //! rmse_equal_time_corrected_vs_tl_mis, errors: {material, angle, material_angle: {equal_spp,
@@ -221,6 +221,9 @@ pub struct TechReport {
     pub errors_equal_spp: ErrorSummary,
     /// The same of the equal-time image.
     pub errors_equal_time: ErrorSummary,
+    /// Estimates of its equal-spp and equal-time renders that the core refused with an error,
+    /// each counted as black (0 in a sound run; `compare` warns otherwise).
+    pub failed_estimates: u64,
 }
 
 impl TechReport {
@@ -332,6 +335,7 @@ impl Report {
                 "mean_rel_diff_spp": t.mean_rel_diff_spp,
                 "mean_rel_diff_se": num(t.mean_rel_diff_se),
                 "mean_rel_diff_sigma": num(ratio(t.mean_rel_diff, t.mean_rel_diff_se)),
+                "failed_estimates": t.failed_estimates,
                 "mse_equal_spp_se": num(t.errors_equal_spp.mse_se),
                 "mse_equal_time_se": num(t.errors_equal_time.mse_se),
                 "rmse_equal_spp_corrected": num(t.rmse_equal_spp_corrected()),
@@ -700,8 +704,16 @@ pub fn reference(scene: &RenderScene, cfg: &CompareConfig) -> std::io::Result<Im
             params: Params::default(),
         },
     );
+    warn_failed("the reference", img.failed);
     write_raw(&path, &img)?;
     Ok(img)
+}
+
+/// A warning on stderr when `what`'s render had estimates the core refused (counted black).
+fn warn_failed(what: &str, failed: u64) {
+    if failed > 0 {
+        eprintln!("warning: {failed} estimates of {what} failed (counted as black)");
+    }
 }
 
 /// `mlrender reference`: the cached reference (computed if missing) and a check that a second
@@ -1003,9 +1015,13 @@ pub fn run(scene: &RenderScene, cfg: &CompareConfig) -> std::io::Result<Report> 
                 mean_rel_diff_se: (hi.se.powi(2) + ref_se.powi(2)).sqrt() / ref_avg,
                 errors_equal_spp: summaries[i].clone(),
                 errors_equal_time: eq_summaries[i].clone(),
+                failed_estimates: images[i].failed + eq_images[i].failed,
             }
         })
-        .collect();
+        .collect::<Vec<TechReport>>();
+    for t in &techniques {
+        warn_failed(t.technique.name(), t.failed_estimates);
+    }
     let report = Report {
         scene: scene.name.clone(),
         lights: scene.lights.len(),

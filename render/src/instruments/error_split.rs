@@ -310,5 +310,6 @@ pub fn map_image(like: &Image, values: Vec<f32>) -> Image {
         spp: 1,
         seconds: 0.0,
         wall_seconds: 0.0,
+        failed: 0,
     }
 }

@@ -305,6 +305,7 @@ pub fn run_variant(setup: &Setup, name: &str, cfg: &VariantConfig) -> Variant {
             spp: 0,
             seconds: 0.0,
             wall_seconds: 0.0,
+            failed: 0,
         },
         frames: 0,
         seconds: 0.0,
