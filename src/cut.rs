@@ -452,36 +452,27 @@ impl LightCut {
     /// and rebuilt at each shading point).
     pub fn rebuild_bl(&mut self, tree: &LightTree, imp: &BlImportance, opts: &BlCutOptions) {
         let delta = opts.delta;
-        // `r ≥ s·d` as `r² ≥ s²·d²`; s = 1 is `d² ≤ r²`, the point inside the sphere.
+        // `r ≥ s·d` as `s²·d² ≤ r²`; s = 1 is `d² ≤ r²` exactly, the point inside the sphere.
         let s = if opts.split_sin < 1.0 {
             opts.split_sin.max(0.0)
         } else {
             1.0
         };
-        let s2 = s * s;
-        let s24 = f32x4::splat(s2);
-        let x = imp.position();
-        let x4 = [f32x4::splat(x.x), f32x4::splat(x.y), f32x4::splat(x.z)];
+        let s2 = f32x4::splat(s * s);
         // The root is evaluated once: its importances (those of `eval4`, bit for bit) give the
         // total, and its integrals its slots' decisions.
         let root = tree.nodes.first();
         let root_eval = root.map(|r| imp.eval4_for_cut(r));
         let delta4 = f32x4::splat(delta);
         let decide = |node: &Node4, _: f32| {
-            let (w, sc, glossy, inside) = match (root, root_eval) {
+            let (w, sc, glossy, [d2, r2]) = match (root, root_eval) {
                 (Some(r), Some(e)) if core::ptr::eq(node, r) => e,
                 _ => imp.eval4_for_cut(node),
             };
             // Split where the slot's cap is wide or SC exceeds δ (`sc > delta`, false for
-            // NaN, lane by lane). Wide: `s²·|c − x|² ≤ r²` for the decoded sphere, which for
-            // s = 1 is the evaluation's own inside mask.
-            let wide = if s2 < 1.0 {
-                let sp = node.spheres4();
-                let (vx, vy, vz) = (sp.x - x4[0], sp.y - x4[1], sp.z - x4[2]);
-                (s24 * (vx * vx + vy * vy + vz * vz)).simd_le(sp.r * sp.r)
-            } else {
-                inside
-            };
+            // NaN, lane by lane). Wide: `s²·|c − x|² ≤ r²` for the decoded sphere, from the
+            // evaluation's own distances.
+            let wide = (s2 * d2).simd_le(r2);
             SlotDecisions {
                 weight: w.to_array(),
                 score: sc.to_array(),

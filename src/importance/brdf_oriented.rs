@@ -345,12 +345,11 @@ impl BlImportance {
         (w, sc, glossy)
     }
 
-    /// [`BlImportance::eval4_with_lobe_integrals`] and the mask of the slots whose bounding
-    /// sphere holds the shading point, `|c − x|² ≤ r²` evaluated as
-    /// `(c − x).length_squared() <= r * r` is for the decoded sphere ([`Node4::sphere`]):
-    /// `(importances, cap integrals, glossy parts, inside)`.
+    /// [`BlImportance::eval4_with_lobe_integrals`] and, per slot, `|c − x|²` and `r²` of the
+    /// decoded bounding sphere ([`Node4::sphere`]), as `(c − x).length_squared()` and `r * r`
+    /// give them: `(importances, cap integrals, glossy parts, [|c − x|², r²])`.
     #[inline(always)]
-    pub(crate) fn eval4_for_cut(&self, node: &Node4) -> (f32x4, f32x4, f32x4, f32x4) {
+    pub(crate) fn eval4_for_cut(&self, node: &Node4) -> (f32x4, f32x4, f32x4, [f32x4; 2]) {
         self.eval4_core::<true>(node)
     }
 
@@ -367,14 +366,14 @@ impl BlImportance {
         cos_omega.simd_le(f32x4::ZERO).select(f32x4::ZERO, v)
     }
 
-    /// The body of the 4-wide evaluations: `(importances, cap integrals, glossy parts, the
-    /// mask of the slots whose sphere holds the point)`. With
+    /// The body of the 4-wide evaluations: `(importances, cap integrals, glossy parts,
+    /// [|c − x|², r²] of the decoded spheres)`. With
     /// `INTEGRALS` false only the importances are asked for, and the cap integrals are
     /// computed only where an importance depends on them (lanes that take the point limit
     /// or are not live do not): the other two results then have no meaning, and the
     /// importances are bit for bit those of `INTEGRALS` true.
     #[inline(always)]
-    fn eval4_core<const INTEGRALS: bool>(&self, node: &Node4) -> (f32x4, f32x4, f32x4, f32x4) {
+    fn eval4_core<const INTEGRALS: bool>(&self, node: &Node4) -> (f32x4, f32x4, f32x4, [f32x4; 2]) {
         let zero = f32x4::ZERO;
         let one = f32x4::ONE;
         let l = &self.lanes;
@@ -413,7 +412,7 @@ impl BlImportance {
         let energy = node.energy4();
         let value = (energy * v.cos_tp.fast_max(floor) / v.d2c * brdf)
             .fast_min(f32x4::splat(MAX_IMPORTANCE));
-        (live.select(value, zero), sc, glossy, v.inside)
+        (live.select(value, zero), sc, glossy, [v.d2, v.r2])
     }
 }
 

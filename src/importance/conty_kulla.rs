@@ -305,6 +305,10 @@ impl ClusterView {
 #[derive(Clone, Copy, Debug)]
 pub(crate) struct ClusterView4 {
     pub d2c: f32x4,
+    /// |c − x|² of the decoded sphere, unclamped.
+    pub d2: f32x4,
+    /// The decoded sphere's r².
+    pub r2: f32x4,
     pub inside: f32x4,
     pub wx: f32x4,
     pub wy: f32x4,
@@ -378,8 +382,8 @@ impl Cones4 {
 /// from them (and as their scalar forms do): `v` = centre − point, rescaled by `k`
 /// (`TINY_SCALE` in the lanes where |v|² is below the smallest normal f32, else 1) so that
 /// its direction survives; `l2` = |k·v|², at least the smallest normal; `rk` = the radius
-/// times `k`; `d2c` = |v|² clamped below at `CLAMP2 · r²` and `MIN_DISTANCE2`; `inside` where
-/// |v| ≤ r.
+/// times `k`; `d2c` = |v|² clamped below at `CLAMP2 · r²` and `MIN_DISTANCE2`; `d2` = |v|²
+/// and `r2` = r² unscaled; `inside` where |v| ≤ r (`d2 ≤ r2`).
 struct Offsets<L> {
     vx: L,
     vy: L,
@@ -387,6 +391,8 @@ struct Offsets<L> {
     l2: L,
     rk: L,
     d2c: L,
+    d2: L,
+    r2: L,
     inside: L,
 }
 
@@ -419,6 +425,8 @@ impl<L: Lanes> Offsets<L> {
             l2: l2.fast_max(min_normal),
             rk: r * k,
             d2c,
+            d2,
+            r2,
             inside: d2.simd_le(r2),
         }
     }
@@ -456,6 +464,8 @@ impl ClusterView4 {
             l2,
             rk,
             d2c,
+            d2,
+            r2,
             inside,
         } = Offsets4::new(p, node);
         let inv_d = one / l2.sqrt();
@@ -487,6 +497,8 @@ impl ClusterView4 {
         };
         ClusterView4 {
             d2c,
+            d2,
+            r2,
             inside,
             wx,
             wy,
@@ -632,6 +644,7 @@ fn scaled4<L: Lanes>(
         rk,
         d2c,
         inside,
+        ..
     } = offsets;
     let inv_d2c = one / d2c;
     let inv_l2 = one / l2;
