@@ -22,19 +22,32 @@
 /// Square root (f32).
 #[inline(always)]
 pub fn sqrt(x: f32) -> f32 {
-    #[cfg(all(
-        any(target_arch = "x86", target_arch = "x86_64"),
-        target_feature = "avx"
-    ))]
-    {
+    root::sqrtf(x)
+}
+
+/// The square roots' backend: libm's, or in AVX builds on x86 `wide`'s lane 0 (see the module
+/// documentation).
+#[cfg(not(all(
+    any(target_arch = "x86", target_arch = "x86_64"),
+    target_feature = "avx"
+)))]
+mod root {
+    pub(super) use libm::{sqrt, sqrtf};
+}
+
+#[cfg(all(
+    any(target_arch = "x86", target_arch = "x86_64"),
+    target_feature = "avx"
+))]
+mod root {
+    #[inline(always)]
+    pub(super) fn sqrtf(x: f32) -> f32 {
         wide::f32x4::splat(x).sqrt().to_array()[0]
     }
-    #[cfg(not(all(
-        any(target_arch = "x86", target_arch = "x86_64"),
-        target_feature = "avx"
-    )))]
-    {
-        libm::sqrtf(x)
+
+    #[inline(always)]
+    pub(super) fn sqrt(x: f64) -> f64 {
+        wide::f64x2::splat(x).sqrt().to_array()[0]
     }
 }
 
@@ -59,20 +72,7 @@ pub fn sq(x: f64) -> f64 {
 /// Square root (f64).
 #[inline(always)]
 pub fn sqrt64(x: f64) -> f64 {
-    #[cfg(all(
-        any(target_arch = "x86", target_arch = "x86_64"),
-        target_feature = "avx"
-    ))]
-    {
-        wide::f64x2::splat(x).sqrt().to_array()[0]
-    }
-    #[cfg(not(all(
-        any(target_arch = "x86", target_arch = "x86_64"),
-        target_feature = "avx"
-    )))]
-    {
-        libm::sqrt(x)
-    }
+    root::sqrt(x)
 }
 
 /// Whether an f32 squared length `l2` is safe to normalise by in f32: far from overflow and
