@@ -179,26 +179,35 @@ fn eval_case(alpha: f64, theta_o: f64, sigma: f64, axis: DVec3, seed: u64, grid:
 /// Draws and evaluates the overall stratum's cases (in parallel; the result does not depend
 /// on threads).
 pub fn cases(cfg: &AccuracyConfig) -> Vec<Case> {
-    let mut rng = Pcg64Mcg::seed_from_u64(cfg.seed);
-    let drawn: Vec<_> = (0..cfg.cases)
-        .map(|_| (draw(&mut rng), rng.random::<u64>()))
-        .collect();
-    drawn
-        .into_par_iter()
-        .map(|((a, t, s, ax), seed)| eval_case(a, t, s, ax, seed, cfg.grid))
-        .collect()
+    drawn_cases(cfg.seed, cfg.cases, cfg.grid, draw)
 }
 
 /// Draws and evaluates the grazing stratum's cases (in parallel; the result does not depend
 /// on threads).
 pub fn grazing_cases(cfg: &AccuracyConfig) -> Vec<Case> {
-    let mut rng = Pcg64Mcg::seed_from_u64(cfg.seed ^ 0x6772_617a_696e_6721);
-    let drawn: Vec<_> = (0..cfg.grazing_cases)
-        .map(|_| (draw_grazing(&mut rng), rng.random::<u64>()))
+    drawn_cases(
+        cfg.seed ^ 0x6772_617a_696e_6721,
+        cfg.grazing_cases,
+        cfg.grid,
+        draw_grazing,
+    )
+}
+
+/// `n` cases drawn by `draw` from a generator seeded with `seed`, each with a seed of its own
+/// for its ground truth, then evaluated in parallel.
+fn drawn_cases(
+    seed: u64,
+    n: usize,
+    grid: usize,
+    draw: fn(&mut Pcg64Mcg) -> (f64, f64, f64, DVec3),
+) -> Vec<Case> {
+    let mut rng = Pcg64Mcg::seed_from_u64(seed);
+    let drawn: Vec<_> = (0..n)
+        .map(|_| (draw(&mut rng), rng.random::<u64>()))
         .collect();
     drawn
         .into_par_iter()
-        .map(|((a, t, s, ax), seed)| eval_case(a, t, s, ax, seed, cfg.grid))
+        .map(|((a, t, s, ax), seed)| eval_case(a, t, s, ax, seed, grid))
         .collect()
 }
 
