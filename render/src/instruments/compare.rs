@@ -393,14 +393,18 @@ impl Report {
         })
     }
 
-    /// The techniques reported, in order.
-    fn chosen(&self) -> Vec<Technique> {
-        self.techniques.iter().map(|t| t.technique).collect()
+    /// The report of `t`, one every report holds (tl-mis, bl, the default: see
+    /// [`CompareConfig`]).
+    fn of(&self, t: Technique) -> &TechReport {
+        self.techniques
+            .iter()
+            .find(|r| r.technique == t)
+            .expect("the report holds tl-mis, bl and the default")
     }
 
     /// The report of tl-mis, the peer strategy every ratio is taken against.
     fn tl_mis(&self) -> &TechReport {
-        &self.techniques[index_of(&self.chosen(), Technique::TlMis)]
+        self.of(Technique::TlMis)
     }
 
     /// The Markdown table.
@@ -477,7 +481,7 @@ impl Report {
             shown.push(Technique::DEFAULT);
         }
         let mis = self.tl_mis();
-        let default = &self.techniques[index_of(&self.chosen(), Technique::DEFAULT)];
+        let default = self.of(Technique::DEFAULT);
         let mut order: Vec<usize> = (0..c.names.len()).collect();
         let part = |i: usize| default.errors_equal_time.splits[k][i].mse_part_corrected(n);
         order.sort_by(|&a, &b| part(b).total_cmp(&part(a)));
@@ -500,7 +504,7 @@ impl Report {
         for &i in order.iter().take(rows) {
             s.push_str(&format!("| {} | {} |", c.names[i].0, pixels[i]));
             for &t in &shown {
-                let r = &self.techniques[index_of(&self.chosen(), t)];
+                let r = self.of(t);
                 for (e, m) in [
                     (&r.errors_equal_spp, &mis.errors_equal_spp),
                     (&r.errors_equal_time, &mis.errors_equal_time),
