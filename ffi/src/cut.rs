@@ -74,32 +74,35 @@ impl ml_cut {
     }
 }
 
-fn max_size(v: usize, name: &str) -> Result<usize> {
+// The checks name the field as `{name}.{field}`, formatted only for an error: the options are
+// checked at every call that takes them (`ml_direct_estimate` among them).
+
+fn max_size(v: usize, name: &str, field: &str) -> Result<usize> {
     if (crate::limits::ML_MIN_CUT_SIZE..=ML_CUT_CAPACITY).contains(&v) {
         Ok(v)
     } else {
         Err(Error::invalid(format_args!(
-            "{name} must be in [4, 64], ML_MIN_CUT_SIZE to ML_CUT_CAPACITY (got {v})"
+            "{name}.{field} must be in [4, 64], ML_MIN_CUT_SIZE to ML_CUT_CAPACITY (got {v})"
         )))
     }
 }
 
-fn non_negative(v: f32, name: &str) -> Result<f32> {
+fn non_negative(v: f32, name: &str, field: &str) -> Result<f32> {
     if v.is_finite() && v >= 0.0 {
         Ok(v)
     } else {
         Err(Error::invalid(format_args!(
-            "{name} must be finite and non-negative (got {v})"
+            "{name}.{field} must be finite and non-negative (got {v})"
         )))
     }
 }
 
-fn unit_interval(v: f32, name: &str) -> Result<f32> {
+fn unit_interval(v: f32, name: &str, field: &str) -> Result<f32> {
     if (0.0..=1.0).contains(&v) {
         Ok(v)
     } else {
         Err(Error::invalid(format_args!(
-            "{name} must be in [0, 1] (got {v})"
+            "{name}.{field} must be in [0, 1] (got {v})"
         )))
     }
 }
@@ -141,9 +144,9 @@ pub(crate) fn cut_options(o: Option<&ml_bl_cut_options>, name: &str) -> Result<B
     Ok(match o {
         None => BlCutOptions::default(),
         Some(o) => BlCutOptions {
-            delta: non_negative(o.delta, &format!("{name}.delta"))?,
-            max_size: max_size(o.max_size, &format!("{name}.max_size"))?,
-            split_sin: unit_interval(o.split_sin, &format!("{name}.split_sin"))?,
+            delta: non_negative(o.delta, name, "delta")?,
+            max_size: max_size(o.max_size, name, "max_size")?,
+            split_sin: unit_interval(o.split_sin, name, "split_sin")?,
         },
     })
 }
@@ -156,8 +159,8 @@ pub(crate) fn split_options(
     Ok(match o {
         None => SplitCutOptions::default(),
         Some(o) => SplitCutOptions {
-            threshold: non_negative(o.threshold, &format!("{name}.threshold"))?,
-            max_size: max_size(o.max_size, &format!("{name}.max_size"))?,
+            threshold: non_negative(o.threshold, name, "threshold")?,
+            max_size: max_size(o.max_size, name, "max_size")?,
         },
     })
 }
