@@ -321,10 +321,11 @@ pub const BATCH_LANES: usize = 16;
 const PMF_BATCH_LANES: usize = 4;
 
 /// The pmf walks [`LightTree::pmf_batch`] keeps in flight in a tree of at least
-/// [`PMF_WIDE_NODES`] nodes, whose levels come from DRAM: there a walk waits on a miss per
-/// level, and more of them in flight overlap more misses (the same bits as
-/// [`PMF_BATCH_LANES`]; measured in docs/measurements.md, "The chain of a 4-wide level").
-const PMF_BATCH_LANES_WIDE: usize = 16;
+/// [`PMF_WIDE_NODES`] nodes, whose levels come from DRAM or a distant last-level cache: there
+/// a walk waits on a miss per level, and more of them in flight overlap more misses (the same
+/// bits as [`PMF_BATCH_LANES`]; measured in docs/measurements.md, "Batch widths and the next
+/// level's loads").
+const PMF_BATCH_LANES_WIDE: usize = 32;
 
 /// The node count from which [`LightTree::pmf_batch`] keeps [`PMF_BATCH_LANES_WIDE`] walks in
 /// flight: 2¹⁷ nodes of 64 bytes, 8 MiB, more than a core's share of most last-level caches.
