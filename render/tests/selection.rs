@@ -1,5 +1,6 @@
-//! `mlrender selection` on a small scene: finite, non-negative variances, the BRDF-oriented cut's
-//! below TL's, and a cut that cannot split beyond the root as large as the root's slots allow.
+//! `mlrender selection` on a small scene: finite, non-negative variances (the cut's, TL's and the
+//! two descents'), the BRDF-oriented cut's below TL's, and a cut that cannot split beyond the
+//! root as large as the root's slots allow.
 
 use manylights::BlCutOptions;
 use manylights_render::instruments::selection::{run, SelectionConfig};
@@ -17,7 +18,13 @@ fn stairs_light_choice() {
     };
     let r = run(&s, &cfg);
     assert!(r.points > 30, "{r:?}");
-    for v in [r.bl.mean_variance, r.tl.mean_variance, r.mean_light] {
+    for v in [
+        r.bl.mean_variance,
+        r.tl.mean_variance,
+        r.bl_descent.mean_variance,
+        r.bl_descent_tl_near.mean_variance,
+        r.mean_light,
+    ] {
         assert!(v.is_finite() && v >= 0.0, "{r:?}");
     }
     assert!(r.bl.mean_variance < r.tl.mean_variance, "{r:?}");

@@ -22,12 +22,25 @@
 //! a light carrying most of the light gets a small probability dominate it: the report gives
 //! the share of the mean from the worst 1 % of the points, the mean cut size and how many cuts
 //! ran out of room (reached `max_size`).
+//!
+//! Two choices without a cut are measured beside them, as the levers they are for a cheaper
+//! BRDF-oriented choice: one descent of the tree with the BL importance at every node
+//! (`bl_descent`: what the tree's own sampler gives with [`BlImportance`]), and the same
+//! descent taking the TL importance at every node where a child's cap is as wide as the cut's
+//! `split_sin` would split (`bl_descent_tl_near`: the cut's own criterion decided per node, TL
+//! where BL's distance to the cluster's centre misleads). Both pmfs are exact, from the walk
+//! down each light's path.
 
 use crate::render::primary_at;
 use crate::scene::RenderScene;
 use manylights::direct::{CutSampler, LightSampler, TreeSampler};
+use manylights::importance::Importance;
+use manylights::infinite::InfiniteLight;
 use manylights::light_sample::sample_point;
-use manylights::{BlCutOptions, Brdf, Frame, Light, ShadingPoint};
+use manylights::tree::{Node4, SlotBounds};
+use manylights::{
+    BlCutOptions, BlImportance, Brdf, Frame, Light, LightTree, ShadingPoint, TlImportance,
+};
 use rand::{Rng, SeedableRng};
 use rand_pcg::Pcg64Mcg;
 use rayon::prelude::*;
@@ -68,6 +81,10 @@ pub struct SelectionReport {
     pub bl: Choice,
     /// The TL descent.
     pub tl: Choice,
+    /// One descent with the BL importance at every node.
+    pub bl_descent: Choice,
+    /// One descent with the TL importance at the nodes with a wide child's cap, BL elsewhere.
+    pub bl_descent_tl_near: Choice,
     /// Mean number of clusters of the cut.
     pub mean_cut: f64,
     /// Share of the points whose cut reached `max_size`.
@@ -113,6 +130,39 @@ fn contributions(scene: &RenderScene, sp: &ShadingPoint) -> Vec<(u32, f64)> {
     out
 }
 
+/// The importance of `bl_descent_tl_near`: at a node where some child's bounding sphere
+/// (centre c, radius r) has `s²·|c − x|² ≤ r²`, the TL importance of its four slots, else the
+/// BL importance; lights at infinity weighed by BL.
+struct TlNear {
+    bl: BlImportance,
+    tl: TlImportance,
+    position: glam::Vec3,
+    s2: f32,
+}
+
+impl Importance for TlNear {
+    fn eval4(&self, node: &Node4) -> manylights::f32x4 {
+        let near = (0..4).any(|k| {
+            let s = node.sphere(k);
+            s.radius > 0.0
+                && self.s2 * (s.center - self.position).length_squared() <= s.radius * s.radius
+        });
+        if near {
+            self.tl.eval4(node)
+        } else {
+            self.bl.eval4(node)
+        }
+    }
+
+    fn eval_slot(&self, b: &SlotBounds) -> f32 {
+        self.bl.eval_slot(b)
+    }
+
+    fn eval_infinite(&self, light: &InfiniteLight) -> f32 {
+        self.bl.eval_infinite(light)
+    }
+}
+
 /// `Σ c² / p − (Σ c)²`.
 fn variance(cs: &[(u32, f64)], pmf: impl Fn(u32) -> f32) -> f64 {
     let total: f64 = cs.iter().map(|c| c.1).sum();
@@ -155,8 +205,9 @@ pub fn run(scene: &RenderScene, cfg: &SelectionConfig) -> SelectionReport {
             pts.push(sp);
         }
     }
-    let tree = scene.lights.tree();
-    let rows: Vec<(f64, f64, f64, usize, bool)> = pts
+    let tree: &LightTree = scene.lights.tree();
+    let s = cfg.cut.split_sin.clamp(0.0, 1.0);
+    let rows: Vec<(f64, [f64; 4], usize, bool)> = pts
         .par_iter()
         .filter_map(|sp| {
             let cs = contributions(scene, sp);
@@ -166,23 +217,35 @@ pub fn run(scene: &RenderScene, cfg: &SelectionConfig) -> SelectionReport {
             }
             let bl = CutSampler::new(tree, sp, &cfg.cut).ok()?;
             let tl = TreeSampler::new(tree, sp.position, sp.normal);
-            let vb = variance(&cs, |l| bl.pmf(l));
-            let vt = variance(&cs, |l| tl.pmf(l));
+            let imp = BlImportance::new(sp).ok()?;
+            let near = TlNear {
+                bl: imp,
+                tl: *tl.importance(),
+                position: sp.position,
+                s2: s * s,
+            };
+            let v = [
+                variance(&cs, |l| bl.pmf(l)),
+                variance(&cs, |l| tl.pmf(l)),
+                variance(&cs, |l| tree.pmf(&imp, l)),
+                variance(&cs, |l| tree.pmf(&near, l)),
+            ];
             let n = bl.cut().len();
             let full = n >= cfg.cut.max_size.clamp(4, manylights::CUT_CAPACITY);
-            Some((total, vb, vt, n, full))
+            Some((total, v, n, full))
         })
         .collect();
     let n = rows.len().max(1) as f64;
-    let vb: Vec<f64> = rows.iter().map(|r| r.1).collect();
-    let vt: Vec<f64> = rows.iter().map(|r| r.2).collect();
+    let of = |i: usize| choice(&rows.iter().map(|r| r.1[i]).collect::<Vec<f64>>());
     SelectionReport {
         points: rows.len(),
         mean_light: rows.iter().map(|r| r.0).sum::<f64>() / n,
-        bl: choice(&vb),
-        tl: choice(&vt),
-        mean_cut: rows.iter().map(|r| r.3 as f64).sum::<f64>() / n,
-        cut_full: rows.iter().filter(|r| r.4).count() as f64 / n,
+        bl: of(0),
+        tl: of(1),
+        bl_descent: of(2),
+        bl_descent_tl_near: of(3),
+        mean_cut: rows.iter().map(|r| r.2 as f64).sum::<f64>() / n,
+        cut_full: rows.iter().filter(|r| r.3).count() as f64 / n,
     }
 }
 
@@ -193,7 +256,8 @@ impl SelectionReport {
             "{scene}: {} points, mean light Σc {:.4e}; BRDF-oriented cut (δ {}, max {}, split_sin {})\n\
              | choice | mean V | worst 1 % share |\n|---|---:|---:|\n\
              | BL cut | {:.4e} | {:.3} |\n| TL descent | {:.4e} | {:.3} |\n\
-             BL / TL {:.4}; cut {:.1} clusters on average, {:.2} % of the cuts full\n",
+             | BL descent | {:.4e} | {:.3} |\n| BL descent, TL near | {:.4e} | {:.3} |\n\
+             BL / TL {:.4} (descents {:.4}, {:.4}); cut {:.1} clusters on average, {:.2} % of the cuts full\n",
             self.points,
             self.mean_light,
             cfg.cut.delta,
@@ -203,7 +267,13 @@ impl SelectionReport {
             self.bl.worst_1pc_share,
             self.tl.mean_variance,
             self.tl.worst_1pc_share,
+            self.bl_descent.mean_variance,
+            self.bl_descent.worst_1pc_share,
+            self.bl_descent_tl_near.mean_variance,
+            self.bl_descent_tl_near.worst_1pc_share,
             self.bl.mean_variance / self.tl.mean_variance,
+            self.bl_descent.mean_variance / self.tl.mean_variance,
+            self.bl_descent_tl_near.mean_variance / self.tl.mean_variance,
             self.mean_cut,
             100.0 * self.cut_full,
         )
@@ -222,6 +292,12 @@ impl SelectionReport {
             "tl_mean_variance": self.tl.mean_variance,
             "tl_worst_1pc_share": self.tl.worst_1pc_share,
             "bl_vs_tl": self.bl.mean_variance / self.tl.mean_variance,
+            "bl_descent_mean_variance": self.bl_descent.mean_variance,
+            "bl_descent_worst_1pc_share": self.bl_descent.worst_1pc_share,
+            "bl_descent_vs_tl": self.bl_descent.mean_variance / self.tl.mean_variance,
+            "bl_descent_tl_near_mean_variance": self.bl_descent_tl_near.mean_variance,
+            "bl_descent_tl_near_worst_1pc_share": self.bl_descent_tl_near.worst_1pc_share,
+            "bl_descent_tl_near_vs_tl": self.bl_descent_tl_near.mean_variance / self.tl.mean_variance,
             "mean_cut": self.mean_cut,
             "cut_full": self.cut_full,
         })
