@@ -88,8 +88,9 @@ enum Command {
     /// Unbiasedness, variance and time per estimate of every technique against exact values,
     /// without visibility.
     Estimator(manylights_render::instruments::estimator::EstimatorArgs),
-    /// The variance of the light choice (BRDF-oriented cut and TL descent) at a scene's
-    /// shading points, from every light's contribution and probability: where a cut fails.
+    /// The variance of the light choice (BRDF-oriented cut, TL descent, and two descents
+    /// without a cut) at a scene's shading points, from every light's contribution and
+    /// probability: where a cut fails.
     Selection {
         /// Scene: cornell, exhibition, city, city-sun, stairs, or a path to an .obj file.
         #[arg(long, default_value = "city")]
