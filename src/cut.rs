@@ -55,6 +55,7 @@
 //! squared, scales its relative variance into a share of the total's.
 
 use crate::importance::{BlImportance, Importance, TlImportance};
+use crate::math;
 use crate::sample::{sanitize, LightSample, Start, WalkStart, MIN_PMF, ONE_MINUS_EPSILON};
 use crate::tree::{count4, path_len, Child, LightTree, Node4, Slot};
 use core::cell::Cell;
@@ -517,7 +518,7 @@ impl LightCut {
                     };
                     let sphere = node.sphere(k);
                     let (c, r) = (sphere.center, sphere.radius);
-                    let d = (c - x).length();
+                    let d = math::length(c - x);
                     let inside = d <= r;
                     let score = if inside {
                         f32::INFINITY

@@ -63,6 +63,20 @@ pub fn normalize(v: glam::Vec3) -> glam::Vec3 {
     v * (1.0 / length(v))
 }
 
+/// `v.try_normalize()` bit for bit, by [`sqrt`]: `v · (1 / |v|)` where `1 / |v|` is finite and
+/// positive, else `None`.
+#[inline(always)]
+pub fn try_normalize(v: glam::Vec3) -> Option<glam::Vec3> {
+    let rcp = 1.0 / length(v);
+    (rcp.is_finite() && rcp > 0.0).then(|| v * rcp)
+}
+
+/// `v.normalize_or_zero()` bit for bit, by [`sqrt`].
+#[inline(always)]
+pub fn normalize_or_zero(v: glam::Vec3) -> glam::Vec3 {
+    try_normalize(v).unwrap_or(glam::Vec3::ZERO)
+}
+
 /// `x²` (f64).
 #[inline(always)]
 pub fn sq(x: f64) -> f64 {
@@ -91,7 +105,7 @@ pub fn unit_f64(v: [f64; 3]) -> Option<glam::Vec3> {
         return None;
     }
     let n = glam::Vec3::new((v[0] / l) as f32, (v[1] / l) as f32, (v[2] / l) as f32);
-    Some(n.normalize())
+    Some(normalize(n))
 }
 
 /// [`unit_f64`] of an f32 vector: `None` exactly when `v` is zero or not finite.

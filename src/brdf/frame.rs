@@ -24,7 +24,11 @@ impl Frame {
         if !(l > 0.0 && l < f64::INFINITY) {
             return None;
         }
-        let n = Vec3::new((v[0] / l) as f32, (v[1] / l) as f32, (v[2] / l) as f32).normalize();
+        let n = math::normalize(Vec3::new(
+            (v[0] / l) as f32,
+            (v[1] / l) as f32,
+            (v[2] / l) as f32,
+        ));
         let sign = if n.z >= 0.0 { 1.0 } else { -1.0 };
         let a = -1.0 / (sign + n.z);
         let b = n.x * n.y * a;

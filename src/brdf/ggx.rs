@@ -82,7 +82,7 @@ impl Ggx {
     #[inline]
     fn half(wo: Vec3, wi: Vec3) -> Option<Vec3> {
         if finite(wo) && finite(wi) && wo.z > 0.0 && wi.z > 0.0 {
-            (wo + wi).try_normalize()
+            math::try_normalize(wo + wi)
         } else {
             None
         }
@@ -109,7 +109,7 @@ impl Brdf for Ggx {
         }
         let a = self.alpha;
         // Stretch the view direction to the hemisphere configuration (α = 1).
-        let vh = Vec3::new(a * wo.x, a * wo.y, wo.z).try_normalize()?;
+        let vh = math::try_normalize(Vec3::new(a * wo.x, a * wo.y, wo.z))?;
         let len2 = vh.x * vh.x + vh.y * vh.y;
         let t1 = if len2 > 0.0 {
             Vec3::new(-vh.y, vh.x, 0.0) / math::sqrt(len2)
@@ -125,8 +125,8 @@ impl Brdf for Ggx {
         let p2 = (1.0 - s) * math::sqrt((1.0 - p1 * p1).max(0.0)) + s * (r * sp);
         let nh = t1 * p1 + t2 * p2 + vh * math::sqrt((1.0 - p1 * p1 - p2 * p2).max(0.0));
         // Unstretch to the microfacet normal, and reflect.
-        let m = Vec3::new(a * nh.x, a * nh.y, nh.z.max(0.0)).try_normalize()?;
-        let wi = (m * (2.0 * wo.dot(m)) - wo).normalize();
+        let m = math::try_normalize(Vec3::new(a * nh.x, a * nh.y, nh.z.max(0.0)))?;
+        let wi = math::normalize(m * (2.0 * wo.dot(m)) - wo);
         let pdf = self.pdf(wo, wi);
         (pdf > 0.0 && pdf < f32::INFINITY).then_some((wi, pdf))
     }

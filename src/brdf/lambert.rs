@@ -53,7 +53,7 @@ impl Brdf for Lambert {
         }
         let (x, y) = concentric(u);
         let z = math::sqrt((1.0 - x * x - y * y).max(0.0));
-        let wi = Vec3::new(x, y, z).normalize();
+        let wi = math::normalize(Vec3::new(x, y, z));
         let pdf = self.pdf(wo, wi);
         (pdf > 0.0).then_some((wi, pdf))
     }

@@ -16,6 +16,7 @@ use crate::light::Light;
 use crate::light_sample::{intersect, sample_point, LightPoint};
 use crate::light_set::LightSet;
 use crate::material::{Material, ShadingError, ShadingField, ShadingPoint};
+use crate::math;
 use crate::mis::{
     brdf_budget, sample_budget, AdaptiveAllocator, CombinedWeights, Factors, Mixture,
     SequentialWeights,
@@ -413,10 +414,10 @@ impl Plan {
     /// Validates `sp` and decides what `technique` builds there.
     fn new(sp: &ShadingPoint, technique: Technique, params: &Params) -> Result<Plan, DirectError> {
         sp.validate()?;
-        let frame = Frame::from_normal(sp.normal).ok_or(ShadingError {
+        let frame = Frame::from_normal(sp.normal).ok_or_else(|| ShadingError {
             field: ShadingField::Normal,
             problem: Problem::ZeroLength,
-            value: sp.normal.length(),
+            value: math::length(sp.normal),
         })?;
         let needs_split = matches!(
             technique,
@@ -438,7 +439,7 @@ impl Plan {
         };
         Ok(Plan {
             frame,
-            wo: frame.to_local(sp.wo.normalize()),
+            wo: frame.to_local(math::normalize(sp.wo)),
             tl: TlImportance::new(sp.position, frame.normal),
             bl,
             needs_split,
@@ -1373,7 +1374,7 @@ impl<'a> Estimator<'a> {
                         continue;
                     };
                     let f = self.material.eval_rgb(self.wo, wi);
-                    let dir = self.frame.to_world(wi).normalize();
+                    let dir = math::normalize(self.frame.to_world(wi));
                     let (env_radiance, env_pdf) = match (environment, env_light) {
                         (Some(env), Some(_)) => env.eval(dir),
                         _ => (Rgb::ZERO, 0.0),

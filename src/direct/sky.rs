@@ -74,7 +74,7 @@ fn uniform_sphere(u: [f32; 2]) -> Vec3 {
 impl Environment for UniformSky {
     fn sample(&self, u: [f32; 2]) -> Option<EnvironmentSample> {
         Some(EnvironmentSample {
-            direction: uniform_sphere(u).normalize(),
+            direction: math::normalize(uniform_sphere(u)),
             radiance: self.radiance,
             pdf: 1.0 / (4.0 * PI),
         })
@@ -129,7 +129,7 @@ impl GradientSky {
         let y_up = self.zenith.luminance().max(self.horizon.luminance());
         let y_low = self.ground.luminance();
         let axes = [Vec3::X, -Vec3::X, Vec3::Y, -Vec3::Y, Vec3::Z, -Vec3::Z];
-        let up = self.up.normalize();
+        let up = math::normalize(self.up);
         let irradiance = axes.map(|a| {
             let c = a.dot(up).clamp(-1.0, 1.0);
             let e = y_up * PI * (1.0 + c) * 0.5 + y_low * PI * (1.0 - c) * 0.5;
@@ -152,7 +152,7 @@ impl GradientSky {
 impl Environment for GradientSky {
     fn sample(&self, u: [f32; 2]) -> Option<EnvironmentSample> {
         let q = self.q();
-        let up = self.up.normalize();
+        let up = math::normalize(self.up);
         let (t, b) = crate::brdf::Frame::from_normal(up).map(|f| (f.tangent, f.bitangent))?;
         let eps = GradientSky::UNIFORM_SHARE;
         let local = if u[0] < q * (1.0 - eps) {
@@ -174,7 +174,7 @@ impl Environment for GradientSky {
             let (s, c) = math::sin_cos(2.0 * PI * u[1]);
             Vec3::new(r * c, r * s, z)
         };
-        let d = (t * local.x + b * local.y + up * local.z).normalize();
+        let d = math::normalize(t * local.x + b * local.y + up * local.z);
         let (radiance, pdf) = self.eval(d);
         (pdf > 0.0 && pdf < f32::INFINITY).then_some(EnvironmentSample {
             direction: d,
@@ -185,7 +185,7 @@ impl Environment for GradientSky {
 
     fn eval(&self, d: Vec3) -> (Rgb, f32) {
         let q = self.q();
-        let c = d.dot(self.up.normalize());
+        let c = d.dot(math::normalize(self.up));
         let eps = GradientSky::UNIFORM_SHARE;
         let pdf = if c > 0.0 {
             q * ((1.0 - eps) * c / PI + eps / (2.0 * PI))

@@ -135,7 +135,7 @@ pub struct BlEval {
 /// direction instead of collapsing to zero or losing precision.
 fn unit_direction(field: ShadingField, v: Vec3) -> Result<Vec3, ShadingError> {
     if math::len2_is_safe(v.length_squared()) {
-        return Ok(v.normalize());
+        return Ok(math::normalize(v));
     }
     math::unit(v).ok_or(ShadingError {
         field,

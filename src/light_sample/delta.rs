@@ -28,7 +28,7 @@ pub(super) fn sample(
     LightPoint::checked(
         position,
         Vec3::ZERO,
-        w.to_f32().normalize(),
+        math::normalize(w.to_f32()),
         dist as f32,
         1.0,
         true,

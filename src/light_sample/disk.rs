@@ -81,8 +81,8 @@ fn at_point(
     let facing = if side > 0.0 { n } else { -n };
     LightPoint::checked(
         p,
-        (if two_sided { facing } else { n }).to_f32().normalize(),
-        w.to_f32().normalize(),
+        math::normalize((if two_sided { facing } else { n }).to_f32()),
+        math::normalize(w.to_f32()),
         dist as f32,
         pdf as f32,
         false,

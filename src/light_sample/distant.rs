@@ -24,7 +24,7 @@ fn cone(direction: Vec3, angular_radius: f32) -> Option<(V64, f64, f64)> {
 
 /// The point at infinity along the unit `w` with the cone's pdf and radiance.
 fn point(w: V64, pdf: f64, radiance: Rgb, delta: bool) -> Option<LightPoint> {
-    let d = w.to_f32().normalize();
+    let d = math::normalize(w.to_f32());
     LightPoint::checked(d, Vec3::ZERO, d, f32::INFINITY, pdf as f32, delta, radiance)
 }
 

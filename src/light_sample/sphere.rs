@@ -80,8 +80,8 @@ pub(super) fn sample(
             }
             LightPoint::checked(
                 pf,
-                n.to_f32().normalize(),
-                w.to_f32().normalize(),
+                math::normalize(n.to_f32()),
+                math::normalize(w.to_f32()),
                 dist as f32,
                 cap_pdf(omc_max) as f32,
                 false,
@@ -112,8 +112,8 @@ fn at_point_inside(c: V64, r: f64, radiance: Rgb, x: V64, p: Vec3) -> Option<Lig
     let l = if cos_y > 0.0 { radiance } else { Rgb::ZERO };
     LightPoint::checked(
         p,
-        n.to_f32().normalize(),
-        w.to_f32().normalize(),
+        math::normalize(n.to_f32()),
+        math::normalize(w.to_f32()),
         dist as f32,
         pdf as f32,
         false,
@@ -168,8 +168,8 @@ pub(super) fn intersect(
             let n = (p - c).normalize()?;
             LightPoint::checked(
                 p.to_f32(),
-                n.to_f32().normalize(),
-                w.to_f32().normalize(),
+                math::normalize(n.to_f32()),
+                math::normalize(w.to_f32()),
                 dist as f32,
                 cap_pdf(omc_max) as f32,
                 false,

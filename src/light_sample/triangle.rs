@@ -142,8 +142,8 @@ impl View {
         };
         LightPoint::checked(
             p,
-            normal.to_f32().normalize(),
-            w.to_f32().normalize(),
+            math::normalize(normal.to_f32()),
+            math::normalize(w.to_f32()),
             dist as f32,
             pdf as f32,
             false,

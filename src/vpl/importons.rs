@@ -5,6 +5,7 @@ use super::{check_position, err, unit, Visibility};
 use crate::brdf::{Brdf, Frame};
 use crate::error::{Problem, VplError, VplField};
 use crate::material::Material;
+use crate::math;
 use alloc::vec::Vec;
 use core::f32::consts::FRAC_1_PI;
 use glam::Vec3;
@@ -300,7 +301,7 @@ impl Importons {
 
 /// The BRDF value of a glossy importon at `x` for light arriving from the VPL at `y`.
 fn lobe_f(lobe: &Lobe, y: Vec3, x: Vec3) -> f32 {
-    let wi = (y - x).normalize_or_zero();
+    let wi = math::normalize_or_zero(y - x);
     lobe.material.eval(lobe.wo, lobe.frame.to_local(wi))
 }
 

@@ -275,7 +275,7 @@ impl SptdGgx {
             cos_o = -cos_o;
         }
         let t = wo - n * cos_o;
-        let tl = t.length();
+        let tl = math::length(t);
         let t = if tl > 1e-6 {
             t / tl
         } else {
