@@ -17,7 +17,10 @@
 //! `vsqrtps`/`vsqrtpd`. libm's x86 square roots are inline `sqrtss`/`sqrtsd` in the legacy SSE
 //! encoding, which between AVX instructions stalls on the registers' upper halves: the build
 //! at 10⁶ lights took 2.6× as long as the baseline build. IEEE square roots are correctly
-//! rounded, so the two give the same bits.
+//! rounded, so the two give the same bits. glam's `length`, `normalize`, `try_normalize` and
+//! `normalize_or_zero` call libm's square root too: the core's hot paths take [`length`],
+//! [`normalize`], [`try_normalize`] and [`normalize_or_zero`] instead, glam's operations bit
+//! for bit through [`sqrt`].
 
 /// Square root (f32).
 #[inline(always)]
