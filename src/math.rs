@@ -335,4 +335,49 @@ mod tests {
             }
         }
     }
+
+    /// The glam replacements give glam's bits (or glam's `None`) for ordinary, tiny, huge,
+    /// zero, infinite and NaN vectors.
+    #[test]
+    fn glam_replacements_are_glams_bit_for_bit() {
+        use glam::Vec3;
+        let bits = |v: Vec3| v.to_array().map(f32::to_bits);
+        let mut vs = alloc::vec![
+            Vec3::ZERO,
+            Vec3::X,
+            Vec3::new(1e-30, 0.0, 0.0),
+            Vec3::new(1e-20, -3e-21, 2e-20),
+            Vec3::new(3e19, 1e19, -2e19),
+            Vec3::new(f32::MAX, 0.0, 0.0),
+            Vec3::new(f32::INFINITY, 1.0, 0.0),
+            Vec3::new(f32::NAN, 1.0, 0.0),
+        ];
+        let mut h = 0x9e37_79b9u32;
+        for _ in 0..2000 {
+            let mut c = [0.0f32; 3];
+            for x in &mut c {
+                h ^= h << 13;
+                h ^= h >> 17;
+                h ^= h << 5;
+                *x = (h as f32 / u32::MAX as f32 - 0.5) * 10.0;
+            }
+            vs.push(Vec3::from_array(c));
+        }
+        for v in vs {
+            assert_eq!(length(v).to_bits(), v.length().to_bits(), "{v}");
+            if v.length() > 0.0 {
+                assert_eq!(bits(normalize(v)), bits(v.normalize()), "{v}");
+            }
+            assert_eq!(
+                try_normalize(v).map(bits),
+                v.try_normalize().map(bits),
+                "{v}"
+            );
+            assert_eq!(
+                bits(normalize_or_zero(v)),
+                bits(v.normalize_or_zero()),
+                "{v}"
+            );
+        }
+    }
 }
