@@ -144,7 +144,7 @@ pub fn encode_cone(c: &Cone) -> u32 {
     } else {
         // The angle between two unit vectors is at most their chord times
         // (1 + chord²/20) for chords below 1; the decode's own rounding is far below that.
-        let chord = (decode_axis(axis) - c.axis).length();
+        let chord = math::length(decode_axis(axis) - c.axis);
         let err = chord * (1.0 + chord * chord * 0.05) + 1e-6;
         (c.theta_o + err + 1e-5).min(PI)
     };
@@ -246,7 +246,7 @@ pub fn encode_spheres(spheres: &[Sphere]) -> ([f32; 3], u8, [u32; 4]) {
                 q[a] = t.clamp(0.0, Q8) as u8;
             }
             let decoded = decode_sphere(u32::from_le_bytes(q), origin, scale);
-            let moved = (decoded.center - s.center).length();
+            let moved = math::length(decoded.center - s.center);
             // A quarter step beyond the light: a shading point on the light (a surface point
             // lit by a light sitting on it) is then well inside the sphere, not on its rim
             // where the direction to the centre says nothing about the light's.
