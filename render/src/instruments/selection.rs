@@ -140,22 +140,38 @@ struct TlNear {
     s2: f32,
 }
 
-impl Importance for TlNear {
-    fn eval4(&self, node: &Node4) -> manylights::f32x4 {
-        let near = (0..4).any(|k| {
+impl TlNear {
+    /// Whether `node` takes TL: some child's cap is as wide as `s` would split.
+    fn near(&self, node: &Node4) -> bool {
+        (0..4).any(|k| {
             let s = node.sphere(k);
             s.radius > 0.0
                 && self.s2 * (s.center - self.position).length_squared() <= s.radius * s.radius
-        });
-        if near {
+        })
+    }
+}
+
+impl Importance for TlNear {
+    fn eval4(&self, node: &Node4) -> manylights::f32x4 {
+        if self.near(node) {
             self.tl.eval4(node)
         } else {
             self.bl.eval4(node)
         }
     }
 
+    /// BL's: a slot alone does not say whether a sibling is near ([`Importance::eval_lane`]
+    /// does, from the node).
     fn eval_slot(&self, b: &SlotBounds) -> f32 {
         self.bl.eval_slot(b)
+    }
+
+    fn eval_lane(&self, node: &Node4, k: usize) -> f32 {
+        if self.near(node) {
+            self.tl.eval_lane(node, k)
+        } else {
+            self.bl.eval_lane(node, k)
+        }
     }
 
     fn eval_infinite(&self, light: &InfiniteLight) -> f32 {
@@ -321,6 +337,43 @@ mod tests {
             variance(&cs, |l| if l == 0 { 0.0 } else { 0.5 }),
             f64::INFINITY
         );
+    }
+
+    /// `bl_descent_tl_near`'s scalar twin follows its `eval4` lane by lane, on nodes that
+    /// take TL and nodes that take BL alike.
+    #[test]
+    fn tl_near_lanes_match_their_scalar_twin() {
+        let lights = manylights_testkit::lights(2000, 5);
+        let tree = LightTree::build(&lights).expect("valid lights");
+        let material = manylights::Material::Ggx {
+            alpha: 0.3,
+            specular: 1.0,
+        };
+        let (mut near_nodes, mut far_nodes) = (0, 0);
+        for sp in manylights_testkit::surface_points(40, 5, material) {
+            let imp = TlNear {
+                bl: BlImportance::new(&sp).expect("valid point"),
+                tl: TlImportance::new(sp.position, sp.normal),
+                position: sp.position,
+                s2: 0.81,
+            };
+            for node in tree.nodes() {
+                if imp.near(node) {
+                    near_nodes += 1;
+                } else {
+                    far_nodes += 1;
+                }
+                let w = imp.eval4(node).to_array();
+                for (k, &wk) in w.iter().enumerate() {
+                    let e = imp.eval_lane(node, k);
+                    assert!(
+                        (wk - e).abs() <= 1e-4 * e.abs() + 1e-30,
+                        "lane {k}: {wk} against {e}"
+                    );
+                }
+            }
+        }
+        assert!(near_nodes > 0 && far_nodes > 0, "{near_nodes} {far_nodes}");
     }
 
     #[test]
