@@ -535,12 +535,7 @@ fn run_render(
         eprintln!("cannot write the image: {e}");
         return 1;
     }
-    if img.failed > 0 {
-        eprintln!(
-            "warning: {} estimates failed (counted as black)",
-            img.failed
-        );
-    }
+    image::warn_failed("the render", img.failed);
     println!(
         "{} {} lights {}x{} {} spp {}: {:.2} s wall ({:.2} s busy over threads), average {:.4}, written to {}",
         scene.name,

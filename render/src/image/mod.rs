@@ -53,6 +53,14 @@ pub struct Image {
     pub failed: u64,
 }
 
+/// A warning on stderr when `failed` estimates of `what` were refused by the core (each
+/// counted as black: [`Image::failed`]); nothing when there were none.
+pub fn warn_failed(what: &str, failed: u64) {
+    if failed > 0 {
+        eprintln!("warning: {failed} estimates of {what} failed (counted as black)");
+    }
+}
+
 impl Image {
     /// The average over pixels of the pixel means' channel mean ([`channel_mean`]).
     pub fn average(&self) -> f64 {

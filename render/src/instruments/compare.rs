@@ -82,7 +82,8 @@
 //! of the image's MSE.
 
 use crate::image::{
-    convergence_svg, read_raw, side_by_side_labelled, write_exr, write_png, write_raw, Image,
+    convergence_svg, read_raw, side_by_side_labelled, warn_failed, write_exr, write_png, write_raw,
+    Image,
 };
 use crate::instruments::error_split::{error_map, map_image, Classes, ErrorSummary};
 use crate::render::{centre_hits, render, Protocol, RenderConfig};
@@ -711,13 +712,6 @@ pub fn reference(scene: &RenderScene, cfg: &CompareConfig) -> std::io::Result<Im
     warn_failed("the reference", img.failed);
     write_raw(&path, &img)?;
     Ok(img)
-}
-
-/// A warning on stderr when `what`'s render had estimates the core refused (counted black).
-fn warn_failed(what: &str, failed: u64) {
-    if failed > 0 {
-        eprintln!("warning: {failed} estimates of {what} failed (counted as black)");
-    }
 }
 
 /// `mlrender reference`: the cached reference (computed if missing) and a check that a second
