@@ -1,3 +1,4 @@
+// compare's report is one `json!` literal, more keys deep than the default limit expands.
 #![recursion_limit = "256"]
 //! The std side of manylights: the test renderer (scenes, ray casts, the render loop, images)
 //! and the project's instruments, shared by the `mlrender` binary.
