@@ -233,7 +233,7 @@ pub fn run(scene: &RenderScene, cfg: &SelectionConfig) -> SelectionReport {
             }
             let bl = CutSampler::new(tree, sp, &cfg.cut).ok()?;
             let tl = TreeSampler::new(tree, sp.position, sp.normal);
-            let imp = BlImportance::new(sp).ok()?;
+            let imp = *bl.importance();
             let near = TlNear {
                 bl: imp,
                 tl: *tl.importance(),
