@@ -275,6 +275,13 @@ where
     w
 }
 
+/// The mask of `K` lanes (bits `0..K`) of the batch descents' idle sets; `K` is at most 64.
+#[inline(always)]
+const fn all_lanes<const K: usize>() -> u64 {
+    assert!(K > 0 && K <= 64);
+    u64::MAX >> (64 - K)
+}
+
 /// Where one descent of [`LightTree::descend_many`] starts.
 #[derive(Clone, Copy, Debug)]
 pub(crate) struct Start {
@@ -561,109 +568,112 @@ impl LightTree {
     ) where
         I: Importance + 'a,
     {
-        const IDLE: usize = usize::MAX;
-        const NO_LEAF: u32 = u32::MAX;
-        let mut item = [IDLE; K];
-        let mut node = [0u32; K];
-        let mut u = [0f32; K];
-        let mut pmf = [1f32; K];
-        let mut root = [false; K];
-        let mut floor = [MIN_PMF; K];
-        let mut leaf = [NO_LEAF; K];
-        let mut next = 0usize;
+        // A lane's descent: its item, the node it is at, its uniform number, pmf so far,
+        // root flag and floor. The importance of a lane is `imp[j]`, `None` for an idle lane.
+        #[derive(Clone, Copy)]
+        struct Lane<'t> {
+            item: usize,
+            node: &'t Node4,
+            u: f32,
+            pmf: f32,
+            root: bool,
+            floor: f32,
+        }
+        let mut imp: [Option<&'a I>; K] = [None; K];
+        let mut lane = [Lane {
+            item: 0,
+            node: &Node4::EMPTY,
+            u: 0.0,
+            pmf: 1.0,
+            root: false,
+            floor: MIN_PMF,
+        }; K];
+        // Bit j: lane j is idle.
+        let all = const { all_lanes::<K>() };
+        let (mut next, mut idle) = (0usize, all);
         loop {
-            // Idle lanes take the next descents that need one.
-            for j in 0..K {
-                while item[j] == IDLE && next < n {
-                    let i = next;
-                    next += 1;
-                    match start_of(i) {
-                        Ok(s) if (s.node as usize) < self.nodes.len() => {
-                            item[j] = i;
-                            node[j] = s.node;
-                            u[j] = sanitize(s.u);
-                            pmf[j] = 1.0;
-                            root[j] = s.root;
-                            floor[j] = s.floor;
+            // Idle lanes take the next descents that need one, the lowest lane first.
+            while idle != 0 && next < n {
+                let j = idle.trailing_zeros() as usize % K;
+                let i = next;
+                next += 1;
+                match start_of(i) {
+                    Ok(s) => match self.nodes.get(s.node as usize) {
+                        Some(nd) => {
+                            imp[j] = Some(imp_of(i));
+                            lane[j] = Lane {
+                                item: i,
+                                node: nd,
+                                u: sanitize(s.u),
+                                pmf: 1.0,
+                                root: s.root,
+                                floor: s.floor,
+                            };
+                            idle &= !(1 << j);
                         }
-                        Ok(_) => emit(i, None),
-                        Err(answer) => emit(i, answer),
-                    }
+                        None => emit(i, None),
+                    },
+                    Err(answer) => emit(i, answer),
                 }
+            }
+            if idle == all {
+                break;
             }
             // One level of every busy lane, the importances two lanes at a time.
             let evals: [f32x4; K] = eval_lanes(|j| {
-                if item[j] == IDLE {
-                    return None;
-                }
-                let nd = self.nodes.get(node[j] as usize)?;
-                // The node's light slots, read after the step if the lane picks one.
-                if P && nd.leaf_count() > 0 {
+                let nd = lane[j].node;
+                // The node's light slots, read in the step if the lane picks one.
+                if P && imp[j].is_some() && nd.leaf_count() > 0 {
                     self.leaves.prefetch(nd.leaf_base as usize);
                 }
-                Some((imp_of(item[j]), nd))
+                Some((imp[j]?, nd))
             });
-            let mut busy = false;
+            // The step of every busy lane, and the load of its next level issued at once
+            // (nothing depends on it until the next round, so the misses of all lanes
+            // overlap): the next node's prefetch, or the light of a lane that reached a leaf.
             for j in 0..K {
-                if item[j] == IDLE {
+                if imp[j].is_none() {
                     continue;
                 }
-                busy = true;
-                let nd = &self.nodes[node[j] as usize];
-                let Some((w, sum)) = weights_of(evals[j], nd, root[j], pmf[j], floor[j]) else {
-                    emit(item[j], None);
-                    item[j] = IDLE;
-                    continue;
+                let l = &mut lane[j];
+                let nd = l.node;
+                let step = weights_of(evals[j], nd, l.root, l.pmf, l.floor).map(|(w, sum)| {
+                    let (k, wk, next_u) = pick(w, sum, l.u);
+                    l.pmf *= wk / sum;
+                    l.u = next_u;
+                    l.root = false;
+                    nd.child(k)
+                });
+                let answer = match step {
+                    Some(Child::Node(c)) => match self.nodes.get(c as usize) {
+                        Some(next) => {
+                            if P {
+                                crate::prefetch::prefetch(next);
+                            }
+                            l.node = next;
+                            continue;
+                        }
+                        None => None,
+                    },
+                    Some(Child::Leaf(i)) => self
+                        .leaf_light(i)
+                        .map(|light| LightSample { light, pmf: l.pmf }),
+                    _ => None,
                 };
-                let (k, wk, next_u) = pick(w, sum, u[j]);
-                pmf[j] *= wk / sum;
-                u[j] = next_u;
-                root[j] = false;
-                match nd.child(k) {
-                    Child::Node(c) if (c as usize) < self.nodes.len() => node[j] = c,
-                    Child::Leaf(i) => leaf[j] = i,
-                    _ => {
-                        emit(item[j], None);
-                        item[j] = IDLE;
+                emit(l.item, answer);
+                imp[j] = None;
+                idle |= 1 << j;
+            }
+            if !P {
+                // Without the hint, the next nodes touched by loads back to back.
+                let mut first = 0u32;
+                for j in 0..K {
+                    if imp[j].is_some() {
+                        first ^= lane[j].node.sphere[0];
                     }
                 }
+                core::hint::black_box(first);
             }
-            if !busy {
-                break;
-            }
-            // The loads of the next level, issued back to back so that their misses overlap
-            // (one hint or load per lane, with nothing depending on it until the next round):
-            // the next node of every lane going on, the light of every lane that reached a
-            // leaf.
-            let mut light = [NO_LEAF; K];
-            let mut first = [0u32; K];
-            for j in 0..K {
-                if item[j] == IDLE {
-                    continue;
-                }
-                if leaf[j] == NO_LEAF {
-                    let next = &self.nodes[node[j] as usize];
-                    if P {
-                        crate::prefetch::prefetch(next);
-                    } else {
-                        first[j] = next.sphere[0];
-                    }
-                } else {
-                    light[j] = self.leaf_light(leaf[j]).unwrap_or(NO_LEAF);
-                }
-            }
-            for j in 0..K {
-                if item[j] != IDLE && leaf[j] != NO_LEAF {
-                    let s = (light[j] != NO_LEAF).then(|| LightSample {
-                        light: light[j],
-                        pmf: pmf[j],
-                    });
-                    emit(item[j], s);
-                    item[j] = IDLE;
-                    leaf[j] = NO_LEAF;
-                }
-            }
-            core::hint::black_box(first);
         }
     }
 
@@ -693,119 +703,130 @@ impl LightTree {
     ) where
         I: Importance + 'a,
     {
-        const IDLE: usize = usize::MAX;
-        const NO_LEAF: u32 = u32::MAX;
-        let mut item = [IDLE; K];
-        let mut leaf = [NO_LEAF; K];
-        let mut walk = [WalkStart {
-            node: 0,
-            root: false,
-            path: 0,
-            from_level: 0,
+        // A lane's walk: its item, the node it is at, the light, its path and the level of
+        // `node` on it, the path's length, the pmf so far, root flag and floor. The
+        // importance of a lane is `imp[j]`, `None` for an idle lane.
+        #[derive(Clone, Copy)]
+        struct Lane<'t> {
+            item: usize,
+            node: &'t Node4,
+            light: u32,
+            path: u64,
+            level: u32,
+            levels: u32,
+            pmf: f32,
+            root: bool,
+            floor: f32,
+        }
+        let mut imp: [Option<&'a I>; K] = [None; K];
+        let mut lane = [Lane {
+            item: 0,
+            node: &Node4::EMPTY,
             light: 0,
+            path: 0,
+            level: 0,
+            levels: 0,
+            pmf: 1.0,
+            root: false,
             floor: MIN_PMF,
         }; K];
-        let mut levels = [0u32; K];
-        let mut pmf = [1f32; K];
-        let mut next = 0usize;
+        // Bit j: lane j is idle.
+        let all = const { all_lanes::<K>() };
+        let (mut next, mut idle) = (0usize, all);
         let leaf_hint = P && self.nodes.len() >= PMF_WIDE_NODES;
         loop {
-            for j in 0..K {
-                while item[j] == IDLE && next < n {
-                    let i = next;
-                    next += 1;
-                    match start_of(i) {
-                        Ok(s) if s.from_level < path_len(s.path) => {
-                            item[j] = i;
-                            walk[j] = s;
-                            levels[j] = path_len(s.path);
-                            pmf[j] = 1.0;
-                        }
-                        Ok(_) => emit(i, 0.0),
-                        Err(answer) => emit(i, answer),
-                    }
-                }
-            }
-            let evals: [f32x4; K] = eval_lanes(|j| {
-                if item[j] == IDLE {
-                    return None;
-                }
-                let nd = self.nodes.get(walk[j].node as usize)?;
-                // The node's light slots, in trees whose leaf array does not stay in cache.
-                if leaf_hint && nd.leaf_count() > 0 {
-                    self.leaves.prefetch(nd.leaf_base as usize);
-                }
-                Some((imp_of(item[j]), nd))
-            });
-            let mut busy = false;
-            for j in 0..K {
-                if item[j] == IDLE {
-                    continue;
-                }
-                busy = true;
-                let wk = &mut walk[j];
-                let level = wk.from_level;
-                let k = ((wk.path >> (2 * (levels[j] - 1 - level))) & 3) as usize;
-                let answer = match self.nodes.get(wk.node as usize) {
-                    None => Some(0.0),
-                    Some(nd) => match weights_of(evals[j], nd, wk.root, pmf[j], wk.floor) {
-                        None => Some(0.0),
-                        Some((w, sum)) => {
-                            pmf[j] *= w.to_array()[k] / sum;
-                            wk.root = false;
-                            wk.from_level += 1;
-                            match nd.child(k) {
-                                Child::Node(c) if wk.from_level < levels[j] => {
-                                    wk.node = c;
-                                    None
-                                }
-                                // The leaf entry is read with the next round's loads.
-                                Child::Leaf(i) if wk.from_level == levels[j] => {
-                                    leaf[j] = i;
-                                    None
-                                }
-                                _ => Some(0.0),
+            // Idle lanes take the next walks that need one, the lowest lane first.
+            while idle != 0 && next < n {
+                let j = idle.trailing_zeros() as usize % K;
+                let i = next;
+                next += 1;
+                match start_of(i) {
+                    Ok(s) if s.from_level < path_len(s.path) => {
+                        match self.nodes.get(s.node as usize) {
+                            Some(nd) => {
+                                imp[j] = Some(imp_of(i));
+                                lane[j] = Lane {
+                                    item: i,
+                                    node: nd,
+                                    light: s.light,
+                                    path: s.path,
+                                    level: s.from_level,
+                                    levels: path_len(s.path),
+                                    pmf: 1.0,
+                                    root: s.root,
+                                    floor: s.floor,
+                                };
+                                idle &= !(1 << j);
                             }
+                            None => emit(i, 0.0),
                         }
-                    },
-                };
-                if let Some(p) = answer {
-                    emit(item[j], p);
-                    item[j] = IDLE;
+                    }
+                    Ok(_) => emit(i, 0.0),
+                    Err(answer) => emit(i, answer),
                 }
             }
-            if !busy {
+            if idle == all {
                 break;
             }
-            // The next node of every walk going on and the leaf entry of every walk that
-            // reached its leaf, loaded back to back (see `descend_many`).
-            let mut first = [0u32; K];
-            let mut light = [None; K];
+            let evals: [f32x4; K] = eval_lanes(|j| {
+                let nd = lane[j].node;
+                // The node's light slots, in trees whose leaf array does not stay in cache.
+                if leaf_hint && imp[j].is_some() && nd.leaf_count() > 0 {
+                    self.leaves.prefetch(nd.leaf_base as usize);
+                }
+                Some((imp[j]?, nd))
+            });
+            // The step of every walk going on, and the load of its next level issued at once
+            // (see `descend_many`): the next node's prefetch, or the leaf entry of a walk that
+            // reached its leaf.
             for j in 0..K {
-                if item[j] == IDLE {
+                if imp[j].is_none() {
                     continue;
                 }
-                if leaf[j] == NO_LEAF {
-                    if let Some(next) = self.nodes.get(walk[j].node as usize) {
-                        if P {
-                            crate::prefetch::prefetch(next);
-                        } else {
-                            first[j] = next.sphere[0];
+                let l = &mut lane[j];
+                let nd = l.node;
+                let k = ((l.path >> (2 * (l.levels - 1 - l.level))) & 3) as usize;
+                let Some((w, sum)) = weights_of(evals[j], nd, l.root, l.pmf, l.floor) else {
+                    emit(l.item, 0.0);
+                    imp[j] = None;
+                    idle |= 1 << j;
+                    continue;
+                };
+                l.pmf *= w.to_array()[k] / sum;
+                l.root = false;
+                l.level += 1;
+                let answer = match nd.child(k) {
+                    Child::Node(c) if l.level < l.levels => match self.nodes.get(c as usize) {
+                        Some(next) => {
+                            if P {
+                                crate::prefetch::prefetch(next);
+                            }
+                            l.node = next;
+                            continue;
                         }
+                        None => 0.0,
+                    },
+                    Child::Leaf(i)
+                        if l.level == l.levels && self.leaf_light(i) == Some(l.light) =>
+                    {
+                        l.pmf
                     }
-                } else {
-                    light[j] = self.leaf_light(leaf[j]);
-                }
+                    _ => 0.0,
+                };
+                emit(l.item, answer);
+                imp[j] = None;
+                idle |= 1 << j;
             }
-            for j in 0..K {
-                if item[j] != IDLE && leaf[j] != NO_LEAF {
-                    let found = light[j] == Some(walk[j].light);
-                    emit(item[j], if found { pmf[j] } else { 0.0 });
-                    item[j] = IDLE;
-                    leaf[j] = NO_LEAF;
+            if !P {
+                // Without the hint, the next nodes touched by loads back to back.
+                let mut first = 0u32;
+                for j in 0..K {
+                    if imp[j].is_some() {
+                        first ^= lane[j].node.sphere[0];
+                    }
                 }
+                core::hint::black_box(first);
             }
-            core::hint::black_box(first);
         }
     }
 
