@@ -316,7 +316,7 @@ pub(crate) struct WalkStart {
 /// next levels are issued back to back, so their memory latencies overlap. The results do not
 /// depend on it (each lane returns what [`LightTree::sample`] returns); the width was chosen
 /// by measurement (docs/measurements.md, "Batch widths and the next level's loads").
-pub const BATCH_LANES: usize = 16;
+pub const BATCH_LANES: usize = 32;
 
 /// The pmf walks [`LightTree::pmf_batch`] keeps in flight in a tree whose nodes fit in a
 /// last-level cache (below [`PMF_WIDE_NODES`]). A walk's next node depends on the node it
@@ -332,7 +332,7 @@ const PMF_BATCH_LANES: usize = 4;
 /// a walk waits on a miss per level, and more of them in flight overlap more misses (the same
 /// bits as [`PMF_BATCH_LANES`]; measured in docs/measurements.md, "Batch widths and the next
 /// level's loads").
-const PMF_BATCH_LANES_WIDE: usize = 32;
+const PMF_BATCH_LANES_WIDE: usize = 64;
 
 /// The node count from which [`LightTree::pmf_batch`] keeps [`PMF_BATCH_LANES_WIDE`] walks in
 /// flight: 2¹⁷ nodes of 64 bytes, 8 MiB, more than a core's share of most last-level caches.
