@@ -252,9 +252,16 @@ fn ahead<const P: bool>(tree: &LightTree, node: &Node4) -> u32 {
     0
 }
 
+/// Whether the batch calls evaluate their lanes two at a time ([`Importance::eval4_pair`]):
+/// where AVX makes an `f32x8` one register. Without it an `f32x8` is two `f32x4`, the pair
+/// only doubles what must stay in registers, and the lanes, independent of one another,
+/// overlap in the core as well one at a time (docs/measurements.md, "Batch widths and the next
+/// level's loads").
+const PAIRS: bool = cfg!(target_feature = "avx");
+
 /// The importances `imp.eval4(node)` of the lanes `lane(j)` gives (`None` for a lane with
 /// nothing to evaluate, whose entry stays 0), taken two lanes at a time with
-/// [`Importance::eval4_pair`] so that the two computations interleave.
+/// [`Importance::eval4_pair`] where [`PAIRS`] says so, else one at a time.
 #[inline(always)]
 fn eval_lanes<'a, I, const K: usize>(
     lane: impl Fn(usize) -> Option<(&'a I, &'a Node4)>,
@@ -263,6 +270,14 @@ where
     I: Importance + 'a,
 {
     let mut w = [f32x4::ZERO; K];
+    if !PAIRS {
+        for (j, wj) in w.iter_mut().enumerate() {
+            if let Some((i, nd)) = lane(j) {
+                *wj = i.eval4(nd);
+            }
+        }
+        return w;
+    }
     for j in (0..K).step_by(2) {
         let second = if j + 1 < K { lane(j + 1) } else { None };
         match (lane(j), second) {
