@@ -328,9 +328,10 @@ pub(crate) struct WalkStart {
 }
 
 /// Descents [`LightTree::sample_batch`] keeps in flight: the loads of that many descents'
-/// next levels are issued back to back, so their memory latencies overlap. The results do not
-/// depend on it (each lane returns what [`LightTree::sample`] returns); the width was chosen
-/// by measurement (docs/measurements.md, "Batch widths and the next level's loads").
+/// next levels are issued in one round, each right after its descent's step, so their memory
+/// latencies overlap. The results do not depend on it (each lane returns what
+/// [`LightTree::sample`] returns); the width was chosen by measurement (docs/measurements.md,
+/// "Batch widths and the next level's loads").
 pub const BATCH_LANES: usize = 32;
 
 /// The pmf walks [`LightTree::pmf_batch`] keeps in flight in a tree whose nodes fit in a
@@ -609,6 +610,7 @@ impl LightTree {
         loop {
             // Idle lanes take the next descents that need one, the lowest lane first.
             while idle != 0 && next < n {
+                // The lowest idle lane (`idle` has no bit from K on: `% K` changes nothing).
                 let j = idle.trailing_zeros() as usize % K;
                 let i = next;
                 next += 1;
@@ -634,7 +636,7 @@ impl LightTree {
             if idle == all {
                 break;
             }
-            // One level of every busy lane, the importances two lanes at a time.
+            // One level of every busy lane (two lanes at a time where `PAIRS` says so).
             let evals: [f32x4; K] = eval_lanes(|j| {
                 let nd = lane[j].node;
                 // The node's light slots, read in the step if the lane picks one.
@@ -752,6 +754,7 @@ impl LightTree {
         loop {
             // Idle lanes take the next walks that need one, the lowest lane first.
             while idle != 0 && next < n {
+                // The lowest idle lane (`idle` has no bit from K on: `% K` changes nothing).
                 let j = idle.trailing_zeros() as usize % K;
                 let i = next;
                 next += 1;
