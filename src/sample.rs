@@ -259,16 +259,29 @@ fn ahead<const P: bool>(tree: &LightTree, node: &Node4) -> u32 {
 /// level's loads").
 const PAIRS: bool = cfg!(target_feature = "avx");
 
-/// The importances `imp.eval4(node)` of the lanes `lane(j)` gives (`None` for a lane with
-/// nothing to evaluate, whose entry stays 0), taken two lanes at a time with
-/// [`Importance::eval4_pair`] where [`PAIRS`] says so, else one at a time.
+/// One round's importances of the batch calls' lanes: `imp[j].eval4(node(j))` for every busy
+/// lane (`imp[j]` is `None` for an idle one, whose entry stays 0), two lanes at a time with
+/// [`Importance::eval4_pair`] where [`PAIRS`] says so, else one at a time. With `leaf_hint`,
+/// the light slots of each busy lane's node are prefetched first (read in the step if the
+/// lane picks one).
 #[inline(always)]
 fn eval_lanes<'a, I, const K: usize>(
-    lane: impl Fn(usize) -> Option<(&'a I, &'a Node4)>,
+    tree: &LightTree,
+    imp: &[Option<&'a I>; K],
+    node: impl Fn(usize) -> &'a Node4,
+    leaf_hint: bool,
 ) -> [f32x4; K]
 where
     I: Importance + 'a,
 {
+    let lane = |j: usize| {
+        let i = imp[j]?;
+        let nd = node(j);
+        if leaf_hint && nd.leaf_count() > 0 {
+            tree.leaves.prefetch(nd.leaf_base as usize);
+        }
+        Some((i, nd))
+    };
     let mut w = [f32x4::ZERO; K];
     if !PAIRS {
         for (j, wj) in w.iter_mut().enumerate() {
@@ -288,6 +301,22 @@ where
         }
     }
     w
+}
+
+/// Without the prefetch hint: the nodes `node(j)` of the busy lanes (`imp[j]` not `None`)
+/// touched by loads back to back, so that their misses overlap.
+#[inline(always)]
+fn touch_lanes<'a, I: ?Sized + 'a, const K: usize>(
+    imp: &[Option<&'a I>; K],
+    node: impl Fn(usize) -> &'a Node4,
+) {
+    let mut first = 0u32;
+    for (j, i) in imp.iter().enumerate() {
+        if i.is_some() {
+            first ^= node(j).sphere[0];
+        }
+    }
+    core::hint::black_box(first);
 }
 
 /// The mask of `K` lanes (bits `0..K`) of the batch descents' idle sets; `K` is at most 64.
@@ -636,15 +665,8 @@ impl LightTree {
             if idle == all {
                 break;
             }
-            // One level of every busy lane (two lanes at a time where `PAIRS` says so).
-            let evals: [f32x4; K] = eval_lanes(|j| {
-                let nd = lane[j].node;
-                // The node's light slots, read in the step if the lane picks one.
-                if P && imp[j].is_some() && nd.leaf_count() > 0 {
-                    self.leaves.prefetch(nd.leaf_base as usize);
-                }
-                Some((imp[j]?, nd))
-            });
+            // One level of every busy lane.
+            let evals = eval_lanes(self, &imp, |j| lane[j].node, P);
             // The step of every busy lane, and the load of its next level issued at once
             // (nothing depends on it until the next round, so the misses of all lanes
             // overlap): the next node's prefetch, or the light of a lane that reached a leaf.
@@ -682,14 +704,7 @@ impl LightTree {
                 idle |= 1 << j;
             }
             if !P {
-                // Without the hint, the next nodes touched by loads back to back.
-                let mut first = 0u32;
-                for j in 0..K {
-                    if imp[j].is_some() {
-                        first ^= lane[j].node.sphere[0];
-                    }
-                }
-                core::hint::black_box(first);
+                touch_lanes(&imp, |j| lane[j].node);
             }
         }
     }
@@ -786,14 +801,9 @@ impl LightTree {
             if idle == all {
                 break;
             }
-            let evals: [f32x4; K] = eval_lanes(|j| {
-                let nd = lane[j].node;
-                // The node's light slots, in trees whose leaf array does not stay in cache.
-                if leaf_hint && imp[j].is_some() && nd.leaf_count() > 0 {
-                    self.leaves.prefetch(nd.leaf_base as usize);
-                }
-                Some((imp[j]?, nd))
-            });
+            // One level of every walk going on (the light slots prefetched only in trees
+            // whose leaf array does not stay in cache).
+            let evals = eval_lanes(self, &imp, |j| lane[j].node, leaf_hint);
             // The step of every walk going on, and the load of its next level issued at once
             // (see `descend_many`): the next node's prefetch, or the leaf entry of a walk that
             // reached its leaf.
@@ -836,14 +846,7 @@ impl LightTree {
                 idle |= 1 << j;
             }
             if !P {
-                // Without the hint, the next nodes touched by loads back to back.
-                let mut first = 0u32;
-                for j in 0..K {
-                    if imp[j].is_some() {
-                        first ^= lane[j].node.sphere[0];
-                    }
-                }
-                core::hint::black_box(first);
+                touch_lanes(&imp, |j| lane[j].node);
             }
         }
     }
