@@ -250,11 +250,17 @@ impl LightCut {
     ///
     /// The cut is built in `cut`, whatever it held before (what a cut rebuilt in place per
     /// shading point needs: no copy of its arrays).
+    ///
+    /// `surely_kept(node)` is a cheap lower bound of what `decide` would keep: a bit set whose
+    /// slots `decide(node, _)` certainly gives a positive weight (0 is always correct). Where
+    /// even those slots would not fit in the cut, the node is not opened and `decide` is not
+    /// called for it: the cut is the same as with `decide` alone.
     pub(crate) fn build_with(
         cut: &mut LightCut,
         tree: &LightTree,
         max_size: usize,
         mut decide: impl FnMut(&Node4, f32) -> SlotDecisions,
+        mut surely_kept: impl FnMut(&Node4) -> u32,
         root_total: impl FnOnce(&Node4) -> f32,
     ) {
         cut.clear();
@@ -278,16 +284,27 @@ impl LightCut {
         let (mut index, mut path, mut parent) = (0u32, 1u64, None::<Cluster>);
         loop {
             let node = &tree.nodes[index as usize];
-            let d = decide(node, total);
             // The slots that become clusters: positive weight (`positive`, lane by lane), and
             // something in them (an inner node or a light: bit k or k + 4 of the mask).
             let filled = u32::from(node.mask | (node.mask >> 4)) & 0xF;
-            let keep = f32x4::new(d.weight).simd_gt(f32x4::ZERO).to_bitmask() & filled;
-            match parent {
-                Some(c) if acc.len + queued + count4(keep) as usize > max_size => {
-                    acc.push(&mut cut.clusters, c)
-                }
+            // Whether the node's kept slots cannot replace its cluster without passing
+            // `max_size`: first from the slots surely kept (`decide` not called), where every
+            // filled slot would not fit; else from `decide`'s weights.
+            let over = |keep: u32| acc.len + queued + count4(keep) as usize > max_size;
+            let opened = match parent {
+                Some(c) if over(filled) && over(surely_kept(node) & filled) => Err(c),
                 _ => {
+                    let d = decide(node, total);
+                    let keep = f32x4::new(d.weight).simd_gt(f32x4::ZERO).to_bitmask() & filled;
+                    match parent {
+                        Some(c) if over(keep) => Err(c),
+                        _ => Ok((d, keep)),
+                    }
+                }
+            };
+            match opened {
+                Err(c) => acc.push(&mut cut.clusters, c),
+                Ok((d, keep)) => {
                     // Those to open: inner nodes that want splitting.
                     let open = keep & d.split & u32::from(node.mask);
                     let mut bits = keep;
@@ -482,7 +499,8 @@ impl LightCut {
             }
         };
         let total = |_: &Node4| root_eval.map_or(0.0, |e| e.0.to_array().iter().sum());
-        LightCut::build_with(self, tree, opts.max_size, decide, total);
+        let surely_kept = |node: &Node4| imp.surely_positive4(node);
+        LightCut::build_with(self, tree, opts.max_size, decide, surely_kept, total);
     }
 
     /// The split-sampling cut of Conty & Kulla at the shading point of `imp` (see the module
@@ -537,6 +555,7 @@ impl LightCut {
                 }
                 out
             },
+            |_| 0,
             |root| imp.eval4(root).to_array().iter().sum(),
         );
     }
@@ -937,5 +956,190 @@ mod tests {
                 assert_eq!(a.to_bits(), b.to_bits(), "round {round}, {i}");
             }
         }
+    }
+
+    /// A seeded generator of numbers in [0, 1).
+    fn uniforms(seed: u64) -> impl FnMut() -> f32 {
+        let mut state = seed;
+        move || {
+            state = state
+                .wrapping_mul(6_364_136_223_846_793_005)
+                .wrapping_add(1_442_695_040_888_963_407);
+            (state >> 40) as f32 / (1u64 << 24) as f32
+        }
+    }
+
+    /// Points, spots, spheres, one-sided disks and triangles over a box with a cluster of
+    /// small lights in one corner, powers spread over ten decades.
+    fn mixed_tree(n: usize) -> LightTree {
+        use crate::colour::Rgb;
+        use crate::Light;
+        use glam::Vec3;
+        let mut u = uniforms(0x5EED);
+        let lights: alloc::vec::Vec<Light> = (0..n)
+            .map(|i| {
+                let scale = if i % 3 == 0 { 0.5 } else { 10.0 };
+                let p = Vec3::new(u(), u(), u()) * scale;
+                let power = Rgb::grey(10f32.powf(u() * 10.0 - 5.0));
+                let d = Vec3::new(u() - 0.5, u() - 0.5, u() - 0.5);
+                let d = if d.length() > 1e-3 { d } else { Vec3::Z };
+                match i % 5 {
+                    0 => Light::Point {
+                        position: p,
+                        intensity: power,
+                    },
+                    1 => Light::Spot {
+                        position: p,
+                        direction: d,
+                        intensity: power,
+                        half_angle: 0.2 + u(),
+                        falloff_start: 0.1,
+                    },
+                    2 => Light::Sphere {
+                        center: p,
+                        radius: 0.01 + 0.3 * u(),
+                        radiance: power,
+                    },
+                    3 => Light::Disk {
+                        center: p,
+                        normal: d,
+                        radius: 0.01 + 0.3 * u(),
+                        radiance: power,
+                        two_sided: false,
+                    },
+                    _ => Light::Triangle {
+                        vertices: [p, p + Vec3::X * 0.2 * u(), p + d * 0.3],
+                        radiance: power,
+                        two_sided: i % 2 == 0,
+                    },
+                }
+            })
+            .collect();
+        LightTree::build_with(&lights, &crate::BuildOptions::default()).unwrap()
+    }
+
+    /// Shading points in and around the box of [`mixed_tree`]: Lambert (black among them, so
+    /// no defensive term), GGX and plastic, normals and views in every direction.
+    fn shading_points(n: usize, seed: u64) -> alloc::vec::Vec<crate::ShadingPoint> {
+        use crate::colour::Rgb;
+        use crate::Material;
+        use glam::Vec3;
+        let mut u = uniforms(seed);
+        (0..n)
+            .map(|i| {
+                let normal = Vec3::new(u() - 0.5, u() - 0.5, u() - 0.5) + Vec3::Z * 1e-3;
+                let wo = Vec3::new(u() - 0.5, u() - 0.5, u() - 0.5) + Vec3::X * 1e-3;
+                let material = match i % 4 {
+                    0 => Material::Lambert {
+                        albedo: Rgb::grey(if i % 8 == 0 { 0.0 } else { u() }),
+                    },
+                    1 => Material::Ggx {
+                        alpha: 0.02 + 0.98 * u(),
+                        specular: 1.0,
+                    },
+                    _ => Material::Plastic {
+                        albedo: Rgb::grey(u()),
+                        specular: u(),
+                        alpha: 0.02 + 0.98 * u(),
+                    },
+                };
+                crate::ShadingPoint {
+                    position: Vec3::new(u(), u(), u()) * 12.0 - Vec3::splat(1.0),
+                    normal,
+                    wo,
+                    material,
+                }
+            })
+            .collect()
+    }
+
+    /// `surely_positive4` names only slots whose importance is positive, and most of them:
+    /// the BRDF-oriented cut may skip the nodes it rules out.
+    #[test]
+    fn surely_positive_slots_are_positive() {
+        use crate::importance::{BlImportance, Importance};
+        let tree = mixed_tree(3000);
+        let (mut sure, mut positive) = (0u32, 0u32);
+        for sp in shading_points(200, 7) {
+            let imp = BlImportance::new(&sp).unwrap();
+            for node in tree.nodes() {
+                let w = imp.eval4(node);
+                let pos = w.simd_gt(f32x4::ZERO).to_bitmask();
+                let s = imp.surely_positive4(node);
+                assert_eq!(s & !pos, 0, "{sp:?}: {:?}, sure {s:04b}", w.to_array());
+                sure += count4(s);
+                positive += count4(pos);
+            }
+        }
+        assert!(sure as f32 >= 0.9 * positive as f32, "{sure} of {positive}");
+    }
+
+    /// The BRDF-oriented cut skips `decide` at nodes whose surely kept slots do not fit, and
+    /// is the same cut, bit for bit, as the one that decides every node.
+    #[test]
+    fn bl_cut_skips_nodes_that_cannot_fit_and_is_unchanged() {
+        use crate::importance::BlImportance;
+        let tree = mixed_tree(3000);
+        let (mut skipped, mut nodes) = (0usize, 0usize);
+        for (i, sp) in shading_points(300, 11).iter().enumerate() {
+            let imp = BlImportance::new(sp).unwrap();
+            let opts = BlCutOptions {
+                max_size: [4, 9, 16, 33, 64][i % 5],
+                delta: [0.5, 0.05, 0.0][i % 3],
+                split_sin: [1.0, 0.9, 0.5][i % 3],
+            };
+            let mut cut = LightCut::new();
+            cut.rebuild_bl(&tree, &imp, &opts);
+            // `rebuild_bl`'s decisions, counting the nodes decided.
+            let s2 = f32x4::splat(opts.split_sin * opts.split_sin);
+            let calls = core::cell::Cell::new(0usize);
+            let decide = |node: &Node4, _: f32| {
+                calls.set(calls.get() + 1);
+                let (w, sc, glossy, [d2, r2]) = imp.eval4_for_cut(node);
+                SlotDecisions {
+                    weight: w.to_array(),
+                    score: sc.to_array(),
+                    glossy_score: glossy.to_array(),
+                    split: ((s2 * d2).simd_le(r2) | sc.simd_gt(f32x4::splat(opts.delta)))
+                        .to_bitmask(),
+                }
+            };
+            let total = |root: &Node4| imp.eval4_for_cut(root).0.to_array().iter().sum();
+            // Every node decided (no slot surely kept), then with the slots surely kept.
+            let mut full = LightCut::new();
+            LightCut::build_with(&mut full, &tree, opts.max_size, decide, |_| 0, total);
+            let every = calls.replace(0);
+            let mut skipping = LightCut::new();
+            let sure = |node: &Node4| imp.surely_positive4(node);
+            LightCut::build_with(&mut skipping, &tree, opts.max_size, decide, sure, total);
+            skipped += every - calls.get();
+            nodes += every;
+            for c in [&cut, &skipping] {
+                assert_eq!(c.len(), full.len(), "point {i}");
+                for (a, b) in c.clusters().iter().zip(full.clusters()) {
+                    assert_eq!(
+                        (
+                            a.node,
+                            a.slot,
+                            a.path,
+                            a.weight.to_bits(),
+                            a.score.to_bits()
+                        ),
+                        (
+                            b.node,
+                            b.slot,
+                            b.path,
+                            b.weight.to_bits(),
+                            b.score.to_bits()
+                        ),
+                        "point {i}"
+                    );
+                    assert_eq!(a.glossy_score.to_bits(), b.glossy_score.to_bits());
+                }
+                assert_eq!(c.total_weight().to_bits(), full.total_weight().to_bits());
+                assert_eq!(c.max_score().to_bits(), full.max_score().to_bits());
+            }
+        }
+        assert!(skipped * 10 >= nodes, "{skipped} of {nodes} nodes skipped");
     }
 }

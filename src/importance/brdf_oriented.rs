@@ -258,6 +258,9 @@ impl BlImportance {
         } else {
             0.0
         };
+        // Never below 0 (nor NaN): the importance of a live cluster is then at least that of
+        // the defensive term alone ([`BlImportance::surely_positive4`]).
+        let avg = if avg >= 0.0 { avg } else { 0.0 };
         if !v.emits || cos_ip <= -COS_SLACK {
             return BlEval {
                 importance: 0.0,
@@ -366,6 +369,30 @@ impl BlImportance {
         cos_omega.simd_le(f32x4::ZERO).select(f32x4::ZERO, v)
     }
 
+    /// The slots of `node` (bit k for slot k) whose importance ([`Importance::eval4`]) is
+    /// certainly positive, found without the cap integrals. A live slot's importance is at
+    /// least `p · defensive · COS_FLOOR`, `p = E · max(cos θ', COS_FLOOR) / d²` (the cap
+    /// average is never negative, and products and sums of non-negative numbers round
+    /// monotonically), so it is positive where that bound is; slots for which the bound
+    /// underflows or is not a number are left out. A subset of the positive slots, never more.
+    #[inline(always)]
+    pub(crate) fn surely_positive4(&self, node: &Node4) -> u32 {
+        let one = f32x4::ONE;
+        let l = &self.lanes;
+        let v = ClusterView4::new(self.position, node);
+        let cos_omega = l.nx * v.wx + l.ny * v.wy + l.nz * v.wz;
+        let sin_i = (one - cos_omega * cos_omega).fast_max(f32x4::ZERO).sqrt();
+        let cos_ip = cos_omega
+            .simd_ge(v.cos_u)
+            .select(one, cos_omega * v.cos_u + sin_i * v.sin_u);
+        let cos_ip = v.inside.select(one, cos_ip);
+        let live = v.emits & cos_ip.simd_gt(f32x4::splat(-COS_SLACK));
+        let floor = f32x4::splat(COS_FLOOR);
+        let p = node.energy4() * v.cos_tp.fast_max(floor) / v.d2c;
+        let bound = p * (l.defensive * floor);
+        (live & bound.simd_gt(f32x4::ZERO)).to_bitmask()
+    }
+
     /// The body of the 4-wide evaluations: `(importances, cap integrals, glossy parts,
     /// [|c − x|², r²] of the decoded spheres)`. With
     /// `INTEGRALS` false only the importances are asked for, and the cap integrals are
@@ -407,6 +434,7 @@ impl BlImportance {
         } else {
             avg
         };
+        let avg = avg.simd_ge(zero).select(avg, zero);
         let floor = f32x4::splat(COS_FLOOR);
         let brdf = avg + l.defensive * cos_ip.fast_max(floor);
         let energy = node.energy4();
