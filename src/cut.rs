@@ -291,20 +291,19 @@ impl LightCut {
             // `max_size`: first from the slots surely kept (`decide` not called), where every
             // filled slot would not fit; else from `decide`'s weights.
             let over = |keep: u32| acc.len + queued + count4(keep) as usize > max_size;
-            let opened = match parent {
-                Some(c) if over(filled) && over(surely_kept(node) & filled) => Err(c),
-                _ => {
-                    let d = decide(node, total);
-                    let keep = f32x4::new(d.weight).simd_gt(f32x4::ZERO).to_bitmask() & filled;
-                    match parent {
-                        Some(c) if over(keep) => Err(c),
-                        _ => Ok((d, keep)),
-                    }
-                }
+            let skip = parent.is_some() && over(filled) && over(surely_kept(node) & filled);
+            let d = if skip {
+                None
+            } else {
+                Some(decide(node, total))
             };
-            match opened {
-                Err(c) => acc.push(&mut cut.clusters, c),
-                Ok((d, keep)) => {
+            let keep = d.as_ref().map_or(0, |d| {
+                f32x4::new(d.weight).simd_gt(f32x4::ZERO).to_bitmask() & filled
+            });
+            match (parent, d) {
+                (Some(c), _) if skip || over(keep) => acc.push(&mut cut.clusters, c),
+                (_, None) => {}
+                (_, Some(d)) => {
                     // Those to open: inner nodes that want splitting.
                     let open = keep & d.split & u32::from(node.mask);
                     let mut bits = keep;

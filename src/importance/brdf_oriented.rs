@@ -434,7 +434,7 @@ impl BlImportance {
         } else {
             avg
         };
-        let avg = avg.simd_ge(zero).select(avg, zero);
+        let avg = avg & avg.simd_ge(zero);
         let floor = f32x4::splat(COS_FLOOR);
         let brdf = avg + l.defensive * cos_ip.fast_max(floor);
         let energy = node.energy4();
