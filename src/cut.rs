@@ -302,6 +302,7 @@ impl LightCut {
             });
             match (parent, d) {
                 (Some(c), _) if skip || over(keep) => acc.push(&mut cut.clusters, c),
+                // (Skipped only with a parent: the first arm.)
                 (_, None) => {}
                 (_, Some(d)) => {
                     // Those to open: inner nodes that want splitting.

@@ -369,14 +369,11 @@ impl BlImportance {
         cos_omega.simd_le(f32x4::ZERO).select(f32x4::ZERO, v)
     }
 
-    /// The slots of `node` (bit k for slot k) whose importance ([`Importance::eval4`]) is
-    /// certainly positive, found without the cap integrals. A live slot's importance is at
-    /// least `p · defensive · COS_FLOOR`, `p = E · max(cos θ', COS_FLOOR) / d²` (the cap
-    /// average is never negative, and products and sums of non-negative numbers round
-    /// monotonically), so it is positive where that bound is; slots for which the bound
-    /// underflows or is not a number are left out. A subset of the positive slots, never more.
+    /// What every 4-wide evaluation starts from: the view of the node's slots, cos θi = n·ω
+    /// of their directions, cos θi' (1 inside a sphere) and the live lanes (emitting towards
+    /// x, and θi' short of the horizon by `COS_SLACK`).
     #[inline(always)]
-    pub(crate) fn surely_positive4(&self, node: &Node4) -> u32 {
+    fn view4(&self, node: &Node4) -> (ClusterView4, f32x4, f32x4, f32x4) {
         let one = f32x4::ONE;
         let l = &self.lanes;
         let v = ClusterView4::new(self.position, node);
@@ -387,9 +384,26 @@ impl BlImportance {
             .select(one, cos_omega * v.cos_u + sin_i * v.sin_u);
         let cos_ip = v.inside.select(one, cos_ip);
         let live = v.emits & cos_ip.simd_gt(f32x4::splat(-COS_SLACK));
-        let floor = f32x4::splat(COS_FLOOR);
-        let p = node.energy4() * v.cos_tp.fast_max(floor) / v.d2c;
-        let bound = p * (l.defensive * floor);
+        (v, cos_omega, cos_ip, live)
+    }
+
+    /// The factor of the importance before the BRDF: `E · max(cos θ', COS_FLOOR) / d²`.
+    #[inline(always)]
+    fn emitted4(node: &Node4, v: &ClusterView4) -> f32x4 {
+        node.energy4() * v.cos_tp.fast_max(f32x4::splat(COS_FLOOR)) / v.d2c
+    }
+
+    /// The slots of `node` (bit k for slot k) whose importance ([`Importance::eval4`]) is
+    /// certainly positive, found without the cap integrals. A live slot's importance is
+    /// `min(p · B, MAX_IMPORTANCE)` with `p` [`BlImportance::emitted4`] and `B = avg +
+    /// defensive · max(cos θi', COS_FLOOR) ≥ defensive · COS_FLOOR` (the cap average is never
+    /// negative, and products and sums of non-negative numbers round monotonically), so it is
+    /// positive where `p · defensive · COS_FLOOR` is; slots for which that bound underflows or
+    /// is not a number are left out. A subset of the positive slots, never more.
+    #[inline(always)]
+    pub(crate) fn surely_positive4(&self, node: &Node4) -> u32 {
+        let (v, _, _, live) = self.view4(node);
+        let bound = Self::emitted4(node, &v) * (self.lanes.defensive * f32x4::splat(COS_FLOOR));
         (live & bound.simd_gt(f32x4::ZERO)).to_bitmask()
     }
 
@@ -404,16 +418,9 @@ impl BlImportance {
         let zero = f32x4::ZERO;
         let one = f32x4::ONE;
         let l = &self.lanes;
-        let v = ClusterView4::new(self.position, node);
-        let cos_omega = l.nx * v.wx + l.ny * v.wy + l.nz * v.wz;
-        let sin_i = (one - cos_omega * cos_omega).fast_max(zero).sqrt();
-        let cos_ip = cos_omega
-            .simd_ge(v.cos_u)
-            .select(one, cos_omega * v.cos_u + sin_i * v.sin_u);
-        let cos_ip = v.inside.select(one, cos_ip);
+        let (v, cos_omega, cos_ip, live) = self.view4(node);
         let sin_sigma = v.inside.select(one, v.sin_u);
         let small = sin_sigma.simd_lt(f32x4::splat(POINT_LIMIT_SIN));
-        let live = v.emits & cos_ip.simd_gt(f32x4::splat(-COS_SLACK));
         // The lanes whose importance takes the cap average (all of them for the integrals).
         let needed = if INTEGRALS { ALL_LANES } else { live & !small };
         let (sc, glossy, avg) = if !INTEGRALS && !needed.any() {
@@ -437,9 +444,7 @@ impl BlImportance {
         let avg = avg & avg.simd_ge(zero);
         let floor = f32x4::splat(COS_FLOOR);
         let brdf = avg + l.defensive * cos_ip.fast_max(floor);
-        let energy = node.energy4();
-        let value = (energy * v.cos_tp.fast_max(floor) / v.d2c * brdf)
-            .fast_min(f32x4::splat(MAX_IMPORTANCE));
+        let value = (Self::emitted4(node, &v) * brdf).fast_min(f32x4::splat(MAX_IMPORTANCE));
         (live.select(value, zero), sc, glossy, [v.d2, v.r2])
     }
 }
