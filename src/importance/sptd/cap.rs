@@ -366,7 +366,9 @@ fn lens4(
 }
 
 /// The 4-wide twin of [`intersection_area`], lane by lane.
-#[inline]
+// Always inlined: a call would save every vector register its callers (the BRDF-oriented
+// evaluations) keep live across it: the System V x86-64 convention preserves none of them.
+#[inline(always)]
 pub fn intersection_area4(p: &Cap4, q: &Cap4) -> f32x4 {
     let zero = f32x4::ZERO;
     let two_pi = f32x4::splat(2.0 * PI);

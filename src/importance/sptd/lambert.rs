@@ -154,7 +154,9 @@ pub fn lambert_visible(cos_omega: f32, sin_sigma: f32) -> (f32, f32) {
 }
 
 /// The 4-wide twin of [`lambert_visible`].
-#[inline]
+// Always inlined: a call would save every vector register its callers (the BRDF-oriented
+// evaluations) keep live across it: the System V x86-64 convention preserves none of them.
+#[inline(always)]
 pub fn lambert_visible4(cos_omega: f32x4, sin_sigma: f32x4) -> (f32x4, f32x4) {
     let zero = f32x4::ZERO;
     let one = f32x4::ONE;
