@@ -27,7 +27,7 @@
 //! docs/formulas.md (including one cap containing the other and unions that cover the sphere) follows
 //! from complements.
 
-use super::trig::{atan2, atan2_4};
+use super::trig::{atan2, atan2_4, atan2_upper4};
 use crate::math;
 use core::f32::consts::PI;
 use glam::Vec3;
@@ -352,8 +352,9 @@ fn lens4(
     let live = gram.simd_gt(zero);
     let delta = live.select(gram, zero).sqrt();
     let d2 = delta * delta;
-    let phi1 = atan2_4(delta, x1);
-    let phi2 = atan2_4(delta, x2);
+    // δ is +0 or positive (a square root of +0 or more).
+    let phi1 = atan2_upper4(delta, x1);
+    let phi2 = atan2_upper4(delta, x2);
     let n1 = x1 * x1 + d2;
     let n2 = x2 * x2 + d2;
     let psi1 = atan2_4(a1 * delta * x1 / n1, (x1 * x1 + z1 * d2) / n1);

@@ -18,7 +18,7 @@
 //! angle comes from its series instead of a difference of O(1) terms, so a cap of 1e-3 rad
 //! grazing the horizon (`I ≈ 1e-9`) keeps its digits.
 
-use super::trig::{atan2, atan2_4};
+use super::trig::{atan2, atan2_4, atan2_first4, atan2_upper4};
 use crate::math;
 use core::f32::consts::PI;
 use wide::f32x4;
@@ -172,8 +172,9 @@ pub fn lambert_visible4(cos_omega: f32x4, sin_sigma: f32x4) -> (f32x4, f32x4) {
     let q2 = (s - c) * (s + c);
     let q = q2.simd_gt(zero).select(q2, zero).sqrt();
     let x = -z * c;
-    let beta = atan2_4(q, x);
-    let tau = atan2_4(q, z);
+    // q and z are +0 or positive (square roots of +0 or more).
+    let beta = atan2_upper4(q, x);
+    let tau = atan2_first4(q, z);
     let psi = atan2_4(-a * q * c, z * c * c + q * q);
     let l = s * s * c * seg_angle4(x, q, beta) + seg_angle4(z, q, tau);
     let v = f32x4::splat(2.0) * (a * beta - psi);

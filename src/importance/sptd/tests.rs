@@ -1136,3 +1136,39 @@ fn visible_caps_have_a_positive_integral() {
         }
     }
 }
+
+/// `atan2_upper4` (y ≥ +0) and `atan2_first4` (x, y ≥ +0) are `atan2_4`, bit for bit, on
+/// their domains: random magnitudes over the whole f32 range, +0, subnormals, ∞, and every
+/// sign of x for the first.
+#[test]
+fn atan2_for_non_negative_arguments_is_atan2_4() {
+    use super::trig::{atan2_4, atan2_first4, atan2_upper4};
+    let mut rng = Rng::new(0xA7A2);
+    let special = [
+        0.0,
+        f32::from_bits(1),
+        f32::MIN_POSITIVE,
+        1.0,
+        f32::MAX,
+        f32::INFINITY,
+    ];
+    let magnitude = |rng: &mut Rng| match rng.next_u64() % 4 {
+        0 => special[(rng.next_u64() % special.len() as u64) as usize],
+        1 => rng.f32(),
+        _ => f32::from_bits((rng.next_u64() % 0x7F80_0000) as u32),
+    };
+    for _ in 0..200_000 {
+        let y = f32x4::new([0; 4].map(|_: i32| magnitude(&mut rng)));
+        let ax = f32x4::new([0; 4].map(|_: i32| magnitude(&mut rng)));
+        let sign =
+            f32x4::new([0; 4].map(|_: i32| if rng.next_u64() & 1 == 0 { 1.0 } else { -1.0 }));
+        let x = ax * sign;
+        let bits = |v: f32x4| v.to_array().map(f32::to_bits);
+        assert_eq!(bits(atan2_upper4(y, x)), bits(atan2_4(y, x)), "{y:?} {x:?}");
+        assert_eq!(
+            bits(atan2_first4(y, ax)),
+            bits(atan2_4(y, ax)),
+            "{y:?} {ax:?}"
+        );
+    }
+}

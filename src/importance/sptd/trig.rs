@@ -86,18 +86,30 @@ pub fn atan2(y: f32, x: f32) -> f32 {
 /// The 4-wide twin of [`atan2`].
 #[inline]
 pub fn atan2_4(y: f32x4, x: f32x4) -> f32x4 {
+    let r = atan2_upper4(y.abs(), x);
+    y.simd_lt(f32x4::ZERO).select(-r, r)
+}
+
+/// [`atan2_4`] for `y` that is +0 or positive in every lane (no NaN): the same numbers without
+/// the sign of `y` (|y| = y, and no lane is below 0).
+#[inline(always)]
+pub(crate) fn atan2_upper4(y: f32x4, x: f32x4) -> f32x4 {
     let zero = f32x4::ZERO;
-    let ay = y.abs();
-    let ax = x.abs();
+    let r = atan2_first4(y, x.abs());
+    x.simd_lt(zero).select(f32x4::splat(PI) - r, r)
+}
+
+/// [`atan2_4`] for `y` and `x` that are +0 or positive in every lane (no NaN).
+#[inline(always)]
+pub(crate) fn atan2_first4(ay: f32x4, ax: f32x4) -> f32x4 {
+    let zero = f32x4::ZERO;
     let swap = ay.simd_gt(ax);
     let hi = swap.select(ay, ax);
     let lo = swap.select(ax, ay);
     let t = lo / hi;
     let t = t.simd_le(f32x4::ONE).select(t, zero);
     let r = atan_unit4(t);
-    let r = swap.select(f32x4::splat(FRAC_PI_2) - r, r);
-    let r = x.simd_lt(zero).select(f32x4::splat(PI) - r, r);
-    y.simd_lt(zero).select(-r, r)
+    swap.select(f32x4::splat(FRAC_PI_2) - r, r)
 }
 
 /// `x` clamped to `[-1, 1]`, NaN to −1 (as the 4-wide `max` does).
