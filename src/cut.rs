@@ -431,6 +431,47 @@ impl LightCut {
     }
 }
 
+/// The BRDF-oriented cut's decisions for a node's slots ([`LightCut::rebuild_bl`]).
+#[derive(Clone, Copy)]
+struct BlSplitRule {
+    /// s² of the wide-cap rule `r ≥ s·d` (`opts.split_sin` as documented there).
+    s2: f32x4,
+    delta: f32x4,
+}
+
+impl BlSplitRule {
+    fn new(opts: &BlCutOptions) -> BlSplitRule {
+        // s = 1 makes the rule `d² ≤ r²` exactly: the point inside the sphere.
+        let s = if opts.split_sin < 1.0 {
+            opts.split_sin.max(0.0)
+        } else {
+            1.0
+        };
+        BlSplitRule {
+            s2: f32x4::splat(s * s),
+            delta: f32x4::splat(opts.delta),
+        }
+    }
+
+    /// The decisions from a node's [`BlImportance::eval4_for_cut`]: weights its importances,
+    /// scores its cap integrals; split where the slot's cap is wide (`s²·|c − x|² ≤ r²` for the
+    /// decoded sphere, from the evaluation's own distances) or SC exceeds δ (`sc > delta`,
+    /// false for NaN, lane by lane).
+    #[inline(always)]
+    fn decide(
+        &self,
+        (w, sc, glossy, [d2, r2]): (f32x4, f32x4, f32x4, [f32x4; 2]),
+    ) -> SlotDecisions {
+        let wide = (self.s2 * d2).simd_le(r2);
+        SlotDecisions {
+            weight: w.to_array(),
+            score: sc.to_array(),
+            glossy_score: glossy.to_array(),
+            split: (wide | sc.simd_gt(self.delta)).to_bitmask(),
+        }
+    }
+}
+
 /// A cut's length, total weight and largest scores while [`LightCut::build_with`] accepts
 /// clusters, from an empty cut (as [`LightCut::clear`] leaves it), kept in locals.
 #[derive(Default)]
@@ -469,34 +510,16 @@ impl LightCut {
     /// returns, whatever it held before, without a copy of its arrays (a cut kept per thread
     /// and rebuilt at each shading point).
     pub fn rebuild_bl(&mut self, tree: &LightTree, imp: &BlImportance, opts: &BlCutOptions) {
-        let delta = opts.delta;
-        // `r ≥ s·d` as `s²·d² ≤ r²`; s = 1 is `d² ≤ r²` exactly, the point inside the sphere.
-        let s = if opts.split_sin < 1.0 {
-            opts.split_sin.max(0.0)
-        } else {
-            1.0
-        };
-        let s2 = f32x4::splat(s * s);
+        let rule = BlSplitRule::new(opts);
         // The root is evaluated once: its importances (those of `eval4`, bit for bit) give the
         // total, and its integrals its slots' decisions.
         let root = tree.nodes.first();
         let root_eval = root.map(|r| imp.eval4_for_cut(r));
-        let delta4 = f32x4::splat(delta);
         let decide = |node: &Node4, _: f32| {
-            let (w, sc, glossy, [d2, r2]) = match (root, root_eval) {
+            rule.decide(match (root, root_eval) {
                 (Some(r), Some(e)) if core::ptr::eq(node, r) => e,
                 _ => imp.eval4_for_cut(node),
-            };
-            // Split where the slot's cap is wide or SC exceeds δ (`sc > delta`, false for
-            // NaN, lane by lane). Wide: `s²·|c − x|² ≤ r²` for the decoded sphere, from the
-            // evaluation's own distances.
-            let wide = (s2 * d2).simd_le(r2);
-            SlotDecisions {
-                weight: w.to_array(),
-                score: sc.to_array(),
-                glossy_score: glossy.to_array(),
-                split: (wide | sc.simd_gt(delta4)).to_bitmask(),
-            }
+            })
         };
         let total = |_: &Node4| root_eval.map_or(0.0, |e| e.0.to_array().iter().sum());
         let surely_kept = |node: &Node4| imp.surely_positive4(node);
@@ -1091,18 +1114,11 @@ mod tests {
             let mut cut = LightCut::new();
             cut.rebuild_bl(&tree, &imp, &opts);
             // `rebuild_bl`'s decisions, counting the nodes decided.
-            let s2 = f32x4::splat(opts.split_sin * opts.split_sin);
+            let rule = BlSplitRule::new(&opts);
             let calls = core::cell::Cell::new(0usize);
             let decide = |node: &Node4, _: f32| {
                 calls.set(calls.get() + 1);
-                let (w, sc, glossy, [d2, r2]) = imp.eval4_for_cut(node);
-                SlotDecisions {
-                    weight: w.to_array(),
-                    score: sc.to_array(),
-                    glossy_score: glossy.to_array(),
-                    split: ((s2 * d2).simd_le(r2) | sc.simd_gt(f32x4::splat(opts.delta)))
-                        .to_bitmask(),
-                }
+                rule.decide(imp.eval4_for_cut(node))
             };
             let total = |root: &Node4| imp.eval4_for_cut(root).0.to_array().iter().sum();
             // Every node decided (no slot surely kept), then with the slots surely kept.
