@@ -84,6 +84,37 @@ macro_rules! lanes {
 lanes!(f32x4);
 lanes!(f32x8);
 
+/// Whether `fast_max` and `fast_min` are x86's `maxps` and `minps`: `x > k ? x : k` and
+/// `x < k ? x : k` lane by lane (`k` where either is NaN), which [`gt_or`] and [`lt_or`] are.
+const MINMAX_IS_SELECT: bool = cfg!(all(
+    any(target_arch = "x86", target_arch = "x86_64"),
+    target_feature = "sse"
+));
+
+/// `x` where `x > k`, else `k`, lane by lane (so `k` where either is NaN): the value of
+/// `x.simd_gt(k).select(x, k)`, bit for bit, as one `maxps` on x86 and as that select
+/// elsewhere.
+#[inline(always)]
+pub(crate) fn gt_or(x: f32x4, k: f32x4) -> f32x4 {
+    if MINMAX_IS_SELECT {
+        x.fast_max(k)
+    } else {
+        x.simd_gt(k).select(x, k)
+    }
+}
+
+/// `x` where `x < k`, else `k`, lane by lane (so `k` where either is NaN): the value of
+/// `x.simd_lt(k).select(x, k)`, bit for bit, as one `minps` on x86 and as that select
+/// elsewhere.
+#[inline(always)]
+pub(crate) fn lt_or(x: f32x4, k: f32x4) -> f32x4 {
+    if MINMAX_IS_SELECT {
+        x.fast_min(k)
+    } else {
+        x.simd_lt(k).select(x, k)
+    }
+}
+
 /// Two nodes' lanes side by side: `a` in lanes 0–3, `b` in 4–7.
 #[inline(always)]
 pub(crate) fn pair(a: f32x4, b: f32x4) -> f32x8 {
@@ -193,6 +224,52 @@ mod tests {
                     check(m & pa, ma & a, mb & b);
                     check(m | pb, ma | b, mb | a);
                     assert_eq!(Lanes::any(m), Lanes::any(ma) || Lanes::any(mb));
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn gt_or_and_lt_or_are_their_selects() {
+        // Every pairing of edge values (NaN, both zeros, subnormals, infinities), and the
+        // scalar forms `if x > k { x } else { k }` / `if x < k { x } else { k }` lane by lane.
+        let edge = [
+            0.0,
+            -0.0,
+            1.0,
+            -1.0,
+            -1.5,
+            1e-40,
+            -1e-40,
+            f32::MIN_POSITIVE,
+            3e38,
+            f32::INFINITY,
+            -f32::INFINITY,
+            f32::NAN,
+            -f32::NAN,
+            0.25,
+        ];
+        let bits = |x: f32x4| bytemuck::cast::<_, [u32; 4]>(x);
+        let n = edge.len();
+        for i in 0..n {
+            for j in 0..n {
+                let x = f32x4::new([
+                    edge[i],
+                    edge[j],
+                    edge[(i + j) % n],
+                    edge[(i + 2 * j + 1) % n],
+                ]);
+                let k = f32x4::new([edge[j], edge[i], edge[(i + 3) % n], edge[(j + 5) % n]]);
+                let gt = gt_or(x, k);
+                let lt = lt_or(x, k);
+                assert_eq!(bits(gt), bits(x.simd_gt(k).select(x, k)), "{i} {j}");
+                assert_eq!(bits(lt), bits(x.simd_lt(k).select(x, k)), "{i} {j}");
+                let (xs, ks) = (x.to_array(), k.to_array());
+                for l in 0..4 {
+                    let g = if xs[l] > ks[l] { xs[l] } else { ks[l] };
+                    let m = if xs[l] < ks[l] { xs[l] } else { ks[l] };
+                    assert_eq!(gt.to_array()[l].to_bits(), g.to_bits());
+                    assert_eq!(lt.to_array()[l].to_bits(), m.to_bits());
                 }
             }
         }

@@ -28,6 +28,7 @@
 //! from complements.
 
 use super::trig::{atan2, atan2_4, atan2_upper4};
+use crate::lanes::{gt_or, lt_or};
 use crate::math;
 use core::f32::consts::PI;
 use glam::Vec3;
@@ -173,8 +174,8 @@ impl Cap4 {
     pub fn from_sin(ax: f32x4, ay: f32x4, az: f32x4, sin: f32x4) -> Cap4 {
         let zero = f32x4::ZERO;
         let one = f32x4::ONE;
-        let s = sin.simd_gt(zero).select(sin, zero);
-        let s = s.simd_lt(one).select(s, one);
+        let s = gt_or(sin, zero);
+        let s = lt_or(s, one);
         let cos = ((one - s) * (one + s)).sqrt();
         Cap4 {
             ax,
@@ -361,7 +362,7 @@ fn lens4(
     let psi2 = atan2_4(a2 * delta * x2 / n2, (x2 * x2 + z2 * d2) / n2);
     let area = f32x4::splat(2.0) * ((a1 * phi1 - psi1) + (a2 * phi2 - psi2));
     let u = (a1 + a2 - a1 * a2) + (a1 * (one + z1)).sqrt() * (a2 * (one + z2)).sqrt();
-    let small = a1.simd_lt(a2).select(a1, a2);
+    let small = lt_or(a1, a2);
     let inner = e.simd_lt(u).select(f32x4::splat(2.0 * PI) * small, zero);
     live.select(area, inner)
 }
@@ -393,11 +394,8 @@ pub fn intersection_area4(p: &Cap4, q: &Cap4) -> f32x4 {
         fq.select((f32x4::splat(4.0 * PI) - s1 - s2) + l, s2 - l),
         fq.select(s1 - l, l),
     );
-    let lo_omc = p
-        .one_minus_cos
-        .simd_lt(q.one_minus_cos)
-        .select(p.one_minus_cos, q.one_minus_cos);
+    let lo_omc = lt_or(p.one_minus_cos, q.one_minus_cos);
     let hi = two_pi * lo_omc;
     let r = r.simd_ge(zero).select(r, zero);
-    r.simd_gt(hi).select(hi, r)
+    lt_or(hi, r)
 }

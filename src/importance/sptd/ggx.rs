@@ -70,6 +70,7 @@ use super::cap::{intersection_area, intersection_area4, Cap, Cap4};
 use super::lambert::{lambert_visible, lambert_visible4};
 use super::pivot::{Pivot, Pivot4};
 use super::table;
+use crate::lanes::{gt_or, lt_or};
 use crate::material::MIN_ALPHA;
 use crate::math;
 use core::f32::consts::{FRAC_PI_2, PI};
@@ -899,10 +900,10 @@ impl SptdGgx4 {
         let cap = Cap4::from_sin(ax, ay, az, sin_sigma);
         let cos_omega = ax * self.nx + ay * self.ny + az * self.nz;
         let pi = f32x4::splat(PI);
-        let s = sin_sigma.simd_gt(zero).select(sin_sigma, zero);
+        let s = gt_or(sin_sigma, zero);
         let crossing = ((s - cos_omega) * (s + cos_omega)).simd_gt(zero);
         let above = cos_omega.simd_gt(zero);
-        let c = cos_omega.simd_lt(one).select(cos_omega, one);
+        let c = lt_or(cos_omega, one);
         let l = above.select(s * s * c * pi, zero);
         let v = above.select(two * (cap.one_minus_cos * pi), zero);
         // Only groups with a cap across the horizon pay for the exact Lambert pair (same
@@ -920,7 +921,7 @@ impl SptdGgx4 {
         };
         let off = self.pivot.offset(ax, ay, az);
         let dist2 = self.pivot.distance2(&off);
-        let d = dist2.simd_lt(one).select(dist2, one);
+        let d = lt_or(dist2, one);
         let small = (two * cap.one_minus_cos).simd_lt(f32x4::splat(SMALL_CAP) * d);
         // The mean cosine of the visible part: `c (1 + cos σ)/2` for a cap above the horizon.
         let half = f32x4::splat(0.5);
@@ -929,7 +930,7 @@ impl SptdGgx4 {
         let cbar = if any_crossing {
             let cc = l / live.select(v, one);
             let cc = live.select(cc, zero);
-            crossing.select(cc.simd_lt(one).select(cc, one), cbar)
+            crossing.select(lt_or(cc, one), cbar)
         } else {
             cbar
         };
@@ -942,7 +943,7 @@ impl SptdGgx4 {
                 let w2 = (s - lift) * (s + lift);
                 (
                     crossing.select(self.cos_o + cbar, self.cos_o + cos_omega),
-                    crossing.select(w2.simd_gt(zero).select(w2, zero), s * s),
+                    crossing.select(gt_or(w2, zero), s * s),
                 )
             } else {
                 (self.cos_o + cos_omega, s * s)
@@ -962,7 +963,7 @@ impl SptdGgx4 {
             } else {
                 lens
             };
-            let mc = m.simd_lt(one).select(m, one);
+            let mc = lt_or(m, one);
             let sptd = self.scale_lobe * lens * mc + self.scale_lambert * l;
             small.select(lateral, sptd)
         } else {
@@ -970,7 +971,8 @@ impl SptdGgx4 {
         };
         let r = r.simd_ge(zero).select(r, zero);
         let rho = self.albedo;
-        let r = r.simd_ge(rho).select(rho, r);
+        // (`r ≥ ρ ? ρ : r` is `r < ρ ? r : ρ` for the r that is not NaN.)
+        let r = lt_or(r, rho);
         CapIntegrals4 {
             ggx: inside.select(self.albedo, r),
             lambert: l,

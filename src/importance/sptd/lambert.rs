@@ -19,6 +19,7 @@
 //! grazing the horizon (`I ≈ 1e-9`) keeps its digits.
 
 use super::trig::{atan2, atan2_4, atan2_first4, atan2_upper4};
+use crate::lanes::{gt_or, lt_or};
 use crate::math;
 use core::f32::consts::PI;
 use wide::f32x4;
@@ -108,16 +109,16 @@ pub fn lambert_cap4(cos_omega: f32x4, sin_sigma: f32x4) -> f32x4 {
     let one = f32x4::ONE;
     let pi = f32x4::splat(PI);
     let inside = sin_sigma.simd_ge(one);
-    let s = sin_sigma.simd_gt(zero).select(sin_sigma, zero);
-    let s = s.simd_lt(one).select(s, one);
-    let c = cos_omega.simd_gt(-one).select(cos_omega, -one);
-    let c = c.simd_lt(one).select(c, one);
+    let s = gt_or(sin_sigma, zero);
+    let s = lt_or(s, one);
+    let c = gt_or(cos_omega, -one);
+    let c = lt_or(c, one);
     let z = ((one - s) * (one + s)).sqrt();
     let q2 = (s - c) * (s + c);
-    let q = q2.simd_gt(zero).select(q2, zero).sqrt();
+    let q = gt_or(q2, zero).sqrt();
     let i = s * s * c * seg4(-z * c, q) + seg4(z, q);
     let i = i.simd_ge(zero).select(i, zero);
-    let i = i.simd_gt(pi).select(pi, i);
+    let i = lt_or(pi, i);
     inside.select(pi, i)
 }
 
@@ -163,14 +164,14 @@ pub fn lambert_visible4(cos_omega: f32x4, sin_sigma: f32x4) -> (f32x4, f32x4) {
     let pi = f32x4::splat(PI);
     let two_pi = f32x4::splat(2.0 * PI);
     let inside = sin_sigma.simd_ge(one);
-    let s = sin_sigma.simd_gt(zero).select(sin_sigma, zero);
-    let s = s.simd_lt(one).select(s, one);
-    let c = cos_omega.simd_gt(-one).select(cos_omega, -one);
-    let c = c.simd_lt(one).select(c, one);
+    let s = gt_or(sin_sigma, zero);
+    let s = lt_or(s, one);
+    let c = gt_or(cos_omega, -one);
+    let c = lt_or(c, one);
     let z = ((one - s) * (one + s)).sqrt();
     let a = s * s / (one + z);
     let q2 = (s - c) * (s + c);
-    let q = q2.simd_gt(zero).select(q2, zero).sqrt();
+    let q = gt_or(q2, zero).sqrt();
     let x = -z * c;
     // q and z are +0 or positive (square roots of +0 or more).
     let beta = atan2_upper4(q, x);
@@ -179,9 +180,9 @@ pub fn lambert_visible4(cos_omega: f32x4, sin_sigma: f32x4) -> (f32x4, f32x4) {
     let l = s * s * c * seg_angle4(x, q, beta) + seg_angle4(z, q, tau);
     let v = f32x4::splat(2.0) * (a * beta - psi);
     let l = l.simd_ge(zero).select(l, zero);
-    let l = l.simd_gt(pi).select(pi, l);
+    let l = lt_or(pi, l);
     let v = v.simd_ge(zero).select(v, zero);
     let vmax = two_pi * a;
-    let v = v.simd_gt(vmax).select(vmax, v);
+    let v = lt_or(vmax, v);
     (inside.select(pi, l), inside.select(two_pi, v))
 }

@@ -19,6 +19,7 @@
 //! nearly the whole sphere.
 
 use super::cap::{Cap, Cap4};
+use crate::lanes::{gt_or, lt_or};
 use crate::math;
 use core::f32::consts::PI;
 use glam::Vec3;
@@ -279,7 +280,7 @@ impl Pivot4 {
         let w = self.one_plus * a - g2 - two * r * delta;
         let ml = (mx * mx + my * my + mz * mz).sqrt();
         let tiny = f32x4::splat(f32::MIN_POSITIVE);
-        let ml = ml.simd_gt(tiny).select(ml, tiny);
+        let ml = gt_or(ml, tiny);
         let k2s2 = self.k2 * (a * cap.one_plus_cos);
         let neg = w.simd_le(f32x4::ZERO);
         let big = neg.select(ml - w, ml + w);
@@ -287,8 +288,8 @@ impl Pivot4 {
         let ratio = big / ml;
         let inv = one / ml;
         let cos = -w * inv;
-        let cos = cos.simd_gt(-one).select(cos, -one);
-        let cos = cos.simd_lt(one).select(cos, one);
+        let cos = gt_or(cos, -one);
+        let cos = lt_or(cos, one);
         Cap4 {
             ax: -mx * inv,
             ay: -my * inv,

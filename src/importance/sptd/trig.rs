@@ -12,6 +12,7 @@
 //! Never NaN out: `atan2(0, 0)` is 0, a NaN coordinate gives a value in `[-π, π]`, and [`asin`]
 //! and [`acos`] treat a NaN argument as −1.
 
+use crate::lanes::{gt_or, lt_or};
 use crate::math;
 use core::f32::consts::{FRAC_PI_2, PI};
 use wide::f32x4;
@@ -104,8 +105,8 @@ pub(crate) fn atan2_upper4(y: f32x4, x: f32x4) -> f32x4 {
 pub(crate) fn atan2_first4(ay: f32x4, ax: f32x4) -> f32x4 {
     let zero = f32x4::ZERO;
     let swap = ay.simd_gt(ax);
-    let hi = swap.select(ay, ax);
-    let lo = swap.select(ax, ay);
+    let hi = gt_or(ay, ax);
+    let lo = lt_or(ax, ay);
     let t = lo / hi;
     let t = t.simd_le(f32x4::ONE).select(t, zero);
     let r = atan_unit4(t);
@@ -143,8 +144,8 @@ pub fn acos(x: f32) -> f32 {
 #[inline]
 pub fn asin4(x: f32x4) -> f32x4 {
     let one = f32x4::ONE;
-    let x = x.simd_gt(-one).select(x, -one);
-    let x = x.simd_lt(one).select(x, one);
+    let x = gt_or(x, -one);
+    let x = lt_or(x, one);
     let c = (one - x) * (one + x);
     atan2_4(x, c.sqrt())
 }
@@ -153,8 +154,8 @@ pub fn asin4(x: f32x4) -> f32x4 {
 #[inline]
 pub fn acos4(x: f32x4) -> f32x4 {
     let one = f32x4::ONE;
-    let x = x.simd_gt(-one).select(x, -one);
-    let x = x.simd_lt(one).select(x, one);
+    let x = gt_or(x, -one);
+    let x = lt_or(x, one);
     let s = (one - x) * (one + x);
     atan2_4(s.sqrt(), x)
 }
