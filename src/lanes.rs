@@ -115,6 +115,13 @@ pub(crate) fn lt_or(x: f32x4, k: f32x4) -> f32x4 {
     }
 }
 
+/// `x` clamped to `[lo, hi]` lane by lane, `lo` where `x` is NaN (for `lo < hi`):
+/// [`lt_or`]`(`[`gt_or`]`(x, lo), hi)`.
+#[inline(always)]
+pub(crate) fn clamp4(x: f32x4, lo: f32x4, hi: f32x4) -> f32x4 {
+    lt_or(gt_or(x, lo), hi)
+}
+
 /// Two nodes' lanes side by side: `a` in lanes 0–3, `b` in 4–7.
 #[inline(always)]
 pub(crate) fn pair(a: f32x4, b: f32x4) -> f32x8 {

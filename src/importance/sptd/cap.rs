@@ -28,7 +28,7 @@
 //! from complements.
 
 use super::trig::{atan2, atan2_4, atan2_upper4};
-use crate::lanes::{gt_or, lt_or};
+use crate::lanes::{clamp4, lt_or};
 use crate::math;
 use core::f32::consts::PI;
 use glam::Vec3;
@@ -174,8 +174,7 @@ impl Cap4 {
     pub fn from_sin(ax: f32x4, ay: f32x4, az: f32x4, sin: f32x4) -> Cap4 {
         let zero = f32x4::ZERO;
         let one = f32x4::ONE;
-        let s = gt_or(sin, zero);
-        let s = lt_or(s, one);
+        let s = clamp4(sin, zero, one);
         let cos = ((one - s) * (one + s)).sqrt();
         Cap4 {
             ax,

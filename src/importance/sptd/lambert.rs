@@ -19,7 +19,7 @@
 //! grazing the horizon (`I ≈ 1e-9`) keeps its digits.
 
 use super::trig::{atan2, atan2_4, atan2_first4, atan2_upper4};
-use crate::lanes::{gt_or, lt_or};
+use crate::lanes::{clamp4, gt_or, lt_or};
 use crate::math;
 use core::f32::consts::PI;
 use wide::f32x4;
@@ -109,10 +109,8 @@ pub fn lambert_cap4(cos_omega: f32x4, sin_sigma: f32x4) -> f32x4 {
     let one = f32x4::ONE;
     let pi = f32x4::splat(PI);
     let inside = sin_sigma.simd_ge(one);
-    let s = gt_or(sin_sigma, zero);
-    let s = lt_or(s, one);
-    let c = gt_or(cos_omega, -one);
-    let c = lt_or(c, one);
+    let s = clamp4(sin_sigma, zero, one);
+    let c = clamp4(cos_omega, -one, one);
     let z = ((one - s) * (one + s)).sqrt();
     let q2 = (s - c) * (s + c);
     let q = gt_or(q2, zero).sqrt();
@@ -164,10 +162,8 @@ pub fn lambert_visible4(cos_omega: f32x4, sin_sigma: f32x4) -> (f32x4, f32x4) {
     let pi = f32x4::splat(PI);
     let two_pi = f32x4::splat(2.0 * PI);
     let inside = sin_sigma.simd_ge(one);
-    let s = gt_or(sin_sigma, zero);
-    let s = lt_or(s, one);
-    let c = gt_or(cos_omega, -one);
-    let c = lt_or(c, one);
+    let s = clamp4(sin_sigma, zero, one);
+    let c = clamp4(cos_omega, -one, one);
     let z = ((one - s) * (one + s)).sqrt();
     let a = s * s / (one + z);
     let q2 = (s - c) * (s + c);

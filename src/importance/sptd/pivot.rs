@@ -19,7 +19,7 @@
 //! nearly the whole sphere.
 
 use super::cap::{Cap, Cap4};
-use crate::lanes::{gt_or, lt_or};
+use crate::lanes::{clamp4, gt_or};
 use crate::math;
 use core::f32::consts::PI;
 use glam::Vec3;
@@ -288,8 +288,7 @@ impl Pivot4 {
         let ratio = big / ml;
         let inv = one / ml;
         let cos = -w * inv;
-        let cos = gt_or(cos, -one);
-        let cos = lt_or(cos, one);
+        let cos = clamp4(cos, -one, one);
         Cap4 {
             ax: -mx * inv,
             ay: -my * inv,

@@ -12,7 +12,7 @@
 //! Never NaN out: `atan2(0, 0)` is 0, a NaN coordinate gives a value in `[-π, π]`, and [`asin`]
 //! and [`acos`] treat a NaN argument as −1.
 
-use crate::lanes::{gt_or, lt_or};
+use crate::lanes::{clamp4, gt_or, lt_or};
 use crate::math;
 use core::f32::consts::{FRAC_PI_2, PI};
 use wide::f32x4;
@@ -144,8 +144,7 @@ pub fn acos(x: f32) -> f32 {
 #[inline]
 pub fn asin4(x: f32x4) -> f32x4 {
     let one = f32x4::ONE;
-    let x = gt_or(x, -one);
-    let x = lt_or(x, one);
+    let x = clamp4(x, -one, one);
     let c = (one - x) * (one + x);
     atan2_4(x, c.sqrt())
 }
@@ -154,8 +153,7 @@ pub fn asin4(x: f32x4) -> f32x4 {
 #[inline]
 pub fn acos4(x: f32x4) -> f32x4 {
     let one = f32x4::ONE;
-    let x = gt_or(x, -one);
-    let x = lt_or(x, one);
+    let x = clamp4(x, -one, one);
     let s = (one - x) * (one + x);
     atan2_4(s.sqrt(), x)
 }
