@@ -610,6 +610,98 @@ fn every_technique_is_unbiased_for_glossy_materials_under_sun_and_sky() {
     }
 }
 
+/// Surfaces tilted against the sky's up (a wall, a slope, an overhang facing the ground), as
+/// most of a scene's surfaces are: a gradient sky (with and without a ground colour), a sun
+/// with a wide cap across the surface's horizon, a low sun, and two sphere lights, one of them
+/// across the horizon. Lambert and glossy, through the one call; the reference is quadrature
+/// over the hemisphere (the sky) and over each cap clipped at the horizon (suns and spheres).
+/// The shading frame is fixed (normal +z); the sky's up is what tilts.
+#[test]
+fn every_technique_is_unbiased_on_surfaces_tilted_against_the_sky() {
+    let ups = [
+        Vec3::X,                    // a wall
+        Vec3::new(-0.5, 0.4, 0.7),  // a slope
+        Vec3::new(0.3, -0.2, -0.9), // an overhang: the sky mostly below the horizon
+    ];
+    let spheres = [
+        (Vec3::new(0.8, 0.6, 1.5), 0.25f32, Rgb::new(3.0, 2.0, 1.0)),
+        // Across the horizon: its centre 0.05 above the plane, radius 0.2.
+        (Vec3::new(-1.2, 0.4, 0.05), 0.2, Rgb::new(1.0, 2.0, 4.0)),
+    ];
+    // The wide sun crosses the horizon (its centre 0.04 rad above it, radius 0.1).
+    let (wide_dir, wide_r, wide_e) = (Vec3::new(0.0, -1.0, 0.04), 0.1f32, Rgb::new(1.5, 1.2, 0.8));
+    let (low_dir, low_e) = (Vec3::new(0.7, 0.2, 0.3), Rgb::new(2.0, 1.4, 0.9));
+    for (ui, &up) in ups.iter().enumerate() {
+        let sky = GradientSky {
+            up: up.normalize(),
+            zenith: Rgb::new(0.08, 0.14, 0.36),
+            horizon: Rgb::new(0.44, 0.32, 0.26),
+            ground: if ui == 1 {
+                Rgb::ZERO
+            } else {
+                Rgb::new(0.1, 0.08, 0.05)
+            },
+        };
+        let mut lights: Vec<Light> = spheres
+            .iter()
+            .map(|&(center, radius, radiance)| Light::Sphere {
+                center,
+                radius,
+                radiance,
+            })
+            .collect();
+        lights.push(distant(wide_dir, wide_r, wide_e));
+        lights.push(distant(low_dir, SUN, low_e));
+        lights.push(sky.light());
+        let set = LightSet::build(lights).unwrap();
+        let wo = Vec3::new(0.4, -0.3, 0.6).normalize();
+        for (mi, material) in [
+            Material::Lambert {
+                albedo: Rgb::new(0.7, 0.5, 0.3),
+            },
+            Material::Plastic {
+                albedo: Rgb::new(0.5, 0.3, 0.2),
+                specular: 0.5,
+                alpha: 0.15,
+            },
+        ]
+        .into_iter()
+        .enumerate()
+        {
+            let sky_l = |d: DVec3| sky.eval(d.as_vec3()).0;
+            let mut exact = hemisphere_quadrature(&material, wo, &sky_l, 300);
+            // A sphere of radiance L is the cap of sin γ = r/d with E = π L sin²γ.
+            let caps = spheres
+                .iter()
+                .map(|&(c, r, l)| {
+                    let g = (r / c.length()).asin();
+                    (c, g, l * (std::f32::consts::PI * g.sin() * g.sin()))
+                })
+                .chain([(wide_dir, wide_r, wide_e), (low_dir, SUN, low_e)]);
+            for (d, g, e) in caps {
+                let part = sun_quadrature(&material, wo, d, g, e, 120);
+                for c in 0..3 {
+                    exact[c] += part[c];
+                }
+            }
+            let sp = ShadingPoint {
+                position: Vec3::ZERO,
+                normal: Vec3::Z,
+                wo,
+                material,
+            };
+            check_unbiased(
+                &set,
+                &sp,
+                &sky,
+                exact,
+                30_000,
+                300 + 20 * ui as u64 + mi as u64,
+            );
+        }
+    }
+}
+
 /// The lower level with a host environment and the host's own Lambert BSDF in colour: the
 /// environment steps sampled by the host, the escaping BSDF rays weighed with its pdf.
 #[test]
