@@ -282,6 +282,7 @@ fn compare_writes_every_output() {
     let techs = j["techniques"].as_array().unwrap();
     let names: Vec<&str> = techs.iter().map(|t| t["name"].as_str().unwrap()).collect();
     assert_eq!(names, NAMES);
+    let md = report.table();
     for t in techs {
         for key in [
             "rmse_equal_spp",
@@ -305,6 +306,15 @@ fn compare_writes_every_output() {
         let spp_t = t["spp_equal_time"].as_u64().unwrap();
         assert!(spp_t >= 1);
         assert_eq!(t["mean_rel_diff_spp"].as_u64().unwrap(), spp_t.max(8));
+        // The signed difference is the absolute one with its sign, and the table shows it.
+        let signed = t["mean_rel_diff_signed"].as_f64().unwrap();
+        assert_eq!(signed.abs(), t["mean_rel_diff"].as_f64().unwrap());
+        let shown = format!("| {:+.2} % |", 100.0 * signed);
+        let row = md
+            .lines()
+            .find(|l| l.starts_with(&format!("| {} | ", t["name"].as_str().unwrap())))
+            .unwrap();
+        assert!(row.contains(&shown), "{row} lacks {shown}");
     }
     // `full` gets its own spp back when the budget is its own time.
     assert_eq!(techs[6]["spp_equal_time"], 2);

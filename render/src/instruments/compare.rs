@@ -29,9 +29,12 @@
 //!   of a noisy timing is visible.
 //! - `mean_rel_diff`: |average of the image − average of the reference| / average of the
 //!   reference, for the technique's image with the most spp among its equal-spp, equal-time and
-//!   convergence renders (`mean_rel_diff_spp`); `mean_rel_diff_se` is the standard error of
-//!   that difference (relative; from both images' per-pixel variances, `null` below 2 spp), so
-//!   that noise can be told from bias; `mean_rel_diff_sigma` is their ratio.
+//!   convergence renders (`mean_rel_diff_spp`); `mean_rel_diff_signed` is the same without the
+//!   absolute value (negative where the image is darker than the reference: what a heavy upper
+//!   tail usually gives); `mean_rel_diff_se` is the standard error of that difference
+//!   (relative; from both images' per-pixel variances, `null` below 2 spp), so that noise can
+//!   be told from bias; `mean_rel_diff_sigma` is the ratio of the first to it. The table
+//!   shows the signed difference.
 //! - **Reference variance removed** ([`error_split`](super::error_split); docs/formulas.md,
 //!   section 15): beside each RMSE, `RMSE' = sqrt(max(0, MSE − V))` with `V` the mean over the
 //!   pixels of the reference's own variance of its pixel means (its per-estimate sample
@@ -68,8 +71,8 @@
 //! With `--json` the last line of stdout is
 //! `{scene, lights, resolution, spp, ref_spp, time_budget_s, time_budget_from, dir,
 //! techniques: [{name, rmse_equal_spp, rmse_equal_time, spp_equal_time, seconds_equal_time,
-//! ms_per_spp, ms_fixed, seconds_equal_spp, mean_rel_diff, mean_rel_diff_spp,
-//! mean_rel_diff_se, mean_rel_diff_sigma, failed_estimates, mse_equal_spp_se, mse_equal_time_se,
+//! ms_per_spp, ms_fixed, seconds_equal_spp, mean_rel_diff, mean_rel_diff_signed,
+//! mean_rel_diff_spp, mean_rel_diff_se, mean_rel_diff_sigma, failed_estimates, mse_equal_spp_se, mse_equal_time_se,
 //! rmse_equal_spp_corrected, rmse_equal_time_corrected,
 //! rmse_equal_spp_vs_tl_mis, rmse_equal_time_vs_tl_mis, rmse_equal_spp_corrected_vs_tl_mis,
 //! rmse_equal_time_corrected_vs_tl_mis, errors: {material, angle, material_angle: {equal_spp,
@@ -212,6 +215,9 @@ pub struct TechReport {
     /// Relative difference of the image averages (technique against reference) at
     /// [`TechReport::mean_rel_diff_spp`].
     pub mean_rel_diff: f64,
+    /// `mean_rel_diff` with its sign: (image average − reference average) / reference
+    /// average.
+    pub mean_rel_diff_signed: f64,
     /// The highest spp the technique was rendered at (of its equal-spp, equal-time and
     /// convergence renders): the image of `mean_rel_diff`.
     pub mean_rel_diff_spp: usize,
@@ -333,6 +339,7 @@ impl Report {
                 "ms_fixed": num(t.cost.fixed * 1e3),
                 "seconds_equal_spp": num(t.seconds_equal_spp),
                 "mean_rel_diff": num(t.mean_rel_diff),
+                "mean_rel_diff_signed": num(t.mean_rel_diff_signed),
                 "mean_rel_diff_spp": t.mean_rel_diff_spp,
                 "mean_rel_diff_se": num(t.mean_rel_diff_se),
                 "mean_rel_diff_sigma": num(ratio(t.mean_rel_diff, t.mean_rel_diff_se)),
@@ -442,7 +449,7 @@ impl Report {
         s.push_str("|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|\n");
         for t in &self.techniques {
             s.push_str(&format!(
-                "| {} | {:.5} | {:.3} | {:.3} | {:.5} | {:.3} | {:.3} | {} | {:.3} | {:.2} | {:.2} % | {:.2} % | {} |\n",
+                "| {} | {:.5} | {:.3} | {:.3} | {:.5} | {:.3} | {:.3} | {} | {:.3} | {:.2} | {:+.2} % | {:.2} % | {} |\n",
                 t.technique.name(),
                 t.rmse_equal_spp,
                 t.rmse_equal_spp / split.0,
@@ -453,7 +460,7 @@ impl Report {
                 t.spp_equal_time,
                 t.seconds_equal_time,
                 t.ms_per_spp,
-                100.0 * t.mean_rel_diff,
+                100.0 * t.mean_rel_diff_signed,
                 100.0 * t.mean_rel_diff_se,
                 t.mean_rel_diff_spp,
             ));
@@ -1009,6 +1016,7 @@ pub fn run(scene: &RenderScene, cfg: &CompareConfig) -> std::io::Result<Report> 
                 cost: costs[i],
                 ms_per_spp: costs[i].per_spp * 1e3,
                 mean_rel_diff: (hi.average - ref_avg).abs() / ref_avg,
+                mean_rel_diff_signed: (hi.average - ref_avg) / ref_avg,
                 mean_rel_diff_spp: hi.spp,
                 mean_rel_diff_se: (hi.se.powi(2) + ref_se.powi(2)).sqrt() / ref_avg,
                 errors_equal_spp: summaries[i].clone(),
