@@ -212,14 +212,12 @@ pub struct TechReport {
     pub cost: Cost,
     /// Busy milliseconds per spp (whole image) of the cost model.
     pub ms_per_spp: f64,
-    /// Relative difference of the image averages (technique against reference) at
-    /// [`TechReport::mean_rel_diff_spp`].
-    pub mean_rel_diff: f64,
-    /// `mean_rel_diff` with its sign: (image average − reference average) / reference
-    /// average.
+    /// Relative difference of the image averages, (image average − reference average) /
+    /// reference average, at [`TechReport::mean_rel_diff_spp`]; its size is
+    /// [`TechReport::mean_rel_diff`].
     pub mean_rel_diff_signed: f64,
     /// The highest spp the technique was rendered at (of its equal-spp, equal-time and
-    /// convergence renders): the image of `mean_rel_diff`.
+    /// convergence renders): the image of `mean_rel_diff_signed`.
     pub mean_rel_diff_spp: usize,
     /// Standard error of `mean_rel_diff` (relative to the reference average); NaN below 2 spp.
     pub mean_rel_diff_se: f64,
@@ -234,6 +232,12 @@ pub struct TechReport {
 }
 
 impl TechReport {
+    /// |image average − reference average| / reference average: the size of
+    /// [`TechReport::mean_rel_diff_signed`] (the reference average is not negative).
+    pub fn mean_rel_diff(&self) -> f64 {
+        self.mean_rel_diff_signed.abs()
+    }
+
     /// RMSE at equal spp with the reference's variance removed.
     pub fn rmse_equal_spp_corrected(&self) -> f64 {
         self.errors_equal_spp.rmse_corrected()
@@ -338,11 +342,11 @@ impl Report {
                 "ms_per_spp": num(t.ms_per_spp),
                 "ms_fixed": num(t.cost.fixed * 1e3),
                 "seconds_equal_spp": num(t.seconds_equal_spp),
-                "mean_rel_diff": num(t.mean_rel_diff),
+                "mean_rel_diff": num(t.mean_rel_diff()),
                 "mean_rel_diff_signed": num(t.mean_rel_diff_signed),
                 "mean_rel_diff_spp": t.mean_rel_diff_spp,
                 "mean_rel_diff_se": num(t.mean_rel_diff_se),
-                "mean_rel_diff_sigma": num(ratio(t.mean_rel_diff, t.mean_rel_diff_se)),
+                "mean_rel_diff_sigma": num(ratio(t.mean_rel_diff(), t.mean_rel_diff_se)),
                 "failed_estimates": t.failed_estimates,
                 "mse_equal_spp_se": num(t.errors_equal_spp.mse_se),
                 "mse_equal_time_se": num(t.errors_equal_time.mse_se),
@@ -1015,7 +1019,6 @@ pub fn run(scene: &RenderScene, cfg: &CompareConfig) -> std::io::Result<Report> 
                 seconds_equal_spp: images[i].seconds,
                 cost: costs[i],
                 ms_per_spp: costs[i].per_spp * 1e3,
-                mean_rel_diff: (hi.average - ref_avg).abs() / ref_avg,
                 mean_rel_diff_signed: (hi.average - ref_avg) / ref_avg,
                 mean_rel_diff_spp: hi.spp,
                 mean_rel_diff_se: (hi.se.powi(2) + ref_se.powi(2)).sqrt() / ref_avg,
