@@ -384,6 +384,13 @@ const PMF_BATCH_LANES_WIDE: usize = 64;
 /// Both widths return the same bits; only the speed depends on the choice.
 const PMF_WIDE_NODES: usize = 1 << 17;
 
+/// How many queries ahead [`LightTree::pmf_batch`] prefetches the path of the light it will
+/// query, in a tree of at least [`PMF_WIDE_NODES`] nodes (a walk reads its light's path as it
+/// starts, and there the paths, a few MB at random, are not in a core's cache). A hint only:
+/// the pmfs are the same bits with or without it (docs/measurements.md, "Batch widths and the
+/// next level's loads").
+const PATH_AHEAD: usize = 16;
+
 impl LightTree {
     /// Samples a light at the shading point of `imp` with the uniform number `u` in [0, 1)
     /// (clamped into it). `None` when no light can contribute (the root's importance is 0).
@@ -552,24 +559,31 @@ impl LightTree {
             return Ok(());
         }
         if self.nodes.len() >= PMF_WIDE_NODES {
-            self.pmf_batch_with::<I, PMF_BATCH_LANES_WIDE, P>(imps, lights, out);
+            self.pmf_batch_with::<I, PMF_BATCH_LANES_WIDE, P>(imps, lights, out, P);
         } else {
-            self.pmf_batch_with::<I, PMF_BATCH_LANES, P>(imps, lights, out);
+            self.pmf_batch_with::<I, PMF_BATCH_LANES, P>(imps, lights, out, false);
         }
         Ok(())
     }
 
-    /// [`LightTree::pmf_batch`] with `K` walks in flight, the lengths checked.
+    /// [`LightTree::pmf_batch`] with `K` walks in flight, the lengths checked; with
+    /// `path_hint`, each light's path prefetched [`PATH_AHEAD`] queries before its walk.
     fn pmf_batch_with<I: Importance, const K: usize, const P: bool>(
         &self,
         imps: &[I],
         lights: &[u32],
         out: &mut [f32],
+        path_hint: bool,
     ) {
         self.pmf_many_with::<I, K, P>(
             imps.len(),
             |j| &imps[j],
             |j| {
+                if path_hint {
+                    if let Some(&ahead) = lights.get(j + PATH_AHEAD) {
+                        self.paths.prefetch(ahead as usize);
+                    }
+                }
                 let light = lights[j];
                 Ok(WalkStart {
                     node: 0,
@@ -1135,16 +1149,21 @@ mod tests {
                 _ => tree.sample(&imps[j], rng.f32()).map_or(0, |s| s.light),
             })
             .collect();
-        let mut narrow = vec![f32::NAN; m];
-        let mut wide = vec![f32::NAN; m];
-        tree.pmf_batch_with::<_, PMF_BATCH_LANES, PREFETCH>(&imps, &ls, &mut narrow);
-        tree.pmf_batch_with::<_, PMF_BATCH_LANES_WIDE, PREFETCH>(&imps, &ls, &mut wide);
         let mut positive = 0;
-        for j in 0..m {
-            let want = tree.pmf(&imps[j], ls[j]).to_bits();
-            assert_eq!(narrow[j].to_bits(), want, "point {j} light {}", ls[j]);
-            assert_eq!(wide[j].to_bits(), want, "point {j} light {}", ls[j]);
-            positive += usize::from(wide[j] > 0.0);
+        // Each width with and without the paths' prefetch (which a tree this small does not
+        // get from `pmf_batch`; the lights out of range are prefetched too).
+        for hint in [false, true] {
+            let mut narrow = vec![f32::NAN; m];
+            let mut wide = vec![f32::NAN; m];
+            tree.pmf_batch_with::<_, PMF_BATCH_LANES, PREFETCH>(&imps, &ls, &mut narrow, hint);
+            tree.pmf_batch_with::<_, PMF_BATCH_LANES_WIDE, PREFETCH>(&imps, &ls, &mut wide, hint);
+            positive = 0;
+            for j in 0..m {
+                let want = tree.pmf(&imps[j], ls[j]).to_bits();
+                assert_eq!(narrow[j].to_bits(), want, "point {j} light {}", ls[j]);
+                assert_eq!(wide[j].to_bits(), want, "point {j} light {}", ls[j]);
+                positive += usize::from(wide[j] > 0.0);
+            }
         }
         // Three queries in five are of lights that can be sampled (321 of the 700 pmfs are
         // positive with this seed), so the comparison is not of zeros alone.
