@@ -386,9 +386,9 @@ const PMF_WIDE_NODES: usize = 1 << 17;
 
 /// How many queries ahead [`LightTree::pmf_batch`] prefetches the path of the light it will
 /// query, in a tree of at least [`PMF_WIDE_NODES`] nodes (a walk reads its light's path as it
-/// starts, and there the paths, a few MB at random, are not in a core's cache). A hint only:
-/// the pmfs are the same bits with or without it (docs/measurements.md, "Batch widths and the
-/// next level's loads").
+/// starts; there the paths, read at random beside megabytes of nodes, miss a core's L2). A hint
+/// only: the pmfs are the same bits with or without it (docs/measurements.md, "Batch widths and
+/// the next level's loads").
 const PATH_AHEAD: usize = 16;
 
 impl LightTree {
