@@ -4,13 +4,13 @@
 //! timed loop), BL sampling through a BRDF-oriented cut and split sampling with their per-point
 //! set-up, pmf queries single and batch, build time against the binary build, cut construction
 //! against one tree descent, and split sampling one descent at a time against interleaved
-//! (`sample_each`); the descents with the prefetch hint against the same descents with plain
-//! loads (`prefetch`), and the build split over two threads against the serial build
+//! (`sample_each`); the descents alone (`descents`: run in both builds, with and without the
+//! feature `prefetch`, to compare the hint with plain loads), and the build split over two threads against the serial build
 //! (`build_parallel`).
-//! Scene: the random scene of `mlrender bench` (fixed seed).
+//! Scene: the random scene of `mlmeasure bench` (fixed seed).
 
 use criterion::{criterion_group, criterion_main, BenchmarkId, Criterion, Throughput};
-use manylights::baseline::{touched, BinaryLightTree};
+use manylights::baseline::BinaryLightTree;
 use manylights::Rgb;
 use manylights::{
     BlCutOptions, BlImportance, BuildOptions, Join, LightCut, LightSample, LightTree, Material,
@@ -311,12 +311,13 @@ fn cuts(c: &mut Criterion) {
     group.finish();
 }
 
-/// The descents with the prefetch hint (the default calls; without the feature `prefetch`
-/// they are the plain-load ones) against the same descents with plain loads
-/// ([`manylights::baseline::touched`]): one sample, a batch of samples and a batch of pmfs per
-/// shading point.
-fn prefetch(c: &mut Criterion) {
-    let mut group = c.benchmark_group("prefetch");
+/// The descents at 10⁵ and 10⁶ lights, one sample, a batch of samples and a batch of pmfs per
+/// shading point. Their prefetch hint is measured against plain loads by running this group
+/// in both builds against a saved baseline:
+/// `cargo bench --bench sampling -- descents --save-baseline prefetch`, then
+/// `cargo bench --no-default-features --bench sampling -- descents --baseline prefetch`.
+fn descents(c: &mut Criterion) {
+    let mut group = c.benchmark_group("descents");
     group.sample_size(20);
     group.throughput(Throughput::Elements(POINTS as u64));
     let points = random_scene::shading_points(POINTS, 7);
@@ -329,63 +330,39 @@ fn prefetch(c: &mut Criterion) {
         let lights = random_scene::lights(n, 7);
         let tree = LightTree::build(&lights).unwrap();
         let lights_of = random_scene::sampled_lights(&tree, &points, &us);
-        let single = |hint: bool| {
-            let mut acc = 0.0f32;
-            for (imp, &u) in imps.iter().zip(&us) {
-                let s = if hint {
-                    tree.sample(black_box(imp), black_box(u))
-                } else {
-                    touched::sample(&tree, black_box(imp), black_box(u))
-                };
-                acc += s.map_or(0.0, |s| s.pmf);
-            }
-            acc
-        };
-        group.bench_with_input(BenchmarkId::new("sample hint", n), &n, |b, _| {
-            b.iter(|| single(true))
-        });
-        group.bench_with_input(BenchmarkId::new("sample loads", n), &n, |b, _| {
-            b.iter(|| single(false))
+        group.bench_with_input(BenchmarkId::new("sample", n), &n, |b, _| {
+            b.iter(|| {
+                let mut acc = 0.0f32;
+                for (imp, &u) in imps.iter().zip(&us) {
+                    let s = tree.sample(black_box(imp), black_box(u));
+                    acc += s.map_or(0.0, |s| s.pmf);
+                }
+                acc
+            })
         });
         let mut out = vec![None; BATCH];
-        let mut batches = |hint: bool| {
-            let mut acc = 0.0f32;
-            for (ic, uc) in imps.chunks(BATCH).zip(us.chunks(BATCH)) {
-                let out = &mut out[..ic.len()];
-                if hint {
+        group.bench_with_input(BenchmarkId::new("sample_batch", n), &n, |b, _| {
+            b.iter(|| {
+                let mut acc = 0.0f32;
+                for (ic, uc) in imps.chunks(BATCH).zip(us.chunks(BATCH)) {
+                    let out = &mut out[..ic.len()];
                     tree.sample_batch(black_box(ic), uc, out).unwrap();
-                } else {
-                    touched::sample_batch(&tree, black_box(ic), uc, out).unwrap();
+                    acc += out.iter().flatten().map(|s| s.pmf).sum::<f32>();
                 }
-                acc += out.iter().flatten().map(|s| s.pmf).sum::<f32>();
-            }
-            acc
-        };
-        group.bench_with_input(BenchmarkId::new("sample_batch hint", n), &n, |b, _| {
-            b.iter(|| batches(true))
-        });
-        group.bench_with_input(BenchmarkId::new("sample_batch loads", n), &n, |b, _| {
-            b.iter(|| batches(false))
+                acc
+            })
         });
         let mut out = vec![0.0f32; BATCH];
-        let mut pmfs = |hint: bool| {
-            let mut acc = 0.0f32;
-            for (ic, lc) in imps.chunks(BATCH).zip(lights_of.chunks(BATCH)) {
-                let out = &mut out[..ic.len()];
-                if hint {
+        group.bench_with_input(BenchmarkId::new("pmf_batch", n), &n, |b, _| {
+            b.iter(|| {
+                let mut acc = 0.0f32;
+                for (ic, lc) in imps.chunks(BATCH).zip(lights_of.chunks(BATCH)) {
+                    let out = &mut out[..ic.len()];
                     tree.pmf_batch(black_box(ic), lc, out).unwrap();
-                } else {
-                    touched::pmf_batch(&tree, black_box(ic), lc, out).unwrap();
+                    acc += out.iter().sum::<f32>();
                 }
-                acc += out.iter().sum::<f32>();
-            }
-            acc
-        };
-        group.bench_with_input(BenchmarkId::new("pmf_batch hint", n), &n, |b, _| {
-            b.iter(|| pmfs(true))
-        });
-        group.bench_with_input(BenchmarkId::new("pmf_batch loads", n), &n, |b, _| {
-            b.iter(|| pmfs(false))
+                acc
+            })
         });
     }
     group.finish();
@@ -443,7 +420,7 @@ criterion_group!(
     memo,
     build,
     cuts,
-    prefetch,
+    descents,
     build_parallel
 );
 criterion_main!(benches);

@@ -14,7 +14,7 @@ use crate::importance::TlImportance;
 use crate::light::Light;
 use crate::math;
 use crate::sample::{admit, sanitize, LightSample, MIN_PMF, ONE_MINUS_EPSILON};
-use crate::tree::{path_len, SlotBounds};
+use crate::tree::SlotBounds;
 
 /// Bit set in a node's `child` when it is a leaf (the rest of the bits: the light).
 const LEAF_BIT: u32 = 1 << 31;
@@ -233,61 +233,5 @@ impl BinaryLightTree {
             }
         }
         pmf
-    }
-}
-
-// Shared with the 4-wide tree's path decoding.
-const _: fn(u64) -> u32 = path_len;
-
-/// The 4-wide tree's calls with the next level's nodes loaded ahead by plain loads instead of
-/// prefetch hints: what [`crate::LightTree`] does without the feature `prefetch`, the
-/// yardstick its hints are measured against. Each returns exactly what the
-/// [`crate::LightTree`] method of the same name returns.
-pub mod touched {
-    use crate::error::LengthMismatch;
-    use crate::importance::Importance;
-    use crate::sample::{LightSample, WalkStart, MIN_PMF};
-    use crate::tree::LightTree;
-
-    /// [`LightTree::sample`].
-    pub fn sample<I: Importance + ?Sized>(
-        tree: &LightTree,
-        imp: &I,
-        u: f32,
-    ) -> Option<LightSample> {
-        tree.descend_from_with::<I, false>(imp, 0, true, u, MIN_PMF)
-    }
-
-    /// [`LightTree::sample_batch`].
-    pub fn sample_batch<I: Importance>(
-        tree: &LightTree,
-        imps: &[I],
-        us: &[f32],
-        out: &mut [Option<LightSample>],
-    ) -> Result<(), LengthMismatch> {
-        tree.sample_batch_with::<I, false>(imps, us, out)
-    }
-
-    /// [`LightTree::pmf`].
-    pub fn pmf<I: Importance + ?Sized>(tree: &LightTree, imp: &I, light: u32) -> f32 {
-        let walk = WalkStart {
-            node: 0,
-            root: true,
-            path: tree.path(light),
-            from_level: 0,
-            light,
-            floor: MIN_PMF,
-        };
-        tree.pmf_from_with::<I, false>(imp, &walk)
-    }
-
-    /// [`LightTree::pmf_batch`].
-    pub fn pmf_batch<I: Importance>(
-        tree: &LightTree,
-        imps: &[I],
-        lights: &[u32],
-        out: &mut [f32],
-    ) -> Result<(), LengthMismatch> {
-        tree.pmf_batch_hint::<I, false>(imps, lights, out)
     }
 }

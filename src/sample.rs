@@ -136,8 +136,9 @@ pub(crate) fn admit4(w: f32x4, sum: f32, reach: f32, floor: f32) -> (f32x4, f32)
 /// first of equal ones). Every slot left then has `reach · w_k / sum' ≥ floor`, so the
 /// descent's pmf never drops below `floor`. When every positive slot passes, `(w, sum)` is
 /// returned unchanged.
+/// (The scalar twin of [`admit4`], used by the binary baseline tree.)
+#[cfg(any(test, feature = "baseline"))]
 #[inline(always)]
-#[cfg_attr(not(any(test, feature = "baseline")), allow(dead_code))] // the scalar reference
 pub(crate) fn admit(w: [f32; 4], sum: f32, reach: f32, floor: f32) -> ([f32; 4], f32) {
     // The smallest positive weight passing means every one does.
     let mut min = f32::INFINITY;
@@ -228,11 +229,12 @@ fn touch(tree: &LightTree, node: &Node4) -> u32 {
     t
 }
 
-/// Gets the inner children of `node` on their way: prefetched (`P`) or touched ([`touch`]).
-/// Returns a value to be fed to `black_box` (0 with `P`).
+/// Gets the inner children of `node` on their way: prefetched with the feature `prefetch`,
+/// touched ([`touch`]) without it. Returns a value to be fed to `black_box` (0 when
+/// prefetched).
 #[inline(always)]
-fn ahead<const P: bool>(tree: &LightTree, node: &Node4) -> u32 {
-    if !P {
+fn ahead(tree: &LightTree, node: &Node4) -> u32 {
+    if !PREFETCH {
         return touch(tree, node);
     }
     // The node's light slots, which the descent reads if it picks one.
@@ -416,22 +418,9 @@ impl LightTree {
         u: f32,
         floor: f32,
     ) -> Option<LightSample> {
-        self.descend_from_with::<I, PREFETCH>(imp, start, is_root, u, floor)
-    }
-
-    /// [`LightTree::descend_from`], the children of each node prefetched (`P`) or touched.
-    #[inline]
-    pub(crate) fn descend_from_with<I: Importance + ?Sized, const P: bool>(
-        &self,
-        imp: &I,
-        start: usize,
-        is_root: bool,
-        u: f32,
-        floor: f32,
-    ) -> Option<LightSample> {
         let mut u = sanitize(u);
         let mut node = self.nodes.get(start)?;
-        let mut touched = ahead::<P>(self, node);
+        let mut touched = ahead(self, node);
         let mut pmf = 1.0f32;
         let (mut w, mut sum) = weights(imp, node, is_root, pmf, floor)?;
         loop {
@@ -446,7 +435,7 @@ impl LightTree {
                 }
                 Child::Node(c) => {
                     node = self.nodes.get(c as usize)?;
-                    touched ^= ahead::<P>(self, node);
+                    touched ^= ahead(self, node);
                     (w, sum) = weights(imp, node, false, pmf, floor)?;
                 }
                 Child::Empty => return None,
@@ -495,16 +484,6 @@ impl LightTree {
         us: &[f32],
         out: &mut [Option<LightSample>],
     ) -> Result<(), LengthMismatch> {
-        self.sample_batch_with::<I, PREFETCH>(imps, us, out)
-    }
-
-    /// [`LightTree::sample_batch`], the next level's nodes prefetched (`P`) or touched.
-    pub(crate) fn sample_batch_with<I: Importance, const P: bool>(
-        &self,
-        imps: &[I],
-        us: &[f32],
-        out: &mut [Option<LightSample>],
-    ) -> Result<(), LengthMismatch> {
         LengthMismatch::check("us", imps.len(), us.len())?;
         LengthMismatch::check("out", imps.len(), out.len())?;
         if !self.infinite.is_empty() {
@@ -514,7 +493,7 @@ impl LightTree {
             }
             return Ok(());
         }
-        self.descend_many_with::<I, BATCH_LANES, P>(
+        self.descend_many::<I, BATCH_LANES>(
             imps.len(),
             |j| &imps[j],
             |j| {
@@ -540,16 +519,6 @@ impl LightTree {
         lights: &[u32],
         out: &mut [f32],
     ) -> Result<(), LengthMismatch> {
-        self.pmf_batch_hint::<I, PREFETCH>(imps, lights, out)
-    }
-
-    /// [`LightTree::pmf_batch`], the next level's nodes prefetched (`P`) or touched.
-    pub(crate) fn pmf_batch_hint<I: Importance, const P: bool>(
-        &self,
-        imps: &[I],
-        lights: &[u32],
-        out: &mut [f32],
-    ) -> Result<(), LengthMismatch> {
         LengthMismatch::check("lights", imps.len(), lights.len())?;
         LengthMismatch::check("out", imps.len(), out.len())?;
         if !self.infinite.is_empty() {
@@ -559,23 +528,23 @@ impl LightTree {
             return Ok(());
         }
         if self.nodes.len() >= PMF_WIDE_NODES {
-            self.pmf_batch_with::<I, PMF_BATCH_LANES_WIDE, P>(imps, lights, out, P);
+            self.pmf_batch_with::<I, PMF_BATCH_LANES_WIDE>(imps, lights, out, PREFETCH);
         } else {
-            self.pmf_batch_with::<I, PMF_BATCH_LANES, P>(imps, lights, out, false);
+            self.pmf_batch_with::<I, PMF_BATCH_LANES>(imps, lights, out, false);
         }
         Ok(())
     }
 
     /// [`LightTree::pmf_batch`] with `K` walks in flight, the lengths checked; with
     /// `path_hint`, each light's path prefetched [`PATH_AHEAD`] queries before its walk.
-    fn pmf_batch_with<I: Importance, const K: usize, const P: bool>(
+    fn pmf_batch_with<I: Importance, const K: usize>(
         &self,
         imps: &[I],
         lights: &[u32],
         out: &mut [f32],
         path_hint: bool,
     ) {
-        self.pmf_many_with::<I, K, P>(
+        self.pmf_many::<I, K>(
             imps.len(),
             |j| &imps[j],
             |j| {
@@ -602,23 +571,10 @@ impl LightTree {
     /// `imp_of(j)`; `start_of(j)` says where it starts, or answers it at once (`Err`); its
     /// result goes to `emit(j, ·)`: exactly what [`LightTree::descend_from`] returns for the
     /// same start.
+    /// The next level's nodes are prefetched with the feature `prefetch` and touched by a load
+    /// without it.
     #[inline(always)]
     pub(crate) fn descend_many<'a, I, const K: usize>(
-        &self,
-        n: usize,
-        imp_of: impl Fn(usize) -> &'a I,
-        start_of: impl FnMut(usize) -> Result<Start, Option<LightSample>>,
-        emit: impl FnMut(usize, Option<LightSample>),
-    ) where
-        I: Importance + 'a,
-    {
-        self.descend_many_with::<I, K, PREFETCH>(n, imp_of, start_of, emit);
-    }
-
-    /// [`LightTree::descend_many`], the next level's nodes prefetched (`P`) or touched by a
-    /// load.
-    #[inline(always)]
-    pub(crate) fn descend_many_with<'a, I, const K: usize, const P: bool>(
         &self,
         n: usize,
         imp_of: impl Fn(usize) -> &'a I,
@@ -680,7 +636,7 @@ impl LightTree {
                 break;
             }
             // One level of every busy lane.
-            let evals = eval_lanes(self, &imp, |j| lane[j].node, P);
+            let evals = eval_lanes(self, &imp, |j| lane[j].node, PREFETCH);
             // The step of every busy lane, and the load of its next level issued at once
             // (nothing depends on it until the next round, so the misses of all lanes
             // overlap): the next node's prefetch, or the light of a lane that reached a leaf.
@@ -700,7 +656,7 @@ impl LightTree {
                 let answer = match step {
                     Some(Child::Node(c)) => match self.nodes.get(c as usize) {
                         Some(next) => {
-                            if P {
+                            if PREFETCH {
                                 crate::prefetch::prefetch(next);
                             }
                             l.node = next;
@@ -717,7 +673,7 @@ impl LightTree {
                 imp[j] = None;
                 idle |= 1 << j;
             }
-            if !P {
+            if !PREFETCH {
                 touch_lanes(&imp, |j| lane[j].node);
             }
         }
@@ -725,22 +681,10 @@ impl LightTree {
 
     /// The pmf walks of the batch calls, as [`LightTree::descend_many`] runs descents: walk
     /// `j` gets exactly what [`LightTree::pmf_from`] returns for the same start.
+    /// The next level's nodes are prefetched with the feature `prefetch` and touched by a load
+    /// without it.
     #[inline(always)]
     pub(crate) fn pmf_many<'a, I, const K: usize>(
-        &self,
-        n: usize,
-        imp_of: impl Fn(usize) -> &'a I,
-        start_of: impl FnMut(usize) -> Result<WalkStart, f32>,
-        emit: impl FnMut(usize, f32),
-    ) where
-        I: Importance + 'a,
-    {
-        self.pmf_many_with::<I, K, PREFETCH>(n, imp_of, start_of, emit);
-    }
-
-    /// [`LightTree::pmf_many`], the next level's nodes prefetched (`P`) or touched by a load.
-    #[inline(always)]
-    pub(crate) fn pmf_many_with<'a, I, const K: usize, const P: bool>(
         &self,
         n: usize,
         imp_of: impl Fn(usize) -> &'a I,
@@ -779,7 +723,7 @@ impl LightTree {
         // Bit j: lane j is idle.
         let all = const { all_lanes::<K>() };
         let (mut next, mut idle) = (0usize, all);
-        let leaf_hint = P && self.nodes.len() >= PMF_WIDE_NODES;
+        let leaf_hint = PREFETCH && self.nodes.len() >= PMF_WIDE_NODES;
         loop {
             // Idle lanes take the next walks that need one, the lowest lane first.
             while idle != 0 && next < n {
@@ -840,7 +784,7 @@ impl LightTree {
                 let answer = match nd.child(k) {
                     Child::Node(c) if l.level < l.levels => match self.nodes.get(c as usize) {
                         Some(next) => {
-                            if P {
+                            if PREFETCH {
                                 crate::prefetch::prefetch(next);
                             }
                             l.node = next;
@@ -859,7 +803,7 @@ impl LightTree {
                 imp[j] = None;
                 idle |= 1 << j;
             }
-            if !P {
+            if !PREFETCH {
                 touch_lanes(&imp, |j| lane[j].node);
             }
         }
@@ -888,17 +832,9 @@ impl LightTree {
     /// The pmf of `walk.light` (whose path is `walk.path`) relative to node `walk.node`, which
     /// its path reaches after `walk.from_level` levels: [`LightTree::descend_from`]'s pmf for
     /// it (with the same root flag and floor).
+    /// With the feature `prefetch`, the next node of the path is prefetched as soon as it is
+    /// known.
     pub(crate) fn pmf_from<I: Importance + ?Sized>(&self, imp: &I, walk: &WalkStart) -> f32 {
-        self.pmf_from_with::<I, PREFETCH>(imp, walk)
-    }
-
-    /// [`LightTree::pmf_from`], the next node of the path prefetched (`P`) as soon as it is
-    /// known, or not.
-    pub(crate) fn pmf_from_with<I: Importance + ?Sized, const P: bool>(
-        &self,
-        imp: &I,
-        walk: &WalkStart,
-    ) -> f32 {
         let WalkStart {
             node: start,
             root: is_root,
@@ -916,7 +852,7 @@ impl LightTree {
                 return 0.0;
             };
             let child = node.child(k);
-            if P {
+            if PREFETCH {
                 if let Child::Node(c) = child {
                     if let Some(next) = self.nodes.get(c as usize) {
                         crate::prefetch::prefetch(next);
@@ -1155,8 +1091,8 @@ mod tests {
         for hint in [false, true] {
             let mut narrow = vec![f32::NAN; m];
             let mut wide = vec![f32::NAN; m];
-            tree.pmf_batch_with::<_, PMF_BATCH_LANES, PREFETCH>(&imps, &ls, &mut narrow, hint);
-            tree.pmf_batch_with::<_, PMF_BATCH_LANES_WIDE, PREFETCH>(&imps, &ls, &mut wide, hint);
+            tree.pmf_batch_with::<_, PMF_BATCH_LANES>(&imps, &ls, &mut narrow, hint);
+            tree.pmf_batch_with::<_, PMF_BATCH_LANES_WIDE>(&imps, &ls, &mut wide, hint);
             positive = 0;
             for j in 0..m {
                 let want = tree.pmf(&imps[j], ls[j]).to_bits();
