@@ -1,0 +1,42 @@
+//! The single-sample techniques: `uniform`, `power`, `tl` and `bl` take one light sample and
+//! weigh it alone (weight 1, density pmf · point pdf).
+
+use super::{next1, next2, next64, Estimator, Role, Step};
+use crate::direct::sampler::{LightSampler, PowerSampler, UniformSampler};
+use crate::direct::{DirectError, Technique, Uniforms};
+
+impl Estimator<'_> {
+    /// The one light sample of `uniform`, `power`, `tl` or `bl` (`None`: no light can
+    /// contribute, or the technique is of another family).
+    pub(super) fn single_sample(
+        &mut self,
+        u: &mut (impl Uniforms + ?Sized),
+    ) -> Result<Option<Step>, DirectError> {
+        let s = match self.technique {
+            Technique::Uniform => {
+                let v = next64(u)?;
+                UniformSampler::new(self.set.len() as u32).sample_f64(v)
+            }
+            Technique::Power => {
+                let v = next64(u)?;
+                PowerSampler::new(self.set).sample_f64(v)
+            }
+            Technique::Tl => self.tl.sample(next1(u)?),
+            Technique::Bl => {
+                let v = next1(u)?;
+                self.bl.as_ref().and_then(|b| b.sample(v))
+            }
+            _ => None,
+        };
+        match s {
+            Some(s) => Ok(Some(self.single(s.light, s.pmf, next2(u)?))),
+            None => Ok(None),
+        }
+    }
+
+    /// The only light sample of `uniform`, `power`, `tl` and `bl`, if it has a point.
+    #[inline]
+    fn single(&mut self, light: u32, pmf: f32, uv: [f32; 2]) -> Step {
+        self.draw(light, pmf, uv, Role::Plain).unwrap_or(Step::Done)
+    }
+}
