@@ -7,7 +7,9 @@
 //! Both stages split their recursion over a host-supplied fork-join ([`Join`]); the tree is
 //! the same, byte for byte, whichever [`Join`] runs it.
 
+mod bins;
 pub(crate) mod collapse;
+mod node;
 pub(crate) mod saoh;
 
 use crate::bounds::Aabb;
@@ -135,7 +137,7 @@ pub(crate) fn binary<J: Join>(
     saoh::build(
         &mut nodes,
         &mut boxes,
-        opts.buckets.clamp(12, saoh::MAX_BUCKETS),
+        opts.buckets.clamp(12, bins::MAX_BUCKETS),
         join,
     );
     Ok(BinTree { nodes })
@@ -232,8 +234,8 @@ impl LightTree {
             },
             || {
                 (
-                    crate::checksum::light_checks(lights),
-                    crate::infinite::collect(lights),
+                    crate::tree::light_checks(lights),
+                    crate::infinite_light::collect(lights),
                 )
             },
         );
