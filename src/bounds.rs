@@ -294,7 +294,7 @@ impl Sphere {
         }
         Sphere {
             center,
-            radius: crate::light::outward(r),
+            radius: crate::math::outward(r),
         }
     }
 }

@@ -10,9 +10,6 @@
 //!
 //! Computed eight bytes at a time ("slicing by 8") from tables built at compile time.
 
-use crate::colour::Rgb;
-use crate::light::Light;
-
 /// The reflected polynomial.
 const POLY: u64 = 0xC96C_5795_D787_0F42;
 
@@ -101,160 +98,9 @@ pub fn crc64(bytes: &[u8]) -> u64 {
     c.finish()
 }
 
-/// Lights per checksum of [`light_checks`]: the tree's bytes carry one CRC per block of this
-/// many consecutive lights, so that a load with the wrong lights names the first block that
-/// differs.
-pub const LIGHT_BLOCK: usize = 64;
-
-/// The canonical bytes of a light, as [`light_checks`] hashes them: a kind byte (0 point, 1
-/// spot, 2 sphere, 3 disk, 4 triangle, 5 VPL, 6 distant, 7 environment), then every field in
-/// declaration order (a colour as its red, green and blue), each `f32` as its little-endian bits (so `-0.0` and `0.0` differ), each `bool` as one byte.
-/// Returns the number of bytes written to `out`.
-fn light_bytes(light: &Light, out: &mut [u8; 64]) -> usize {
-    let mut n = 0;
-    let mut put = |bytes: &[u8]| {
-        out[n..n + bytes.len()].copy_from_slice(bytes);
-        n += bytes.len();
-    };
-    let f = |x: f32| x.to_bits().to_le_bytes();
-    let rgb = |c: Rgb| {
-        let mut b = [0u8; 12];
-        for (k, x) in [c.r, c.g, c.b].into_iter().enumerate() {
-            b[4 * k..4 * k + 4].copy_from_slice(&f(x));
-        }
-        b
-    };
-    match *light {
-        Light::Point {
-            position,
-            intensity,
-        } => {
-            put(&[0]);
-            for x in position.to_array() {
-                put(&f(x));
-            }
-            put(&rgb(intensity));
-        }
-        Light::Spot {
-            position,
-            direction,
-            intensity,
-            half_angle,
-            falloff_start,
-        } => {
-            put(&[1]);
-            for x in position.to_array().into_iter().chain(direction.to_array()) {
-                put(&f(x));
-            }
-            put(&rgb(intensity));
-            for x in [half_angle, falloff_start] {
-                put(&f(x));
-            }
-        }
-        Light::Sphere {
-            center,
-            radius,
-            radiance,
-        } => {
-            put(&[2]);
-            for x in center.to_array() {
-                put(&f(x));
-            }
-            put(&f(radius));
-            put(&rgb(radiance));
-        }
-        Light::Disk {
-            center,
-            normal,
-            radius,
-            radiance,
-            two_sided,
-        } => {
-            put(&[3]);
-            for x in center.to_array().into_iter().chain(normal.to_array()) {
-                put(&f(x));
-            }
-            put(&f(radius));
-            put(&rgb(radiance));
-            put(&[u8::from(two_sided)]);
-        }
-        Light::Triangle {
-            vertices,
-            radiance,
-            two_sided,
-        } => {
-            put(&[4]);
-            for v in vertices {
-                for x in v.to_array() {
-                    put(&f(x));
-                }
-            }
-            put(&rgb(radiance));
-            put(&[u8::from(two_sided)]);
-        }
-        Light::Vpl {
-            position,
-            normal,
-            intensity,
-        } => {
-            put(&[5]);
-            for x in position.to_array().into_iter().chain(normal.to_array()) {
-                put(&f(x));
-            }
-            put(&rgb(intensity));
-        }
-        Light::Distant {
-            direction,
-            angular_radius,
-            irradiance,
-        } => {
-            put(&[6]);
-            for x in direction.to_array() {
-                put(&f(x));
-            }
-            put(&f(angular_radius));
-            put(&rgb(irradiance));
-        }
-        Light::Environment { irradiance } => {
-            put(&[7]);
-            for x in irradiance {
-                put(&f(x));
-            }
-        }
-    }
-    n
-}
-
-/// The CRC-64/XZ of the canonical bytes of each block of [`LIGHT_BLOCK`] consecutive lights
-/// (the last block may be shorter): what the tree's bytes store to tell whether the lights a
-/// tree is loaded with are the ones it was built from. A light's canonical bytes: a kind byte
-/// (0 point, 1 spot, 2 sphere, 3 disk, 4 triangle, 5 VPL, 6 distant, 7 environment), then
-/// every field in declaration order (a colour as its red, green and blue), each `f32` as its little-endian bits (so `-0.0` and `0.0` differ), each `bool` as one
-/// byte.
-pub fn light_checks(lights: &[Light]) -> alloc::vec::Vec<u64> {
-    lights
-        .chunks(LIGHT_BLOCK)
-        .map(|block| {
-            let mut c = Crc64::new();
-            let mut buf = [0u8; 64];
-            for l in block {
-                let n = light_bytes(l, &mut buf);
-                c.update(&buf[..n]);
-            }
-            c.finish()
-        })
-        .collect()
-}
-
-/// The number of light checksums of `n` lights.
-pub(crate) fn light_check_count(n: usize) -> usize {
-    n.div_ceil(LIGHT_BLOCK)
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
-    use glam::Vec3;
 
     /// The bitwise reference: one bit at a time, straight from the definition.
     fn crc64_bitwise(bytes: &[u8]) -> u64 {
@@ -313,40 +159,5 @@ mod tests {
                 assert_ne!(crc64(&b), base, "burst at bit {start}");
             }
         }
-    }
-
-    #[test]
-    fn light_checks_see_every_field() {
-        let lights = [
-            Light::Spot {
-                position: Vec3::new(1.0, 2.0, 3.0),
-                direction: Vec3::Z,
-                intensity: Rgb::grey(1.0),
-                half_angle: 0.5,
-                falloff_start: 0.25,
-            },
-            Light::Disk {
-                center: Vec3::ZERO,
-                normal: Vec3::Z,
-                radius: 1.0,
-                radiance: Rgb::grey(1.0),
-                two_sided: false,
-            },
-        ];
-        let base = light_checks(&lights);
-        assert_eq!(base.len(), 1);
-        let mut other = lights;
-        if let Light::Spot { falloff_start, .. } = &mut other[0] {
-            *falloff_start = 0.2500001;
-        }
-        assert_ne!(light_checks(&other), base);
-        let mut other = lights;
-        if let Light::Disk { two_sided, .. } = &mut other[1] {
-            *two_sided = true;
-        }
-        assert_ne!(light_checks(&other), base);
-        assert_eq!(light_check_count(0), 0);
-        assert_eq!(light_check_count(64), 1);
-        assert_eq!(light_check_count(65), 2);
     }
 }

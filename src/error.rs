@@ -143,7 +143,7 @@ pub enum BuildError {
         depth: u32,
     },
     /// More distant and environment lights than
-    /// [`MAX_INFINITE_LIGHTS`](crate::infinite::MAX_INFINITE_LIGHTS).
+    /// [`MAX_INFINITE_LIGHTS`](crate::limits::MAX_INFINITE_LIGHTS).
     TooManyInfiniteLights {
         /// The number passed.
         count: usize,
@@ -185,7 +185,7 @@ impl fmt::Display for BuildError {
             BuildError::TooManyInfiniteLights { count } => write!(
                 f,
                 "{count} distant and environment lights: at most {} are supported",
-                crate::infinite::MAX_INFINITE_LIGHTS
+                crate::limits::MAX_INFINITE_LIGHTS
             ),
             BuildError::SecondEnvironment { index } => write!(
                 f,

@@ -42,12 +42,7 @@ use crate::math;
 use core::f32::consts::{FRAC_PI_2, PI};
 use glam::Vec3;
 
-/// Largest accepted coordinate magnitude.
-pub const MAX_COORDINATE: f32 = 1e15;
-/// Largest accepted energy of one light (see [`Light::energy`]).
-pub const MAX_LIGHT_ENERGY: f32 = 1e24;
-/// Largest accepted sum of all lights' energies.
-pub const MAX_TOTAL_ENERGY: f32 = 1e26;
+pub use crate::limits::{MAX_COORDINATE, MAX_LIGHT_ENERGY, MAX_TOTAL_ENERGY};
 
 /// One light. Powers are radiometric and linear RGB ([`Rgb`]): `intensity` in W/sr,
 /// `radiance` in W/(m²·sr), `irradiance` in W/m², per channel (lengths in the scene's unit, m
@@ -290,7 +285,7 @@ fn sphere_around(centre: [f64; 3], points: &[[f64; 3]]) -> Sphere {
     }
     Sphere {
         center: c,
-        radius: outward(math::sqrt64(r2)),
+        radius: math::outward(math::sqrt64(r2)),
     }
 }
 
@@ -310,17 +305,6 @@ fn energy_f32(e: f64) -> f32 {
 #[inline]
 fn lum(c: Rgb) -> f64 {
     f64::from(c.luminance())
-}
-
-/// Round a non-negative f64 length up to an f32 with a little relative slack.
-pub(crate) fn outward(r: f64) -> f32 {
-    let r = r * (1.0 + 1e-6);
-    let f = r as f32;
-    if f64::from(f) < r {
-        math::next_up(f)
-    } else {
-        f
-    }
 }
 
 impl Light {

@@ -181,6 +181,28 @@ pub fn asin(x: f32) -> f32 {
 }
 
 /// Arc cosine (f64).
+/// Round a non-negative f64 length up to an f32 with a little relative slack.
+pub(crate) fn outward(r: f64) -> f32 {
+    let r = r * (1.0 + 1e-6);
+    let f = r as f32;
+    if f64::from(f) < r {
+        next_up(f)
+    } else {
+        f
+    }
+}
+
+/// `cos(max(0, θ − γ))` from `cos θ = c` and γ's cosine and sine (1 when θ ≤ γ).
+#[inline]
+pub(crate) fn cos_minus(c: f32, cos_g: f32, sin_g: f32) -> f32 {
+    if c >= cos_g {
+        1.0
+    } else {
+        let s = sqrt((1.0 - c * c).max(0.0));
+        c * cos_g + s * sin_g
+    }
+}
+
 #[cfg(test)]
 #[inline(always)]
 pub fn acos64(x: f64) -> f64 {

@@ -23,7 +23,7 @@ use super::conty_kulla::{ClusterView, ClusterView4, Receiver, COS_FLOOR, COS_SLA
 use super::sptd::{lambert_visible, lambert_visible4, SptdGgx, SptdGgx4};
 use super::Importance;
 use crate::error::Problem;
-use crate::infinite::{cos_minus, InfiniteKind, InfiniteLight};
+use crate::infinite_light::{InfiniteKind, InfiniteLight};
 use crate::material::{ShadingError, ShadingField, ShadingPoint, MIN_ALPHA};
 use crate::math;
 use crate::tree::{Node4, SlotBounds};
@@ -291,7 +291,7 @@ impl BlImportance {
                 let w = light.direction();
                 let cos_omega = n.x * w.x + n.y * w.y + n.z * w.z;
                 let (cos_g, sin_g) = (light.cos_radius, light.sin_radius);
-                let cos_ip = cos_minus(cos_omega, cos_g, sin_g);
+                let cos_ip = math::cos_minus(cos_omega, cos_g, sin_g);
                 let (sc, omega) = if self.ks > 0.0 {
                     let c = self.ggx.cap_integrals(w, sin_g);
                     (self.kd * c.lambert + self.ks * c.ggx, c.visible)

@@ -20,7 +20,7 @@
 //!   omnidirectional (no cosine; a medium or a point with no normal).
 
 use super::Importance;
-use crate::infinite::InfiniteLight;
+use crate::infinite_light::{InfiniteKind, InfiniteLight};
 use crate::lanes::{self, Lanes};
 use crate::math;
 use crate::quantize;
@@ -700,6 +700,60 @@ fn scaled4<L: Lanes>(
     let live = emits.map_or(received, |e| e & received);
     let value = energy * inv_d2c * cos_tp.fast_max(floor) * cos_ip.fast_max(floor);
     live.select(value, zero)
+}
+
+/// `4π`: the node tree's importances are `flux / d²`, 4π times an irradiance; a light at
+/// infinity's are its irradiance times this, so that all are in the same units.
+const FOUR_PI: f32 = 4.0 * core::f32::consts::PI;
+
+/// The TL importance of the lights at infinity (docs/formulas.md, section 16).
+impl InfiniteLight {
+    /// The environment's irradiance bound at the unit normal `n` for `receiver`:
+    /// `Σ |n_i| E(sign(n_i) e_i)` for a reflective receiver (with `max(0, n·ω) ≤
+    /// Σ |n_i| max(0, sign(n_i) e_i·ω)` it bounds the irradiance), the bounds of both
+    /// sides for a transmissive one, all six for an omnidirectional one (`1 ≤ Σ |ω_i|`).
+    pub fn environment_bound(&self, n: Vec3, receiver: Receiver) -> f32 {
+        let e = &self.irradiance;
+        let pick = |c: f32, pos: f32, neg: f32| if c >= 0.0 { pos } else { neg };
+        match receiver {
+            Receiver::Omnidirectional => e.iter().sum(),
+            Receiver::Reflective => {
+                n.x.abs() * pick(n.x, e[0], e[1])
+                    + n.y.abs() * pick(n.y, e[2], e[3])
+                    + n.z.abs() * pick(n.z, e[4], e[5])
+            }
+            Receiver::Transmissive => {
+                n.x.abs() * (e[0] + e[1]) + n.y.abs() * (e[2] + e[3]) + n.z.abs() * (e[4] + e[5])
+            }
+        }
+    }
+
+    /// The TL importance of the entry at a point of unit normal `n`: for a distant light
+    /// `4π E cos⁺(max(0, θi − γ))` with θi the angle between `n` and its direction (the
+    /// cosine floored at `COS_FLOOR` within `COS_SLACK` of the horizon, as the node tree's:
+    /// conservative), for the environment `4π` times its bound at `n`.
+    pub(crate) fn tl(&self, n: Vec3, receiver: Receiver) -> f32 {
+        match self.kind() {
+            Some(InfiniteKind::Distant) => {
+                let cos_ip = match receiver {
+                    Receiver::Omnidirectional => 1.0,
+                    _ => {
+                        let mut ci = n.dot(self.direction());
+                        if receiver == Receiver::Transmissive {
+                            ci = ci.abs();
+                        }
+                        math::cos_minus(ci, self.cos_radius, self.sin_radius)
+                    }
+                };
+                if cos_ip <= -COS_SLACK {
+                    return 0.0;
+                }
+                FOUR_PI * self.irradiance[0] * cos_ip.max(COS_FLOOR)
+            }
+            Some(InfiniteKind::Environment) => FOUR_PI * self.environment_bound(n, receiver),
+            None => 0.0,
+        }
+    }
 }
 
 #[cfg(test)]

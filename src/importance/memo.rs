@@ -14,7 +14,7 @@
 //! in `Cell`s).
 
 use super::Importance;
-use crate::infinite::InfiniteLight;
+use crate::infinite_light::InfiniteLight;
 use crate::tree::{LightTree, Node4, SlotBounds};
 use core::cell::Cell;
 use wide::f32x4;

@@ -16,7 +16,7 @@ pub use brdf_oriented::BlImportance;
 pub use conty_kulla::TlImportance;
 pub use memo::{Memo, MemoTable, MEMO_SLOTS};
 
-use crate::infinite::InfiniteLight;
+use crate::infinite_light::InfiniteLight;
 use crate::tree::{Node4, SlotBounds};
 use wide::f32x4;
 
