@@ -9,8 +9,9 @@
 //! and the field that were wrong.
 //!
 //! Inside: every export runs its body through [`ffi_fn!`], the one panic boundary; every
-//! pointer becomes a reference through the typed helpers of the `arg` module. This crate is
-//! the only place of the project with `unsafe` code.
+//! pointer becomes a reference through the typed helpers of the `arg` module. Besides this
+//! crate, `unsafe` code is only in the core's cache prefetch hint (its feature `prefetch`) and
+//! in the instruments' counting allocator.
 
 #![allow(non_camel_case_types)]
 #![allow(clippy::not_unsafe_ptr_arg_deref)]
