@@ -10,13 +10,13 @@
 //! - [`selection`]: the variance of the light choice of the BRDF-oriented cut and of TL at a
 //!   scene's shading points (`mlrender selection`);
 //! - [`sptd_fit`], [`sptd_accuracy`]: the fit of the SPTD table and its accuracy
-//!   (`mlrender sptd-fit`, `mlrender sptd-accuracy`), with an f64 GGX reference ([`ggx`]).
+//!   (`mlrender sptd-fit`, `mlrender sptd-accuracy`), with the f64 GGX reference
+//!   [`manylights_testkit::ggx`].
 
 pub mod bench;
 pub mod compare;
 pub mod error_split;
 pub mod estimator;
-pub mod ggx;
 pub mod selection;
 pub mod sptd_accuracy;
 pub mod sptd_fit;

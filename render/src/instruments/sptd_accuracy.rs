@@ -34,9 +34,9 @@
 //!
 //! The JSON keys of the overall stratum have no prefix, those of the grazing one `grazing_`.
 
-use crate::instruments::ggx::{cap_integral, wo_local, Cap64, Ggx};
 use glam::DVec3;
 use manylights::importance::sptd::SptdGgx;
+use manylights_testkit::ggx::{cap_integral, wo_local, Cap64, Ggx};
 use rand::{Rng, SeedableRng};
 use rand_pcg::Pcg64Mcg;
 use rayon::prelude::*;

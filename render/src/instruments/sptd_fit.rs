@@ -32,9 +32,9 @@
 //! `--check K` re-fits K nodes spread over the table from their committed neighbours and
 //! compares them with the committed values (bit-identical on the same platform).
 
-use crate::instruments::ggx::{cap_integral, Cap64, Ggx};
 use glam::{DVec3, Vec3};
 use manylights::importance::sptd::{self, table, Cap, GgxParams, SptdGgx, TABLE_SIZE};
+use manylights_testkit::ggx::{cap_integral, Cap64, Ggx};
 use rand::{Rng, SeedableRng};
 use rand_pcg::Pcg64Mcg;
 use rayon::prelude::*;
@@ -159,7 +159,7 @@ fn node_data(i: usize, j: usize, cfg: &FitConfig) -> NodeData {
     let (alpha32, theta32) = sptd::table_node(i, j);
     let (alpha, theta_o) = (f64::from(alpha32), f64::from(theta32));
     let ggx = Ggx::new(alpha);
-    let wo = crate::instruments::ggx::wo_local(theta_o);
+    let wo = manylights_testkit::ggx::wo_local(theta_o);
     let (albedo, dir) = ggx.albedo(wo, ALBEDO_GRID);
     let mut rng = Pcg64Mcg::seed_from_u64(node_seed(alpha32, theta32, cfg.seed));
     let mut caps = Vec::with_capacity(cfg.caps);
