@@ -2,7 +2,7 @@
 
 use clap::{Parser, Subcommand};
 use manylights::Technique;
-use manylights_render::instruments::{bench, compare, selection, sptd_accuracy, sptd_fit};
+use manylights_render::instruments::{bench, compare, selection, sptd_accuracy};
 use manylights_render::params::{ParamArgs, TechniqueArg};
 use manylights_render::{image, render, scene};
 use std::path::PathBuf;
@@ -49,22 +49,6 @@ enum Command {
         /// Print one JSON object as the last line of stdout.
         #[arg(long)]
         json: bool,
-    },
-    /// Fit the SPTD parameters of GGX (docs/formulas.md, section 8) and write the core's generated
-    /// table src/importance/sptd/table.rs.
-    SptdFit {
-        /// Where to write the table (default: the core's src/importance/sptd/table.rs).
-        #[arg(long)]
-        out: Option<PathBuf>,
-        /// Re-fit K nodes spread over the committed table and compare (exit 1 on mismatch).
-        #[arg(long, value_name = "K")]
-        check: Option<usize>,
-        /// Only fit and print these nodes, "i,j;i,j;..." (nothing is written).
-        #[arg(long)]
-        cells: Option<String>,
-        /// Test caps per node.
-        #[arg(long, default_value_t = 384)]
-        caps: usize,
     },
     /// Accuracy of the GGX cap-integral model against MIS ground truth: random caps (overall)
     /// and small caps off the mirror direction at grazing views (grazing), reported separately.
@@ -351,12 +335,6 @@ fn main() {
                 println!("{}", report.to_json());
             }
         }
-        Command::SptdFit {
-            out,
-            check,
-            cells,
-            caps,
-        } => std::process::exit(sptd_fit::run_cli(out, check, cells, caps)),
         Command::SptdAccuracy {
             cases,
             grazing_cases,

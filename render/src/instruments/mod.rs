@@ -9,9 +9,8 @@
 //!   (`mlrender estimator`);
 //! - [`selection`]: the variance of the light choice of the BRDF-oriented cut and of TL at a
 //!   scene's shading points (`mlrender selection`);
-//! - [`sptd_fit`], [`sptd_accuracy`]: the fit of the SPTD table and its accuracy
-//!   (`mlrender sptd-fit`, `mlrender sptd-accuracy`), with the f64 GGX reference
-//!   [`manylights_testkit::ggx`].
+//! - [`sptd_accuracy`]: the accuracy of the fitted SPTD table (`mlrender sptd-accuracy`), with
+//!   the f64 GGX reference [`manylights_testkit::ggx`].
 
 pub mod bench;
 pub mod compare;
@@ -19,5 +18,4 @@ pub mod error_split;
 pub mod estimator;
 pub mod selection;
 pub mod sptd_accuracy;
-pub mod sptd_fit;
 pub mod vpl;
