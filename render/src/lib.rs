@@ -4,6 +4,7 @@
 //! and the project's instruments, shared by the `mlrender` binary.
 
 pub mod alloc_count;
+pub mod compare;
 pub mod image;
 pub mod instruments;
 pub mod params;

@@ -2,7 +2,8 @@
 
 use clap::{Parser, Subcommand};
 use manylights::Technique;
-use manylights_render::instruments::{bench, compare, selection, sptd_accuracy};
+use manylights_render::compare;
+use manylights_render::instruments::{bench, selection, sptd_accuracy};
 use manylights_render::params::{ParamArgs, TechniqueArg};
 use manylights_render::{image, render, scene};
 use std::path::PathBuf;

@@ -2,9 +2,6 @@
 //! with `--json`, one JSON object on the last line of stdout.
 //!
 //! - [`bench`](mod@bench): sampling throughput, tree size and build time (`mlrender bench`);
-//! - [`compare`]: every technique on a scene at equal spp and equal time against a reference
-//!   (`mlrender compare`, `mlrender reference`), with [`error_split`]: where the error comes
-//!   from, and how much of it is the reference's own;
 //! - [`estimator`]: unbiasedness, variance and cost per estimate against exact values
 //!   (`mlrender estimator`);
 //! - [`selection`]: the variance of the light choice of the BRDF-oriented cut and of TL at a
@@ -13,8 +10,6 @@
 //!   the f64 GGX reference [`manylights_testkit::ggx`].
 
 pub mod bench;
-pub mod compare;
-pub mod error_split;
 pub mod estimator;
 pub mod selection;
 pub mod sptd_accuracy;
