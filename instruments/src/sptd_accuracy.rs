@@ -1,4 +1,4 @@
-//! `mlrender sptd-accuracy`: how well the fitted GGX SPTD ([`SptdGgx`]) predicts the
+//! `mlmeasure sptd-accuracy`: how well the fitted GGX SPTD ([`SptdGgx`]) predicts the
 //! cosine-weighted BRDF integral over random caps (docs/formulas.md, section 8).
 //!
 //! Two strata, reported separately:
