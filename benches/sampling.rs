@@ -7,7 +7,7 @@
 //! (`sample_each`); the descents with the prefetch hint against the same descents with plain
 //! loads (`prefetch`), and the build split over two threads against the serial build
 //! (`build_parallel`).
-//! Scene: the random scene of `mlrender bench` (fixed seed).
+//! Scene: the random scene of `mlmeasure bench` (fixed seed).
 
 use criterion::{criterion_group, criterion_main, BenchmarkId, Criterion, Throughput};
 use manylights::baseline::{touched, BinaryLightTree};
