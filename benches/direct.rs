@@ -4,7 +4,7 @@
 //! plastic material and no occluder (`direct::Unoccluded`: every shadow ray passes, so the
 //! figures are the library's alone). The yardstick is `tl-mis`, one TL tree sample plus one
 //! BSDF sample (what pbrt-v4 and Cycles do at a shading point).
-//! Scene: the random scene of `mlrender bench` (fixed seed, 10⁵ lights); the host's uniform
+//! Scene: the random scene of `mlmeasure bench` (fixed seed, 10⁵ lights); the host's uniform
 //! numbers from a 64-bit LCG restarted at the same seed in every iteration.
 
 use criterion::{criterion_group, criterion_main, Criterion, Throughput};

@@ -2,7 +2,7 @@
 //! (`Importance::eval4`, what the descents call) against the scalar twin, one slot at a time
 //! from its decoded bounds (`Importance::eval_slot(&node.bounds(k))` for each filled slot), for
 //! the TL and the BL importance over the same nodes and shading points.
-//! Scene: the random scene of `mlrender bench` (fixed seed); an element is one node evaluated
+//! Scene: the random scene of `mlmeasure bench` (fixed seed); an element is one node evaluated
 //! at one shading point.
 
 use criterion::{criterion_group, criterion_main, Criterion, Throughput};

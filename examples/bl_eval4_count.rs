@@ -1,5 +1,5 @@
 //! A driver for counting the instructions of one BL `eval4` under callgrind: the random scene of
-//! `mlrender bench` (100 000 lights, fixed seed), 4096 nodes spread evenly over the tree (root
+//! `mlmeasure bench` (100 000 lights, fixed seed), 4096 nodes spread evenly over the tree (root
 //! to leaves), each evaluated at 16 shading points (views uniform in the normal's hemisphere),
 //! for a GGX, a plastic (both α = 0.2) and (as the yardstick) the TL importance. Every loop is the
 //! `#[inline(never)]` function `eval_loop`, so that
@@ -12,7 +12,7 @@
 //!
 //! counts only the evaluations: the total instructions divided by the `eval4` calls it prints.
 //! The first argument picks the importance (`ggx`, `plastic`, `tl`, or `blpass` for what
-//! `mlrender bench` times for BL: per point the set-up, the cut and the budget of samples,
+//! `mlmeasure bench` times for BL: per point the set-up, the cut and the budget of samples,
 //! counted with `--toggle-collect='*bl_pass_loop*'`), the second the roughness α (default
 //! 0.2, the bench's).
 
@@ -38,7 +38,7 @@ fn eval_loop<I: Importance>(imps: &[I], nodes: &[Node4]) -> f32 {
     acc.reduce_add()
 }
 
-/// What `mlrender bench` times for BL: per shading point the set-up, the cut, then the budget
+/// What `mlmeasure bench` times for BL: per shading point the set-up, the cut, then the budget
 /// of samples drawn from it. Returns the number of samples.
 #[inline(never)]
 fn bl_pass_loop(tree: &LightTree, sps: &[ShadingPoint], us: &[f32]) -> (usize, f64) {

@@ -1807,7 +1807,7 @@ fn ggx_case(
     (sc, truth, se, cap.area())
 }
 
-/// Accuracy figures of SC against the truth, as `mlrender sptd-accuracy` defines them: a case
+/// Accuracy figures of SC against the truth, as `mlmeasure sptd-accuracy` defines them: a case
 /// counts for relative errors when its cap-averaged truth exceeds 1e-6 of the hemisphere
 /// average ρ/2π (here also: when the Monte Carlo standard error is under 10 % of it); a false
 /// zero is SC = 0 where the truth exceeds 1e-6 ρ; Spearman over the cases where either is
@@ -1857,7 +1857,7 @@ impl Accuracy {
     }
 }
 
-/// Property 5, GGX, on the random caps of the accuracy report (`mlrender
+/// Property 5, GGX, on the random caps of the accuracy report (`mlmeasure
 /// sptd-accuracy`): √α uniform in [0.1, 1], θo uniform in [0°, 85°], σ log-uniform in
 /// [1e-3, 1.2] rad, cap axis uniform on the sphere (so caps straddle and fall below the
 /// horizon) — here each cap is the bounding sphere of one sphere light and SC comes through
@@ -1917,7 +1917,7 @@ fn ggx_cap_integral_on_random_caps() {
     assert!(rank >= 0.97, "Spearman rank correlation {rank}");
 }
 
-/// Property 5, GGX, at grazing views, on the grazing stratum of `mlrender sptd-accuracy`:
+/// Property 5, GGX, at grazing views, on the grazing stratum of `mlmeasure sptd-accuracy`:
 /// `√α` uniform in [0.1, 0.7], θo uniform in [70°, 89°], small caps off the mirror direction
 /// (the axis `k α` off it, k uniform in [1, 4], in a direction uniform around it; σ = `s α`,
 /// s log-uniform in [0.01, 0.5]), one in four moved onto the horizon (elevation uniform in

@@ -1,11 +1,11 @@
 //! The C ABI's batch calls against the Rust ones they wrap, in one group so the ratio reads
 //! from one run: `ml_tree_sample_tl_batch` against `LightTree::sample_batch` and
 //! `ml_tree_pmf_tl_batch` against `LightTree::pmf_batch`, on the same lights, points and
-//! uniform numbers, 256 points per call (a wavefront's worth, as `mlrender bench`). The C
+//! uniform numbers, 256 points per call (a wavefront's worth, as `mlmeasure bench`). The C
 //! functions are called through their `extern "C"` symbols: their argument checks and the
 //! conversions to and from the C structs are in the figure; the Rust side builds its
 //! importances inside the timed loop, as the C side does.
-//! Scene: the random scene of `mlrender bench` (fixed seed, 10⁵ lights).
+//! Scene: the random scene of `mlmeasure bench` (fixed seed, 10⁵ lights).
 
 use criterion::{criterion_group, criterion_main, Criterion, Throughput};
 use manylights::{LightSample, LightTree};
@@ -106,7 +106,7 @@ unsafe extern "C" fn lcg_f32(user: *mut std::ffi::c_void) -> f32 {
 /// (`bl-mis`, the default, and `tl-split`) at 1,024 shading points, one call per point
 /// (`ml_direct_estimate`) against one call for all (`ml_direct_estimate_batch`); and 4,096
 /// points on lights, `ml_light_sample_point` per triple against
-/// `ml_light_sample_point_batch`. Scene: `mlrender bench`'s (10⁵ lights).
+/// `ml_light_sample_point_batch`. Scene: `mlmeasure bench`'s (10⁵ lights).
 fn wavefront(c: &mut Criterion) {
     let lights = random_scene::lights(LIGHTS, 7);
     let descs: Vec<ffi::ml_light> = lights.iter().map(ffi::ml_light::from).collect();

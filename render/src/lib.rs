@@ -1,11 +1,11 @@
 // compare's report is one `json!` literal, more keys deep than the default limit expands.
 #![recursion_limit = "256"]
 //! The std side of manylights: the test renderer (scenes, ray casts, the render loop, images)
-//! and the project's instruments, shared by the `mlrender` binary.
+//! and [`compare`], behind the `mlrender` binary; the instruments build on it.
 
-pub mod alloc_count;
+pub mod cli;
+pub mod compare;
 pub mod image;
-pub mod instruments;
 pub mod params;
 pub mod render;
 pub mod scene;

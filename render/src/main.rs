@@ -1,23 +1,14 @@
-//! `mlrender`: the test renderer and instruments of manylights.
+//! `mlrender`: the test renderer of manylights: `render`, `reference` and `compare`.
 
 use clap::{Parser, Subcommand};
 use manylights::Technique;
-use manylights_render::instruments::{bench, compare, selection, sptd_accuracy, sptd_fit};
+use manylights_render::cli::{at_least_one, image_size, palette};
 use manylights_render::params::{ParamArgs, TechniqueArg};
-use manylights_render::{image, render, scene};
+use manylights_render::{compare, image, render, scene};
 use std::path::PathBuf;
 
-/// Counts the heap in use, for the build's peak in `mlrender bench`.
-#[global_allocator]
-static ALLOC: manylights_render::alloc_count::CountingAlloc =
-    manylights_render::alloc_count::CountingAlloc;
-
 #[derive(Parser)]
-#[command(
-    name = "mlrender",
-    version,
-    about = "Test renderer and instruments of manylights"
-)]
+#[command(name = "mlrender", version, about = "Test renderer of manylights")]
 struct Cli {
     #[command(subcommand)]
     command: Command,
@@ -25,105 +16,6 @@ struct Cli {
 
 #[derive(Subcommand)]
 enum Command {
-    /// Build time, memory, sampling throughput (4-wide vs binary baseline) and pmf exactness
-    /// on a random scene, single-threaded.
-    Bench {
-        /// Number of lights.
-        #[arg(long, default_value_t = 100_000)]
-        lights: usize,
-        /// Number of shading points, one sample each.
-        #[arg(long, default_value_t = 1_000_000)]
-        points: usize,
-        /// Seed of the scene, shading points and uniform numbers.
-        #[arg(long, default_value_t = 1)]
-        seed: u64,
-        /// Timed repetitions of each build and loop (the fastest is reported).
-        #[arg(long, default_value_t = 3)]
-        repeats: usize,
-        /// The scene: the mixed one or point lights only.
-        #[arg(long, value_enum, default_value_t = bench::SceneKinds::Mixed)]
-        kinds: bench::SceneKinds,
-        /// Measure the builds only (time, peak heap, size, shape): no sampling passes.
-        #[arg(long)]
-        build_only: bool,
-        /// Print one JSON object as the last line of stdout.
-        #[arg(long)]
-        json: bool,
-    },
-    /// Fit the SPTD parameters of GGX (docs/formulas.md, section 8) and write the core's generated
-    /// table src/importance/sptd/table.rs.
-    SptdFit {
-        /// Where to write the table (default: the core's src/importance/sptd/table.rs).
-        #[arg(long)]
-        out: Option<PathBuf>,
-        /// Re-fit K nodes spread over the committed table and compare (exit 1 on mismatch).
-        #[arg(long, value_name = "K")]
-        check: Option<usize>,
-        /// Only fit and print these nodes, "i,j;i,j;..." (nothing is written).
-        #[arg(long)]
-        cells: Option<String>,
-        /// Test caps per node.
-        #[arg(long, default_value_t = 384)]
-        caps: usize,
-    },
-    /// Accuracy of the GGX cap-integral model against MIS ground truth: random caps (overall)
-    /// and small caps off the mirror direction at grazing views (grazing), reported separately.
-    SptdAccuracy {
-        /// Number of random cases (the overall stratum).
-        #[arg(long, default_value_t = 500)]
-        cases: usize,
-        /// Number of grazing cases (the grazing stratum).
-        #[arg(long, default_value_t = 500)]
-        grazing_cases: usize,
-        /// Seed of the cases and of the ground truth.
-        #[arg(long, default_value_t = 1)]
-        seed: u64,
-        /// Ground truth from GRID² stratified MIS pairs per case.
-        #[arg(long, default_value_t = 256)]
-        grid: usize,
-        /// Print one JSON object as the last line of stdout.
-        #[arg(long)]
-        json: bool,
-    },
-    /// Unbiasedness, variance and time per estimate of every technique against exact values,
-    /// without visibility.
-    Estimator(manylights_render::instruments::estimator::EstimatorArgs),
-    /// The variance of the light choice (BRDF-oriented cut, TL descent, and two descents
-    /// without a cut) at a scene's shading points, from every light's contribution and
-    /// probability: where a cut fails.
-    Selection {
-        /// Scene: cornell, exhibition, city, city-sun, stairs, or a path to an .obj file.
-        #[arg(long, default_value = "city")]
-        scene: String,
-        /// Number of lights (cornell only; default 1,494).
-        #[arg(long)]
-        lights: Option<usize>,
-        /// Shading points (jittered primary hits).
-        #[arg(long, default_value_t = 4000, value_parser = at_least_one())]
-        points: usize,
-        /// Image width the pixel positions are drawn in.
-        #[arg(long, default_value_t = 192, value_parser = image_size())]
-        width: usize,
-        /// Image height the pixel positions are drawn in.
-        #[arg(long, default_value_t = 192, value_parser = image_size())]
-        height: usize,
-        /// Seed of the points.
-        #[arg(long, default_value_t = 3)]
-        seed: u64,
-        /// The scene in grey.
-        #[arg(long)]
-        grey: bool,
-        /// Print one JSON object as the last line of stdout.
-        #[arg(long)]
-        json: bool,
-        /// The estimators' parameters (the cut's: `--bl-cut-*`).
-        #[command(flatten)]
-        params: ParamArgs,
-    },
-    /// Instant radiosity for the indirect diffuse light, plain and with probabilistic VPL
-    /// acceptance (Georgiev & Slusallek 2010), gathered from all VPLs or through a light tree,
-    /// against a cached converged reference: images under out/vpl/SCENE/, a table.
-    Vpl(manylights_render::instruments::vpl::VplArgs),
     /// Render a built-in scene (direct illumination) with one technique to a PNG, or to a
     /// linear OpenEXR file when the output name ends in .exr.
     Render {
@@ -298,16 +190,6 @@ fn protocol(fixed_point: bool) -> render::Protocol {
     }
 }
 
-/// The parser of counts that must be at least 1 (spp).
-fn at_least_one() -> clap::builder::RangedU64ValueParser<usize> {
-    clap::builder::RangedU64ValueParser::<usize>::new().range(1..)
-}
-
-/// The parser of image sizes: 1 to 16,384 pixels.
-fn image_size() -> clap::builder::RangedU64ValueParser<usize> {
-    clap::builder::RangedU64ValueParser::<usize>::new().range(1..=16_384)
-}
-
 /// The parser of `--time`: a positive, finite number of seconds.
 fn parse_time(s: &str) -> Result<f64, String> {
     let v: f64 = s
@@ -317,93 +199,9 @@ fn parse_time(s: &str) -> Result<f64, String> {
     compare::check_time(v)
 }
 
-/// The scenes' palette: grey with `--grey`, colour otherwise.
-fn palette(grey: bool) -> scene::Palette {
-    if grey {
-        scene::Palette::Grey
-    } else {
-        scene::Palette::Colour
-    }
-}
-
 fn main() {
     let cli = Cli::parse();
     match cli.command {
-        Command::Bench {
-            lights,
-            points,
-            seed,
-            repeats,
-            kinds,
-            build_only,
-            json,
-        } => {
-            let report = bench::run(&bench::BenchConfig {
-                lights,
-                points,
-                seed,
-                repeats,
-                kinds,
-                build_only,
-            });
-            println!("{}", bench::table(&report));
-            if json {
-                println!("{}", report.to_json());
-            }
-        }
-        Command::SptdFit {
-            out,
-            check,
-            cells,
-            caps,
-        } => std::process::exit(sptd_fit::run_cli(out, check, cells, caps)),
-        Command::SptdAccuracy {
-            cases,
-            grazing_cases,
-            seed,
-            grid,
-            json,
-        } => {
-            let cfg = sptd_accuracy::AccuracyConfig {
-                cases,
-                seed,
-                grid,
-                grazing_cases,
-            };
-            let (cs, report) = sptd_accuracy::run(&cfg);
-            println!("{}", sptd_accuracy::table(&cs, &report));
-            if json {
-                println!("{report}");
-            }
-        }
-        Command::Selection {
-            scene,
-            lights,
-            points,
-            width,
-            height,
-            seed,
-            grey,
-            json,
-            params,
-        } => {
-            let rs = scene::by_name_with(&scene, lights, palette(grey)).unwrap_or_else(|e| {
-                eprintln!("{e}");
-                std::process::exit(2)
-            });
-            let cfg = selection::SelectionConfig {
-                points,
-                width,
-                height,
-                seed,
-                cut: params.params().bl_cut,
-            };
-            let report = selection::run(&rs, &cfg);
-            print!("{}", report.table(&scene, &cfg));
-            if json {
-                println!("{}", report.json(&scene, &cfg));
-            }
-        }
         Command::Render {
             scene,
             lights,
@@ -487,12 +285,6 @@ fn main() {
                     std::process::exit(1)
                 }
             }
-        }
-        Command::Estimator(args) => {
-            std::process::exit(manylights_render::instruments::estimator::run_cli(&args))
-        }
-        Command::Vpl(args) => {
-            std::process::exit(manylights_render::instruments::vpl::run_cli(&args))
         }
     }
 }

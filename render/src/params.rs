@@ -1,5 +1,5 @@
-//! The command-line form of the core's [`Params`], shared by `render`, `compare` and
-//! `estimator`.
+//! The command-line form of the core's [`Params`], shared by `render` and `compare` and by the
+//! instruments' `estimator` and `selection`.
 
 use clap::builder::PossibleValue;
 use clap::ValueEnum;

@@ -81,7 +81,7 @@ pub struct RenderConfig {
 
 /// CPU time of the calling thread, in seconds.
 #[cfg(any(target_os = "linux", target_os = "macos"))]
-pub(crate) fn thread_cpu_seconds() -> Option<f64> {
+pub fn thread_cpu_seconds() -> Option<f64> {
     let mut ts = libc::timespec {
         tv_sec: 0,
         tv_nsec: 0,
@@ -93,7 +93,7 @@ pub(crate) fn thread_cpu_seconds() -> Option<f64> {
 
 /// CPU time of the calling thread: not available here (rows are timed by the wall clock).
 #[cfg(not(any(target_os = "linux", target_os = "macos")))]
-pub(crate) fn thread_cpu_seconds() -> Option<f64> {
+pub fn thread_cpu_seconds() -> Option<f64> {
     None
 }
 

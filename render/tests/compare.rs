@@ -5,11 +5,9 @@
 //! `--time` checks and EXR output.
 
 use manylights::Technique;
+use manylights_render::compare::{self, check_time, equal_time_spp, CompareConfig, Cost};
 use manylights_render::image::font;
 use manylights_render::image::{self, read_raw, Image};
-use manylights_render::instruments::compare::{
-    self, check_time, equal_time_spp, CompareConfig, Cost,
-};
 use manylights_render::render::{render, Protocol, RenderConfig};
 use manylights_render::scene;
 use std::path::{Path, PathBuf};

@@ -3,11 +3,11 @@
 //! pixel count), the uncorrected ratio of two RMSEs is pulled towards 1 and the corrected one
 //! is not, and every split of the squared error adds up to the whole.
 
-use manylights_render::image::grey;
-use manylights_render::image::Image;
-use manylights_render::instruments::error_split::{
+use manylights_render::compare::error_split::{
     angle_bin, angle_name, corrected_rmse, split, Classes, ErrorSummary, ANGLE_BINS,
 };
+use manylights_render::image::grey;
+use manylights_render::image::Image;
 use rand::{Rng, SeedableRng};
 use rand_pcg::Pcg64Mcg;
 

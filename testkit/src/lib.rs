@@ -9,6 +9,7 @@
 //! Shading points are uniform in the same cube with uniformly random normals; [`surface_points`]
 //! gives them a material and a view direction in the normal's hemisphere.
 
+pub mod ggx;
 mod rng;
 pub use rng::{splitmix64, SplitMix64};
 

@@ -281,7 +281,7 @@ pub(crate) fn torus(
 
 /// Sphere light of total power (luminance) `power` in the colour `tint` (a colour of
 /// luminance 1, [`Rgb::ONE`] for grey: the radiance is `tint` times the grey radiance).
-pub(crate) fn sphere_light(center: Vec3, radius: f32, power: f32, tint: Rgb) -> Light {
+pub fn sphere_light(center: Vec3, radius: f32, power: f32, tint: Rgb) -> Light {
     Light::Sphere {
         center,
         radius,
@@ -291,7 +291,7 @@ pub(crate) fn sphere_light(center: Vec3, radius: f32, power: f32, tint: Rgb) -> 
 
 /// One-sided disk light facing along `normal` (unit) with total power `power` in the colour
 /// `tint` (as [`sphere_light`]).
-pub(crate) fn disk_light(center: Vec3, normal: Vec3, radius: f32, power: f32, tint: Rgb) -> Light {
+pub fn disk_light(center: Vec3, normal: Vec3, radius: f32, power: f32, tint: Rgb) -> Light {
     Light::Disk {
         center,
         normal,

@@ -48,7 +48,7 @@ pub use cornell::{
     CORNELL_WALL_GAP,
 };
 pub use exhibition::{exhibition, EXHIBITION_DISKS, EXHIBITION_PANEL_TRIANGLES};
-pub(crate) use geometry::{disk_light, sphere_light};
+pub use geometry::{disk_light, sphere_light};
 pub use geometry::{Geometry, Hit, Triangle};
 pub use stairs::stairs;
 

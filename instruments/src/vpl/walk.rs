@@ -10,11 +10,11 @@
 
 use super::gather::visible;
 use super::scenes::VplScene;
-use crate::render::busy_time;
 use glam::Vec3;
 use manylights::vpl::AcceptStats;
 use manylights::Rgb;
 use manylights::{Frame, Vpl, VplAcceptor};
+use manylights_render::render::busy_time;
 use rand::{Rng, SeedableRng};
 use rand_pcg::Pcg64Mcg;
 use rayon::prelude::*;

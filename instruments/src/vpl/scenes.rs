@@ -1,4 +1,4 @@
-//! The scenes of `mlrender vpl`, built in code: diffuse (Lambert) rooms lit by one point light.
+//! The scenes of `mlmeasure vpl`, built in code: diffuse (Lambert) rooms lit by one point light.
 //!
 //! - `corner`: an L-shaped corridor, 3 m wide and 3 m high. The point light sits near the
 //!   closed end of the first leg ([`CORNER_LEG_A`] long, along x); the camera stands in the second leg
@@ -10,11 +10,11 @@
 //! - `room`: a 5 m × 3 m × 5 m room with a box on the floor, the light in the camera's view:
 //!   nearly every VPL lights something visible.
 
-use crate::scene::{Camera, Geometry, RenderScene, Triangle};
 use glam::Vec3;
 use manylights::LightSet;
 use manylights::Rgb;
 use manylights::{Light, Material};
+use manylights_render::scene::{Camera, Geometry, RenderScene, Triangle};
 
 /// The scene names, in help order.
 pub const VPL_SCENES: [&str; 2] = ["corner", "room"];

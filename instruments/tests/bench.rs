@@ -1,11 +1,11 @@
-//! `mlrender bench` in miniature: the build-only report has the build's figures (its peak heap
-//! measured by the counting allocator installed here, as in `mlrender`) and no sampling ones;
+//! `mlmeasure bench` in miniature: the build-only report has the build's figures (its peak heap
+//! measured by the counting allocator installed here, as in `mlmeasure`) and no sampling ones;
 //! the full report has both; the points-only scene is points only. The allocator's counters
 //! are global, so the tests that measure them run one at a time.
 
 use manylights::Light;
-use manylights_render::alloc_count::{self, CountingAlloc};
-use manylights_render::instruments::bench::{run, table, BenchConfig, SceneKinds};
+use manylights_instruments::alloc_count::{self, CountingAlloc};
+use manylights_instruments::bench::{run, table, BenchConfig, SceneKinds};
 
 #[global_allocator]
 static ALLOC: CountingAlloc = CountingAlloc;

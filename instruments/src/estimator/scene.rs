@@ -1,4 +1,4 @@
-//! The synthetic configurations of `mlrender estimator`: small sphere and disk lights in a
+//! The synthetic configurations of `mlmeasure estimator`: small sphere and disk lights in a
 //! shell around a cluster of shading points, direct illumination without visibility.
 //!
 //! - **Shading points**: positions uniform in a ball of radius [`POINT_REGION`] around the
@@ -134,7 +134,9 @@ pub fn lights(n: usize, seed: u64) -> Vec<Light> {
             let radius = log_uniform(&mut rng, LIGHT_RADIUS);
             let power = log_uniform(&mut rng, (0.1, 10.0)) * dist;
             match i % 8 {
-                0 | 1 | 4 | 5 => crate::scene::sphere_light(center, radius, power, Rgb::ONE),
+                0 | 1 | 4 | 5 => {
+                    manylights_render::scene::sphere_light(center, radius, power, Rgb::ONE)
+                }
                 3 => Light::Disk {
                     center,
                     normal: unit_vector(&mut rng),
@@ -152,7 +154,7 @@ pub fn lights(n: usize, seed: u64) -> Vec<Light> {
                     let normal = (to_origin * tilt.cos()
                         + (t * phi.cos() + b * phi.sin()) * tilt.sin())
                     .normalize();
-                    crate::scene::disk_light(center, normal, radius, power, Rgb::ONE)
+                    manylights_render::scene::disk_light(center, normal, radius, power, Rgb::ONE)
                 }
             }
         })

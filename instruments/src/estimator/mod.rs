@@ -1,4 +1,4 @@
-//! `mlrender estimator`: are the estimators unbiased, and what do they cost at equal time?
+//! `mlmeasure estimator`: are the estimators unbiased, and what do they cost at equal time?
 //!
 //! Direct illumination **without visibility** on synthetic configurations ([`scene`]): 1,000
 //! small sphere and disk lights around 64 shading points, materials Lambert, GGX α ∈ {0.05,
@@ -47,8 +47,8 @@
 pub mod reference;
 pub mod scene;
 
-use crate::uniforms::RngUniforms;
 use manylights::direct::{Estimator, LambertMode, Params, Technique, Unoccluded};
+use manylights_render::uniforms::RngUniforms;
 use rand::SeedableRng;
 use rand_pcg::Pcg64Mcg;
 use rayon::prelude::*;
@@ -820,7 +820,7 @@ pub fn table(rs: &[ConfigResult], report: &Value, verbose: bool) -> String {
     s
 }
 
-/// The command-line arguments of `mlrender estimator`.
+/// The command-line arguments of `mlmeasure estimator`.
 #[derive(clap::Args, Clone, Debug)]
 pub struct EstimatorArgs {
     /// Seed of the scene, the reference and the estimates.
@@ -844,7 +844,7 @@ pub struct EstimatorArgs {
     pub all_materials: bool,
     /// The estimators' parameters.
     #[command(flatten)]
-    pub params: crate::params::ParamArgs,
+    pub params: manylights_render::params::ParamArgs,
     /// Print every configuration and every deviation.
     #[arg(long)]
     pub verbose: bool,
@@ -853,7 +853,7 @@ pub struct EstimatorArgs {
     pub json: bool,
 }
 
-/// Runs `mlrender estimator` with `args`; returns the process exit code.
+/// Runs `mlmeasure estimator` with `args`; returns the process exit code.
 pub fn run_cli(args: &EstimatorArgs) -> i32 {
     let mut cfg = if args.quick {
         EstimatorConfig::quick(args.seed)

@@ -1,9 +1,9 @@
-//! `mlrender selection` on a small scene: finite, non-negative variances (the cut's, TL's and the
+//! `mlmeasure selection` on a small scene: finite, non-negative variances (the cut's, TL's and the
 //! two descents'), the BRDF-oriented cut's below TL's, and a cut that cannot split beyond the
 //! root as large as the root's slots allow.
 
 use manylights::BlCutOptions;
-use manylights_render::instruments::selection::{run, SelectionConfig};
+use manylights_instruments::selection::{run, SelectionConfig};
 use manylights_render::scene;
 
 #[test]

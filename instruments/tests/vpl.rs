@@ -1,10 +1,10 @@
-//! `mlrender vpl` in miniature: on tiny versions of both scenes, instant radiosity with VPL
+//! `mlmeasure vpl` in miniature: on tiny versions of both scenes, instant radiosity with VPL
 //! acceptance has the image mean of plain instant radiosity (acceptance is unbiased), and so
 //! does the tree gather of the accepted VPLs; the tolerance is 5 standard errors of the
 //! difference, from the spread of the frames' image means.
 
-use manylights_render::instruments::vpl::gather::TreeSampling;
-use manylights_render::instruments::vpl::{
+use manylights_instruments::vpl::gather::TreeSampling;
+use manylights_instruments::vpl::{
     run_variant, scenes, Budget, Gather, Setup, Variant, VariantConfig,
 };
 

@@ -1,4 +1,4 @@
-//! `mlrender vpl`: instant radiosity (Keller 1997) for the indirect diffuse light of a scene,
+//! `mlmeasure vpl`: instant radiosity (Keller 1997) for the indirect diffuse light of a scene,
 //! with and without the probabilistic VPL acceptance of Georgiev & Slusallek 2010 (the core's
 //! [`manylights::vpl`]), gathered from every VPL at every pixel (`all`) or through a light tree
 //! of the VPLs (`tree`).
@@ -30,19 +30,19 @@ pub mod gather;
 pub mod scenes;
 pub mod walk;
 
-use crate::image::{read_raw, side_by_side_labelled, write_png, write_raw, Image};
-use crate::render::busy_time;
 use gather::{pixel_hits, visible, Gathered, PixelHit, TreeSampling, VplTree};
 use indicatif::{ProgressBar, ProgressStyle};
 use manylights::vpl::AcceptStats;
 use manylights::{Vpl, VplAcceptor};
+use manylights_render::image::{read_raw, side_by_side_labelled, write_png, write_raw, Image};
+use manylights_render::render::busy_time;
 use rand::{Rng, SeedableRng};
 use rand_pcg::Pcg64Mcg;
 use rayon::prelude::*;
 use scenes::VplScene;
 use std::path::PathBuf;
 
-/// The options of `mlrender vpl`.
+/// The options of `mlmeasure vpl`.
 #[derive(clap::Args, Clone, Debug)]
 pub struct VplArgs {
     /// Scene: corner (a point light around a corner from the camera) or room (the light in
@@ -554,7 +554,7 @@ fn fail(msg: impl std::fmt::Display) -> i32 {
     2
 }
 
-/// `mlrender vpl`: returns the exit code.
+/// `mlmeasure vpl`: returns the exit code.
 pub fn run_cli(args: &VplArgs) -> i32 {
     let scene = match scenes::by_name(&args.scene) {
         Ok(s) => s,

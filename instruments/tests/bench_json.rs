@@ -1,4 +1,4 @@
-//! `mlrender bench --json` at a tiny size: the last line of stdout is one flat JSON object with
+//! `mlmeasure bench --json` at a tiny size: the last line of stdout is one flat JSON object with
 //! exactly the keys scripts read, each of its pinned kind (integer, float or string), and the
 //! run's settings echoed; `--build-only` gives the build's keys only.
 
@@ -68,10 +68,10 @@ const SAMPLING_KEYS: [(&str, Kind); 29] = [
     ("tl_msamples_per_s", Float),
 ];
 
-/// Runs `mlrender bench` at 50 lights, 64 points, seed 7, one repeat, with `extra` arguments;
+/// Runs `mlmeasure bench` at 50 lights, 64 points, seed 7, one repeat, with `extra` arguments;
 /// returns stdout's last line as a JSON object, and stdout.
 fn bench_json(extra: &[&str]) -> (Map<String, Value>, String) {
-    let o = Command::new(env!("CARGO_BIN_EXE_mlrender"))
+    let o = Command::new(env!("CARGO_BIN_EXE_mlmeasure"))
         .args([
             "bench",
             "--lights",
@@ -86,7 +86,7 @@ fn bench_json(extra: &[&str]) -> (Map<String, Value>, String) {
         ])
         .args(extra)
         .output()
-        .expect("mlrender runs");
+        .expect("mlmeasure runs");
     let stdout = String::from_utf8(o.stdout).expect("stdout is UTF-8");
     assert!(
         o.status.success(),

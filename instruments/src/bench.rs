@@ -1,10 +1,10 @@
-//! `mlrender bench`: build time, memory and single-threaded sampling throughput of the 4-wide
+//! `mlmeasure bench`: build time, memory and single-threaded sampling throughput of the 4-wide
 //! tree against the binary scalar baseline, measured in one run, plus the exactness of the
 //! pmfs. The build's peak heap is measured with [`crate::alloc_count`] when that is the global
-//! allocator (as in `mlrender`).
+//! allocator (as in `mlmeasure`).
 //!
 //! [`run`] returns a typed [`BenchReport`]; [`BenchReport::to_json`] gives the one flat JSON
-//! object that `mlrender bench --json` prints (every field of the nested groups is a top-level
+//! object that `mlmeasure bench --json` prints (every field of the nested groups is a top-level
 //! key, named as the field), and [`table`] the human table.
 
 use crate::alloc_count;
@@ -76,7 +76,7 @@ fn timed_build<T>(f: impl FnOnce() -> T) -> (T, BuildTime) {
     let base = alloc_count::reset_peak();
     let t = Instant::now();
     let mut out = None;
-    let cpu = crate::render::busy_time(|| out = Some(f()));
+    let cpu = manylights_render::render::busy_time(|| out = Some(f()));
     let ms = t.elapsed().as_secs_f64() * 1e3;
     // Saturating: another thread of the process may have reset the peak meanwhile.
     let peak = alloc_count::peak().saturating_sub(base);
@@ -91,10 +91,11 @@ fn timed_build<T>(f: impl FnOnce() -> T) -> (T, BuildTime) {
 /// The CPU seconds each of rayon's threads and the calling thread has run so far; `None`
 /// without a thread CPU clock.
 fn threads_cpu_seconds() -> Option<(Vec<f64>, f64)> {
-    let pool: Option<Vec<f64>> = rayon::broadcast(|_| crate::render::thread_cpu_seconds())
-        .into_iter()
-        .collect();
-    Some((pool?, crate::render::thread_cpu_seconds()?))
+    let pool: Option<Vec<f64>> =
+        rayon::broadcast(|_| manylights_render::render::thread_cpu_seconds())
+            .into_iter()
+            .collect();
+    Some((pool?, manylights_render::render::thread_cpu_seconds()?))
 }
 
 /// The best of `repeats` builds (the previous result is dropped before each): the fastest
@@ -134,7 +135,7 @@ fn time_pass(
     (points.len() as f64 / s / 1e6, acc)
 }
 
-/// The report of one `mlrender bench` run: the run's settings, the builds, the trees' size and
+/// The report of one `mlmeasure bench` run: the run's settings, the builds, the trees' size and
 /// shape, and (unless the run was build-only) the sampling passes and the pmf checks.
 ///
 /// Rates are the best of the repeats; a ratio is of those best rates. A figure that is not a
@@ -156,7 +157,7 @@ pub struct BenchReport {
 }
 
 impl BenchReport {
-    /// The report as the one flat JSON object of `mlrender bench --json`: the keys are the
+    /// The report as the one flat JSON object of `mlmeasure bench --json`: the keys are the
     /// field names of the groups, in serde_json's map order.
     pub fn to_json(&self) -> serde_json::Value {
         serde_json::to_value(self).expect("a report of numbers and strings serialises")
@@ -191,7 +192,7 @@ pub struct BuildFigures {
     pub build_cpu_ms: f64,
     /// [`LightTree::build`], peak heap bytes per light (the tree included).
     pub build_peak_bytes_per_light: Option<f64>,
-    /// [`LightTree::build_parallel`] on rayon's pool ([`crate::RayonJoin`]), wall-clock ms;
+    /// [`LightTree::build_parallel`] on rayon's pool ([`manylights_render::RayonJoin`]), wall-clock ms;
     /// the tree is checked to be the serial build's, byte for byte.
     pub build_parallel_ms: f64,
     /// [`LightTree::build_parallel`], CPU ms of the calling thread plus those of the busiest
@@ -402,8 +403,12 @@ fn measure_builds(
     let mut busiest: Option<f64> = None;
     let (parallel, parallel_time) = best_build(repeats, || {
         let before = threads_cpu_seconds();
-        let tree = LightTree::build_parallel(lights, &BuildOptions::default(), &crate::RayonJoin)
-            .expect("the bench scene is valid");
+        let tree = LightTree::build_parallel(
+            lights,
+            &BuildOptions::default(),
+            &manylights_render::RayonJoin,
+        )
+        .expect("the bench scene is valid");
         if let (Some((pool_b, caller_b)), Some((pool_a, caller_a))) =
             (before, threads_cpu_seconds())
         {

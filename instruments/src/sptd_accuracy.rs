@@ -1,4 +1,4 @@
-//! `mlrender sptd-accuracy`: how well the fitted GGX SPTD ([`SptdGgx`]) predicts the
+//! `mlmeasure sptd-accuracy`: how well the fitted GGX SPTD ([`SptdGgx`]) predicts the
 //! cosine-weighted BRDF integral over random caps (docs/formulas.md, section 8).
 //!
 //! Two strata, reported separately:
@@ -34,9 +34,9 @@
 //!
 //! The JSON keys of the overall stratum have no prefix, those of the grazing one `grazing_`.
 
-use crate::instruments::ggx::{cap_integral, wo_local, Cap64, Ggx};
 use glam::DVec3;
 use manylights::importance::sptd::SptdGgx;
+use manylights_testkit::ggx::{cap_integral, wo_local, Cap64, Ggx};
 use rand::{Rng, SeedableRng};
 use rand_pcg::Pcg64Mcg;
 use rayon::prelude::*;

@@ -13,13 +13,13 @@
 //! estimate loses the energy of the clamped part (a bias that every variant and the reference
 //! share, since they all gather through this one function).
 
-use crate::render::primary;
-use crate::scene::{Geometry, RenderScene};
 use glam::Vec3;
 use manylights::Occluder;
 use manylights::{
     Light, LightCut, LightSample, LightTree, SplitCutOptions, TlImportance, Vpl, CUT_CAPACITY,
 };
+use manylights_render::render::primary;
+use manylights_render::scene::{Geometry, RenderScene};
 use rand::{Rng, SeedableRng};
 use rand_pcg::Pcg64Mcg;
 use std::f32::consts::FRAC_1_PI;

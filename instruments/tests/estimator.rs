@@ -1,4 +1,4 @@
-//! A small version of `mlrender estimator`'s checks: every technique of the core's `direct`
+//! A small version of `mlmeasure estimator`'s checks: every technique of the core's `direct`
 //! module against an independent numerical reference on random scenes.
 
 use glam::Vec3;
@@ -6,8 +6,8 @@ use manylights::direct::{Estimator, LambertMode, Params, Technique, Unoccluded};
 use manylights::trace::trace_all;
 use manylights::Rgb;
 use manylights::{Light, Material, ShadingPoint};
-use manylights_render::instruments::estimator::reference::reference;
-use manylights_render::instruments::estimator::scene::{Config, Plan, Scene};
+use manylights_instruments::estimator::reference::reference;
+use manylights_instruments::estimator::scene::{Config, Plan, Scene};
 use manylights_render::uniforms::RngUniforms;
 use rand::{Rng, SeedableRng};
 use rand_pcg::Pcg64Mcg;
@@ -197,7 +197,7 @@ fn brdf_sampling_alone_is_unbiased() {
         })
         .collect();
     let mut rng = Pcg64Mcg::seed_from_u64(9);
-    for (mi, (name, material)) in manylights_render::instruments::estimator::scene::MATERIALS
+    for (mi, (name, material)) in manylights_instruments::estimator::scene::MATERIALS
         .iter()
         .enumerate()
     {
@@ -249,7 +249,7 @@ fn brdf_sampling_alone_is_unbiased() {
 /// denominator.
 #[test]
 fn largest_bias_against_its_null_distribution() {
-    use manylights_render::instruments::estimator::{
+    use manylights_instruments::estimator::{
         bias_sigma, max_abs_normal_cdf, max_abs_normal_quantile, max_abs_normal_sf, MaxBias,
     };
     // z = (mean − exact) / sqrt(se² + se_ref²): 0.1 / sqrt(0.03² + 0.04²) = 2.
@@ -317,7 +317,7 @@ fn largest_bias_against_its_null_distribution() {
 /// per-configuration results.
 #[test]
 fn estimator_json_keys() {
-    use manylights_render::instruments::estimator::{self, EstimatorConfig};
+    use manylights_instruments::estimator::{self, EstimatorConfig};
     let cfg = EstimatorConfig {
         estimates: 300,
         lights: 40,

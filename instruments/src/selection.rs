@@ -1,4 +1,4 @@
-//! `mlrender selection`: how well the light choice of the BRDF-oriented cut (BL) and of the
+//! `mlmeasure selection`: how well the light choice of the BRDF-oriented cut (BL) and of the
 //! tree's classic descent (TL) follows the lights' contributions at a scene's shading points,
 //! without the noise of rendering.
 //!
@@ -31,8 +31,6 @@
 //! where BL's distance to the cluster's centre misleads). Both pmfs are exact, from the walk
 //! down each light's path.
 
-use crate::render::primary_at;
-use crate::scene::RenderScene;
 use manylights::direct::{CutSampler, LightSampler, TreeSampler};
 use manylights::importance::Importance;
 use manylights::infinite::InfiniteLight;
@@ -41,6 +39,8 @@ use manylights::tree::{Node4, SlotBounds};
 use manylights::{
     BlCutOptions, BlImportance, Brdf, Frame, Light, LightTree, ShadingPoint, TlImportance,
 };
+use manylights_render::render::primary_at;
+use manylights_render::scene::RenderScene;
 use rand::{Rng, SeedableRng};
 use rand_pcg::Pcg64Mcg;
 use rayon::prelude::*;
@@ -266,7 +266,7 @@ pub fn run(scene: &RenderScene, cfg: &SelectionConfig) -> SelectionReport {
 }
 
 impl SelectionReport {
-    /// The table printed by `mlrender selection`.
+    /// The table printed by `mlmeasure selection`.
     pub fn table(&self, scene: &str, cfg: &SelectionConfig) -> String {
         format!(
             "{scene}: {} points, mean light Σc {:.4e}; BRDF-oriented cut (δ {}, max {}, split_sin {})\n\

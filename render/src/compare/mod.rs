@@ -35,7 +35,7 @@
 //!   (relative; from both images' per-pixel variances, `null` below 2 spp), so that noise can
 //!   be told from bias; `mean_rel_diff_sigma` is the ratio of the first to it. The table
 //!   shows the signed difference.
-//! - **Reference variance removed** ([`error_split`](super::error_split); docs/formulas.md,
+//! - **Reference variance removed** ([`error_split`]; docs/formulas.md,
 //!   section 15): beside each RMSE, `RMSE' = sqrt(max(0, MSE − V))` with `V` the mean over the
 //!   pixels of the reference's own variance of its pixel means (its per-estimate sample
 //!   variance over `ref_spp`), the part of the MSE that is the reference's noise; and the
@@ -84,13 +84,15 @@
 //! `ms_per_spp` and `ms_fixed` are the cost model's (busy milliseconds), `mse` a class's part
 //! of the image's MSE.
 
+pub mod error_split;
+
 use crate::image::{
     convergence_svg, read_raw, side_by_side_labelled, warn_failed, write_exr, write_png, write_raw,
     Image,
 };
-use crate::instruments::error_split::{error_map, map_image, Classes, ErrorSummary};
 use crate::render::{centre_hits, render, Protocol, RenderConfig};
 use crate::scene::RenderScene;
+use error_split::{error_map, map_image, Classes, ErrorSummary};
 use manylights::{Params, Technique};
 use serde_json::json;
 use std::io::{Error, ErrorKind};

@@ -1,6 +1,6 @@
 //! A counting global allocator: wraps [`System`] and tracks the bytes currently allocated and
 //! their peak, so that an instrument can measure everything a call allocates (its transient
-//! data and its result). Installed by the `mlrender` binary (and by tests that need it) with
+//! data and its result). Installed by the `mlmeasure` binary (and by tests that need it) with
 //! `#[global_allocator] static A: CountingAlloc = CountingAlloc;`.
 
 use std::alloc::{GlobalAlloc, Layout, System};
