@@ -9,7 +9,7 @@
 //! - [`Pivot`]: the pivot transform `P`, its Jacobian, the SPTD density and the closed-form
 //!   cap-to-cap map with the stable `1 − z'`.
 //! - [`SptdGgx`]: GGX's cap integral (height-correlated Smith, no Fresnel): an SPTD fitted
-//!   per (α, θo) by `mlrender sptd-fit` into the generated table [`table`], horizon-clipped
+//!   per (α, θo) by `sptd-fit` (tools/sptd-fit) into the generated table [`table`], horizon-clipped
 //!   through `P(H)` (computed once per shading point), with a fitted Lambert share and a
 //!   masking correction for caps that graze the horizon, for large caps; for small ones the
 //!   exact `f cos` averaged in closed form across the plane of incidence, where GGX's lobe is

@@ -1,4 +1,4 @@
-//! Seeded random many-light scenes: the scene of `mlrender bench` and of the criterion
+//! Seeded random many-light scenes: the scene of `mlmeasure bench` and of the criterion
 //! benches, in a crate of its own so that the core's benches build without the renderer.
 //!
 //! N lights with centres uniform in [-100, 100]³ and power uniform in [0.1, 10]: 40 % points,
@@ -163,7 +163,7 @@ pub fn surface_points(m: usize, seed: u64, material: Material) -> Vec<manylights
         .collect()
 }
 
-/// The timed loop of the batch TL sampling benches (`mlrender bench`, the criterion `sampling`
+/// The timed loop of the batch TL sampling benches (`mlmeasure bench`, the criterion `sampling`
 /// and `abi` groups): `points` with their uniform numbers through
 /// [`LightTree::sample_batch`], `out.len()` points per call, each call's importances built in
 /// the loop as a host builds them per shading point (`imps` is the caller's scratch). Returns

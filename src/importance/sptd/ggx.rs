@@ -13,7 +13,7 @@
 //! (`lambert_visible`; closed forms for a cap that does not cross the horizon) and the mean
 //! cosine `c̄ = L/V` of the visible part.
 //!
-//! **The SPTD part**, fitted by `mlrender sptd-fit` ([`SptdGgx::sptd_integral_cap`]):
+//! **The SPTD part**, fitted by `sptd-fit` (tools/sptd-fit) ([`SptdGgx::sptd_integral_cap`]):
 //!
 //! ```text
 //! S_sptd(C) = ρ [ (1 − β) · |P(C) ∩ P(H)| / |P(H)| · M(c̄)/M(½)  +  β · L(C)/π ]
@@ -735,7 +735,7 @@ impl SptdGgx {
 
     /// The SPTD part of the model alone,
     /// `S_sptd(C) = ρ[(1 − β)·|P(C) ∩ P(H)|/|P(H)|·M(c̄)/M(½) + β·L(C)/π]` clamped into
-    /// `[0, ρ]`, for any cap (half-angle up to π): the part `mlrender sptd-fit` fits.
+    /// `[0, ρ]`, for any cap (half-angle up to π): the part `sptd-fit` (tools/sptd-fit) fits.
     #[inline]
     pub fn sptd_integral_cap(&self, cap: &Cap) -> f32 {
         let (lens, l, v) = self.cap_parts(cap);
