@@ -183,6 +183,7 @@ pub extern "C" fn ml_tree_build_parallel(
 }
 
 /// The build's fork-join on the rayon pool the call runs in.
+// Not testkit's `RayonJoin`: the C library does not depend on the tests' helper crate.
 struct RayonJoin;
 
 impl manylights::Join for RayonJoin {

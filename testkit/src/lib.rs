@@ -10,10 +10,15 @@
 //! gives them a material and a view direction in the normal's hemisphere.
 //!
 //! Beside the scenes, the helpers the tests share: [`SplitMix64`], their deterministic
-//! generator; and [`TestUniforms`], its numbers behind the core's [`manylights::Uniforms`].
+//! generator; [`TestUniforms`], its numbers behind the core's [`manylights::Uniforms`]; and,
+//! with the feature `rayon`, `RayonJoin`, the build's fork-join on rayon's pool.
 
+#[cfg(feature = "rayon")]
+mod join;
 mod rng;
 mod uniforms;
+#[cfg(feature = "rayon")]
+pub use join::RayonJoin;
 pub use rng::{splitmix64, SplitMix64};
 pub use uniforms::TestUniforms;
 
