@@ -24,6 +24,7 @@ use manylights::mis::{AdaptiveAllocator, CombinedWeights, Heuristic, SequentialW
 use manylights::trace::trace_all;
 use manylights::Rgb;
 use manylights::{AliasTable, BlCutOptions, Brdf, Frame, Light, LightSet, Material, ShadingPoint};
+use manylights_testkit::TestUniforms;
 
 /// The one channel of an estimate of a grey scene (every channel must be the same, bit for
 /// bit: grey inputs weigh and shade each channel as the scalar estimate was).
@@ -33,18 +34,6 @@ fn grey(v: [f64; 3]) -> f64 {
         "a grey scene's channels differ: {v:?}"
     );
     v[0]
-}
-
-/// The test's uniform numbers.
-struct U(Rng);
-
-impl Uniforms for U {
-    fn next_f32(&mut self) -> f32 {
-        self.0.f32()
-    }
-    fn next_f64(&mut self) -> f64 {
-        self.0.f64()
-    }
 }
 
 /// What a TL sample contributes with the fixed weights: `g · w_TL / pdf_TL`.
@@ -211,7 +200,7 @@ fn check_unbiased(set: &LightSet, sp: &ShadingPoint, exact: f64, k: usize, seed:
             _ => k,
         };
         let mut est = Estimator::new(set, sp, t, &p).unwrap();
-        let mut u = U(Rng::new(seed + i as u64));
+        let mut u = TestUniforms::new(seed + i as u64);
         let mut st = Stats::default();
         for _ in 0..k {
             let v = grey(est.estimate(&Unoccluded, &mut u).unwrap());
@@ -613,7 +602,7 @@ impl HostLambert {
 }
 
 /// One estimate through the lower level, per channel.
-fn host_estimate(est: &mut Estimator, host: &HostLambert, u: &mut U) -> [f64; 3] {
+fn host_estimate(est: &mut Estimator, host: &HostLambert, u: &mut TestUniforms) -> [f64; 3] {
     let mut sum = [0.0f64; 3];
     est.start();
     loop {
@@ -682,7 +671,7 @@ fn lower_level_with_a_host_bsdf_is_unbiased_per_channel() {
             ..Params::default()
         };
         let mut est = Estimator::new(&set, &sp, t, &p).unwrap();
-        let mut u = U(Rng::new(500 + ti as u64));
+        let mut u = TestUniforms::new(500 + ti as u64);
         let mut st: [Stats; 3] = Default::default();
         let k = if matches!(t, Technique::TlMis | Technique::BlMis) {
             40_000
@@ -725,7 +714,7 @@ fn one_call_is_the_lower_level_loop() {
     for t in Technique::ALL {
         let mut a = Estimator::new(&set, &sp, t, &Params::default()).unwrap();
         let mut b = a.clone();
-        let (mut ua, mut ub) = (U(Rng::new(9)), U(Rng::new(9)));
+        let (mut ua, mut ub) = (TestUniforms::new(9), TestUniforms::new(9));
         for _ in 0..200 {
             let one = a.estimate(&Unoccluded, &mut ua).unwrap();
             let mut sum = [0.0f64; 3];
@@ -799,7 +788,7 @@ fn occluded_lights_contribute_nothing() {
     };
     for t in Technique::ALL {
         let mut est = Estimator::new(&set, &sp, t, &Params::default()).unwrap();
-        let mut u = U(Rng::new(3));
+        let mut u = TestUniforms::new(3);
         for _ in 0..500 {
             assert_eq!(est.estimate(&Wall(0.01), &mut u).unwrap(), [0.0; 3], "{t}");
         }
@@ -998,7 +987,7 @@ fn bad_input_is_an_error_naming_it() {
     }
     // The lower level: a bad pdf, direction or hit distance from the host.
     let mut est = Estimator::new(&set, &good, Technique::TlMis, &Params::default()).unwrap();
-    let mut u = U(Rng::new(1));
+    let mut u = TestUniforms::new(1);
     est.start();
     let mut saw_light = false;
     loop {
@@ -1096,7 +1085,8 @@ fn reset_is_a_new_estimator_in_place() {
                     assert!(want.is_some());
                     let prev = &points[i.saturating_sub(1)];
                     let mut fresh = Estimator::new(&set, prev, t, &params).unwrap();
-                    let (mut ua, mut ub) = (U(Rng::new(i as u64)), U(Rng::new(i as u64)));
+                    let (mut ua, mut ub) =
+                        (TestUniforms::new(i as u64), TestUniforms::new(i as u64));
                     for _ in 0..3 {
                         let a = moved.estimate(&Unoccluded, &mut ua).unwrap();
                         let b = fresh.estimate(&Unoccluded, &mut ub).unwrap();
@@ -1117,7 +1107,10 @@ fn reset_is_a_new_estimator_in_place() {
                     fresh.cut_sampler().map(|c| c.cut().clusters().to_vec()),
                     "{t} at {i}"
                 );
-                let (mut ua, mut ub) = (U(Rng::new(100 + i as u64)), U(Rng::new(100 + i as u64)));
+                let (mut ua, mut ub) = (
+                    TestUniforms::new(100 + i as u64),
+                    TestUniforms::new(100 + i as u64),
+                );
                 for _ in 0..8 {
                     let a = moved.estimate(&Unoccluded, &mut ua).unwrap();
                     let b = fresh.estimate(&Unoccluded, &mut ub).unwrap();
@@ -1158,7 +1151,7 @@ fn reuse_is_new_from_any_slot() {
         assert_eq!(slot.as_ref().map(|e| e.technique()), before);
         let a = Estimator::reuse(&mut slot, &set, &at, t, &params).unwrap();
         let mut b = Estimator::new(&set, &at, t, &params).unwrap();
-        let (mut ua, mut ub) = (U(Rng::new(i as u64)), U(Rng::new(i as u64)));
+        let (mut ua, mut ub) = (TestUniforms::new(i as u64), TestUniforms::new(i as u64));
         for _ in 0..4 {
             let x = a.estimate(&Unoccluded, &mut ua).unwrap();
             let y = b.estimate(&Unoccluded, &mut ub).unwrap();

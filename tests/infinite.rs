@@ -21,28 +21,17 @@ use common::{Rng, SceneSpec, Stats};
 use glam::{DVec3, Vec3};
 use manylights::direct::{
     CutSampler, Environment, Estimator, GradientSky, LightSampler, Params, PinfSampler, Step,
-    Technique, TreeSampler, UniformSky, Uniforms, Unoccluded,
+    Technique, TreeSampler, UniformSky, Unoccluded,
 };
 use manylights::error::{LightField, Problem};
 use manylights::{
     BlCutOptions, BlImportance, BuildError, FormatError, Importance, InfiniteKind, Light, LightSet,
     LightTree, Material, Receiver, Rgb, ShadingPoint, TlImportance, ValidationError,
 };
+use manylights_testkit::TestUniforms;
 
 /// The sun's angular radius, 0.27°.
 const SUN: f32 = 0.27 * std::f32::consts::PI / 180.0;
-
-/// The test's uniform numbers.
-struct U(Rng);
-
-impl Uniforms for U {
-    fn next_f32(&mut self) -> f32 {
-        self.0.f32()
-    }
-    fn next_f64(&mut self) -> f64 {
-        self.0.f64()
-    }
-}
 
 fn distant(direction: Vec3, angular_radius: f32, irradiance: Rgb) -> Light {
     Light::Distant {
@@ -450,7 +439,7 @@ fn check_unbiased<E: Environment>(
             _ => k,
         };
         let mut est = Estimator::new(set, sp, t, &Params::default()).unwrap();
-        let mut u = U(Rng::new(seed + i as u64));
+        let mut u = TestUniforms::new(seed + i as u64);
         let mut st: [Stats; 3] = Default::default();
         for _ in 0..k {
             let v = est.estimate_env(&Unoccluded, env, &mut u).unwrap();
@@ -756,7 +745,7 @@ fn lower_level_with_a_host_environment_is_unbiased() {
     .enumerate()
     {
         let mut est = Estimator::new(&set, &sp, t, &Params::default()).unwrap();
-        let mut u = U(Rng::new(900 + ti as u64));
+        let mut u = TestUniforms::new(900 + ti as u64);
         let k = 30_000;
         let mut st: [Stats; 3] = Default::default();
         let mut env_steps = 0;

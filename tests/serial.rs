@@ -13,13 +13,14 @@ mod common;
 
 use common::{Rng, Stats};
 use glam::Vec3;
-use manylights::direct::{Estimator, Params, Technique, Uniforms, Unoccluded};
+use manylights::direct::{Estimator, Params, Technique, Unoccluded};
 use manylights::light_sample::sample_point;
 use manylights::Rgb;
 use manylights::{
     BlImportance, FormatError, Light, LightMismatch, LightSet, LightTree, Material, ShadingPoint,
     TlImportance,
 };
+use manylights_testkit::TestUniforms;
 
 /// The mixed scene of the corruption test: 4,000 lights of every kind (seeded).
 fn scene(n: usize, seed: u64) -> Vec<Light> {
@@ -128,18 +129,6 @@ fn no_corruption_of_a_serialized_tree_loads() {
     assert_eq!(LightTree::from_bytes(&b).unwrap(), tree);
 }
 
-/// The host's uniform numbers.
-struct U(Rng);
-
-impl Uniforms for U {
-    fn next_f32(&mut self) -> f32 {
-        self.0.f32()
-    }
-    fn next_f64(&mut self) -> f64 {
-        self.0.f64()
-    }
-}
-
 fn shading_points(rng: &mut Rng, m: usize) -> Vec<ShadingPoint> {
     (0..m)
         .map(|i| {
@@ -214,7 +203,7 @@ fn a_tree_loaded_with_its_lights_estimates_bit_for_bit() {
             let mut a = Estimator::new(&set, sp, t, &params).unwrap();
             let mut b = Estimator::new(&loaded, sp, t, &params).unwrap();
             let seed = rng.next_u64();
-            let (mut ua, mut ub) = (U(Rng::new(seed)), U(Rng::new(seed)));
+            let (mut ua, mut ub) = (TestUniforms::new(seed), TestUniforms::new(seed));
             for _ in 0..6 {
                 let ea = a.estimate(&Unoccluded, &mut ua).unwrap();
                 let eb = b.estimate(&Unoccluded, &mut ub).unwrap();

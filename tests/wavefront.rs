@@ -7,21 +7,11 @@ mod common;
 
 use common::Rng;
 use glam::Vec3;
-use manylights::direct::{DirectError, Estimator, Params, Technique, Uniforms, Unoccluded};
+use manylights::direct::{DirectError, Estimator, Params, Technique, Unoccluded};
 use manylights::light_sample::sample_point;
 use manylights::wavefront::{estimate_each, sample_points, BatchError};
 use manylights::{LengthMismatch, LightSet, Material, Rgb, ShadingPoint};
-
-struct U(Rng);
-
-impl Uniforms for U {
-    fn next_f32(&mut self) -> f32 {
-        self.0.f32()
-    }
-    fn next_f64(&mut self) -> f64 {
-        self.0.f64()
-    }
-}
+use manylights_testkit::TestUniforms;
 
 fn scene() -> LightSet {
     let mut rng = Rng::new(31);
@@ -94,7 +84,7 @@ fn estimates_in_a_batch_are_the_set_up_and_estimates_one_after_the_other() {
         for per_point in [1, 4] {
             let seed = rng.next_u64();
             let mut batch = vec![[-1.0; 3]; pts.len() * per_point];
-            let mut ub = U(Rng::new(seed));
+            let mut ub = TestUniforms::new(seed);
             estimate_each(
                 &set,
                 &pts,
@@ -106,7 +96,7 @@ fn estimates_in_a_batch_are_the_set_up_and_estimates_one_after_the_other() {
                 &mut batch,
             )
             .unwrap();
-            let mut us = U(Rng::new(seed));
+            let mut us = TestUniforms::new(seed);
             for (j, sp) in pts.iter().enumerate() {
                 let mut est = Estimator::new(&set, sp, t, &params).unwrap();
                 for i in 0..per_point {
@@ -133,7 +123,7 @@ fn a_bad_batch_names_the_element_before_any_estimate() {
     let mut rng = Rng::new(7);
     let mut pts = points(&mut rng, 5);
     let mut out = vec![[0.0; 3]; 10];
-    let mut u = U(Rng::new(1));
+    let mut u = TestUniforms::new(1);
     let t = Technique::DEFAULT;
     let p = Params::default();
     assert!(matches!(

@@ -11,8 +11,8 @@ use crate::types::{
 };
 use manylights::light_sample::{pdf_point, sample_point};
 use manylights::{
-    BlImportance, BuildOptions, FormatError, Light, LightMismatch, LightSet, LightTree,
-    TlImportance,
+    BlImportance, BuildOptions, FormatError, Importance, Light, LightMismatch, LightSample,
+    LightSet, LightTree, TlImportance,
 };
 use std::sync::Arc;
 
@@ -183,6 +183,7 @@ pub extern "C" fn ml_tree_build_parallel(
 }
 
 /// The build's fork-join on the rayon pool the call runs in.
+// The renderer's `RayonJoin` again: the C library depends on no crate of the workspace but the core.
 struct RayonJoin;
 
 impl manylights::Join for RayonJoin {
@@ -522,45 +523,194 @@ fn tl_point_ok(p: &ml_tl_point) -> bool {
     (a.x + a.y + a.z + b.x + b.y + b.z).is_finite()
 }
 
-/// The core's batch call, whose slices the caller sized alike (a length mismatch would be a
-/// bug here, reported as an internal error).
-#[inline]
-fn batch_call(r: core::result::Result<(), manylights::LengthMismatch>) -> Result<()> {
-    r.map_err(|e| Error::internal(format_args!("batch lengths: {e}")))
+/// The shading points of a batch export: TL points (position and normal) or full shading
+/// points (BL).
+trait BatchPoint {
+    /// The importance a point gives.
+    type Imp: Importance;
+    /// Whether the point surely passes [`BatchPoint::check`] (a fast test; `false` sends
+    /// every point through the full check).
+    fn surely_ok(&self) -> bool;
+    /// Checks the point `points[j]`, the error naming it.
+    fn check(&self, j: usize) -> Result<()>;
+    /// The importance of the checked point `points[j]`.
+    fn importance(&self, j: usize) -> Result<Self::Imp>;
 }
 
-/// Checks a batch's arrays and returns the number of elements.
-fn batch_len(count: usize) -> Result<usize> {
-    arg::check_count::<ml_shading_point>(count, "count")?;
-    Ok(count)
+impl BatchPoint for ml_tl_point {
+    type Imp = TlImportance;
+
+    #[inline(always)]
+    fn surely_ok(&self) -> bool {
+        tl_point_ok(self)
+    }
+
+    fn check(&self, j: usize) -> Result<()> {
+        tl_point(self, &|| format!("points[{j}]")).map(drop)
+    }
+
+    #[inline]
+    fn importance(&self, _j: usize) -> Result<TlImportance> {
+        Ok(TlImportance::new(self.position.into(), self.normal.into()))
+    }
 }
 
-/// The loop every batch call runs once its inputs are checked: chunks of up to [`CHUNK`]
-/// elements, element `j`'s importance from `imp(j)`, the core's batch call `call(imps, range,
-/// results)` on the chunk, and `out[j]` from its result.
-fn in_chunks<I, R: Copy, O: Copy>(
-    n: usize,
-    empty: R,
-    mut imp: impl FnMut(usize) -> Result<I>,
-    mut call: impl FnMut(
-        &[I],
-        core::ops::Range<usize>,
-        &mut [R],
-    ) -> core::result::Result<(), manylights::LengthMismatch>,
-    out: &mut arg::OutSlice<'_, O>,
-    put: impl Fn(R) -> O,
+impl BatchPoint for ml_shading_point {
+    type Imp = BlImportance;
+
+    #[inline(always)]
+    fn surely_ok(&self) -> bool {
+        false
+    }
+
+    fn check(&self, j: usize) -> Result<()> {
+        self.importance(j).map(drop)
+    }
+
+    #[inline]
+    fn importance(&self, j: usize) -> Result<BlImportance> {
+        bl_importance(self, &|| format!("points[{j}]"))
+    }
+}
+
+/// What a batch export asks of the tree at each point: a sample with a uniform number
+/// ([`Sample`]) or a light's pmf ([`Pmf`]).
+trait BatchQuery {
+    /// The per-point argument (`us[j]`, `lights[j]`).
+    type Arg: Copy;
+    /// The core's result per point.
+    type Res: Copy;
+    /// What `out[j]` holds.
+    type Out: Copy;
+    /// The name of the arguments' array.
+    const ARGS: &'static str;
+    /// The value the results' buffer starts with.
+    const EMPTY: Self::Res;
+    /// Whether `a` surely passes [`BatchQuery::check`] in a tree of `lights` lights.
+    fn surely_ok(a: Self::Arg, lights: usize) -> bool;
+    /// Checks the argument `args[j]`, the error naming it.
+    fn check(a: Self::Arg, lights: usize, j: usize) -> Result<()>;
+    /// The core's batch call.
+    fn call<I: Importance>(
+        t: &LightTree,
+        imps: &[I],
+        args: &[Self::Arg],
+        res: &mut [Self::Res],
+    ) -> core::result::Result<(), manylights::LengthMismatch>;
+    /// `out[j]` from its result.
+    fn put(r: Self::Res) -> Self::Out;
+}
+
+/// A light sampled with a uniform number in [0, 1) (`us`).
+struct Sample;
+
+impl BatchQuery for Sample {
+    type Arg = f32;
+    type Res = Option<LightSample>;
+    type Out = ml_light_sample;
+    const ARGS: &'static str = "us";
+    const EMPTY: Option<LightSample> = None;
+
+    #[inline(always)]
+    fn surely_ok(u: f32, _lights: usize) -> bool {
+        (0.0..1.0).contains(&u)
+    }
+
+    fn check(u: f32, _lights: usize, j: usize) -> Result<()> {
+        unit(u, &|| format!("us[{j}]")).map(drop)
+    }
+
+    #[inline]
+    fn call<I: Importance>(
+        t: &LightTree,
+        imps: &[I],
+        us: &[f32],
+        res: &mut [Option<LightSample>],
+    ) -> core::result::Result<(), manylights::LengthMismatch> {
+        t.sample_batch(imps, us, res)
+    }
+
+    #[inline]
+    fn put(r: Option<LightSample>) -> ml_light_sample {
+        r.into()
+    }
+}
+
+/// A light's pmf (`lights`).
+struct Pmf;
+
+impl BatchQuery for Pmf {
+    type Arg = u32;
+    type Res = f32;
+    type Out = f32;
+    const ARGS: &'static str = "lights";
+    const EMPTY: f32 = 0.0;
+
+    #[inline(always)]
+    fn surely_ok(l: u32, lights: usize) -> bool {
+        (l as usize) < lights
+    }
+
+    fn check(l: u32, lights: usize, j: usize) -> Result<()> {
+        check_light(l, lights, &format!("lights[{j}]"))
+    }
+
+    #[inline]
+    fn call<I: Importance>(
+        t: &LightTree,
+        imps: &[I],
+        lights: &[u32],
+        res: &mut [f32],
+    ) -> core::result::Result<(), manylights::LengthMismatch> {
+        t.pmf_batch(imps, lights, res)
+    }
+
+    #[inline]
+    fn put(p: f32) -> f32 {
+        p
+    }
+}
+
+/// A batch export: `out[j]` is the query `Q` at `points[j]` with `args[j]`. Checks the
+/// handle, the arrays, then every element (the first bad one is the error, before anything
+/// is written); then queries in chunks of up to [`CHUNK`] points, each chunk's importances
+/// built into one buffer for the core's batch call.
+fn tree_batch<P: BatchPoint, Q: BatchQuery>(
+    tree: *const ml_tree,
+    points: *const P,
+    args: *const Q::Arg,
+    count: usize,
+    out: *mut Q::Out,
 ) -> Result<()> {
+    let data = tree_arg(tree)?;
+    // `count` against the larger element, a shading point, for both kinds of point.
+    arg::check_count::<ml_shading_point>(count, "count")?;
+    let n = count;
+    let points = arg::slice(points, n, "points")?;
+    let args = arg::slice(args, n, Q::ARGS)?;
+    let mut out = arg::out_slice(out, n, "out")?;
+    let t = data.tree();
+    let nl = t.light_count() as usize;
+    for (j, (p, &a)) in points.iter().zip(args).enumerate() {
+        if !(p.surely_ok() && Q::surely_ok(a, nl)) {
+            p.check(j)?;
+            Q::check(a, nl, j)?;
+        }
+    }
     let mut imps = Vec::with_capacity(n.min(CHUNK));
-    let mut res = vec![empty; n.min(CHUNK)];
+    let mut res = vec![Q::EMPTY; n.min(CHUNK)];
     for start in (0..n).step_by(CHUNK) {
         let m = CHUNK.min(n - start);
         imps.clear();
-        for j in start..start + m {
-            imps.push(imp(j)?);
+        for (j, p) in points[start..start + m].iter().enumerate() {
+            imps.push(p.importance(start + j)?);
         }
-        batch_call(call(&imps, start..start + m, &mut res[..m]))?;
+        // The slices are sized alike here: a length mismatch would be a bug, reported as an
+        // internal error.
+        Q::call(t, &imps, &args[start..start + m], &mut res[..m])
+            .map_err(|e| Error::internal(format_args!("batch lengths: {e}")))?;
         for (i, &r) in res[..m].iter().enumerate() {
-            out.set(start + i, put(r));
+            out.set(start + i, Q::put(r));
         }
     }
     Ok(())
@@ -581,31 +731,7 @@ pub extern "C" fn ml_tree_sample_tl_batch(
     out: *mut ml_light_sample,
 ) -> ml_status {
     ffi_fn!("ml_tree_sample_tl_batch", {
-        let data = tree_arg(tree)?;
-        let n = batch_len(count)?;
-        let points = arg::slice(points, n, "points")?;
-        let us = arg::slice(us, n, "us")?;
-        let mut out = arg::out_slice(out, n, "out")?;
-        for (j, (p, &u)) in points.iter().zip(us).enumerate() {
-            if !(tl_point_ok(p) && (0.0..1.0).contains(&u)) {
-                tl_point(p, &|| format!("points[{j}]"))?;
-                unit(u, &|| format!("us[{j}]"))?;
-            }
-        }
-        let t = data.tree();
-        in_chunks(
-            n,
-            None,
-            |j| {
-                Ok(TlImportance::new(
-                    points[j].position.into(),
-                    points[j].normal.into(),
-                ))
-            },
-            |imps, r, res| t.sample_batch(imps, &us[r], res),
-            &mut out,
-            ml_light_sample::from,
-        )
+        tree_batch::<_, Sample>(tree, points, us, count, out)
     })
 }
 
@@ -622,32 +748,7 @@ pub extern "C" fn ml_tree_pmf_tl_batch(
     out: *mut f32,
 ) -> ml_status {
     ffi_fn!("ml_tree_pmf_tl_batch", {
-        let data = tree_arg(tree)?;
-        let n = batch_len(count)?;
-        let points = arg::slice(points, n, "points")?;
-        let lights = arg::slice(lights, n, "lights")?;
-        let mut out = arg::out_slice(out, n, "out")?;
-        let t = data.tree();
-        let nl = t.light_count() as usize;
-        for (j, (p, &l)) in points.iter().zip(lights).enumerate() {
-            if !(tl_point_ok(p) && (l as usize) < nl) {
-                tl_point(p, &|| format!("points[{j}]"))?;
-                check_light(l, nl, &format!("lights[{j}]"))?;
-            }
-        }
-        in_chunks(
-            n,
-            0.0,
-            |j| {
-                Ok(TlImportance::new(
-                    points[j].position.into(),
-                    points[j].normal.into(),
-                ))
-            },
-            |imps, r, res| t.pmf_batch(imps, &lights[r], res),
-            &mut out,
-            |p| p,
-        )
+        tree_batch::<_, Pmf>(tree, points, lights, count, out)
     })
 }
 
@@ -664,24 +765,7 @@ pub extern "C" fn ml_tree_sample_bl_batch(
     out: *mut ml_light_sample,
 ) -> ml_status {
     ffi_fn!("ml_tree_sample_bl_batch", {
-        let data = tree_arg(tree)?;
-        let n = batch_len(count)?;
-        let points = arg::slice(points, n, "points")?;
-        let us = arg::slice(us, n, "us")?;
-        let mut out = arg::out_slice(out, n, "out")?;
-        for (j, (p, &u)) in points.iter().zip(us).enumerate() {
-            bl_importance(p, &|| format!("points[{j}]"))?;
-            unit(u, &|| format!("us[{j}]"))?;
-        }
-        let t = data.tree();
-        in_chunks(
-            n,
-            None,
-            |j| bl_importance(&points[j], &|| format!("points[{j}]")),
-            |imps, r, res| t.sample_batch(imps, &us[r], res),
-            &mut out,
-            ml_light_sample::from,
-        )
+        tree_batch::<_, Sample>(tree, points, us, count, out)
     })
 }
 
@@ -698,25 +782,7 @@ pub extern "C" fn ml_tree_pmf_bl_batch(
     out: *mut f32,
 ) -> ml_status {
     ffi_fn!("ml_tree_pmf_bl_batch", {
-        let data = tree_arg(tree)?;
-        let n = batch_len(count)?;
-        let points = arg::slice(points, n, "points")?;
-        let lights = arg::slice(lights, n, "lights")?;
-        let mut out = arg::out_slice(out, n, "out")?;
-        let t = data.tree();
-        let nl = t.light_count() as usize;
-        for (j, (p, &l)) in points.iter().zip(lights).enumerate() {
-            bl_importance(p, &|| format!("points[{j}]"))?;
-            check_light(l, nl, &format!("lights[{j}]"))?;
-        }
-        in_chunks(
-            n,
-            0.0,
-            |j| bl_importance(&points[j], &|| format!("points[{j}]")),
-            |imps, r, res| t.pmf_batch(imps, &lights[r], res),
-            &mut out,
-            |p| p,
-        )
+        tree_batch::<_, Pmf>(tree, points, lights, count, out)
     })
 }
 

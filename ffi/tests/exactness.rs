@@ -13,31 +13,10 @@
 //! The bounds checked are the f32 rounding those differences allow (derived below).
 
 use manylights_ffi::*;
+// The host's generator.
+use manylights_testkit::SplitMix64 as Rng;
 use std::ffi::c_void;
 use std::ptr;
-
-/// splitmix64 as the host's generator.
-#[derive(Clone)]
-struct Rng(u64);
-
-impl Rng {
-    fn next(&mut self) -> u64 {
-        self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
-        let mut z = self.0;
-        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-        z ^ (z >> 31)
-    }
-    fn f32(&mut self) -> f32 {
-        (self.next() >> 40) as f32 / (1u64 << 24) as f32
-    }
-    fn f64(&mut self) -> f64 {
-        (self.next() >> 11) as f64 / (1u64 << 53) as f64
-    }
-    fn range(&mut self, a: f32, b: f32) -> f32 {
-        a + (b - a) * self.f32()
-    }
-}
 
 unsafe extern "C" fn next_f32(user: *mut c_void) -> f32 {
     (*(user as *mut Rng)).f32()
@@ -94,7 +73,7 @@ fn lights(r: &mut Rng) -> Vec<ml_light> {
 
 fn shading_point(r: &mut Rng) -> ml_shading_point {
     let n = v3(r.range(-0.3, 0.3), r.range(-0.3, 0.3), 1.0);
-    let alpha = [0.005, 0.02, 0.1, 0.4, 1.0][(r.next() % 5) as usize];
+    let alpha = [0.005, 0.02, 0.1, 0.4, 1.0][(r.next_u64() % 5) as usize];
     ml_shading_point {
         position: v3(r.range(-2.0, 2.0), r.range(-2.0, 2.0), 0.0),
         normal: n,
@@ -241,7 +220,7 @@ fn the_lower_level_with_the_librarys_brdf_is_the_one_call_up_to_the_hosts_roundi
         let technique = (k % 9) as u32;
         ok(ml_estimator_set_point(est, &sp, technique, ptr::null()));
         for _ in 0..10 {
-            let seed = r.next();
+            let seed = r.next_u64();
             let (mut a, mut b) = (Rng(seed), Rng(seed));
             let (ua, ub) = (uniforms(&mut a), uniforms(&mut b));
             let mut one = ml_rgb64::default();

@@ -1,5 +1,5 @@
 //! The `batch` target: its input and checks are `manylights_fuzz_checks::batch`'s (shared with
-//! the core's replay of `regressions/batch/`, `tests/fuzz_regressions.rs`).
+//! the replay of `regressions/batch/`, `checks/tests/regressions.rs`).
 #![no_main]
 
 use libfuzzer_sys::fuzz_target;

@@ -1,5 +1,5 @@
 //! The `build_bad_input` target: its input and checks are `manylights_fuzz_checks::build_bad_input`'s (shared with
-//! the core's replay of `regressions/build_bad_input/`, `tests/fuzz_regressions.rs`).
+//! the replay of `regressions/build_bad_input/`, `checks/tests/regressions.rs`).
 #![no_main]
 
 use libfuzzer_sys::fuzz_target;

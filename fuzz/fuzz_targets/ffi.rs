@@ -1,5 +1,5 @@
 //! The `ffi` target: its input and checks are `manylights_fuzz_checks::ffi`'s (shared with
-//! the core's replay of `regressions/ffi/`, `tests/fuzz_regressions.rs`).
+//! the replay of `regressions/ffi/`, `checks/tests/regressions.rs`).
 #![no_main]
 
 use libfuzzer_sys::fuzz_target;

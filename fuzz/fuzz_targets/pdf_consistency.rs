@@ -1,5 +1,5 @@
 //! The `pdf_consistency` target: its input and checks are `manylights_fuzz_checks::pdf_consistency`'s (shared with
-//! the core's replay of `regressions/pdf_consistency/`, `tests/fuzz_regressions.rs`).
+//! the replay of `regressions/pdf_consistency/`, `checks/tests/regressions.rs`).
 #![no_main]
 
 use libfuzzer_sys::fuzz_target;

@@ -1,5 +1,5 @@
 //! The `sptd` target: its input and checks are `manylights_fuzz_checks::sptd`'s (shared with
-//! the core's replay of `regressions/sptd/`, `tests/fuzz_regressions.rs`).
+//! the replay of `regressions/sptd/`, `checks/tests/regressions.rs`).
 #![no_main]
 
 use libfuzzer_sys::fuzz_target;

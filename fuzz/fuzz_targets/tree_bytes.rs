@@ -1,5 +1,5 @@
 //! The `tree_bytes` target: its input and checks are `manylights_fuzz_checks::tree_bytes`'s (shared with
-//! the core's replay of `regressions/tree_bytes/`, `tests/fuzz_regressions.rs`).
+//! the replay of `regressions/tree_bytes/`, `checks/tests/regressions.rs`).
 //!
 //! `ML_TREE_BYTES_MODE=as-is` or `=resealed` runs one of its two modes only (inputs of the other
 //! are skipped; each input names its mode, so a crash replays the same way without it).

@@ -1,5 +1,5 @@
 //! The `vpl` target: its input and checks are `manylights_fuzz_checks::vpl`'s (shared with
-//! the core's replay of `regressions/vpl/`, `tests/fuzz_regressions.rs`).
+//! the replay of `regressions/vpl/`, `checks/tests/regressions.rs`).
 #![no_main]
 
 use libfuzzer_sys::fuzz_target;

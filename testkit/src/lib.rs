@@ -8,10 +8,16 @@
 //! [`point_lights`] is the points-only variant (same cube, same powers).
 //! Shading points are uniform in the same cube with uniformly random normals; [`surface_points`]
 //! gives them a material and a view direction in the normal's hemisphere.
+//!
+//! Beside the scenes, the helpers the tests share: [`SplitMix64`], their deterministic
+//! generator; [`TestUniforms`], its numbers behind the core's [`manylights::Uniforms`]; and
+//! [`ggx`], the f64 GGX reference of the tests and the SPTD fit.
 
 pub mod ggx;
 mod rng;
+mod uniforms;
 pub use rng::{splitmix64, SplitMix64};
+pub use uniforms::TestUniforms;
 
 use glam::Vec3;
 use manylights::Rgb;

@@ -8,38 +8,24 @@ use glam::Vec3;
 use manylights::baseline::BinaryLightTree;
 use manylights::Rgb;
 use manylights::{BuildOptions, Light, LightTree, Slot};
+use manylights_testkit::SplitMix64;
 
-/// SplitMix64 (Steele, Lea, Flood 2014).
-struct Rng(u64);
+/// The scenes' generator: testkit's SplitMix64 from a raw state, with the draws of `below`
+/// and `direction` these scenes were recorded with.
+struct Rng(SplitMix64);
 
 impl Rng {
-    fn next(&mut self) -> u64 {
-        self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
-        let mut z = self.0;
-        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-        z ^ (z >> 31)
-    }
-
-    /// Uniform in [0, 1), 24 bits.
-    fn f32(&mut self) -> f32 {
-        (self.next() >> 40) as f32 * (1.0 / (1u64 << 24) as f32)
+    /// Uniform in [0, n) as the next 64 bits modulo `n`.
+    fn below(&mut self, n: u64) -> u64 {
+        self.0.next_u64() % n
     }
 
     fn range(&mut self, lo: f32, hi: f32) -> f32 {
-        lo + (hi - lo) * self.f32()
-    }
-
-    fn below(&mut self, n: u64) -> u64 {
-        self.next() % n
+        self.0.range(lo, hi)
     }
 
     fn in_cube(&mut self, half: f32) -> Vec3 {
-        Vec3::new(
-            self.range(-half, half),
-            self.range(-half, half),
-            self.range(-half, half),
-        )
+        self.0.in_cube(half)
     }
 
     /// A direction, not unit length (the build normalises), sometimes along an axis.
@@ -61,7 +47,7 @@ impl Rng {
 /// area lights, spots wider than a hemisphere, degenerate triangles), with energies over eight
 /// decades and a few lights of zero energy.
 pub fn scene(seed: u64, n: usize, style: u32) -> Vec<Light> {
-    let mut rng = Rng(seed ^ 0x6f6c_6465_6e5f_7465);
+    let mut rng = Rng(SplitMix64(seed ^ 0x6f6c_6465_6e5f_7465));
     let centres: Vec<Vec3> = (0..16).map(|_| rng.in_cube(1000.0)).collect();
     (0..n)
         .map(|i| {

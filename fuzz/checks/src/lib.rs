@@ -1,6 +1,6 @@
 //! The inputs and checks of the core's fuzz targets, in one place for the two that run them:
 //! the cargo-fuzz targets in `fuzz/fuzz_targets/` (each one line: decode, then
-//! [`check`](sptd::check)) and the core's `tests/fuzz_regressions.rs`, which replays every
+//! [`check`](sptd::check)) and this crate's `tests/regressions.rs`, which replays every
 //! committed crash input under `fuzz/regressions/<target>/` through the same checks, so that
 //! `cargo test` keeps them fixed.
 //!

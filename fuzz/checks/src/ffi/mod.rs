@@ -289,7 +289,7 @@ mod tests {
     }
 
     /// Seeded inputs of every length up to 4 KiB pass the checks (the harness itself works:
-    /// the committed crash inputs are replayed by `tests/fuzz_regressions.rs`).
+    /// the committed crash inputs are replayed by `tests/regressions.rs`).
     #[test]
     fn seeded_inputs_pass() {
         for seed in 0..300u64 {

@@ -1,15 +1,21 @@
 //! Every committed crash input of the fuzz targets (`fuzz/regressions/<target>/`) replayed
-//! through the checks its target makes, which live once in `manylights-fuzz-checks` for both
-//! the targets and this test: `cargo test` keeps every crash fixed. A `tree_bytes` input
-//! written in an older byte format is just rejected by `from_bytes` (an error, which that
-//! check accepts).
+//! through the checks its target makes, which live once in this crate for both the targets
+//! and this test: `cargo test` keeps every crash fixed. A `tree_bytes` input written in an
+//! older byte format is just rejected by `from_bytes` (an error, which that check accepts).
 
 use manylights_fuzz_checks::TARGETS;
 use std::panic::{catch_unwind, AssertUnwindSafe};
 use std::path::{Path, PathBuf};
 
+/// The fuzz workspace, `fuzz/`: this crate's parent directory.
+fn fuzz_dir() -> &'static Path {
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+        .parent()
+        .expect("the crate lies in fuzz/")
+}
+
 fn regressions() -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).join("fuzz/regressions")
+    fuzz_dir().join("regressions")
 }
 
 /// The files of `dir`, sorted (none when it does not exist).
@@ -60,9 +66,7 @@ fn every_fuzz_regression_passes_its_targets_checks() {
 #[test]
 fn every_fuzz_target_and_regression_directory_is_replayed() {
     let known: Vec<&str> = TARGETS.iter().map(|t| t.name).collect();
-    let manifest =
-        std::fs::read_to_string(Path::new(env!("CARGO_MANIFEST_DIR")).join("fuzz/Cargo.toml"))
-            .expect("fuzz/Cargo.toml");
+    let manifest = std::fs::read_to_string(fuzz_dir().join("Cargo.toml")).expect("fuzz/Cargo.toml");
     let mut bins = Vec::new();
     let mut in_bin = false;
     for line in manifest.lines().map(str::trim) {
