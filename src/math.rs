@@ -22,6 +22,9 @@
 //! [`normalize`], [`try_normalize`] and [`normalize_or_zero`] instead, glam's operations bit
 //! for bit through [`sqrt`].
 
+/// The largest f32 below 1.
+pub const ONE_MINUS_EPSILON: f32 = 1.0 - f32::EPSILON / 2.0;
+
 /// Square root (f32).
 #[inline(always)]
 pub fn sqrt(x: f32) -> f32 {

@@ -29,6 +29,7 @@ pub use frame::Frame;
 pub use ggx::Ggx;
 pub use lambert::Lambert;
 
+use crate::math::ONE_MINUS_EPSILON;
 use glam::Vec3;
 
 /// A reflection lobe in the local shading frame (normal = +z).
@@ -53,9 +54,6 @@ pub fn schlick(f0: f32, cos_theta: f32) -> f32 {
     let m2 = m * m;
     f0 + (1.0 - f0) * m2 * m2 * m
 }
-
-/// The largest f32 below 1.
-const ONE_MINUS_EPSILON: f32 = 1.0 - f32::EPSILON / 2.0;
 
 /// `u` clamped into [0, 1)², or `None` if it holds a NaN.
 #[inline]

@@ -50,8 +50,7 @@ pub struct LightSample {
 /// probability would be smaller is never sampled (see the module documentation).
 pub const MIN_PMF: f32 = f32::MIN_POSITIVE;
 
-/// The largest f32 below 1.
-pub const ONE_MINUS_EPSILON: f32 = 1.0 - f32::EPSILON / 2.0;
+pub use crate::math::ONE_MINUS_EPSILON;
 
 /// Clamps `u` into [0, 1) (NaN becomes 0).
 #[inline(always)]
