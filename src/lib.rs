@@ -113,7 +113,7 @@ pub mod infinite;
 mod infinite_light;
 mod lanes;
 pub mod light;
-pub mod light_sample;
+pub mod light_point;
 pub mod light_set;
 mod limits;
 pub mod material;
@@ -137,11 +137,11 @@ pub use error::{
     BuildError, DirectError, FormatError, LengthMismatch, LightField, LightMismatch, Problem,
     ShadingError, ShadingField, ValidationError, VplError, VplField,
 };
-pub use importance::conty_kulla::Receiver;
+pub use importance::tl::Receiver;
 pub use importance::{BlImportance, Importance, Memo, MemoTable, TlImportance};
 pub use infinite::{InfiniteKind, InfiniteLight, RootChoice, MAX_INFINITE_LIGHTS};
 pub use light::{Light, MAX_COORDINATE, MAX_LIGHT_ENERGY, MAX_TOTAL_ENERGY};
-pub use light_sample::LightPoint;
+pub use light_point::LightPoint;
 pub use light_set::{AliasTable, LightSet};
 pub use material::{Material, ShadingPoint};
 pub use mis::Heuristic;

@@ -17,7 +17,7 @@ use alloc::vec::Vec;
 use crate::build::BuildOptions;
 use crate::error::{BuildError, FormatError};
 use crate::light::Light;
-use crate::light_sample::LightPoint;
+use crate::light_point::LightPoint;
 use crate::tree::LightTree;
 use glam::Vec3;
 

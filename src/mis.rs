@@ -105,7 +105,7 @@ pub struct TechniquePdfs {
 }
 
 /// The densities of a point on `light` under every technique, for MIS: `point_pdf` is the
-/// solid-angle pdf of the point on the light (`light_sample::pdf_point`), `brdf_pdf` the
+/// solid-angle pdf of the point on the light (`light_point::pdf_point`), `brdf_pdf` the
 /// BRDF's pdf of the direction towards it. `bl` is `None` when BL is not used (diffuse-only
 /// materials). The same function serves light samples and BRDF rays that hit a light.
 pub fn technique_pdfs<B: Importance + ?Sized>(

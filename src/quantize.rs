@@ -17,7 +17,7 @@
 //!   so that the far-field pmfs stay proportional to power.
 //!
 //! The decoders here are the scalar twins of the lane-wise decode in
-//! `importance::conty_kulla`, operation for operation, so a slot decodes to the same numbers
+//! `importance::tl`, operation for operation, so a slot decodes to the same numbers
 //! whichever path reads it.
 
 use crate::bounds::{Cone, Sphere};

@@ -7,7 +7,7 @@
 use crate::direct::{Estimator, Occluder, Params, Technique, Uniforms};
 use crate::error::{DirectError, LengthMismatch};
 use crate::light::Light;
-use crate::light_sample::{sample_point, LightPoint};
+use crate::light_point::{sample_point, LightPoint};
 use crate::light_set::LightSet;
 use crate::material::ShadingPoint;
 use core::fmt;

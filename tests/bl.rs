@@ -42,7 +42,7 @@ use common::{
 };
 use glam::{DVec3, Vec3};
 use manylights::cut::MIN_CUT_SIZE;
-use manylights::importance::brdf_oriented::DEFENSIVE;
+use manylights::importance::bl::DEFENSIVE;
 use manylights::importance::sptd::SptdGgx;
 use manylights::material::ShadingField;
 use manylights::Rgb;
@@ -2335,7 +2335,7 @@ fn bad_shading_points_are_rejected_with_the_field() {
 }
 
 // ---------------------------------------------------------------------------------------------
-// Regressions (these tests fail until `src/importance/brdf_oriented.rs` is fixed)
+// Regressions (these tests fail until `src/importance/bl.rs` is fixed)
 // ---------------------------------------------------------------------------------------------
 
 /// BL of a cluster of zero extent must be the limit of BL for a shrinking cluster. docs/formulas.md

@@ -17,7 +17,7 @@ const LAYERS: [&[&str]; 7] = [
     &[
         "light",
         "bounds",
-        "light_sample",
+        "light_point",
         "brdf",
         "material",
         "infinite_light",

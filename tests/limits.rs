@@ -13,7 +13,7 @@ mod common;
 
 use common::Rng;
 use glam::Vec3;
-use manylights::light_sample::sample_point;
+use manylights::light_point::sample_point;
 use manylights::sample::MIN_PMF;
 use manylights::Rgb;
 use manylights::{

@@ -14,7 +14,7 @@ mod common;
 use common::{Rng, Stats};
 use glam::Vec3;
 use manylights::direct::{Estimator, Params, Technique, Unoccluded};
-use manylights::light_sample::sample_point;
+use manylights::light_point::sample_point;
 use manylights::Rgb;
 use manylights::{
     BlImportance, FormatError, Light, LightMismatch, LightSet, LightTree, Material, ShadingPoint,

@@ -12,7 +12,7 @@ mod common;
 
 use common::{Rng, Stats};
 use glam::{DVec3, Vec3};
-use manylights::light_sample::{intersect, pdf_direction, pdf_point, sample_point};
+use manylights::light_point::{intersect, pdf_direction, pdf_point, sample_point};
 use manylights::vpl::{Unoccluded, DEFAULT_EPSILON};
 use manylights::Rgb;
 use manylights::{

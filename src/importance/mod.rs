@@ -7,14 +7,14 @@
 //! every importance. Importances are conservative: a cluster holding a light that can contribute at
 //! the shading point gets a positive value.
 
-pub mod brdf_oriented;
-pub mod conty_kulla;
+pub mod bl;
 pub mod memo;
 pub mod sptd;
+pub mod tl;
 
-pub use brdf_oriented::BlImportance;
-pub use conty_kulla::TlImportance;
+pub use bl::BlImportance;
 pub use memo::{Memo, MemoTable, MEMO_SLOTS};
+pub use tl::TlImportance;
 
 use crate::infinite_light::InfiniteLight;
 use crate::tree::{Node4, SlotBounds};

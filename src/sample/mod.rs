@@ -527,16 +527,16 @@ impl LightTree {
             return Ok(());
         }
         if self.nodes.len() >= PMF_WIDE_NODES {
-            self.pmf_batch_with::<I, PMF_BATCH_LANES_WIDE>(imps, lights, out, PREFETCH);
+            self.pmf_batch_lanes::<I, PMF_BATCH_LANES_WIDE>(imps, lights, out, PREFETCH);
         } else {
-            self.pmf_batch_with::<I, PMF_BATCH_LANES>(imps, lights, out, false);
+            self.pmf_batch_lanes::<I, PMF_BATCH_LANES>(imps, lights, out, false);
         }
         Ok(())
     }
 
     /// [`LightTree::pmf_batch`] with `K` walks in flight, the lengths checked; with
     /// `path_hint`, each light's path prefetched [`PATH_AHEAD`] queries before its walk.
-    fn pmf_batch_with<I: Importance, const K: usize>(
+    fn pmf_batch_lanes<I: Importance, const K: usize>(
         &self,
         imps: &[I],
         lights: &[u32],

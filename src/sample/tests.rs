@@ -213,8 +213,8 @@ fn pmf_batch_widths_match_pmf() {
     for hint in [false, true] {
         let mut narrow = vec![f32::NAN; m];
         let mut wide = vec![f32::NAN; m];
-        tree.pmf_batch_with::<_, PMF_BATCH_LANES>(&imps, &ls, &mut narrow, hint);
-        tree.pmf_batch_with::<_, PMF_BATCH_LANES_WIDE>(&imps, &ls, &mut wide, hint);
+        tree.pmf_batch_lanes::<_, PMF_BATCH_LANES>(&imps, &ls, &mut narrow, hint);
+        tree.pmf_batch_lanes::<_, PMF_BATCH_LANES_WIDE>(&imps, &ls, &mut wide, hint);
         positive = 0;
         for j in 0..m {
             let want = tree.pmf(&imps[j], ls[j]).to_bits();

@@ -23,7 +23,7 @@
 use arbitrary::Arbitrary;
 use core::f32::consts::{FRAC_PI_2, PI};
 use glam::Vec3;
-use manylights::importance::brdf_oriented::MAX_IMPORTANCE;
+use manylights::importance::bl::MAX_IMPORTANCE;
 use manylights::importance::sptd::{Cap, SptdGgx};
 use manylights::material::ShadingField;
 use manylights::{f32x4, BlImportance, Material, ShadingPoint, SlotBounds, MAX_LIGHT_ENERGY};

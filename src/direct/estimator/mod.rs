@@ -22,7 +22,7 @@ use crate::colour::Rgb;
 use crate::cut::{LightCut, CUT_CAPACITY};
 use crate::infinite_light::InfiniteKind;
 use crate::light::Light;
-use crate::light_sample::{intersect, sample_point, LightPoint};
+use crate::light_point::{intersect, sample_point, LightPoint};
 use crate::light_set::LightSet;
 use crate::limits::MAX_INFINITE_LIGHTS;
 use crate::material::Material;

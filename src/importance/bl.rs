@@ -19,8 +19,8 @@
 //! keeps a positive pmf; at 5 % of a Lambert lobe of the same albedo it does not change the
 //! ranking of clusters the model sees.
 
-use super::conty_kulla::{ClusterView, ClusterView4, Receiver, COS_FLOOR, COS_SLACK};
 use super::sptd::{lambert_visible, lambert_visible4, SptdGgx, SptdGgx4};
+use super::tl::{ClusterView, ClusterView4, Receiver, COS_FLOOR, COS_SLACK};
 use super::Importance;
 use crate::error::Problem;
 use crate::infinite_light::{InfiniteKind, InfiniteLight};
