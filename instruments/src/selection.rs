@@ -34,7 +34,7 @@
 use manylights::direct::{CutSampler, LightSampler, TreeSampler};
 use manylights::importance::Importance;
 use manylights::infinite::InfiniteLight;
-use manylights::light_sample::sample_point;
+use manylights::light_point::sample_point;
 use manylights::tree::{Node4, SlotBounds};
 use manylights::{
     BlCutOptions, BlImportance, Brdf, Frame, Light, LightTree, ShadingPoint, TlImportance,
