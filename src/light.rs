@@ -38,6 +38,8 @@
 use crate::bounds::{Aabb, Cone, LightBounds, Sphere};
 use crate::colour::Rgb;
 use crate::error::{BuildError, LightField, Problem};
+pub use crate::infinite::MAX_INFINITE_LIGHTS;
+pub use crate::light_sample::{intersect, pdf_direction, pdf_point, sample_point, LightPoint};
 use crate::math;
 use core::f32::consts::{FRAC_PI_2, PI};
 use glam::Vec3;
@@ -554,7 +556,7 @@ impl Light {
 
     /// The light's bounds: box, tight bounding sphere, orientation cone and energy.
     /// Valid only for a light that passed [`Light::validate`].
-    pub fn bounds(&self) -> LightBounds {
+    pub(crate) fn bounds(&self) -> LightBounds {
         self.bounds_with_energy(self.energy())
     }
 

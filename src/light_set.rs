@@ -14,6 +14,8 @@
 
 use alloc::vec::Vec;
 
+pub use crate::infinite::{InfiniteKind, InfiniteLight, RootChoice};
+
 use crate::build::BuildOptions;
 use crate::error::{BuildError, FormatError};
 use crate::light::Light;

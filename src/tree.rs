@@ -59,23 +59,23 @@ pub const MAX_LIGHTS: u32 = (1 << 31) - 2;
 #[derive(Clone, Copy, Debug, PartialEq, Pod, Zeroable)]
 pub struct Node4 {
     /// Sphere codes, one word per slot.
-    pub sphere: [u32; 4],
+    pub(crate) sphere: [u32; 4],
     /// Cone codes, one word per slot.
-    pub cone: [u32; 4],
+    pub(crate) cone: [u32; 4],
     /// Origin of the sphere codes.
-    pub origin: [f32; 3],
+    pub(crate) origin: [f32; 3],
     /// Index of the first inner child node.
-    pub child_base: u32,
+    pub(crate) child_base: u32,
     /// Slot energies: the upper 16 bits of their 20-bit codes.
-    pub energy: [u16; 4],
+    pub(crate) energy: [u16; 4],
     /// Index of the first light slot in the leaf array.
-    pub leaf_base: u32,
+    pub(crate) leaf_base: u32,
     /// Slot energies: the low 4 bits of their codes, slot k in bits 4k..4k+4.
-    pub energy_low: u16,
+    pub(crate) energy_low: u16,
     /// Scale exponent of the sphere codes (biased by 127).
-    pub exponent: u8,
+    pub(crate) exponent: u8,
     /// Inner-node slots in bits 0–3, light slots in bits 4–7.
-    pub mask: u8,
+    pub(crate) mask: u8,
 }
 
 /// What a slot of a [`Node4`] holds, as the node alone knows it.
@@ -208,7 +208,7 @@ impl Node4 {
     }
 
     /// Sets slot `k`'s energy code (the upper 20 bits of an f32, see `quantize`).
-    pub fn set_energy_code(&mut self, k: usize, code: u32) {
+    pub(crate) fn set_energy_code(&mut self, k: usize, code: u32) {
         let k = k & 3;
         self.energy[k] = (code >> 4) as u16;
         let shift = 4 * k as u32;
@@ -260,12 +260,12 @@ impl Node4 {
 
     /// Slot `k`'s sphere, decoded.
     #[inline]
-    pub fn sphere(&self, k: usize) -> Sphere {
+    pub(crate) fn sphere(&self, k: usize) -> Sphere {
         quantize::decode_sphere(self.sphere[k & 3], self.origin, self.scale())
     }
 
     /// Slot `k`'s cone, decoded.
-    pub fn cone(&self, k: usize) -> Cone {
+    pub(crate) fn cone(&self, k: usize) -> Cone {
         quantize::decode_cone(self.cone[k & 3])
     }
 }
@@ -328,7 +328,7 @@ pub(crate) fn path_len(path: u64) -> u32 {
 pub const FORMAT_VERSION: u8 = 4;
 const MAGIC: [u8; 7] = *b"MLTREE\x00";
 /// Bytes of the header: magic (7), version (1), payload length (8), checksum (8).
-pub const HEADER_BYTES: usize = 24;
+pub(crate) const HEADER_BYTES: usize = 24;
 /// Bytes of the payload's own header: three counts (8 each), the depth (4), the byte-order
 /// mark (4).
 const COUNTS: usize = 32;
@@ -338,7 +338,7 @@ const COUNTS: usize = 32;
 /// write payloads of their own (a fuzzer that reaches the parser behind the checksum, a
 /// test of the structural checks); [`LightTree::from_bytes`] still validates the payload
 /// fully.
-pub fn seal(payload: &[u8]) -> Vec<u8> {
+pub(crate) fn seal(payload: &[u8]) -> Vec<u8> {
     let mut out = Vec::with_capacity(HEADER_BYTES + payload.len());
     out.extend_from_slice(&MAGIC);
     out.push(FORMAT_VERSION);

@@ -10,7 +10,8 @@ mod common;
 
 use common::{Rng, Stats};
 use glam::{DVec3, Vec3};
-use manylights::light_sample::{intersect, pdf_direction, pdf_point, sample_point};
+use manylights::internals::light::LightExt;
+use manylights::light::{intersect, pdf_direction, pdf_point, sample_point};
 use manylights::Rgb;
 use manylights::{Light, LightPoint};
 use std::f64::consts::PI;
@@ -432,7 +433,7 @@ fn triangle_samples_are_distributed_as_claimed() {
         }
         let v = vertices.map(|p| d(p) - d(x));
         let omega = solid_angle(v[0], v[1], v[2]);
-        let spherical = omega >= manylights::light_sample::MIN_SPHERICAL_SOLID_ANGLE;
+        let spherical = omega >= manylights::internals::light_sample::MIN_SPHERICAL_SOLID_ANGLE;
         // Cells in barycentric (b1, b2) coordinates: an m×m grid of upward and downward
         // triangles, m = 2^levels.
         let m = 1usize << levels;

@@ -14,11 +14,11 @@ mod common;
 use common::{Rng, Stats};
 use glam::Vec3;
 use manylights::direct::{Estimator, Params, Technique, Uniforms, Unoccluded};
-use manylights::light_sample::sample_point;
+use manylights::error::LightMismatch;
+use manylights::light::sample_point;
 use manylights::Rgb;
 use manylights::{
-    BlImportance, FormatError, Light, LightMismatch, LightSet, LightTree, Material, ShadingPoint,
-    TlImportance,
+    BlImportance, FormatError, Light, LightSet, LightTree, Material, ShadingPoint, TlImportance,
 };
 
 /// The mixed scene of the corruption test: 4,000 lights of every kind (seeded).

@@ -8,7 +8,7 @@ mod common;
 use common::Rng;
 use glam::Vec3;
 use manylights::direct::{DirectError, Estimator, Params, Technique, Uniforms, Unoccluded};
-use manylights::light_sample::sample_point;
+use manylights::light::sample_point;
 use manylights::wavefront::{estimate_each, sample_points, BatchError};
 use manylights::{LengthMismatch, LightSet, Material, Rgb, ShadingPoint};
 

@@ -18,7 +18,7 @@ use manylights::direct::{
     BsdfDraw, DirectError, Environment, EnvironmentDraw, EnvironmentSample, LambertMode, LightDraw,
     Occluder, Params, Step, Technique, Uniforms,
 };
-use manylights::mis::MAX_BUDGET;
+use manylights::MAX_BUDGET;
 use manylights::{Estimator, Heuristic, LightSet};
 use std::cell::Cell;
 use std::sync::Arc;

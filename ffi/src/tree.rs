@@ -9,10 +9,10 @@ use crate::types::{
     build_error, finite3, light, ml_light, ml_light_point, ml_light_sample, ml_shading_point,
     ml_tl_point, ml_vec3, shading_point, tl_point, unit,
 };
-use manylights::light_sample::{pdf_point, sample_point};
+use manylights::error::LightMismatch;
+use manylights::light::{pdf_point, sample_point};
 use manylights::{
-    BlImportance, BuildOptions, FormatError, Light, LightMismatch, LightSet, LightTree,
-    TlImportance,
+    BlImportance, BuildOptions, FormatError, Light, LightSet, LightTree, TlImportance,
 };
 use std::sync::Arc;
 

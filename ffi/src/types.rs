@@ -3,8 +3,8 @@
 
 use crate::error::{Error, Result};
 use glam::Vec3;
+use manylights::error::ShadingField;
 use manylights::error::{LightField, Num, Problem};
-use manylights::material::ShadingField;
 use manylights::{
     BuildError, Light, LightPoint, LightSample, Material, Rgb, ShadingError, ShadingPoint,
 };
@@ -566,7 +566,7 @@ pub(crate) fn build_error(e: BuildError, lights: &[ml_light], name: &str) -> Err
         )),
         BuildError::TooManyInfiniteLights { count } => Error::invalid(format_args!(
             "{name}: {count} distant and environment lights (at most {})",
-            manylights::MAX_INFINITE_LIGHTS
+            manylights::light::MAX_INFINITE_LIGHTS
         )),
     }
 }

@@ -3,7 +3,7 @@
 
 use glam::Vec3;
 use manylights::direct::{Estimator, LambertMode, Params, Technique, Unoccluded};
-use manylights::trace::trace_all;
+use manylights::internals::trace::trace_all;
 use manylights::Rgb;
 use manylights::{Light, Material, ShadingPoint};
 use manylights_render::instruments::estimator::reference::reference;

@@ -7,18 +7,21 @@
 //! every importance. Importances are conservative: a cluster holding a light that can contribute at
 //! the shading point gets a positive value.
 
-pub mod brdf_oriented;
-pub mod conty_kulla;
-pub mod memo;
-pub mod sptd;
+pub(crate) mod brdf_oriented;
+pub(crate) mod conty_kulla;
+mod memo;
+pub(crate) mod sptd;
 
-pub use brdf_oriented::BlImportance;
-pub use conty_kulla::TlImportance;
+pub use brdf_oriented::{BlEval, BlImportance};
+pub use conty_kulla::{Receiver, TlImportance};
 pub use memo::{Memo, MemoTable, MEMO_SLOTS};
+/// The lane type of the 4-wide importances: [`Importance::eval4`] returns one (a node's four
+/// slots), so a host that implements [`Importance`] or reads its lanes needs it. It is `wide`'s
+/// `f32x4` (version 1), re-exported so that hosts need not depend on `wide` themselves.
+pub use wide::f32x4;
 
 use crate::infinite::InfiniteLight;
 use crate::tree::{Node4, SlotBounds};
-use wide::f32x4;
 
 /// A per-shading-point importance, evaluated four slots at a time.
 pub trait Importance {

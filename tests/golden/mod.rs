@@ -6,8 +6,9 @@
 
 use glam::Vec3;
 use manylights::baseline::BinaryLightTree;
+use manylights::tree::Slot;
 use manylights::Rgb;
-use manylights::{BuildOptions, Light, LightTree, Slot};
+use manylights::{BuildOptions, Light, LightTree};
 
 /// SplitMix64 (Steele, Lea, Flood 2014).
 struct Rng(u64);

@@ -36,7 +36,7 @@
 
 use crate::instruments::ggx::{cap_integral, wo_local, Cap64, Ggx};
 use glam::DVec3;
-use manylights::importance::sptd::SptdGgx;
+use manylights::internals::sptd::SptdGgx;
 use rand::{Rng, SeedableRng};
 use rand_pcg::Pcg64Mcg;
 use rayon::prelude::*;

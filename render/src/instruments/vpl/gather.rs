@@ -16,10 +16,9 @@
 use crate::render::primary;
 use crate::scene::{Geometry, RenderScene};
 use glam::Vec3;
+use manylights::cut::CUT_CAPACITY;
 use manylights::Occluder;
-use manylights::{
-    Light, LightCut, LightSample, LightTree, SplitCutOptions, TlImportance, Vpl, CUT_CAPACITY,
-};
+use manylights::{Light, LightCut, LightSample, LightTree, SplitCutOptions, TlImportance, Vpl};
 use rand::{Rng, SeedableRng};
 use rand_pcg::Pcg64Mcg;
 use std::f32::consts::FRAC_1_PI;
