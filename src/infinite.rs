@@ -46,6 +46,7 @@ const FOUR_PI: f32 = 4.0 * core::f32::consts::PI;
 
 /// What an [`InfiniteLight`] entry is.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[non_exhaustive]
 pub enum InfiniteKind {
     /// A [`Light::Distant`].
     Distant,

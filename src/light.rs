@@ -57,6 +57,7 @@ pub const MAX_TOTAL_ENERGY: f32 = 1e26;
 /// the table). The tree ranks lights by the luminance of these ([`Rgb::luminance`]), so a grey
 /// light samples as a scalar one of the same value.
 #[derive(Clone, Copy, Debug, PartialEq)]
+#[non_exhaustive]
 pub enum Light {
     /// Isotropic point light.
     Point {

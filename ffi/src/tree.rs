@@ -404,6 +404,7 @@ fn mismatch(m: LightMismatch) -> String {
              checksum), though each lies inside its slot"
         ),
         LightMismatch::Invalid(e) => e.to_string(),
+        _ => m.to_string(),
     }
 }
 

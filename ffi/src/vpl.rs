@@ -130,6 +130,7 @@ fn vpl_error(e: VplError, at: &str) -> Error {
         VplField::ImportonNormal => format!("{at}.normal"),
         VplField::ImportonWo => format!("{at}.wo"),
         VplField::ImportonMaterial => format!("{at}.material"),
+        _ => format!("{at} ({})", e.field.name()),
     };
     let what = match (e.field, e.problem) {
         (VplField::Xi, manylights::error::Problem::OutOfRange) => "must be in [0, 1)",

@@ -185,6 +185,7 @@ use glam::Vec3;
 
 /// A direct-lighting technique.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+#[non_exhaustive]
 pub enum Technique {
     /// One light uniformly.
     Uniform,
@@ -279,6 +280,7 @@ impl fmt::Display for Technique {
 /// nearly exact, and a cosine-distributed BRDF sample only adds variance and a ray;
 /// docs/measurements.md has the measurements behind the default.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Default)]
+#[non_exhaustive]
 pub enum LambertMode {
     /// TL split alone (the default): the Lambert share of IB(x) asks for no BRDF-aware
     /// samples ([`crate::mis::brdf_budget`]).

@@ -179,6 +179,7 @@ pub fn zero_energy(l: &Light) -> bool {
         Light::Distant { .. } | Light::Environment { .. } => {
             unreachable!("lights at infinity are tested in tests/infinite.rs")
         }
+        _ => unimplemented!("a light kind the tests do not know"),
     }
 }
 
@@ -222,6 +223,7 @@ pub fn push_emitter_points(rng: &mut Rng, lights: &[Light], half: f32, xs: &mut 
             Light::Distant { .. } | Light::Environment { .. } => {
                 unreachable!("lights at infinity are tested in tests/infinite.rs")
             }
+            _ => unimplemented!("a light kind the tests do not know"),
         };
         let t = half * rng.log_range(1e-4, 10.0);
         xs.push(c - m * t);
@@ -259,6 +261,7 @@ pub fn point_on_light(rng: &mut Rng, l: &Light) -> Vec3 {
         Light::Distant { .. } | Light::Environment { .. } => {
             unreachable!("lights at infinity are tested in tests/infinite.rs")
         }
+        _ => unimplemented!("a light kind the tests do not know"),
     }
 }
 
@@ -603,6 +606,7 @@ pub fn contributes(light: &Light, x: Vec3, n: Vec3, receiver: Receiver, margin: 
         Light::Distant { .. } | Light::Environment { .. } => {
             unreachable!("lights at infinity are tested in tests/infinite.rs")
         }
+        _ => unimplemented!("a light kind the tests do not know"),
     }
 }
 
@@ -732,6 +736,7 @@ pub fn move_to(l: &mut Light, c: Vec3) {
         Light::Distant { .. } | Light::Environment { .. } => {
             unreachable!("lights at infinity are tested in tests/infinite.rs")
         }
+        _ => unimplemented!("a light kind the tests do not know"),
     }
 }
 
