@@ -32,7 +32,7 @@
 //! - a distant light's direction finite and non-zero (normalised here), its angular radius γ
 //!   in [0, π/2], its irradiance's luminance at most [`MAX_LIGHT_ENERGY`]; an environment's
 //!   six bounds finite, ≥ 0 and at most [`MAX_LIGHT_ENERGY`]. At most
-//!   [`MAX_INFINITE_LIGHTS`](crate::infinite::MAX_INFINITE_LIGHTS) distant and environment
+//!   `MAX_INFINITE_LIGHTS` distant and environment
 //!   lights in all, at most one environment (checked by the build).
 
 use crate::bounds::{Aabb, Cone, LightBounds, Sphere};
@@ -486,7 +486,7 @@ impl Light {
     }
 
     /// Whether the light is at infinity (distant or environment): it has no position, is not
-    /// in the node tree and is weighed against it at the root (see [`crate::infinite`]).
+    /// in the node tree and is weighed against it at the root (see [`crate::light_set`]).
     #[inline]
     pub fn is_infinite(&self) -> bool {
         matches!(self, Light::Distant { .. } | Light::Environment { .. })
@@ -547,7 +547,7 @@ impl Light {
     /// for virtual point lights, L·π·A per emitting side for area lights, in W when
     /// intensity is in W/sr and radiance in W/(m²·sr); 0 for distant and environment lights
     /// (no finite flux: they are weighed at each shading point by their irradiance instead, see
-    /// [`crate::infinite`]). Computed in f64 and rounded to the nearest f32, but never to 0 for
+    /// [`crate::light_set`]). Computed in f64 and rounded to the nearest f32, but never to 0 for
     /// a light that emits: a positive energy below f32's range is the smallest positive f32,
     /// 2⁻¹⁴⁹, so that every light that can light a point is in the tree. Valid only for a light
     /// that passed [`Light::validate`].

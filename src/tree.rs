@@ -1,16 +1,16 @@
 //! The light tree as flat, `bytemuck::Pod` arrays: [`Node4`] (four child clusters quantised
 //! into one 64-byte cache line), the lights of the leaf slots in tree order, and per-light
 //! paths, both bit-packed, and beside the nodes the distant and environment lights
-//! ([`InfiniteLight`], weighed against the nodes at the root: [`crate::infinite`]); its
+//! ([`InfiniteLight`], weighed against the nodes at the root: [`crate::light_set`]); its
 //! self-check ([`LightTree::validate`]) and its byte serialisation.
 //!
 //! This file holds the [`LightTree`] type and the part of its API that reads the finished
 //! tree: the accessors ([`LightTree::nodes`], [`LightTree::slot`], [`LightTree::path`],
 //! [`LightTree::stats`], …), the checks ([`LightTree::validate`],
 //! [`LightTree::validate_lights`]) and the byte form ([`LightTree::as_bytes`],
-//! [`LightTree::from_bytes`]). The rest of its API is spread over [`crate::build`] (building),
-//! [`crate::sample`] (sampling and pmfs), [`crate::cut`] (sampling inside one cluster,
-//! [`LightTree::sample_cluster`]) and [`crate::trace`] (the lights a ray reaches).
+//! [`LightTree::from_bytes`]). The rest of its API is spread over `crate::build` (building),
+//! `crate::sample` (sampling and pmfs), [`crate::cut`] (sampling inside one cluster,
+//! [`LightTree::sample_cluster`]) and `crate::trace` (the lights a ray reaches).
 
 use crate::bounds::{Cone, Sphere};
 use crate::checksum::{self, light_check_count, LIGHT_BLOCK};
@@ -670,7 +670,7 @@ impl LightTree {
     }
 
     /// Checks that `lights` are the lights this tree was built from, block by block of
-    /// [`LIGHT_BLOCK`] lights in index order: their number first; then in each block every
+    /// `LIGHT_BLOCK` lights in index order: their number first; then in each block every
     /// light valid ([`Light::validate`]), in the tree exactly when its energy is positive, its
     /// exact bounds inside its leaf slot, and the block's CRC-64 the one the tree stores; and
     /// the total energy within [`crate::MAX_TOTAL_ENERGY`]. The error names the first
@@ -725,13 +725,13 @@ impl LightTree {
     /// The tree as bytes, for a host to cache or send to another process; read back with
     /// [`LightTree::from_bytes`] (or, with the lights, `LightSet::from_bytes`).
     ///
-    /// Format version 4 ([`FORMAT_VERSION`]). A header of [`HEADER_BYTES`] bytes: the magic
+    /// Format version 4 ([`FORMAT_VERSION`]). A header of `HEADER_BYTES` bytes: the magic
     /// `MLTREE\0`, the version byte, then as little-endian u64 the payload's length and its
-    /// CRC-64/XZ ([`checksum::crc64`]). The payload: as little-endian integers the node, light
+    /// CRC-64/XZ (`checksum::crc64`). The payload: as little-endian integers the node, light
     /// and leaf counts (u64 each) and the depth (u32), then a byte-order mark (the u32
     /// `0x01020304` in the host's byte order), followed in the host's byte order by the nodes,
     /// the node variances (u16 each), the leaf array, the paths and the lights' checksums
-    /// (one u64 per block of [`LIGHT_BLOCK`] lights, [`checksum::light_checks`]), then the section
+    /// (one u64 per block of `LIGHT_BLOCK` lights, `checksum::light_checks`), then the section
     /// of the distant and environment lights: their count as a little-endian u64, then the
     /// 64-byte [`InfiniteLight`] entries (in the host's byte order). The leaf
     /// array holds each light slot's light index in as many bits as the largest index needs

@@ -47,7 +47,7 @@ pub trait Importance {
     }
 
     /// The importance of a distant or environment light at the shading point, in the units
-    /// of the node tree's importances (4π times an irradiance; see [`crate::infinite`]), so
+    /// of the node tree's importances (4π times an irradiance; see [`crate::light_set`]), so
     /// that the root weighs it against the tree: never negative or NaN, and positive wherever
     /// the light can contribute (for the environment: wherever the host's bounds are).
     fn eval_infinite(&self, light: &InfiniteLight) -> f32;

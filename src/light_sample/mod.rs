@@ -144,7 +144,7 @@ fn unit_square(u: [f32; 2]) -> Option<[f64; 2]> {
 }
 
 /// Samples a point on `light` as seen from the shading point `x`, for `u` uniform in [0, 1)²
-/// (see the [module documentation](self) for the pdf and the estimator).
+/// (see the module documentation for the pdf and the estimator).
 ///
 /// ```
 /// use manylights::{light_sample, Light, Rgb};
