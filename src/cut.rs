@@ -604,9 +604,9 @@ impl LightCut {
     /// a time, interleaved, so their dependent steps overlap.
     ///
     /// ```
-    /// use manylights::{
-    ///     Light, LightCut, LightTree, Memo, MemoTable, SplitCutOptions, TlImportance, CUT_CAPACITY,
-    /// };
+    /// use manylights::cut::CUT_CAPACITY;
+    /// use manylights::importance::MemoTable;
+    /// use manylights::{Light, LightCut, LightTree, Memo, SplitCutOptions, TlImportance};
     /// use glam::Vec3;
     ///
     /// let lights: Vec<Light> = (0..200)
