@@ -87,7 +87,7 @@ fn direct(c: &mut Criterion) {
 /// `Estimator::new` and `estimate` against `wavefront::estimate_each`; and 4,096 points on
 /// lights, `sample_point` per triple against `wavefront::sample_points`.
 fn wavefront(c: &mut Criterion) {
-    use manylights::light_point::sample_point;
+    use manylights::light::sample_point;
     use manylights::wavefront::{estimate_each, sample_points};
     let set = LightSet::build(random_scene::lights(100_000, 13)).unwrap();
     let plastic = Material::Plastic {

@@ -6,8 +6,9 @@
 //! at one shading point.
 
 use criterion::{criterion_group, criterion_main, Criterion, Throughput};
+use manylights::tree::{Child, Node4};
 use manylights::Rgb;
-use manylights::{BlImportance, Child, Importance, LightTree, Material, Node4, TlImportance};
+use manylights::{BlImportance, Importance, LightTree, Material, TlImportance};
 use manylights_testkit as random_scene;
 use std::hint::black_box;
 
@@ -44,7 +45,7 @@ fn bench_pair<I: Importance>(c: &mut Criterion, name: &str, imps: &[I], nodes: &
     });
     group.bench_function(format!("{name} 4-wide"), |b| {
         b.iter(|| {
-            let mut acc = manylights::f32x4::ZERO;
+            let mut acc = manylights::importance::f32x4::ZERO;
             for imp in imps {
                 for node in nodes {
                     acc += black_box(imp).eval4(black_box(node));

@@ -11,10 +11,12 @@
 
 use criterion::{criterion_group, criterion_main, BenchmarkId, Criterion, Throughput};
 use manylights::baseline::BinaryLightTree;
+use manylights::cut::CUT_CAPACITY;
+use manylights::importance::MemoTable;
 use manylights::Rgb;
 use manylights::{
     BlCutOptions, BlImportance, BuildOptions, Join, LightCut, LightSample, LightTree, Material,
-    Memo, MemoTable, SplitCutOptions, TlImportance, CUT_CAPACITY,
+    Memo, SplitCutOptions, TlImportance,
 };
 use manylights_testkit as random_scene;
 use std::hint::black_box;

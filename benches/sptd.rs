@@ -3,8 +3,8 @@
 
 use criterion::{criterion_group, criterion_main, Criterion, Throughput};
 use glam::Vec3;
-use manylights::f32x4;
-use manylights::importance::sptd::SptdGgx;
+use manylights::importance::f32x4;
+use manylights::internals::sptd::SptdGgx;
 use manylights_testkit as random_scene;
 use std::hint::black_box;
 

@@ -16,9 +16,10 @@
 //! counted with `--toggle-collect='*bl_pass_loop*'`), the second the roughness α (default
 //! 0.2, the bench's).
 
+use manylights::tree::Node4;
 use manylights::Rgb;
 use manylights::{
-    BlCutOptions, BlImportance, Importance, LightCut, LightTree, Material, Node4, ShadingPoint,
+    BlCutOptions, BlImportance, Importance, LightCut, LightTree, Material, ShadingPoint,
     TlImportance,
 };
 use manylights_testkit as random_scene;
@@ -29,7 +30,7 @@ const POINTS: usize = 16;
 
 #[inline(never)]
 fn eval_loop<I: Importance>(imps: &[I], nodes: &[Node4]) -> f32 {
-    let mut acc = manylights::f32x4::ZERO;
+    let mut acc = manylights::importance::f32x4::ZERO;
     for imp in imps {
         for node in nodes {
             acc += black_box(imp).eval4(black_box(node));
@@ -48,7 +49,10 @@ fn bl_pass_loop(tree: &LightTree, sps: &[ShadingPoint], us: &[f32]) -> (usize, f
     for (sp, &u) in sps.iter().zip(us) {
         let imp = BlImportance::new(black_box(sp)).unwrap();
         let cut = LightCut::build_bl(tree, &imp, &opts);
-        let n = manylights::mis::sample_budget(cut.max_score(), manylights::mis::N_MAX);
+        let n = manylights::internals::mis::sample_budget(
+            cut.max_score(),
+            manylights::internals::mis::N_MAX,
+        );
         for j in 0..n {
             let uj = (u + j as f32 * 0.618_034).fract();
             if let Some(s) = cut.sample(tree, &imp, black_box(uj)) {

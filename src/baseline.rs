@@ -5,7 +5,7 @@
 //! Nodes are 48 bytes (pbrt-v4 quantises to 32 plus a hash map per light for pmf queries; here
 //! each light's path is stored instead). A node's left child follows it in memory, the right
 //! child's index is stored. Descent evaluates both children with [`TlImportance::eval`] and
-//! never allocates; the same fallback and vanishing-light rules as [`crate::sample`] apply.
+//! never allocates; the same fallback and vanishing-light rules as the 4-wide descent apply.
 
 use crate::build::saoh::children;
 use crate::build::{binary, BuildOptions};
@@ -139,7 +139,7 @@ impl BinaryLightTree {
 
     /// Importances of the two children of inner node `i`, or their energies below the root
     /// when both are 0; a child whose path probability from a node reached with probability
-    /// `reach` would fall below [`MIN_PMF`] gets weight 0 (as in [`crate::sample`]).
+    /// `reach` would fall below [`MIN_PMF`] gets weight 0 (as in the 4-wide descent).
     #[inline(always)]
     fn weights(
         &self,

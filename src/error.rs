@@ -4,6 +4,7 @@ use core::fmt;
 
 /// The field of a [`crate::Light`] that failed validation.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[non_exhaustive]
 pub enum LightField {
     /// `position` of a point or spot light.
     Position,
@@ -55,6 +56,7 @@ impl LightField {
 
 /// What is wrong with a light's field.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[non_exhaustive]
 pub enum Problem {
     /// NaN or infinite.
     NotFinite,
@@ -117,6 +119,7 @@ fn light_problem(field: LightField, problem: Problem) -> &'static str {
 
 /// Why a [`crate::LightTree`] could not be built.
 #[derive(Clone, Copy, Debug, PartialEq)]
+#[non_exhaustive]
 pub enum BuildError {
     /// Light `index` has a bad `field`; `value` is the offending number (a vector's first bad
     /// component, or its length).
@@ -199,6 +202,7 @@ impl core::error::Error for BuildError {}
 
 /// Why bytes given to [`crate::LightTree::from_bytes`] were rejected.
 #[derive(Clone, Copy, Debug, PartialEq)]
+#[non_exhaustive]
 pub enum FormatError {
     /// Shorter than the header or than the arrays the header announces.
     Truncated,
@@ -253,6 +257,7 @@ impl core::error::Error for FormatError {}
 /// Why lights are not the ones a tree was built from ([`crate::LightTree::check_lights`]): the
 /// first mismatch, in index order.
 #[derive(Clone, Copy, Debug, PartialEq)]
+#[non_exhaustive]
 pub enum LightMismatch {
     /// Not as many lights as the tree was built from.
     Count {
@@ -323,6 +328,7 @@ impl core::error::Error for LightMismatch {}
 /// An invariant of a [`crate::LightTree`] that does not hold (see
 /// [`crate::LightTree::validate`]).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[non_exhaustive]
 pub enum ValidationError {
     /// A child index points outside the node array, or a node is referenced twice.
     BadChild {
@@ -423,6 +429,7 @@ impl core::error::Error for ValidationError {}
 
 /// The input of the VPL acceptance ([`crate::vpl`]) that was rejected.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[non_exhaustive]
 pub enum VplField {
     /// A candidate's `position`.
     Position,
@@ -539,6 +546,7 @@ impl core::error::Error for LengthMismatch {}
 
 /// Why an estimator refused its input.
 #[derive(Clone, Copy, Debug, PartialEq)]
+#[non_exhaustive]
 pub enum DirectError {
     /// The shading point is invalid.
     Shading(ShadingError),
@@ -625,6 +633,7 @@ impl core::error::Error for DirectError {}
 
 /// A field of a [`crate::ShadingPoint`].
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[non_exhaustive]
 pub enum ShadingField {
     /// `position`.
     Position,

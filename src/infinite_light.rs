@@ -13,6 +13,7 @@ use glam::Vec3;
 
 /// What an [`InfiniteLight`] entry is.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[non_exhaustive]
 pub enum InfiniteKind {
     /// A [`Light::Distant`].
     Distant,

@@ -4,7 +4,7 @@
 //! exactly known probabilities.
 //!
 //! Lights ([`Light`]) are built into a [`LightTree`] with the SAOH heuristic and packed into
-//! flat 4-wide [`Node4`] arrays. At a shading point an [`Importance`] (here the classic
+//! flat 4-wide [`Node4`](tree::Node4) arrays. At a shading point an [`Importance`] (here the classic
 //! [`TlImportance`] of Conty & Kulla) ranks the four children of a node at once in f32x4
 //! lanes, and [`LightTree::sample`] descends the tree with one uniform number, reporting the
 //! light's probability; [`LightTree::pmf`] gives that same probability for any light.
@@ -78,7 +78,7 @@
 //! deep. A light that emits has a positive energy however small (at least 2⁻¹⁴⁹), so it is
 //! in the tree.
 //!
-//! Probabilities: a sampled light's pmf is at least [`sample::MIN_PMF`] (2⁻¹²⁶). A light that
+//! Probabilities: a sampled light's pmf is at least [`MIN_PMF`] (2⁻¹²⁶). A light that
 //! can contribute at a point has pmf > 0 there except in one case: its probability would be
 //! below `MIN_PMF` (at some node on its path the probability of reaching its slot falls below
 //! it; such slots get weight 0 and their siblings share their probability, so the pmfs still
@@ -88,6 +88,9 @@
 #![cfg_attr(not(feature = "prefetch"), forbid(unsafe_code))]
 #![cfg_attr(feature = "prefetch", deny(unsafe_code))]
 #![deny(missing_docs)]
+// Without `internals`, what only the tests, fuzz checks and instruments reach (through
+// `internals`) has no user inside the crate; with it (as every test build has) it is checked.
+#![cfg_attr(not(feature = "internals"), allow(dead_code, unused_imports))]
 
 /// The README, whose Rust example `cargo test --doc` compiles and runs.
 #[cfg(doctest)]
@@ -100,30 +103,29 @@ extern crate alloc;
 /// yardstick), with the cargo feature `baseline`; not part of the default API.
 #[cfg(feature = "baseline")]
 pub mod baseline;
-pub mod bounds;
-pub mod brdf;
-pub mod build;
-pub mod checksum;
-pub mod colour;
+mod bounds;
+mod brdf;
+mod build;
+mod checksum;
+mod colour;
 pub mod cut;
 pub mod direct;
 pub mod error;
 pub mod importance;
-pub mod infinite;
+mod infinite;
 mod infinite_light;
 mod lanes;
 pub mod light;
-pub mod light_point;
 pub mod light_set;
 mod limits;
 pub mod material;
 mod math;
-pub mod mis;
+mod mis;
 mod packed;
 mod prefetch;
-pub mod quantize;
-pub mod sample;
-pub mod trace;
+mod quantize;
+mod sample;
+mod trace;
 pub mod tree;
 pub mod vpl;
 pub mod wavefront;
@@ -131,24 +133,20 @@ pub mod wavefront;
 pub use brdf::{Brdf, Frame, Ggx, Lambert};
 pub use build::{BuildOptions, Join, Serial};
 pub use colour::Rgb;
-pub use cut::{BlCutOptions, Cluster, LightCut, SplitCutOptions, CUT_CAPACITY};
+pub use cut::{BlCutOptions, LightCut, SplitCutOptions};
 pub use direct::{Estimator, LightSampler, Occluder, Params, Technique, Uniforms};
 pub use error::{
-    BuildError, DirectError, FormatError, LengthMismatch, LightField, LightMismatch, Problem,
-    ShadingError, ShadingField, ValidationError, VplError, VplField,
+    BuildError, DirectError, FormatError, LengthMismatch, ShadingError, ValidationError, VplError,
 };
-pub use importance::tl::Receiver;
-pub use importance::{BlImportance, Importance, Memo, MemoTable, TlImportance};
-pub use infinite::{InfiniteKind, InfiniteLight, RootChoice, MAX_INFINITE_LIGHTS};
-pub use light::{Light, MAX_COORDINATE, MAX_LIGHT_ENERGY, MAX_TOTAL_ENERGY};
-pub use light_point::LightPoint;
-pub use light_set::{AliasTable, LightSet};
+pub use importance::{BlImportance, Importance, Memo, TlImportance};
+pub use light::{Light, LightPoint, MAX_COORDINATE, MAX_LIGHT_ENERGY, MAX_TOTAL_ENERGY};
+pub use light_set::LightSet;
 pub use material::{Material, ShadingPoint};
-pub use mis::Heuristic;
-pub use sample::{LightSample, BATCH_LANES};
-pub use tree::{Child, LightTree, Node4, Slot, SlotBounds, Spheres4, TreeStats};
+pub use mis::{Heuristic, MAX_BUDGET};
+pub use sample::{LightSample, MIN_PMF};
+pub use tree::LightTree;
 pub use vpl::{Importons, Vpl, VplAcceptor};
-/// The lane type of the 4-wide importances: [`Importance::eval4`] returns one (a node's four
-/// slots), so a host that implements [`Importance`] or reads its lanes needs it. It is `wide`'s
-/// `f32x4` (version 1), re-exported so that hosts need not depend on `wide` themselves.
-pub use wide::f32x4;
+
+#[cfg(feature = "internals")]
+#[doc(hidden)]
+pub mod internals;

@@ -1,6 +1,6 @@
 //! A renderer's lights as the direct-lighting estimators use them: the lights themselves (for
 //! points on them and ray hits), their [`LightTree`] (the node tree and, beside it, the distant
-//! and environment lights it weighs against the nodes at the root: [`crate::infinite`]), and
+//! and environment lights it weighs against the nodes at the root: [`crate::light_set`]), and
 //! an alias table for sampling ∝ power.
 //!
 //! The power of a light at infinity, for the alias table (pbrt-v4's `Phi` of its infinite
@@ -14,10 +14,13 @@
 
 use alloc::vec::Vec;
 
+pub use crate::infinite::RootChoice;
+pub use crate::infinite_light::{InfiniteKind, InfiniteLight};
+
 use crate::build::BuildOptions;
 use crate::error::{BuildError, FormatError};
+use crate::light::point::LightPoint;
 use crate::light::Light;
-use crate::light_point::LightPoint;
 use crate::tree::LightTree;
 use glam::Vec3;
 

@@ -18,6 +18,7 @@ pub const MIN_ALPHA: f32 = 5e-3;
 
 /// A surface's reflectance.
 #[derive(Clone, Copy, Debug, PartialEq)]
+#[non_exhaustive]
 pub enum Material {
     /// Diffuse: f = albedo/π.
     Lambert {

@@ -143,10 +143,11 @@ pub fn power(n_a: f32, pdf_a: f32, others: &[(f32, f32)]) -> f32 {
 /// The MIS heuristic of the combined estimators (Veach 1997, section 9.2): how the weight of a
 /// technique grows with its density against the others'.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
+#[non_exhaustive]
 pub enum Heuristic {
-    /// `n_a·pdf_a / Σ n·pdf` ([`balance`]).
+    /// `n_a·pdf_a / Σ n·pdf` (`balance`).
     Balance,
-    /// `(n_a·pdf_a)² / Σ (n·pdf)²`, β = 2 ([`power`]); the default.
+    /// `(n_a·pdf_a)² / Σ (n·pdf)²`, β = 2 (`power`); the default.
     #[default]
     Power,
 }
@@ -163,8 +164,8 @@ impl Heuristic {
         }
     }
 
-    /// The weight of technique `a` among `others` by this heuristic ([`balance`] or
-    /// [`power`]).
+    /// The weight of technique `a` among `others` by this heuristic (`balance` or
+    /// `power`).
     #[inline]
     pub fn weight(self, n_a: f32, pdf_a: f32, others: &[(f32, f32)]) -> f32 {
         heuristic(n_a, pdf_a, others, self == Heuristic::Power)
@@ -376,8 +377,8 @@ pub struct Factors {
     pub pdf: f32,
 }
 
-/// The most BRDF-aware samples per shading point [`SequentialWeights`] can record
-/// ([`sample_budget`] never asks for more).
+/// The most BRDF-aware samples per shading point `SequentialWeights` can record
+/// (`sample_budget` never asks for more).
 pub const MAX_BUDGET: u32 = 64;
 
 /// MIS weights for TL plus a sequence of N BRDF-aware samples whose BL probability `p_j`

@@ -135,8 +135,8 @@ pub fn angle_of(q: u32) -> f32 {
 }
 
 /// Packs a cone into a slot's cone word: the axis in bits 0..16, θo (widened by the axis'
-/// quantisation error) in bits 16..24 ([`encode_angle`]), θe in bits 24..32
-/// ([`encode_emission`]).
+/// quantisation error) in bits 16..24 (`encode_angle`), θe in bits 24..32
+/// (`encode_emission`).
 pub fn encode_cone(c: &Cone) -> u32 {
     let axis = encode_axis(c.axis);
     let theta_o = if c.theta_o >= PI {

@@ -5,11 +5,11 @@
 //! [`crate::tree`], [`crate::build`], [`crate::sample`] and [`crate::cut`].
 //!
 //! BRDF sampling needs this: a direction drawn from the BRDF lands on the lights in front of
-//! the first surface, each with its own point and density ([`crate::light_point::intersect`]).
+//! the first surface, each with its own point and density ([`crate::light::point::intersect`]).
 //! Lights do not block each other.
 
+use crate::light::point::{intersect, LightPoint};
 use crate::light::Light;
-use crate::light_point::{intersect, LightPoint};
 use crate::tree::{LightTree, Node4, Slot, MAX_DEPTH};
 use glam::Vec3;
 use wide::f32x4;

@@ -6,8 +6,8 @@
 
 use crate::direct::{Estimator, Occluder, Params, Technique, Uniforms};
 use crate::error::{DirectError, LengthMismatch};
+use crate::light::point::{sample_point, LightPoint};
 use crate::light::Light;
-use crate::light_point::{sample_point, LightPoint};
 use crate::light_set::LightSet;
 use crate::material::ShadingPoint;
 use core::fmt;
@@ -39,6 +39,7 @@ pub fn sample_points(
 
 /// Why [`estimate_each`] refused its input.
 #[derive(Clone, Copy, Debug, PartialEq)]
+#[non_exhaustive]
 pub enum BatchError {
     /// `out` does not hold `per_point` estimates for each shading point (or `per_point` is 0).
     Length(LengthMismatch),

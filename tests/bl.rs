@@ -41,14 +41,18 @@ use common::{
     styled_scene, u_values, Rng, SceneSpec, Where, Z_999,
 };
 use glam::{DVec3, Vec3};
+use manylights::cut::CUT_CAPACITY;
 use manylights::cut::MIN_CUT_SIZE;
-use manylights::importance::bl::DEFENSIVE;
-use manylights::importance::sptd::SptdGgx;
-use manylights::material::ShadingField;
+use manylights::error::ShadingField;
+use manylights::importance::{f32x4, Receiver};
+use manylights::internals::bl::DEFENSIVE;
+use manylights::internals::sptd::SptdGgx;
+use manylights::internals::tree::Node4Ext;
+use manylights::tree::{Child, Node4, Slot, SlotBounds};
 use manylights::Rgb;
 use manylights::{
-    f32x4, BlCutOptions, BlImportance, Child, Importance, Light, LightCut, LightTree, Material,
-    Node4, Receiver, ShadingPoint, Slot, SlotBounds, SplitCutOptions, TlImportance, CUT_CAPACITY,
+    BlCutOptions, BlImportance, Importance, Light, LightCut, LightTree, Material, ShadingPoint,
+    SplitCutOptions, TlImportance,
 };
 use std::f64::consts::PI;
 
@@ -187,6 +191,7 @@ fn light_center(l: &Light) -> Vec3 {
         Light::Distant { .. } | Light::Environment { .. } => {
             unreachable!("lights at infinity are tested in tests/infinite.rs")
         }
+        _ => unimplemented!("a light kind the tests do not know"),
     }
 }
 
@@ -1652,7 +1657,7 @@ fn single_sphere(
     r: f32,
     wo: Vec3,
     material: Material,
-) -> (BlImportance, manylights::SlotBounds, Cap64, f32) {
+) -> (BlImportance, manylights::tree::SlotBounds, Cap64, f32) {
     let lights = [Light::Sphere {
         center,
         radius: r,
@@ -2547,8 +2552,8 @@ fn glossy_part_of_the_cap_integrals() {
         assert_eq!(cut.max_glossy_score(), max);
         assert!(cut.max_glossy_score() <= cut.max_score());
         assert_eq!(
-            manylights::mis::brdf_budget(&cut, 50),
-            manylights::mis::sample_budget(max, 50)
+            manylights::internals::mis::brdf_budget(&cut, 50),
+            manylights::internals::mis::sample_budget(max, 50)
         );
     }
     assert_eq!(

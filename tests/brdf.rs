@@ -11,7 +11,7 @@ mod common;
 
 use common::{Rng, Stats};
 use glam::{DVec3, Vec3};
-use manylights::brdf::schlick;
+use manylights::internals::brdf::schlick;
 use manylights::material::MIN_ALPHA;
 use manylights::Rgb;
 use manylights::{Brdf, Frame, Ggx, Lambert, Material};

@@ -7,10 +7,13 @@ mod common;
 use common::{random_importance, reseal, styled_scene, u_values, Rng};
 use glam::Vec3;
 use manylights::baseline::BinaryLightTree;
+use manylights::error::{LightField, Problem};
+use manylights::internals::light::LightExt;
+use manylights::internals::tree::Node4Ext;
+use manylights::tree::Slot;
 use manylights::Rgb;
 use manylights::{
-    BuildError, BuildOptions, FormatError, Light, LightField, LightTree, Problem, Slot,
-    TlImportance, MAX_COORDINATE,
+    BuildError, BuildOptions, FormatError, Light, LightTree, TlImportance, MAX_COORDINATE,
 };
 use proptest::prelude::{any, prop_assert, prop_assert_eq, prop_oneof, Strategy};
 use std::f32::consts::{FRAC_PI_2, PI};
@@ -747,7 +750,7 @@ fn depth_stays_within_31_on_chains() {
         let imp = TlImportance::with_receiver(
             Vec3::new(-1.0, 1.0, 0.0),
             Vec3::ZERO,
-            manylights::Receiver::Omnidirectional,
+            manylights::importance::Receiver::Omnidirectional,
         );
         let sum: f64 = (0..n as u32).map(|l| f64::from(tree.pmf(&imp, l))).sum();
         let sum_bin: f64 = (0..n as u32).map(|l| f64::from(bin.pmf(&imp, l))).sum();
@@ -1109,8 +1112,13 @@ fn light_bounds_of_huge_or_tiny_directions() {
 /// Each with a point light at (0, 0, −50) so that the root has two slots.
 #[test]
 fn huge_directions_stay_conservative() {
-    let omni =
-        |x: Vec3| TlImportance::with_receiver(x, Vec3::ZERO, manylights::Receiver::Omnidirectional);
+    let omni = |x: Vec3| {
+        TlImportance::with_receiver(
+            x,
+            Vec3::ZERO,
+            manylights::importance::Receiver::Omnidirectional,
+        )
+    };
     let cases = [
         (
             Light::Spot {
@@ -1160,7 +1168,7 @@ fn huge_directions_stay_conservative() {
                 &light,
                 x,
                 Vec3::ZERO,
-                manylights::Receiver::Omnidirectional,
+                manylights::importance::Receiver::Omnidirectional,
                 1e-4
             ),
             "{light:?} should light {x:?}"

@@ -20,10 +20,12 @@ use manylights::direct::{
     DirectError, Estimator, LambertMode, LightSampler, Occluder, Params, PowerSampler, Step,
     Technique, TreeSampler, UniformSampler, Uniforms, Unoccluded,
 };
-use manylights::mis::{AdaptiveAllocator, CombinedWeights, Heuristic, SequentialWeights};
-use manylights::trace::trace_all;
+use manylights::internals::mis::{AdaptiveAllocator, CombinedWeights, SequentialWeights};
+use manylights::internals::trace::trace_all;
+use manylights::light_set::AliasTable;
+use manylights::Heuristic;
 use manylights::Rgb;
-use manylights::{AliasTable, BlCutOptions, Brdf, Frame, Light, LightSet, Material, ShadingPoint};
+use manylights::{BlCutOptions, Brdf, Frame, Light, LightSet, Material, ShadingPoint};
 use manylights_testkit::TestUniforms;
 
 /// The one channel of an estimate of a grey scene (every channel must be the same, bit for

@@ -11,8 +11,11 @@ use common::{
 };
 use glam::{DVec3, Vec3};
 use manylights::baseline::BinaryLightTree;
+use manylights::importance::Receiver;
+use manylights::internals::tree::Node4Ext;
+use manylights::tree::{Node4, SlotBounds};
 use manylights::Rgb;
-use manylights::{Importance, Light, LightTree, Node4, Receiver, SlotBounds, TlImportance};
+use manylights::{Importance, Light, LightTree, TlImportance};
 use proptest::prelude::{any, prop_oneof, Strategy};
 use proptest::test_runner::TestCaseError;
 
@@ -223,11 +226,11 @@ fn tl_reference(imp: &TlImportance, b: &SlotBounds) -> (f64, f64) {
     }
     let n = imp.normal().as_dvec3();
     let cos_i = match imp.receiver() {
-        manylights::Receiver::Omnidirectional => 1.0,
+        manylights::importance::Receiver::Omnidirectional => 1.0,
         _ if inside => 1.0,
         receiver => {
             let mut ci = n.dot(w).clamp(-1.0, 1.0);
-            if receiver == manylights::Receiver::Transmissive {
+            if receiver == manylights::importance::Receiver::Transmissive {
                 ci = ci.abs();
             }
             let theta_ip = (ci.acos() - theta_u).max(0.0);
@@ -273,7 +276,7 @@ fn eval_matches_math_md_formula() {
         };
         // A node written with the crate's own quantisation and decoded, so the reference sees
         // exactly the bounds eval sees.
-        let cone = manylights::bounds::Cone {
+        let cone = manylights::internals::bounds::Cone {
             axis,
             theta_o,
             theta_e,
@@ -282,18 +285,18 @@ fn eval_matches_math_md_formula() {
             0 => 0.0,
             _ => rng.log_range(1e-3, 50.0),
         };
-        let sphere = manylights::bounds::Sphere { center: c, radius };
-        let (origin, exponent, words) = manylights::quantize::encode_spheres(&[sphere]);
+        let sphere = manylights::internals::bounds::Sphere { center: c, radius };
+        let (origin, exponent, words) = manylights::internals::quantize::encode_spheres(&[sphere]);
         let mut node = Node4::EMPTY;
-        node.origin = origin;
-        node.exponent = exponent;
-        node.sphere[0] = words[0];
+        node.raw_mut().origin = origin;
+        node.raw_mut().exponent = exponent;
+        node.raw_mut().sphere[0] = words[0];
         node.set_energy_code(
             0,
-            manylights::quantize::encode_energy(rng.log_range(1e-3, 1e3)),
+            manylights::internals::quantize::encode_energy(rng.log_range(1e-3, 1e3)),
         );
-        node.cone[0] = manylights::quantize::encode_cone(&cone);
-        node.mask = 0x10;
+        node.raw_mut().cone[0] = manylights::internals::quantize::encode_cone(&cone);
+        node.raw_mut().mask = 0x10;
         let b = node.bounds(0);
         let receiver = RECEIVERS[rng.below(3)];
         let imp = TlImportance::with_receiver(x, rng.unit(), receiver);
@@ -450,7 +453,9 @@ fn contributing_lights_have_positive_pmf_near_boundaries() {
 /// conservativeness tests vacuous).
 #[test]
 fn contribution_predicate_sanity() {
-    use manylights::Receiver::{Omnidirectional as O, Reflective as R, Transmissive as T};
+    use manylights::importance::Receiver::{
+        Omnidirectional as O, Reflective as R, Transmissive as T,
+    };
     let disk = |two_sided| Light::Disk {
         center: Vec3::ZERO,
         normal: Vec3::Z,

@@ -24,9 +24,11 @@ use manylights::direct::{
     Technique, TreeSampler, UniformSky, Unoccluded,
 };
 use manylights::error::{LightField, Problem};
+use manylights::importance::Receiver;
+use manylights::light_set::InfiniteKind;
 use manylights::{
-    BlCutOptions, BlImportance, BuildError, FormatError, Importance, InfiniteKind, Light, LightSet,
-    LightTree, Material, Receiver, Rgb, ShadingPoint, TlImportance, ValidationError,
+    BlCutOptions, BlImportance, BuildError, FormatError, Importance, Light, LightSet, LightTree,
+    Material, Rgb, ShadingPoint, TlImportance, ValidationError,
 };
 use manylights_testkit::TestUniforms;
 
@@ -318,7 +320,8 @@ fn lights_at_infinity_round_trip_through_bytes() {
         let mut bad = bytes.clone();
         bad[entry0 + offset..entry0 + offset + 4].copy_from_slice(&value.to_ne_bytes());
         // Resealed, so that the structural checks behind the checksum see the entry.
-        let bad = manylights::tree::seal(&bad[manylights::tree::HEADER_BYTES..]);
+        let bad =
+            manylights::internals::tree::seal(&bad[manylights::internals::tree::HEADER_BYTES..]);
         assert!(
             matches!(
                 LightTree::from_bytes(&bad),
@@ -333,7 +336,7 @@ fn lights_at_infinity_round_trip_through_bytes() {
     let mut bad = bytes.clone();
     bad[entry0..entry0 + 4].copy_from_slice(&(local as u32).to_ne_bytes());
     assert!(LightTree::from_bytes(&bad).is_err());
-    let bad = manylights::tree::seal(&bad[manylights::tree::HEADER_BYTES..]);
+    let bad = manylights::internals::tree::seal(&bad[manylights::internals::tree::HEADER_BYTES..]);
     assert!(LightTree::from_bytes(&bad).is_err());
     // A tree checked against other lights.
     let mut other = lights.clone();
@@ -409,7 +412,8 @@ fn bad_lights_at_infinity_are_errors_naming_them() {
         LightTree::build(&[sky, sky]),
         Err(BuildError::SecondEnvironment { index: 1 })
     );
-    let many = vec![distant(Vec3::Z, 0.0, Rgb::grey(1.0)); manylights::MAX_INFINITE_LIGHTS + 1];
+    let many =
+        vec![distant(Vec3::Z, 0.0, Rgb::grey(1.0)); manylights::light::MAX_INFINITE_LIGHTS + 1];
     assert!(matches!(
         LightTree::build(&many),
         Err(BuildError::TooManyInfiniteLights { .. })

@@ -13,12 +13,14 @@ mod common;
 
 use common::Rng;
 use glam::Vec3;
-use manylights::light_point::sample_point;
-use manylights::sample::MIN_PMF;
+use manylights::error::{LightField, Problem};
+use manylights::importance::Receiver;
+use manylights::light::sample_point;
 use manylights::Rgb;
+use manylights::MIN_PMF;
 use manylights::{
-    BlImportance, BuildError, Importance, Light, LightField, LightTree, Material, Problem,
-    Receiver, ShadingPoint, TlImportance, MAX_COORDINATE, MAX_LIGHT_ENERGY, MAX_TOTAL_ENERGY,
+    BlImportance, BuildError, Importance, Light, LightTree, Material, ShadingPoint, TlImportance,
+    MAX_COORDINATE, MAX_LIGHT_ENERGY, MAX_TOTAL_ENERGY,
 };
 use std::f32::consts::PI;
 

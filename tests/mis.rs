@@ -2,7 +2,8 @@
 //! inputs: negative, NaN and infinite densities and counts give weights in [0, 1], never NaN,
 //! that still sum to 1; ordinary inputs give the plain formulas.
 
-use manylights::mis::{balance, power, CombinedWeights, Heuristic, SequentialWeights};
+use manylights::internals::mis::{balance, power, CombinedWeights, SequentialWeights};
+use manylights::Heuristic;
 use std::f32::consts::PI;
 
 /// Values every check combines: ordinary, zero, tiny, huge, and bad.

@@ -11,11 +11,11 @@ use common::{
 };
 use glam::Vec3;
 use manylights::baseline::BinaryLightTree;
-use manylights::sample::MIN_PMF;
+use manylights::importance::Receiver;
+use manylights::tree::{Slot, SlotBounds};
 use manylights::Rgb;
-use manylights::{
-    Importance, Light, LightSample, LightTree, Receiver, Slot, SlotBounds, TlImportance,
-};
+use manylights::MIN_PMF;
+use manylights::{Importance, Light, LightSample, LightTree, TlImportance};
 use proptest::prelude::{any, prop_assert, prop_assert_eq, prop_oneof, Strategy};
 use proptest::test_runner::TestCaseError;
 
@@ -932,7 +932,9 @@ fn libm_free_pow10(e: i32) -> f32 {
 /// slices of different lengths.
 #[test]
 fn batch_calls_equal_single_calls() {
-    use manylights::{BlImportance, Material, Memo, MemoTable, ShadingPoint, BATCH_LANES};
+    use manylights::importance::MemoTable;
+    use manylights::internals::sample::BATCH_LANES;
+    use manylights::{BlImportance, Material, Memo, ShadingPoint};
     let table = MemoTable::new();
     let mut compared = 0usize;
     for seed in 0..24u64 {
@@ -986,7 +988,7 @@ fn batch_calls_equal_single_calls() {
         let us: Vec<f32> = (0..m)
             .map(|j| match j % 7 {
                 0 => 0.0,
-                1 => manylights::sample::ONE_MINUS_EPSILON,
+                1 => manylights::internals::sample::ONE_MINUS_EPSILON,
                 _ => rng.f32(),
             })
             .collect();

@@ -12,13 +12,12 @@ mod common;
 
 use common::{Rng, Stats};
 use glam::{DVec3, Vec3};
-use manylights::light_point::{intersect, pdf_direction, pdf_point, sample_point};
+use manylights::error::{LightField, Problem, VplField};
+use manylights::internals::light::LightExt;
+use manylights::light::{intersect, pdf_direction, pdf_point, sample_point};
 use manylights::vpl::{Unoccluded, DEFAULT_EPSILON};
 use manylights::Rgb;
-use manylights::{
-    Importons, Light, LightField, LightTree, Material, Problem, TlImportance, Vpl, VplAcceptor,
-    VplError, VplField,
-};
+use manylights::{Importons, Light, LightTree, Material, TlImportance, Vpl, VplAcceptor, VplError};
 use std::f32::consts::PI;
 
 /// Importons on the floor z = 0 of a 4 × 4 square, facing up: `n` of them, every fifth a

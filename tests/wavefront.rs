@@ -8,7 +8,7 @@ mod common;
 use common::Rng;
 use glam::Vec3;
 use manylights::direct::{DirectError, Estimator, Params, Technique, Unoccluded};
-use manylights::light_point::sample_point;
+use manylights::light::sample_point;
 use manylights::wavefront::{estimate_each, sample_points, BatchError};
 use manylights::{LengthMismatch, LightSet, Material, Rgb, ShadingPoint};
 use manylights_testkit::TestUniforms;

@@ -6,9 +6,8 @@ use crate::error::{ml_status, Error, Result};
 use crate::ffi_fn;
 use crate::tree::{bl_importance, check_light, ml_tree, tree_arg, TreeData};
 use crate::types::{ml_light_sample, ml_shading_point, ml_tl_point, tl_point, unit};
-use manylights::{
-    BlCutOptions, BlImportance, LightCut, SplitCutOptions, TlImportance, CUT_CAPACITY,
-};
+use manylights::cut::CUT_CAPACITY;
+use manylights::{BlCutOptions, BlImportance, LightCut, SplitCutOptions, TlImportance};
 use std::sync::Arc;
 
 /// The largest cut: clusters a cut may hold.

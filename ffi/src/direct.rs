@@ -18,7 +18,7 @@ use manylights::direct::{
     BsdfDraw, DirectError, Environment, EnvironmentDraw, EnvironmentSample, LambertMode, LightDraw,
     Occluder, Params, Step, Technique, Uniforms,
 };
-use manylights::mis::MAX_BUDGET;
+use manylights::MAX_BUDGET;
 use manylights::{Estimator, Heuristic, LightSet};
 use std::cell::Cell;
 use std::sync::Arc;
@@ -482,6 +482,7 @@ fn direct_error(e: DirectError) -> Error {
         DirectError::EnvironmentRadiance { value } => Error::invalid(format_args!(
             "environment radiance: every channel must be finite and non-negative (got {value})"
         )),
+        _ => Error::invalid(e),
     }
 }
 

@@ -28,7 +28,7 @@ const _: () = assert!(ML_MAX_TOTAL_ENERGY.to_bits() == manylights::MAX_TOTAL_ENE
 // Written as C's FLT_MIN is, so that the header's macro reads as the C constant.
 #[allow(clippy::excessive_precision)]
 pub const ML_MIN_PMF: f32 = 1.17549435e-38;
-const _: () = assert!(ML_MIN_PMF.to_bits() == manylights::sample::MIN_PMF.to_bits());
+const _: () = assert!(ML_MIN_PMF.to_bits() == manylights::MIN_PMF.to_bits());
 
 /// Deepest tree (levels of nodes) a build may give; a deeper one is `ML_ERR_INVALID_ARGUMENT`.
 pub const ML_MAX_DEPTH: u32 = 31;
@@ -46,7 +46,7 @@ const _: () = assert!(ML_MIN_CUT_SIZE == MIN_CUT_SIZE);
 
 /// Largest `ml_direct_params.n_max`, the BRDF-aware budget's Nmax (the smallest is 1).
 pub const ML_MAX_BUDGET: u32 = 64;
-const _: () = assert!(ML_MAX_BUDGET == manylights::mis::MAX_BUDGET);
+const _: () = assert!(ML_MAX_BUDGET == manylights::MAX_BUDGET);
 
 /// Largest `ml_direct_params.bl_light_samples`, the light samples of one `bl-mis` estimate
 /// (the smallest is 1).

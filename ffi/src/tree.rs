@@ -9,10 +9,11 @@ use crate::types::{
     build_error, finite3, light, ml_light, ml_light_point, ml_light_sample, ml_shading_point,
     ml_tl_point, ml_vec3, shading_point, tl_point, unit,
 };
-use manylights::light_point::{pdf_point, sample_point};
+use manylights::error::LightMismatch;
+use manylights::light::{pdf_point, sample_point};
 use manylights::{
-    BlImportance, BuildOptions, FormatError, Importance, Light, LightMismatch, LightSample,
-    LightSet, LightTree, TlImportance,
+    BlImportance, BuildOptions, FormatError, Importance, Light, LightSample, LightSet, LightTree,
+    TlImportance,
 };
 use std::sync::Arc;
 
@@ -405,6 +406,7 @@ fn mismatch(m: LightMismatch) -> String {
              checksum), though each lies inside its slot"
         ),
         LightMismatch::Invalid(e) => e.to_string(),
+        _ => m.to_string(),
     }
 }
 

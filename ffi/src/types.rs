@@ -3,8 +3,8 @@
 
 use crate::error::{Error, Result};
 use glam::Vec3;
+use manylights::error::ShadingField;
 use manylights::error::{LightField, Num, Problem};
-use manylights::material::ShadingField;
 use manylights::{
     BuildError, Light, LightPoint, LightSample, Material, Rgb, ShadingError, ShadingPoint,
 };
@@ -257,6 +257,9 @@ impl From<&Light> for ml_light {
                 d.kind = ml_light_kind::Environment as u32;
                 d.irradiance_bounds = irradiance;
             }
+            // A kind the C ABI has no descriptor for: a kind value `ml_tree_build` rejects
+            // (ML_ERR_INVALID_ARGUMENT), never a different light.
+            _ => d.kind = u32::MAX,
         }
         d
     }
@@ -405,6 +408,7 @@ pub(crate) fn describe(p: Problem) -> &'static str {
         Problem::ZeroLength => "has zero length",
         Problem::OutOfRange => "is out of range",
         Problem::EnergyTooLarge => "gives an energy above ML_MAX_LIGHT_ENERGY (1e24)",
+        _ => "is invalid",
     }
 }
 
@@ -441,6 +445,7 @@ fn light_field(kind: u32, f: LightField) -> String {
             ("irradiance_bounds", None)
         }
         LightField::Irradiance => ("power", Some("irradiance")),
+        _ => ("a field", Some(f.name())),
     };
     match core {
         Some(core) => format!("{c} (the {} light's {core})", kind_name(kind)),
@@ -566,8 +571,9 @@ pub(crate) fn build_error(e: BuildError, lights: &[ml_light], name: &str) -> Err
         )),
         BuildError::TooManyInfiniteLights { count } => Error::invalid(format_args!(
             "{name}: {count} distant and environment lights (at most {})",
-            manylights::MAX_INFINITE_LIGHTS
+            manylights::light::MAX_INFINITE_LIGHTS
         )),
+        _ => Error::invalid(format_args!("{name}: {e}")),
     }
 }
 
@@ -604,6 +610,7 @@ pub(crate) fn shading_error(e: ShadingError, path: &dyn Fn() -> String) -> Error
         ShadingField::Albedo => "material.albedo",
         ShadingField::Specular => "material.specular",
         ShadingField::Alpha => "material.alpha",
+        _ => e.field.name(),
     };
     let what = match (e.field, e.problem) {
         (_, Problem::NotFinite) => "is NaN or infinite",

@@ -130,9 +130,10 @@ fn vpl_error(e: VplError, at: &str) -> Error {
         VplField::ImportonNormal => format!("{at}.normal"),
         VplField::ImportonWo => format!("{at}.wo"),
         VplField::ImportonMaterial => format!("{at}.material"),
+        _ => format!("{at} ({})", e.field.name()),
     };
     let what = match (e.field, e.problem) {
-        (VplField::Xi, manylights::Problem::OutOfRange) => "must be in [0, 1)",
+        (VplField::Xi, manylights::error::Problem::OutOfRange) => "must be in [0, 1)",
         (VplField::Pixels | VplField::Wanted, _) => "must be positive",
         (VplField::ImportonMaterial, _) => {
             "has a value out of range (albedo, specular in [0, 1], alpha in (0, 1])"

@@ -9,9 +9,11 @@
 
 use crate::alloc_count;
 use manylights::baseline::BinaryLightTree;
+use manylights::cut::CUT_CAPACITY;
+use manylights::importance::MemoTable;
 use manylights::{
     BlCutOptions, BlImportance, BuildOptions, Light, LightCut, LightTree, Material, Memo,
-    MemoTable, ShadingPoint, SplitCutOptions, TlImportance, CUT_CAPACITY,
+    ShadingPoint, SplitCutOptions, TlImportance,
 };
 use manylights_ffi as ffi;
 use manylights_testkit::{self as random_scene, BenchPoint};
@@ -278,7 +280,7 @@ pub struct BatchThroughput {
     pub batch_speedup: f64,
     /// Shading points per call ([`BATCH`]).
     pub batch_size: usize,
-    /// [`manylights::BATCH_LANES`].
+    /// [`manylights::internals::sample::BATCH_LANES`].
     pub batch_lanes: usize,
 }
 
@@ -620,7 +622,7 @@ fn alternating_passes(
             tl_batch_msamples_per_s: tl_batch,
             batch_speedup: tl_batch / tl,
             batch_size: BATCH,
-            batch_lanes: manylights::BATCH_LANES,
+            batch_lanes: manylights::internals::sample::BATCH_LANES,
         },
         FfiThroughput {
             ffi_batch_msamples_per_s: ffi_batch,
@@ -865,7 +867,10 @@ fn bl_passes(
             let imp = BlImportance::new(black_box(sp)).expect("valid shading point");
             let cut = LightCut::build_bl(tree, &imp, &cut_opts);
             bl_cut_size += cut.len();
-            let n = manylights::mis::sample_budget(cut.max_score(), manylights::mis::N_MAX);
+            let n = manylights::internals::mis::sample_budget(
+                cut.max_score(),
+                manylights::internals::mis::N_MAX,
+            );
             bl_budget += n as usize;
             for j in 0..n {
                 let uj = (u + j as f32 * 0.618_034).fract();

@@ -33,8 +33,9 @@
 
 use manylights::direct::{CutSampler, LightSampler, TreeSampler};
 use manylights::importance::Importance;
-use manylights::infinite::InfiniteLight;
-use manylights::light_point::sample_point;
+use manylights::internals::tree::Node4Ext;
+use manylights::light::sample_point;
+use manylights::light_set::InfiniteLight;
 use manylights::tree::{Node4, SlotBounds};
 use manylights::{
     BlCutOptions, BlImportance, Brdf, Frame, Light, LightTree, ShadingPoint, TlImportance,
@@ -152,7 +153,7 @@ impl TlNear {
 }
 
 impl Importance for TlNear {
-    fn eval4(&self, node: &Node4) -> manylights::f32x4 {
+    fn eval4(&self, node: &Node4) -> manylights::importance::f32x4 {
         if self.near(node) {
             self.tl.eval4(node)
         } else {
@@ -247,7 +248,7 @@ pub fn run(scene: &RenderScene, cfg: &SelectionConfig) -> SelectionReport {
                 variance(&cs, |l| tree.pmf(&near, l)),
             ];
             let n = bl.cut().len();
-            let full = n >= cfg.cut.max_size.clamp(4, manylights::CUT_CAPACITY);
+            let full = n >= cfg.cut.max_size.clamp(4, manylights::cut::CUT_CAPACITY);
             Some((total, v, n, full))
         })
         .collect();

@@ -35,7 +35,7 @@
 //! The JSON keys of the overall stratum have no prefix, those of the grazing one `grazing_`.
 
 use glam::DVec3;
-use manylights::importance::sptd::SptdGgx;
+use manylights::internals::sptd::SptdGgx;
 use manylights_testkit::ggx::{cap_integral, wo_local, Cap64, Ggx};
 use rand::{Rng, SeedableRng};
 use rand_pcg::Pcg64Mcg;

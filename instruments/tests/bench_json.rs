@@ -140,7 +140,7 @@ fn full_json_has_every_key() {
     assert_settings(&r);
     assert_eq!(r["points"], 64);
     assert_eq!(r["batch_size"], 256);
-    assert_eq!(r["batch_lanes"], manylights::BATCH_LANES);
+    assert_eq!(r["batch_lanes"], manylights::internals::sample::BATCH_LANES);
     assert!(r["pmf_max_rel_err"].as_f64().unwrap() < 1e-3);
     assert!(r["pmf_sum_max_err"].as_f64().unwrap() < 1e-3);
     assert!(r["tl_msamples_per_s"].as_f64().unwrap() > 0.0);

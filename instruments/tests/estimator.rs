@@ -3,7 +3,7 @@
 
 use glam::Vec3;
 use manylights::direct::{Estimator, LambertMode, Params, Technique, Unoccluded};
-use manylights::trace::trace_all;
+use manylights::internals::trace::trace_all;
 use manylights::Rgb;
 use manylights::{Light, Material, ShadingPoint};
 use manylights_instruments::estimator::reference::reference;
@@ -159,6 +159,7 @@ fn every_technique_is_unbiased_on_a_small_scene() {
                 Technique::TlMis | Technique::BlMis | Technique::TlMisPinf => 100_000,
                 Technique::TlSplit => 40_000,
                 Technique::MisEqual | Technique::Full => 12_000,
+                _ => unimplemented!("a technique this test does not know"),
             };
             let mut est = Estimator::new(&scene.set, &c.sp, t, &p).unwrap();
             let (mean, se) = run(&mut est, k, 1000 * ci as u64 + i as u64);

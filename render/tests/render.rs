@@ -400,6 +400,7 @@ fn material_classes() {
             Material::Lambert { .. } => "lambert",
             Material::Ggx { .. } => "ggx",
             Material::Plastic { .. } => "plastic",
+            _ => "material",
         };
         assert_eq!(c.kind, kind);
         assert!(c.name.starts_with(kind) && !c.name.contains('('), "{c:?}");

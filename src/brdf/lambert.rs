@@ -33,7 +33,7 @@ impl Lambert {
 
 /// Shirley–Chiu concentric map of [0, 1)² onto the unit disk (the disk lights' f64 map).
 fn concentric(u: [f32; 2]) -> (f32, f32) {
-    let (x, y) = crate::light_point::disk::concentric([f64::from(u[0]), f64::from(u[1])]);
+    let (x, y) = crate::light::point::disk::concentric([f64::from(u[0]), f64::from(u[1])]);
     (x as f32, y as f32)
 }
 

@@ -4,8 +4,8 @@
 //!
 //! Of [`LightTree`]'s API this file holds [`LightTree::sample_cluster`]: a light sampled under
 //! one cluster, with its pmf relative to the cluster (what the cuts' sampling is built on); the
-//! rest of the tree's API is in [`crate::tree`], [`crate::build`], [`crate::sample`] and
-//! [`crate::trace`].
+//! rest of the tree's API is in [`crate::tree`], `crate::build`, `crate::sample` and
+//! `crate::trace`.
 //!
 //! Two ways to build one:
 //! - **Split sampling** (Conty & Kulla, "Predicted variance"; docs/formulas.md, section 5):
@@ -37,7 +37,7 @@
 //! weights, say) takes [`LightCut::pmf_in`]'s `None` as a density of 0 for those lights, as
 //! the estimators do.
 //!
-//! Vanishing probabilities follow the tree's rule (see [`crate::sample`]): every pmf these
+//! Vanishing probabilities follow the tree's rule (see `crate::sample`): every pmf these
 //! functions report for a returned light is at least [`MIN_PMF`]. Within a cluster
 //! ([`LightCut::sample_in`]) the rule applies to the pmf relative to the cluster. For
 //! [`LightCut::sample`] it applies to the whole product: a cluster whose share
@@ -604,9 +604,9 @@ impl LightCut {
     /// a time, interleaved, so their dependent steps overlap.
     ///
     /// ```
-    /// use manylights::{
-    ///     Light, LightCut, LightTree, Memo, MemoTable, SplitCutOptions, TlImportance, CUT_CAPACITY,
-    /// };
+    /// use manylights::cut::CUT_CAPACITY;
+    /// use manylights::importance::MemoTable;
+    /// use manylights::{Light, LightCut, LightTree, Memo, SplitCutOptions, TlImportance};
     /// use glam::Vec3;
     ///
     /// let lights: Vec<Light> = (0..200)

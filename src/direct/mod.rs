@@ -89,10 +89,10 @@
 //!   with probability 1/2. A BRDF-aware sample y contributes `g(y) w_M(y) / (N q_ref(y))`,
 //!   `q_ref = (pdf_BL + pdf_TB)/2`, the expected number of BRDF-aware samples landing at y per
 //!   unit measure, so the sum is unbiased wherever `q_ref` covers `g·w_M`
-//!   ([`CombinedWeights`](crate::mis::CombinedWeights) with `p_ref = 1/2`).
+//!   (`CombinedWeights` with `p_ref = 1/2`).
 //! - `full`, the method of Liu et al. 2019: `tl-split` plus N BRDF-aware samples chosen by
-//!   [`AdaptiveAllocator`](crate::mis::AdaptiveAllocator) (Algorithm 1) and weighted by
-//!   [`SequentialWeights`](crate::mis::SequentialWeights): sample j contributes
+//!   `AdaptiveAllocator` (Algorithm 1) and weighted by
+//!   `SequentialWeights`: sample j contributes
 //!   `g W_j / q_j` with `q_j = p_j pdf_BL + (1 − p_j) pdf_TB`, p_j the allocator's probability
 //!   before the sample. Each choice takes a fresh uniform number; the allocator warps it and
 //!   the warped number drives the chosen technique's first dimension — it is never fed to the
@@ -185,6 +185,7 @@ use glam::Vec3;
 
 /// A direct-lighting technique.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+#[non_exhaustive]
 pub enum Technique {
     /// One light uniformly.
     Uniform,
@@ -279,9 +280,10 @@ impl fmt::Display for Technique {
 /// nearly exact, and a cosine-distributed BRDF sample only adds variance and a ray;
 /// docs/measurements.md has the measurements behind the default.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Default)]
+#[non_exhaustive]
 pub enum LambertMode {
     /// TL split alone (the default): the Lambert share of IB(x) asks for no BRDF-aware
-    /// samples ([`crate::mis::brdf_budget`]).
+    /// samples (the MIS budget).
     #[default]
     TlOnly,
     /// TL split + N = `sample_budget(IB(x))` TB samples (Liu et al.: TL + TB only; the budget

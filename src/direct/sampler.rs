@@ -25,7 +25,7 @@ pub trait LightSampler {
 
 /// Tree descent with the Conty–Kulla importance ([`TlImportance`]): one light per sample, no
 /// splitting (pbrt-v4's `BVHLightSampler`), with the tree's distant and environment lights
-/// weighed against its nodes at the root by the same importance ([`crate::infinite`]).
+/// weighed against its nodes at the root by the same importance ([`crate::light_set`]).
 #[derive(Clone, Copy, Debug)]
 pub struct TreeSampler<'a> {
     tree: &'a LightTree,

@@ -278,7 +278,7 @@ impl BlImportance {
     /// `cap_integral` of [`BlEval`]). A distant light of irradiance E and angular radius γ is
     /// the cap of half-angle γ about its direction: `4π E (SC / |Ω ∩ H| + defensive ·
     /// cos θi')`, with the cap integral SC of the Lambert and GGX lobes as for a cluster
-    /// (the limit `f cos` in its direction below [`POINT_LIMIT_SIN`], a delta direction
+    /// (the limit `f cos` in its direction below `POINT_LIMIT_SIN`, a delta direction
     /// included), so a glossy lobe facing away from a sun gives it only the defensive share and
     /// a surface facing away from it 0. The environment, of irradiance bound E_n at the
     /// normal, as a uniform environment of radiance E_n/π: `4π (E_n/π) ρ (1 + DEFENSIVE)`, ρ

@@ -7,18 +7,21 @@
 //! every importance. Importances are conservative: a cluster holding a light that can contribute at
 //! the shading point gets a positive value.
 
-pub mod bl;
-pub mod memo;
-pub mod sptd;
-pub mod tl;
+pub(crate) mod bl;
+mod memo;
+pub(crate) mod sptd;
+pub(crate) mod tl;
 
-pub use bl::BlImportance;
+pub use bl::{BlEval, BlImportance};
 pub use memo::{Memo, MemoTable, MEMO_SLOTS};
-pub use tl::TlImportance;
+pub use tl::{Receiver, TlImportance};
+/// The lane type of the 4-wide importances: [`Importance::eval4`] returns one (a node's four
+/// slots), so a host that implements [`Importance`] or reads its lanes needs it. It is `wide`'s
+/// `f32x4` (version 1), re-exported so that hosts need not depend on `wide` themselves.
+pub use wide::f32x4;
 
 use crate::infinite_light::InfiniteLight;
 use crate::tree::{Node4, SlotBounds};
-use wide::f32x4;
 
 /// A per-shading-point importance, evaluated four slots at a time.
 pub trait Importance {
@@ -44,7 +47,7 @@ pub trait Importance {
     }
 
     /// The importance of a distant or environment light at the shading point, in the units
-    /// of the node tree's importances (4π times an irradiance; see [`crate::infinite`]), so
+    /// of the node tree's importances (4π times an irradiance; see [`crate::light_set`]), so
     /// that the root weighs it against the tree: never negative or NaN, and positive wherever
     /// the light can contribute (for the environment: wherever the host's bounds are).
     fn eval_infinite(&self, light: &InfiniteLight) -> f32;

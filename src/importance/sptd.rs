@@ -18,7 +18,7 @@
 //!   (Lambert BRDFs), and the solid angle of the cap's visible part.
 //!
 //! ```
-//! use manylights::importance::sptd::SptdGgx;
+//! use manylights::internals::sptd::SptdGgx;
 //! use glam::Vec3;
 //!
 //! // Once per shading point: roughness, normal, direction to the viewer.

@@ -447,7 +447,7 @@ impl LightTree {
     ///
     /// A descent is a chain of dependent loads (a node's importances decide which node is read
     /// next), so one descent leaves the core waiting on memory. This call keeps
-    /// [`BATCH_LANES`] descents in flight, taking one level of each in turn and starting the
+    /// `BATCH_LANES` descents in flight, taking one level of each in turn and starting the
     /// next shading point in a lane once its descent ends, so that their latencies overlap.
     /// The importances may be of any kind, [`crate::Memo`] included.
     ///

@@ -19,7 +19,7 @@ use alloc::vec::Vec;
 pub const FORMAT_VERSION: u8 = 4;
 const MAGIC: [u8; 7] = *b"MLTREE\x00";
 /// Bytes of the header: magic (7), version (1), payload length (8), checksum (8).
-pub const HEADER_BYTES: usize = 24;
+pub(crate) const HEADER_BYTES: usize = 24;
 /// Bytes of the payload's own header: three counts (8 each), the depth (4), the byte-order
 /// mark (4).
 const COUNTS: usize = 32;
@@ -29,7 +29,7 @@ const COUNTS: usize = 32;
 /// write payloads of their own (a fuzzer that reaches the parser behind the checksum, a
 /// test of the structural checks); [`LightTree::from_bytes`] still validates the payload
 /// fully.
-pub fn seal(payload: &[u8]) -> Vec<u8> {
+pub(crate) fn seal(payload: &[u8]) -> Vec<u8> {
     let mut out = Vec::with_capacity(HEADER_BYTES + payload.len());
     out.extend_from_slice(&MAGIC);
     out.push(FORMAT_VERSION);
@@ -79,7 +79,7 @@ fn unseal(bytes: &[u8]) -> Result<&[u8], FormatError> {
 /// Lights per checksum of [`light_checks`]: the tree's bytes carry one CRC per block of this
 /// many consecutive lights, so that a load with the wrong lights names the first block that
 /// differs.
-pub const LIGHT_BLOCK: usize = 64;
+pub(crate) const LIGHT_BLOCK: usize = 64;
 
 /// The canonical bytes of a light, as [`light_checks`] hashes them: a kind byte (0 point, 1
 /// spot, 2 sphere, 3 disk, 4 triangle, 5 VPL, 6 distant, 7 environment), then every field in
@@ -206,7 +206,7 @@ fn light_bytes(light: &Light, out: &mut [u8; 64]) -> usize {
 /// (0 point, 1 spot, 2 sphere, 3 disk, 4 triangle, 5 VPL, 6 distant, 7 environment), then
 /// every field in declaration order (a colour as its red, green and blue), each `f32` as its little-endian bits (so `-0.0` and `0.0` differ), each `bool` as one
 /// byte.
-pub fn light_checks(lights: &[Light]) -> Vec<u64> {
+pub(crate) fn light_checks(lights: &[Light]) -> Vec<u64> {
     lights
         .chunks(LIGHT_BLOCK)
         .map(|block| {
@@ -230,13 +230,13 @@ impl LightTree {
     /// The tree as bytes, for a host to cache or send to another process; read back with
     /// [`LightTree::from_bytes`] (or, with the lights, `LightSet::from_bytes`).
     ///
-    /// Format version 4 ([`FORMAT_VERSION`]). A header of [`HEADER_BYTES`] bytes: the magic
+    /// Format version 4 ([`FORMAT_VERSION`]). A header of `HEADER_BYTES` bytes: the magic
     /// `MLTREE\0`, the version byte, then as little-endian u64 the payload's length and its
-    /// CRC-64/XZ ([`crc64`]). The payload: as little-endian integers the node, light
+    /// CRC-64/XZ (`crc64`). The payload: as little-endian integers the node, light
     /// and leaf counts (u64 each) and the depth (u32), then a byte-order mark (the u32
     /// `0x01020304` in the host's byte order), followed in the host's byte order by the nodes,
     /// the node variances (u16 each), the leaf array, the paths and the lights' checksums
-    /// (one u64 per block of [`LIGHT_BLOCK`] lights, [`light_checks`]), then the section
+    /// (one u64 per block of `LIGHT_BLOCK` lights, `light_checks`), then the section
     /// of the distant and environment lights: their count as a little-endian u64, then the
     /// 64-byte [`InfiniteLight`] entries (in the host's byte order). The leaf
     /// array holds each light slot's light index in as many bits as the largest index needs

@@ -1,23 +1,24 @@
 //! The light tree as flat, `bytemuck::Pod` arrays: [`Node4`] (four child clusters quantised
 //! into one 64-byte cache line), the lights of the leaf slots in tree order, and per-light
 //! paths, both bit-packed, and beside the nodes the distant and environment lights
-//! ([`InfiniteLight`], weighed against the nodes at the root: [`crate::infinite`]); its
+//! ([`InfiniteLight`], weighed against the nodes at the root: [`crate::light_set`]); its
 //! self-check ([`LightTree::validate`]) and its byte serialisation.
 //!
 //! This file holds the [`LightTree`] type and the part of its API that reads the finished
 //! tree: the accessors ([`LightTree::nodes`], [`LightTree::slot`], [`LightTree::path`],
 //! [`LightTree::stats`], …), the checks ([`LightTree::validate`],
 //! [`LightTree::validate_lights`]) and the byte form ([`LightTree::as_bytes`],
-//! [`LightTree::from_bytes`]). The rest of its API is spread over [`crate::build`] (building),
-//! [`crate::sample`] (sampling and pmfs), [`crate::cut`] (sampling inside one cluster,
-//! [`LightTree::sample_cluster`]) and [`crate::trace`] (the lights a ray reaches).
+//! [`LightTree::from_bytes`]). The rest of its API is spread over `crate::build` (building),
+//! `crate::sample` (sampling and pmfs), [`crate::cut`] (sampling inside one cluster,
+//! [`LightTree::sample_cluster`]) and `crate::trace` (the lights a ray reaches).
 
 mod bytes;
 mod validate;
 
 pub(crate) use bytes::light_check_count;
-pub use bytes::{light_checks, LIGHT_BLOCK};
-pub use bytes::{seal, FORMAT_VERSION, HEADER_BYTES};
+pub use bytes::FORMAT_VERSION;
+pub(crate) use bytes::{light_checks, LIGHT_BLOCK};
+pub(crate) use bytes::{seal, HEADER_BYTES};
 
 use crate::bounds::{Cone, Sphere};
 use crate::infinite_light::InfiniteLight;
@@ -63,23 +64,23 @@ pub const MAX_LIGHTS: u32 = (1 << 31) - 2;
 #[derive(Clone, Copy, Debug, PartialEq, Pod, Zeroable)]
 pub struct Node4 {
     /// Sphere codes, one word per slot.
-    pub sphere: [u32; 4],
+    pub(crate) sphere: [u32; 4],
     /// Cone codes, one word per slot.
-    pub cone: [u32; 4],
+    pub(crate) cone: [u32; 4],
     /// Origin of the sphere codes.
-    pub origin: [f32; 3],
+    pub(crate) origin: [f32; 3],
     /// Index of the first inner child node.
-    pub child_base: u32,
+    pub(crate) child_base: u32,
     /// Slot energies: the upper 16 bits of their 20-bit codes.
-    pub energy: [u16; 4],
+    pub(crate) energy: [u16; 4],
     /// Index of the first light slot in the leaf array.
-    pub leaf_base: u32,
+    pub(crate) leaf_base: u32,
     /// Slot energies: the low 4 bits of their codes, slot k in bits 4k..4k+4.
-    pub energy_low: u16,
+    pub(crate) energy_low: u16,
     /// Scale exponent of the sphere codes (biased by 127).
-    pub exponent: u8,
+    pub(crate) exponent: u8,
     /// Inner-node slots in bits 0–3, light slots in bits 4–7.
-    pub mask: u8,
+    pub(crate) mask: u8,
 }
 
 /// What a slot of a [`Node4`] holds, as the node alone knows it.
@@ -212,7 +213,7 @@ impl Node4 {
     }
 
     /// Sets slot `k`'s energy code (the upper 20 bits of an f32, see `quantize`).
-    pub fn set_energy_code(&mut self, k: usize, code: u32) {
+    pub(crate) fn set_energy_code(&mut self, k: usize, code: u32) {
         let k = k & 3;
         self.energy[k] = (code >> 4) as u16;
         let shift = 4 * k as u32;
@@ -264,12 +265,12 @@ impl Node4 {
 
     /// Slot `k`'s sphere, decoded.
     #[inline]
-    pub fn sphere(&self, k: usize) -> Sphere {
+    pub(crate) fn sphere(&self, k: usize) -> Sphere {
         quantize::decode_sphere(self.sphere[k & 3], self.origin, self.scale())
     }
 
     /// Slot `k`'s cone, decoded.
-    pub fn cone(&self, k: usize) -> Cone {
+    pub(crate) fn cone(&self, k: usize) -> Cone {
         quantize::decode_cone(self.cone[k & 3])
     }
 }
@@ -308,7 +309,7 @@ pub struct LightTree {
     pub(crate) paths: Packed,
     pub(crate) depth: u32,
     /// Per block of [`LIGHT_BLOCK`] lights, the CRC-64 of their descriptors
-    /// ([`light_checks`]): what a load with lights checks them against.
+    /// (`light_checks`): what a load with lights checks them against.
     pub(crate) light_checks: Vec<u64>,
     /// The distant and environment lights, in input order (not in the nodes; their paths are
     /// 0).

@@ -135,7 +135,7 @@ impl LightTree {
     }
 
     /// Checks that `lights` are the lights this tree was built from, block by block of
-    /// [`LIGHT_BLOCK`] lights in index order: their number first; then in each block every
+    /// `LIGHT_BLOCK` lights in index order: their number first; then in each block every
     /// light valid ([`Light::validate`]), in the tree exactly when its energy is positive, its
     /// exact bounds inside its leaf slot, and the block's CRC-64 the one the tree stores; and
     /// the total energy within [`crate::MAX_TOTAL_ENERGY`]. The error names the first

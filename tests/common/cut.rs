@@ -3,9 +3,10 @@
 //! (disjointness, coverage of the opened nodes, `pmf_in` ownership).
 
 use super::Rng;
-use manylights::{
-    Child, Cluster, Importance, LightCut, LightSample, LightTree, Memo, MemoTable, Node4, Slot,
-};
+use manylights::cut::Cluster;
+use manylights::importance::MemoTable;
+use manylights::tree::{Child, Node4, Slot};
+use manylights::{Importance, LightCut, LightSample, LightTree, Memo};
 use std::collections::HashSet;
 
 macro_rules! ensure {

@@ -11,8 +11,11 @@
 pub mod cut;
 
 use glam::{DVec3, Vec3};
+use manylights::importance::Receiver;
+use manylights::internals::tree::Node4Ext;
+use manylights::tree::{Node4, SlotBounds};
 use manylights::Rgb;
-use manylights::{Importance, Light, Node4, Receiver, SlotBounds, TlImportance};
+use manylights::{Importance, Light, TlImportance};
 use std::f32::consts::{FRAC_PI_2, PI};
 
 // ---------------------------------------------------------------------------------------------
@@ -176,6 +179,7 @@ pub fn zero_energy(l: &Light) -> bool {
         Light::Distant { .. } | Light::Environment { .. } => {
             unreachable!("lights at infinity are tested in tests/infinite.rs")
         }
+        _ => unimplemented!("a light kind the tests do not know"),
     }
 }
 
@@ -219,6 +223,7 @@ pub fn push_emitter_points(rng: &mut Rng, lights: &[Light], half: f32, xs: &mut 
             Light::Distant { .. } | Light::Environment { .. } => {
                 unreachable!("lights at infinity are tested in tests/infinite.rs")
             }
+            _ => unimplemented!("a light kind the tests do not know"),
         };
         let t = half * rng.log_range(1e-4, 10.0);
         xs.push(c - m * t);
@@ -256,6 +261,7 @@ pub fn point_on_light(rng: &mut Rng, l: &Light) -> Vec3 {
         Light::Distant { .. } | Light::Environment { .. } => {
             unreachable!("lights at infinity are tested in tests/infinite.rs")
         }
+        _ => unimplemented!("a light kind the tests do not know"),
     }
 }
 
@@ -399,9 +405,9 @@ pub fn random_node(rng: &mut Rng, x: Vec3) -> Node4 {
     let mut node = Node4::EMPTY;
     // The frame: a scale from 2⁻³⁰ to 2⁴ (codes of 255 steps reach from ~2e-7 to 4e3 away),
     // the origin at x (so centres can be exactly x) or offset so the codes straddle it.
-    node.exponent = (127 - 30 + rng.below(35)) as u8;
-    let scale = f32::from_bits(u32::from(node.exponent) << 23);
-    node.origin = if rng.chance(0.3) {
+    node.raw_mut().exponent = (127 - 30 + rng.below(35)) as u8;
+    let scale = f32::from_bits(u32::from(node.raw().exponent) << 23);
+    node.raw_mut().origin = if rng.chance(0.3) {
         x.to_array()
     } else {
         let o = Vec3::new(rng.f32(), rng.f32(), rng.f32()) * (255.0 * scale);
@@ -418,14 +424,14 @@ pub fn random_node(rng: &mut Rng, x: Vec3) -> Node4 {
             [b(rng), b(rng), b(rng)]
         };
         let radius = if rng.chance(0.25) { 0 } else { b(rng) };
-        node.sphere[k] = u32::from_le_bytes([centre[0], centre[1], centre[2], radius]);
-        node.energy[k] = (rng.log_range(1e-20, 1e20).to_bits() >> 16) as u16;
-        node.cone[k] = match rng.below(4) {
+        node.raw_mut().sphere[k] = u32::from_le_bytes([centre[0], centre[1], centre[2], radius]);
+        node.raw_mut().energy[k] = (rng.log_range(1e-20, 1e20).to_bits() >> 16) as u16;
+        node.raw_mut().cone[k] = match rng.below(4) {
             0 => 0xFFFF_FFFF,
             1 => (rng.next_u64() as u32) & 0xFF00_FFFF,
             _ => rng.next_u64() as u32,
         };
-        node.mask |= 1 << (4 + k);
+        node.raw_mut().mask |= 1 << (4 + k);
     }
     node
 }
@@ -600,6 +606,7 @@ pub fn contributes(light: &Light, x: Vec3, n: Vec3, receiver: Receiver, margin: 
         Light::Distant { .. } | Light::Environment { .. } => {
             unreachable!("lights at infinity are tested in tests/infinite.rs")
         }
+        _ => unimplemented!("a light kind the tests do not know"),
     }
 }
 
@@ -729,6 +736,7 @@ pub fn move_to(l: &mut Light, c: Vec3) {
         Light::Distant { .. } | Light::Environment { .. } => {
             unreachable!("lights at infinity are tested in tests/infinite.rs")
         }
+        _ => unimplemented!("a light kind the tests do not know"),
     }
 }
 
@@ -871,9 +879,9 @@ pub fn boundary_scene(rng: &mut Rng) -> Vec<Light> {
 /// header, stored at bytes 16..24 as the format documents it), so that an edit of the payload
 /// reaches the structural checks behind the checksum.
 pub fn reseal(bytes: &mut [u8]) {
-    let h = manylights::tree::HEADER_BYTES;
+    let h = manylights::internals::tree::HEADER_BYTES;
     if bytes.len() >= h {
-        let c = manylights::checksum::crc64(&bytes[h..]);
+        let c = manylights::internals::checksum::crc64(&bytes[h..]);
         bytes[16..24].copy_from_slice(&c.to_le_bytes());
     }
 }

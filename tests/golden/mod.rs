@@ -6,8 +6,9 @@
 
 use glam::Vec3;
 use manylights::baseline::BinaryLightTree;
+use manylights::tree::Slot;
 use manylights::Rgb;
-use manylights::{BuildOptions, Light, LightTree, Slot};
+use manylights::{BuildOptions, Light, LightTree};
 use manylights_testkit::SplitMix64;
 
 /// The scenes' generator: testkit's SplitMix64 from a raw state, with the draws of `below`

@@ -6,6 +6,7 @@
 
 use crate::bounded::{unit, BLight, BPoint};
 use arbitrary::Arbitrary;
+use manylights::internals::light::LightExt;
 use manylights::{
     BlCutOptions, BlImportance, LightCut, LightTree, ShadingPoint, SplitCutOptions, TlImportance,
 };

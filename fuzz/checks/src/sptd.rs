@@ -23,10 +23,12 @@
 use arbitrary::Arbitrary;
 use core::f32::consts::{FRAC_PI_2, PI};
 use glam::Vec3;
-use manylights::importance::bl::MAX_IMPORTANCE;
-use manylights::importance::sptd::{Cap, SptdGgx};
-use manylights::material::ShadingField;
-use manylights::{f32x4, BlImportance, Material, ShadingPoint, SlotBounds, MAX_LIGHT_ENERGY};
+use manylights::error::ShadingField;
+use manylights::importance::f32x4;
+use manylights::internals::bl::MAX_IMPORTANCE;
+use manylights::internals::sptd::{Cap, SptdGgx};
+use manylights::tree::SlotBounds;
+use manylights::{BlImportance, Material, ShadingPoint, MAX_LIGHT_ENERGY};
 
 use crate::bounded::{unit64, Dir, Real};
 

@@ -4,13 +4,13 @@
 //!   its checksum field (bytes 16..24) alone are always rejected; anything else is an error or
 //!   a tree that validates and samples;
 //! - resealed (`resealed` true): the bytes, or the valid tree's payload with the edits, get a
-//!   fresh header with their own length and checksum (`manylights::tree::seal`), so that the
+//!   fresh header with their own length and checksum (`manylights::internals::tree::seal`), so that the
 //!   structural checks behind the checksum are fuzzed: an error or a tree that validates and
 //!   samples, with pmf > 0 equal to the queried one.
 
 use arbitrary::Arbitrary;
 use glam::Vec3;
-use manylights::tree::{seal, HEADER_BYTES};
+use manylights::internals::tree::{seal, HEADER_BYTES};
 use manylights::Rgb;
 use manylights::{Light, LightTree, TlImportance};
 

@@ -14,9 +14,10 @@
 
 use arbitrary::Arbitrary;
 use glam::Vec3;
+use manylights::error::VplField;
 use manylights::vpl::Accepted;
 use manylights::Rgb;
-use manylights::{Material, Vpl, VplAcceptor, VplField, MAX_COORDINATE, MAX_LIGHT_ENERGY};
+use manylights::{Material, Vpl, VplAcceptor, MAX_COORDINATE, MAX_LIGHT_ENERGY};
 
 use crate::bounded::{Dir, Real};
 

@@ -14,10 +14,9 @@
 //! share, since they all gather through this one function).
 
 use glam::Vec3;
+use manylights::cut::CUT_CAPACITY;
 use manylights::Occluder;
-use manylights::{
-    Light, LightCut, LightSample, LightTree, SplitCutOptions, TlImportance, Vpl, CUT_CAPACITY,
-};
+use manylights::{Light, LightCut, LightSample, LightTree, SplitCutOptions, TlImportance, Vpl};
 use manylights_render::render::primary;
 use manylights_render::scene::{Geometry, RenderScene};
 use rand::{Rng, SeedableRng};

@@ -198,6 +198,7 @@ impl RenderScene {
             Material::Plastic {
                 specular, alpha, ..
             } => ("plastic", format!(" α {alpha} ks {specular}")),
+            _ => ("material", String::new()),
         };
         let generic = format!("{kind}{lobe}");
         let named = match self.name.as_str() {

@@ -3,7 +3,7 @@
 //! weight.
 
 use crate::colour::Rgb;
-use crate::light_point::LightPoint;
+use crate::light::point::LightPoint;
 use crate::mis::Factors;
 
 /// A sample's weight and density: it contributes `value · weight / pdf`.

@@ -2,7 +2,7 @@
 //! the generated Rust source `src/importance/sptd/table.rs` of the core.
 //!
 //! Per table node `(i, j)` — `u = √α = i/63`, `v = 2θo/π = j/63`, clamped as
-//! [`manylights::importance::sptd::table_node`] says:
+//! [`manylights::internals::sptd::table_node`] says:
 //!
 //! 1. `ρ` (directional albedo) and the mean reflected direction, from 256² stratified VNDF
 //!    samples (f64).
@@ -33,7 +33,7 @@
 //! compares them with the committed values (bit-identical on the same platform).
 
 use glam::{DVec3, Vec3};
-use manylights::importance::sptd::{self, table, Cap, GgxParams, SptdGgx, TABLE_SIZE};
+use manylights::internals::sptd::{self, table, Cap, GgxParams, SptdGgx, TABLE_SIZE};
 use manylights_testkit::ggx::{cap_integral, Cap64, Ggx};
 use rand::{Rng, SeedableRng};
 use rand_pcg::Pcg64Mcg;

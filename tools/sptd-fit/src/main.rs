@@ -13,7 +13,7 @@ use fit::{
     check, committed_node, default_table_path, fit_node, fit_table, neighbours_in, table_source,
     FitConfig,
 };
-use manylights::importance::sptd::{self, TABLE_SIZE};
+use manylights::internals::sptd::{self, TABLE_SIZE};
 use std::path::PathBuf;
 
 /// The help text of `--help`.

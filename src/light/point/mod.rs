@@ -144,10 +144,10 @@ fn unit_square(u: [f32; 2]) -> Option<[f64; 2]> {
 }
 
 /// Samples a point on `light` as seen from the shading point `x`, for `u` uniform in [0, 1)²
-/// (see the [module documentation](self) for the pdf and the estimator).
+/// (see the module documentation for the pdf and the estimator).
 ///
 /// ```
-/// use manylights::{light_point, Light, Rgb};
+/// use manylights::{light, Light, Rgb};
 /// use glam::Vec3;
 ///
 /// let sphere = Light::Sphere {
@@ -155,8 +155,8 @@ fn unit_square(u: [f32; 2]) -> Option<[f64; 2]> {
 ///     radius: 1.0,
 ///     radiance: Rgb::grey(2.0),
 /// };
-/// let s = light_point::sample_point(&sphere, Vec3::ZERO, [0.3, 0.7]).unwrap();
-/// assert_eq!(s.pdf, light_point::pdf_point(&sphere, Vec3::ZERO, s.position));
+/// let s = light::sample_point(&sphere, Vec3::ZERO, [0.3, 0.7]).unwrap();
+/// assert_eq!(s.pdf, light::pdf_point(&sphere, Vec3::ZERO, s.position));
 /// assert_eq!(s.radiance, Rgb::grey(2.0));
 /// ```
 pub fn sample_point(light: &Light, x: Vec3, u: [f32; 2]) -> Option<LightPoint> {

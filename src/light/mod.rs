@@ -32,15 +32,19 @@
 //! - a distant light's direction finite and non-zero (normalised here), its angular radius γ
 //!   in [0, π/2], its irradiance's luminance at most [`MAX_LIGHT_ENERGY`]; an environment's
 //!   six bounds finite, ≥ 0 and at most [`MAX_LIGHT_ENERGY`]. At most
-//!   [`MAX_INFINITE_LIGHTS`](crate::infinite::MAX_INFINITE_LIGHTS) distant and environment
+//!   `MAX_INFINITE_LIGHTS` distant and environment
 //!   lights in all, at most one environment (checked by the build).
 
 use crate::bounds::{Aabb, Cone, LightBounds, Sphere};
 use crate::colour::Rgb;
 use crate::error::{BuildError, LightField, Problem};
+pub use crate::limits::MAX_INFINITE_LIGHTS;
+pub(crate) mod point;
+
 use crate::math;
 use core::f32::consts::{FRAC_PI_2, PI};
 use glam::Vec3;
+pub use point::{intersect, pdf_direction, pdf_point, sample_point, LightPoint};
 
 pub use crate::limits::{MAX_COORDINATE, MAX_LIGHT_ENERGY, MAX_TOTAL_ENERGY};
 
@@ -50,6 +54,7 @@ pub use crate::limits::{MAX_COORDINATE, MAX_LIGHT_ENERGY, MAX_TOTAL_ENERGY};
 /// the table). The tree ranks lights by the luminance of these ([`Rgb::luminance`]), so a grey
 /// light samples as a scalar one of the same value.
 #[derive(Clone, Copy, Debug, PartialEq)]
+#[non_exhaustive]
 pub enum Light {
     /// Isotropic point light.
     Point {
@@ -467,7 +472,7 @@ impl Light {
     }
 
     /// Whether the light is at infinity (distant or environment): it has no position, is not
-    /// in the node tree and is weighed against it at the root (see [`crate::infinite`]).
+    /// in the node tree and is weighed against it at the root (see [`crate::light_set`]).
     #[inline]
     pub fn is_infinite(&self) -> bool {
         matches!(self, Light::Distant { .. } | Light::Environment { .. })
@@ -528,7 +533,7 @@ impl Light {
     /// for virtual point lights, L·π·A per emitting side for area lights, in W when
     /// intensity is in W/sr and radiance in W/(m²·sr); 0 for distant and environment lights
     /// (no finite flux: they are weighed at each shading point by their irradiance instead, see
-    /// [`crate::infinite`]). Computed in f64 and rounded to the nearest f32, but never to 0 for
+    /// [`crate::light_set`]). Computed in f64 and rounded to the nearest f32, but never to 0 for
     /// a light that emits: a positive energy below f32's range is the smallest positive f32,
     /// 2⁻¹⁴⁹, so that every light that can light a point is in the tree. Valid only for a light
     /// that passed [`Light::validate`].
@@ -538,7 +543,7 @@ impl Light {
 
     /// The light's bounds: box, tight bounding sphere, orientation cone and energy.
     /// Valid only for a light that passed [`Light::validate`].
-    pub fn bounds(&self) -> LightBounds {
+    pub(crate) fn bounds(&self) -> LightBounds {
         self.bounds_with_energy(self.energy())
     }
 

@@ -10,7 +10,8 @@ mod common;
 
 use common::{Rng, Stats};
 use glam::{DVec3, Vec3};
-use manylights::light_point::{intersect, pdf_direction, pdf_point, sample_point};
+use manylights::internals::light::LightExt;
+use manylights::light::{intersect, pdf_direction, pdf_point, sample_point};
 use manylights::Rgb;
 use manylights::{Light, LightPoint};
 use std::f64::consts::PI;
@@ -80,6 +81,7 @@ fn radiance_of(l: &Light) -> f32 {
         Light::Distant { .. } | Light::Environment { .. } => {
             unreachable!("lights at infinity are tested in tests/infinite.rs")
         }
+        _ => unimplemented!("a light kind the tests do not know"),
     }
 }
 
@@ -198,6 +200,7 @@ fn centre_and_size(l: &Light) -> (Vec3, f32) {
         Light::Distant { .. } | Light::Environment { .. } => {
             unreachable!("lights at infinity are tested in tests/infinite.rs")
         }
+        _ => unimplemented!("a light kind the tests do not know"),
     }
 }
 
@@ -432,7 +435,7 @@ fn triangle_samples_are_distributed_as_claimed() {
         }
         let v = vertices.map(|p| d(p) - d(x));
         let omega = solid_angle(v[0], v[1], v[2]);
-        let spherical = omega >= manylights::light_point::MIN_SPHERICAL_SOLID_ANGLE;
+        let spherical = omega >= manylights::internals::light_point::MIN_SPHERICAL_SOLID_ANGLE;
         // Cells in barycentric (b1, b2) coordinates: an m×m grid of upward and downward
         // triangles, m = 2^levels.
         let m = 1usize << levels;
