@@ -127,11 +127,13 @@ impl BinaryLightTree {
     }
 
     /// The nodes (node 0 is the root).
+    #[must_use]
     pub fn nodes(&self) -> &[BinaryNode] {
         &self.nodes
     }
 
     /// Bytes of all arrays (nodes and paths).
+    #[must_use]
     pub fn bytes(&self) -> usize {
         core::mem::size_of_val(self.nodes.as_slice())
             + core::mem::size_of_val(self.paths.as_slice())
@@ -167,6 +169,7 @@ impl BinaryLightTree {
     }
 
     /// Samples a light by binary descent with one warped uniform number.
+    #[must_use]
     pub fn sample(&self, imp: &TlImportance, u: f32) -> Option<LightSample> {
         let mut u = sanitize(u);
         let mut i = 0usize;
@@ -204,6 +207,7 @@ impl BinaryLightTree {
     }
 
     /// The exact pmf of `light` (what [`BinaryLightTree::sample`] reports for it).
+    #[must_use]
     pub fn pmf(&self, imp: &TlImportance, light: u32) -> f32 {
         let Some(&path) = self.paths.get(light as usize) else {
             return 0.0;

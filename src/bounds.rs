@@ -25,6 +25,7 @@ impl Aabb {
     };
 
     /// The box with corners `min` and `max`.
+    #[must_use]
     pub fn new(min: Vec3, max: Vec3) -> Aabb {
         Aabb {
             min: min.into(),
@@ -33,12 +34,14 @@ impl Aabb {
     }
 
     /// The box of one point.
+    #[must_use]
     pub fn point(p: Vec3) -> Aabb {
         Aabb::new(p, p)
     }
 
     /// Smallest box holding both.
     #[inline(always)]
+    #[must_use]
     pub fn union(self, o: Aabb) -> Aabb {
         Aabb {
             min: self.min.min(o.min),
@@ -48,6 +51,7 @@ impl Aabb {
 
     /// Smallest box holding `self` and `p`.
     #[inline(always)]
+    #[must_use]
     pub fn grow(self, p: Vec3) -> Aabb {
         let p = Vec3A::from(p);
         Aabb {
@@ -72,18 +76,21 @@ impl Aabb {
     }
 
     /// True when the box holds no point.
+    #[must_use]
     pub fn is_empty(&self) -> bool {
         self.min.x > self.max.x || self.min.y > self.max.y || self.min.z > self.max.z
     }
 
     /// `max - min` (zero for an empty box).
     #[inline]
+    #[must_use]
     pub fn extent(&self) -> Vec3 {
         (self.max - self.min).max(Vec3A::ZERO).into()
     }
 
     /// Centre of the box.
     #[inline]
+    #[must_use]
     pub fn center(&self) -> Vec3 {
         ((self.min + self.max) * 0.5).into()
     }
@@ -91,6 +98,7 @@ impl Aabb {
     /// The spatial measure M_A of the SAOH: surface area, or the diagonal length for a box of
     /// zero area (points on a line or a single point), so that such clusters still compare.
     #[inline]
+    #[must_use]
     pub fn measure(&self) -> f32 {
         if self.is_empty() {
             return 0.0;
@@ -142,11 +150,13 @@ impl Cone {
 
     /// True when the normals may point anywhere.
     #[inline]
+    #[must_use]
     pub fn is_sphere(&self) -> bool {
         self.theta_o >= PI
     }
 
     /// Smallest cone (by the construction of docs/formulas.md, section 2) holding both.
+    #[must_use]
     pub fn union(self, b: Cone) -> Cone {
         self.union_with::<Exact>(b)
     }
@@ -213,6 +223,7 @@ impl Cone {
     }
 
     /// Whether `self` contains `inner` within `tol` radians.
+    #[must_use]
     pub fn contains(&self, inner: &Cone, tol: f32) -> bool {
         if inner.theta_e > self.theta_e + tol {
             return false;
@@ -226,6 +237,7 @@ impl Cone {
     /// The orientation measure M_Ω of the SAOH (Conty & Kulla):
     /// `2π(1 − cos θo) + π/2 · (2 θw sin θo − cos(θo − 2θw) − 2 θo sin θo + cos θo)`,
     /// `θw = min(θo + θe, π)`.
+    #[must_use]
     pub fn measure(&self) -> f32 {
         self.measure_with::<Exact>()
     }
@@ -262,6 +274,7 @@ pub struct Sphere {
 
 impl Sphere {
     /// Whether `self` contains `inner`, with absolute slack `tol`.
+    #[must_use]
     pub fn contains(&self, inner: &Sphere, tol: f32) -> bool {
         let d = math::sq(f64::from(self.center.x - inner.center.x))
             + math::sq(f64::from(self.center.y - inner.center.y))
@@ -272,6 +285,7 @@ impl Sphere {
     /// A sphere containing every sphere of `spheres` (finite): centred on the middle of their
     /// bounding box, with the radius computed in f64 and rounded outwards. The zero sphere for
     /// an empty slice.
+    #[must_use]
     pub fn enclosing(spheres: &[Sphere]) -> Sphere {
         let Some(first) = spheres.first() else {
             return Sphere {

@@ -92,6 +92,7 @@ impl Crc64 {
 }
 
 /// The CRC-64/XZ of `bytes`.
+#[must_use]
 pub fn crc64(bytes: &[u8]) -> u64 {
     let mut c = Crc64::new();
     c.update(bytes);

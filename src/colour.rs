@@ -31,30 +31,35 @@ impl Rgb {
 
     /// The colour of three channels.
     #[inline]
+    #[must_use]
     pub const fn new(r: f32, g: f32, b: f32) -> Rgb {
         Rgb { r, g, b }
     }
 
     /// `v` in every channel.
     #[inline]
+    #[must_use]
     pub const fn grey(v: f32) -> Rgb {
         Rgb { r: v, g: v, b: v }
     }
 
     /// The channels as an array.
     #[inline]
+    #[must_use]
     pub const fn to_array(self) -> [f32; 3] {
         [self.r, self.g, self.b]
     }
 
     /// The colour of an array of channels.
     #[inline]
+    #[must_use]
     pub const fn from_array(c: [f32; 3]) -> Rgb {
         Rgb::new(c[0], c[1], c[2])
     }
 
     /// Rec. 709 luminance, computed in f64 and rounded once (exactly `c` for a grey `c`).
     #[inline]
+    #[must_use]
     pub fn luminance(self) -> f32 {
         let [wr, wg, wb] = LUMINANCE_WEIGHTS;
         (wr * f64::from(self.r) + wg * f64::from(self.g) + wb * f64::from(self.b)) as f32
@@ -68,18 +73,21 @@ impl Rgb {
 
     /// The largest channel.
     #[inline]
+    #[must_use]
     pub fn max_channel(self) -> f32 {
         self.r.max(self.g).max(self.b)
     }
 
     /// Whether every channel is finite.
     #[inline]
+    #[must_use]
     pub fn is_finite(self) -> bool {
         self.r.is_finite() && self.g.is_finite() && self.b.is_finite()
     }
 
     /// Whether every channel is 0 (or −0).
     #[inline]
+    #[must_use]
     pub fn is_black(self) -> bool {
         self.r == 0.0 && self.g == 0.0 && self.b == 0.0
     }

@@ -34,6 +34,7 @@ pub enum LightField {
 
 impl LightField {
     /// The field's name as written in the API.
+    #[must_use]
     pub fn name(self) -> &'static str {
         match self {
             LightField::Position => "position",
@@ -461,6 +462,7 @@ pub enum VplField {
 
 impl VplField {
     /// The field's name as written in the API.
+    #[must_use]
     pub fn name(self) -> &'static str {
         match self {
             VplField::Position => "position",
@@ -651,6 +653,7 @@ pub enum ShadingField {
 
 impl ShadingField {
     /// The field's name as written in the API.
+    #[must_use]
     pub fn name(self) -> &'static str {
         match self {
             ShadingField::Position => "position",

@@ -78,18 +78,21 @@ impl RootChoice {
 
     /// Number of choices (1 + the lights at infinity).
     #[inline]
+    #[must_use]
     pub fn len(&self) -> usize {
         self.n
     }
 
     /// Never empty: the node tree is choice 0.
     #[inline]
+    #[must_use]
     pub fn is_empty(&self) -> bool {
         false
     }
 
     /// The probability of choice `k` (0 outside, or when nothing can be chosen).
     #[inline]
+    #[must_use]
     pub fn probability(&self, k: usize) -> f32 {
         if k >= self.n || self.sum <= 0.0 {
             return 0.0;
@@ -100,6 +103,7 @@ impl RootChoice {
     /// The choice for the uniform number `u` (clamped into [0, 1); NaN counts as 0): `(k,
     /// its probability, u rescaled into [0, 1))`; `None` when every weight is 0. A choice of
     /// weight 0 is never made.
+    #[must_use]
     pub fn pick(&self, u: f32) -> Option<(usize, f32, f32)> {
         if self.sum <= 0.0 {
             return None;
@@ -137,18 +141,21 @@ pub(crate) fn tree_floor(p: f32) -> f32 {
 impl LightTree {
     /// The distant and environment lights, in the order of the build's input.
     #[inline]
+    #[must_use]
     pub fn infinite_lights(&self) -> &[InfiniteLight] {
         &self.infinite
     }
 
     /// The entry of `light` among the lights at infinity, if it is one.
     #[inline]
+    #[must_use]
     pub fn infinite_entry(&self, light: u32) -> Option<usize> {
         self.infinite.iter().position(|e| e.light == light)
     }
 
     /// The environment light's index, if the tree has one.
     #[inline]
+    #[must_use]
     pub fn environment(&self) -> Option<u32> {
         self.infinite
             .iter()

@@ -93,6 +93,7 @@ impl InfiniteLight {
 
     /// The entry's kind (`None` for a corrupt kind field).
     #[inline]
+    #[must_use]
     pub fn kind(&self) -> Option<InfiniteKind> {
         match self.kind {
             0 => Some(InfiniteKind::Distant),
@@ -103,6 +104,7 @@ impl InfiniteLight {
 
     /// The direction towards a distant light (0 for an environment).
     #[inline]
+    #[must_use]
     pub fn direction(&self) -> Vec3 {
         Vec3::from_array(self.direction)
     }

@@ -73,6 +73,7 @@ pub mod tree {
     /// CRC-64/XZ) followed by `payload`, as [`LightTree::as_bytes`](crate::LightTree::as_bytes)
     /// writes it; [`LightTree::from_bytes`](crate::LightTree::from_bytes) still validates the
     /// payload fully.
+    #[must_use]
     pub fn seal(payload: &[u8]) -> Vec<u8> {
         crate::tree::seal(payload)
     }

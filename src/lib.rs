@@ -88,6 +88,8 @@
 #![cfg_attr(not(feature = "prefetch"), forbid(unsafe_code))]
 #![cfg_attr(feature = "prefetch", deny(unsafe_code))]
 #![deny(missing_docs)]
+// Pure functions and builders say so: a result dropped by mistake is a warning.
+#![warn(clippy::must_use_candidate)]
 // Without `internals`, what only the tests, fuzz checks and instruments reach (through
 // `internals`) has no user inside the crate; with it (as every test build has) it is checked.
 #![cfg_attr(not(feature = "internals"), allow(dead_code, unused_imports))]

@@ -77,36 +77,42 @@ impl LightSet {
 
     /// The lights, in the order given to [`LightSet::build`] (light indices index this).
     #[inline]
+    #[must_use]
     pub fn lights(&self) -> &[Light] {
         &self.lights
     }
 
     /// Their tree.
     #[inline]
+    #[must_use]
     pub fn tree(&self) -> &LightTree {
         &self.tree
     }
 
     /// The alias table of their energies.
     #[inline]
+    #[must_use]
     pub fn power(&self) -> &AliasTable {
         &self.power
     }
 
     /// The environment light's index, if the set has one.
     #[inline]
+    #[must_use]
     pub fn environment(&self) -> Option<u32> {
         self.tree.environment()
     }
 
     /// Number of lights.
     #[inline]
+    #[must_use]
     pub fn len(&self) -> usize {
         self.lights.len()
     }
 
     /// No lights.
     #[inline]
+    #[must_use]
     pub fn is_empty(&self) -> bool {
         self.lights.is_empty()
     }
@@ -237,12 +243,14 @@ impl AliasTable {
 
     /// Number of entries.
     #[inline]
+    #[must_use]
     pub fn len(&self) -> usize {
         self.pmf.len()
     }
 
     /// No entries.
     #[inline]
+    #[must_use]
     pub fn is_empty(&self) -> bool {
         self.pmf.is_empty()
     }
@@ -250,6 +258,7 @@ impl AliasTable {
     /// An entry for `u` in [0, 1) (clamped into it; NaN counts as 0) and its probability
     /// (> 0); `None` when no weight is positive.
     #[inline]
+    #[must_use]
     pub fn sample(&self, u: f64) -> Option<(u32, f32)> {
         let n = self.threshold.len();
         if n == 0 {
@@ -269,6 +278,7 @@ impl AliasTable {
 
     /// The probability of entry `i` (0 outside the table).
     #[inline]
+    #[must_use]
     pub fn pmf(&self, i: u32) -> f32 {
         self.pmf.get(i as usize).copied().unwrap_or(0.0)
     }

@@ -46,6 +46,7 @@ pub enum Material {
 impl Material {
     /// `(luminance of the diffuse albedo, specular weight, α)`; zero weights for absent
     /// lobes. What the importances, cuts and BSDF sampling use.
+    #[must_use]
     pub fn lobes(&self) -> (f32, f32, f32) {
         let (albedo, specular, alpha) = self.colour_lobes();
         (albedo.luminance(), specular, alpha)
@@ -53,6 +54,7 @@ impl Material {
 
     /// `(diffuse albedo, specular weight, α)`, the albedo in colour; zero weights for absent
     /// lobes.
+    #[must_use]
     pub fn colour_lobes(&self) -> (Rgb, f32, f32) {
         match *self {
             Material::Lambert { albedo } => (albedo, 0.0, 1.0),
@@ -67,6 +69,7 @@ impl Material {
 
     /// Whether the material has no glossy lobe (then BRDF-oriented light sampling reduces to
     /// TL, and the combined estimator uses TL and TB only).
+    #[must_use]
     pub fn is_diffuse_only(&self) -> bool {
         self.lobes().1 <= 0.0
     }

@@ -72,6 +72,7 @@ pub const N_MAX: u32 = 50;
 /// The number of BRDF-aware samples at a shading point: `ceil(n_max · ib)` with `ib = IB(x)`
 /// (the largest BRDF integral over the cut), at least 1; 0 for a non-positive or NaN `ib`.
 /// `n_max` is clamped to 1..=[`MAX_BUDGET`].
+#[must_use]
 pub fn sample_budget(ib: f32, n_max: u32) -> u32 {
     if ib.is_nan() || ib <= 0.0 {
         return 0;
@@ -89,6 +90,7 @@ pub fn sample_budget(ib: f32, n_max: u32) -> u32 {
 /// BRDF, BL is TL and the budget buys nothing TL does not already give; for plastic, a large
 /// light close by has a large Lambert integral although the glossy lobe sees little of it, so
 /// only the glossy part asks for BRDF-aware samples. For pure GGX this is Liu et al.'s budget.
+#[must_use]
 pub fn brdf_budget(cut: &LightCut, n_max: u32) -> u32 {
     sample_budget(cut.max_glossy_score(), n_max)
 }
@@ -108,6 +110,7 @@ pub struct TechniquePdfs {
 /// solid-angle pdf of the point on the light (`light_point::pdf_point`), `brdf_pdf` the
 /// BRDF's pdf of the direction towards it. `bl` is `None` when BL is not used (diffuse-only
 /// materials). The same function serves light samples and BRDF rays that hit a light.
+#[must_use]
 pub fn technique_pdfs<B: Importance + ?Sized>(
     tree: &LightTree,
     split: &LightCut,
@@ -129,6 +132,7 @@ pub fn technique_pdfs<B: Importance + ?Sized>(
 /// Balance-heuristic weight of technique `a` (`n_a` samples, density `pdf_a`) among
 /// `others` (each `(n, pdf)`): `n_a·pdf_a / Σ n·pdf`, in [0, 1]. 0 when every density is 0;
 /// negative, NaN and infinite inputs as the module documentation says.
+#[must_use]
 pub fn balance(n_a: f32, pdf_a: f32, others: &[(f32, f32)]) -> f32 {
     heuristic(n_a, pdf_a, others, false)
 }
@@ -136,6 +140,7 @@ pub fn balance(n_a: f32, pdf_a: f32, others: &[(f32, f32)]) -> f32 {
 /// Power-heuristic (β = 2) weight of technique `a` among `others`: `(n_a·pdf_a)² / Σ (n·pdf)²`,
 /// in [0, 1]. 0 when every density is 0; negative, NaN and infinite inputs as the module
 /// documentation says.
+#[must_use]
 pub fn power(n_a: f32, pdf_a: f32, others: &[(f32, f32)]) -> f32 {
     heuristic(n_a, pdf_a, others, true)
 }
@@ -157,6 +162,7 @@ impl Heuristic {
     pub const ALL: [Heuristic; 2] = [Heuristic::Balance, Heuristic::Power];
 
     /// The heuristic's name (`balance`, `power`).
+    #[must_use]
     pub fn name(self) -> &'static str {
         match self {
             Heuristic::Balance => "balance",
@@ -167,6 +173,7 @@ impl Heuristic {
     /// The weight of technique `a` among `others` by this heuristic (`balance` or
     /// `power`).
     #[inline]
+    #[must_use]
     pub fn weight(self, n_a: f32, pdf_a: f32, others: &[(f32, f32)]) -> f32 {
         heuristic(n_a, pdf_a, others, self == Heuristic::Power)
     }
@@ -280,6 +287,7 @@ pub struct AdaptiveAllocator {
 impl AdaptiveAllocator {
     /// A fresh allocator (`n_hit = n_nohit = 1`). With `bl_enabled = false` (Lambert-only
     /// materials) it always chooses TB.
+    #[must_use]
     pub fn new(bl_enabled: bool) -> AdaptiveAllocator {
         AdaptiveAllocator {
             n_hit: 1,
@@ -290,6 +298,7 @@ impl AdaptiveAllocator {
     }
 
     /// The probability of choosing BL for the next sample.
+    #[must_use]
     pub fn p_bl(&self) -> f32 {
         if !self.bl_enabled {
             return 0.0;
@@ -300,6 +309,7 @@ impl AdaptiveAllocator {
 
     /// Chooses the technique of the next sample from `u` in [0, 1) and returns it with `u`
     /// warped back into [0, 1) (`u/p` or `(u − p)/(1 − p)`) and the probability `p` of BL.
+    #[must_use]
     pub fn choose(&self, u: f32) -> (Mixture, f32, f32) {
         let p = self.p_bl();
         let u = crate::sample::sanitize(u);
@@ -352,6 +362,7 @@ impl CombinedWeights {
     /// [0, 1], summing to 1 (both 0 if every density is 0).
     /// Negative, NaN and infinite densities, counts and `p_ref` as the module documentation
     /// says.
+    #[must_use]
     pub fn weights(&self, pdf_tl: f32, pdf_bl: f32, pdf_tb: f32) -> (f32, f32) {
         let q = self.q_ref(pdf_bl, pdf_tb);
         let others = [(self.n_mixture, q)];
@@ -414,6 +425,7 @@ pub struct SequentialWeights {
 impl SequentialWeights {
     /// Weights for `n` BRDF-aware samples (at most [`MAX_BUDGET`]) after TL with `n_tl`
     /// samples per cluster (1 for split sampling), by `heuristic`.
+    #[must_use]
     pub fn new(n: u32, n_tl: f32, heuristic: Heuristic) -> SequentialWeights {
         SequentialWeights {
             n: n.min(MAX_BUDGET),
@@ -429,6 +441,7 @@ impl SequentialWeights {
     }
 
     /// The planned number of BRDF-aware samples N.
+    #[must_use]
     pub fn budget(&self) -> u32 {
         self.n
     }
@@ -456,6 +469,7 @@ impl SequentialWeights {
     /// What a BRDF-aware sample drawn with BL probability `p_bl` contributes: `g·W_j/q_j` for
     /// a point of value `g` (`f·L·cos`) and densities `pdf_tl`, `pdf_bl`, `pdf_tb` (0 if the
     /// sample's mixture density there is 0).
+    #[must_use]
     pub fn mixture_term(&self, g: f32, p_bl: f32, pdf_tl: f32, pdf_bl: f32, pdf_tb: f32) -> f32 {
         if g.is_nan() || g <= 0.0 {
             return 0.0;
@@ -474,6 +488,7 @@ impl SequentialWeights {
     /// [`SequentialWeights::mixture_term`] as `g · num / den`: `num / den = W_j / q_j`, the
     /// sampling density `pdf = N q_j` and the MIS weight `N W_j`. `None` where the sample's
     /// mixture density is 0 (or N = 0).
+    #[must_use]
     pub fn mixture_factors(
         &self,
         p_bl: f32,
@@ -505,6 +520,7 @@ impl SequentialWeights {
 
     /// TL's weight at a point once the BRDF-aware samples are recorded: `(1/N) Σ_j r_j`, with
     /// `r = 1` for planned samples not taken; 1 when N = 0.
+    #[must_use]
     pub fn tl_weight(&self, pdf_tl: f32, pdf_bl: f32, pdf_tb: f32) -> f32 {
         if self.n == 0 {
             return 1.0;
@@ -519,6 +535,7 @@ impl SequentialWeights {
 
     /// What a TL sample of value `g` and densities `pdf_tl` (> 0), `pdf_bl`, `pdf_tb`
     /// contributes: `g·w_TL/pdf_TL` (0 if `pdf_tl` is not positive).
+    #[must_use]
     pub fn tl_term(&self, g: f32, pdf_tl: f32, pdf_bl: f32, pdf_tb: f32) -> f32 {
         if pdf_tl.is_nan() || pdf_tl <= 0.0 || g.is_nan() || g <= 0.0 {
             return 0.0;

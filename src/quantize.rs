@@ -137,6 +137,7 @@ pub fn angle_of(q: u32) -> f32 {
 /// Packs a cone into a slot's cone word: the axis in bits 0..16, θo (widened by the axis'
 /// quantisation error) in bits 16..24 (`encode_angle`), θe in bits 24..32
 /// (`encode_emission`).
+#[must_use]
 pub fn encode_cone(c: &Cone) -> u32 {
     let axis = encode_axis(c.axis);
     let theta_o = if c.theta_o >= PI {
@@ -162,6 +163,7 @@ pub fn decode_cone(word: u32) -> Cone {
 
 /// The 20-bit code of an energy `e ≥ 0` (the upper 20 bits of its f32: sign, exponent and
 /// 11 mantissa bits), rounded up: at most 2⁻¹¹ above `e`, and a positive `e` never becomes 0.
+#[must_use]
 pub fn encode_energy(e: f32) -> u32 {
     let e = if e > 0.0 { e } else { 0.0 };
     let bits = e.to_bits();
@@ -213,6 +215,7 @@ pub fn decode_sphere(word: u32, origin: [f32; 3], scale: f32) -> Sphere {
 
 /// The frame `(origin, exponent)` and sphere words of up to four spheres: the codes of each
 /// sphere decode to a sphere that contains it. `spheres` must be finite.
+#[must_use]
 pub fn encode_spheres(spheres: &[Sphere]) -> ([f32; 3], u8, [u32; 4]) {
     let mut lo = Vec3::splat(f32::INFINITY);
     let mut hi = Vec3::splat(f32::NEG_INFINITY);

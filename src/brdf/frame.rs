@@ -41,6 +41,7 @@ impl Frame {
 
     /// World → local coordinates.
     #[inline]
+    #[must_use]
     pub fn to_local(&self, v: Vec3) -> Vec3 {
         Vec3::new(
             v.dot(self.tangent),
@@ -51,6 +52,7 @@ impl Frame {
 
     /// Local → world coordinates.
     #[inline]
+    #[must_use]
     pub fn to_world(&self, v: Vec3) -> Vec3 {
         self.tangent * v.x + self.bitangent * v.y + self.normal * v.z
     }

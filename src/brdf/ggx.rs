@@ -31,6 +31,7 @@ pub struct Ggx {
 impl Ggx {
     /// A lobe of roughness `alpha` (GGX α, i.e. perceptual roughness squared), clamped into
     /// [[`MIN_ALPHA`], 1]; NaN becomes 1.
+    #[must_use]
     pub fn new(alpha: f32) -> Ggx {
         Ggx {
             alpha: if alpha.is_nan() {
@@ -42,11 +43,13 @@ impl Ggx {
     }
 
     /// The (clamped) roughness α.
+    #[must_use]
     pub fn alpha(&self) -> f32 {
         self.alpha
     }
 
     /// The normal distribution D(h) for a unit half vector h (0 below the horizon).
+    #[must_use]
     pub fn d(&self, h: Vec3) -> f32 {
         if !(finite(h) && h.z > 0.0) {
             return 0.0;
@@ -63,6 +66,7 @@ impl Ggx {
     }
 
     /// Smith's masking term G1(w) = 1 / (1 + Λ(w)) (0 at or below the horizon).
+    #[must_use]
     pub fn g1(&self, w: Vec3) -> f32 {
         if !(finite(w) && w.z > 0.0) {
             return 0.0;
@@ -71,6 +75,7 @@ impl Ggx {
     }
 
     /// The height-correlated masking-shadowing term G2(wo, wi) = 1 / (1 + Λ(wo) + Λ(wi)).
+    #[must_use]
     pub fn g2(&self, wo: Vec3, wi: Vec3) -> f32 {
         if !(finite(wo) && finite(wi) && wo.z > 0.0 && wi.z > 0.0) {
             return 0.0;

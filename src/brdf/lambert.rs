@@ -15,6 +15,7 @@ pub struct Lambert {
 
 impl Lambert {
     /// A diffuse lobe of the given albedo, clamped into [0, 1] (NaN becomes 0).
+    #[must_use]
     pub fn new(albedo: f32) -> Lambert {
         Lambert {
             albedo: if albedo.is_nan() {
@@ -26,6 +27,7 @@ impl Lambert {
     }
 
     /// The albedo.
+    #[must_use]
     pub fn albedo(&self) -> f32 {
         self.albedo
     }

@@ -36,6 +36,7 @@ impl Material {
     /// f(ωo, ωi) per channel (local frame, as [`Brdf::eval`]): channel c is what
     /// [`Brdf::eval`] gives for a material of albedo channel c, operation for operation (so a
     /// grey material gives [`Brdf::eval`] in every channel).
+    #[must_use]
     pub fn eval_rgb(&self, wo: Vec3, wi: Vec3) -> Rgb {
         let (albedo, specular, alpha) = self.colour_lobes();
         let specular = unit_weight(specular);

@@ -49,6 +49,7 @@ pub trait Brdf {
 /// 1994, "An Inexpensive BRDF Model for Physically-based Rendering"), for hosts that want to
 /// weight a [`Ggx`] lobe; `cos_theta` is clamped into [0, 1].
 #[inline]
+#[must_use]
 pub fn schlick(f0: f32, cos_theta: f32) -> f32 {
     let m = 1.0 - cos_theta.clamp(0.0, 1.0);
     let m2 = m * m;

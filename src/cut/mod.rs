@@ -188,6 +188,7 @@ impl Default for LightCut {
 
 impl LightCut {
     /// An empty cut.
+    #[must_use]
     pub const fn new() -> LightCut {
         LightCut {
             clusters: [Cluster {
@@ -211,21 +212,25 @@ impl LightCut {
     }
 
     /// The clusters.
+    #[must_use]
     pub fn clusters(&self) -> &[Cluster] {
         &self.clusters[..self.len]
     }
 
     /// Number of clusters.
+    #[must_use]
     pub fn len(&self) -> usize {
         self.len
     }
 
     /// Whether no cluster can contribute.
+    #[must_use]
     pub fn is_empty(&self) -> bool {
         self.len == 0
     }
 
     /// Sum of the clusters' weights.
+    #[must_use]
     pub fn total_weight(&self) -> f32 {
         self.total
     }
@@ -233,12 +238,14 @@ impl LightCut {
     /// Largest score over the cut: for BRDF-oriented cuts IB(x) (Liu et al. 2019, section
     /// 4.2), for split cuts the largest normalised variance `ρ · (I_C / I_total)²` (+∞ where
     /// the shading point is inside a cluster that could not be split).
+    #[must_use]
     pub fn max_score(&self) -> f32 {
         self.max_score
     }
 
     /// The largest glossy part of a cluster's BRDF integral over the cut (see
     /// [`Cluster::glossy_score`]): IB(x) of the glossy lobe alone. 0 for split cuts.
+    #[must_use]
     pub fn max_glossy_score(&self) -> f32 {
         self.max_glossy_score
     }
@@ -500,6 +507,7 @@ impl LightCut {
     /// is split when its cap is wide (`opts.split_sin`; x inside its bounding sphere is the
     /// widest) or when its BRDF cap integral SC exceeds `opts.delta`. Weights are BL
     /// importances, scores the SC values, so [`LightCut::max_score`] is IB(x).
+    #[must_use]
     pub fn build_bl(tree: &LightTree, imp: &BlImportance, opts: &BlCutOptions) -> LightCut {
         let mut cut = LightCut::new();
         cut.rebuild_bl(tree, imp, opts);
@@ -528,6 +536,7 @@ impl LightCut {
 
     /// The split-sampling cut of Conty & Kulla at the shading point of `imp` (see the module
     /// documentation); each cluster's weight is its TL importance.
+    #[must_use]
     pub fn build_split(tree: &LightTree, imp: &TlImportance, opts: &SplitCutOptions) -> LightCut {
         let mut cut = LightCut::new();
         cut.rebuild_split(tree, imp, opts);

@@ -233,11 +233,13 @@ impl Technique {
     pub const DEFAULT: Technique = Technique::BlMis;
 
     /// The technique of a name (as [`Technique::name`] gives it).
+    #[must_use]
     pub fn from_name(name: &str) -> Option<Technique> {
         Technique::ALL.into_iter().find(|t| t.name() == name)
     }
 
     /// The technique's name.
+    #[must_use]
     pub fn name(self) -> &'static str {
         match self {
             Technique::Uniform => "uniform",
@@ -254,6 +256,7 @@ impl Technique {
     }
 
     /// Whether the technique takes BSDF samples ([`Step::Bsdf`]) at some shading points.
+    #[must_use]
     pub fn samples_bsdf(self) -> bool {
         matches!(
             self,
@@ -305,6 +308,7 @@ impl LambertMode {
     ];
 
     /// The mode's name (`tl-only`, `tb-budget`, `tb-one`, `bl-tb`).
+    #[must_use]
     pub fn name(self) -> &'static str {
         match self {
             LambertMode::TlOnly => "tl-only",
@@ -315,6 +319,7 @@ impl LambertMode {
     }
 
     /// The mode of a name (as [`LambertMode::name`] gives it).
+    #[must_use]
     pub fn from_name(name: &str) -> Option<LambertMode> {
         LambertMode::ALL.into_iter().find(|m| m.name() == name)
     }

@@ -35,23 +35,27 @@ pub struct TreeSampler<'a> {
 impl<'a> TreeSampler<'a> {
     /// The sampler at a point of the given surface normal (a zero normal: an omnidirectional
     /// receiver, as in a participating medium).
+    #[must_use]
     pub fn new(tree: &'a LightTree, position: Vec3, normal: Vec3) -> TreeSampler<'a> {
         TreeSampler::with_importance(tree, TlImportance::new(position, normal))
     }
 
     /// The sampler for an importance already set up.
+    #[must_use]
     pub fn with_importance(tree: &'a LightTree, importance: TlImportance) -> TreeSampler<'a> {
         TreeSampler { tree, importance }
     }
 
     /// The tree.
     #[inline]
+    #[must_use]
     pub fn tree(&self) -> &'a LightTree {
         self.tree
     }
 
     /// The importance.
     #[inline]
+    #[must_use]
     pub fn importance(&self) -> &TlImportance {
         &self.importance
     }
@@ -98,6 +102,7 @@ impl<'a> CutSampler<'a> {
     }
 
     /// Builds the cut for an importance already set up.
+    #[must_use]
     pub fn with_importance(
         tree: &'a LightTree,
         importance: BlImportance,
@@ -147,24 +152,28 @@ impl<'a> CutSampler<'a> {
 
     /// The root choice between the cut and the lights at infinity (`None` without any).
     #[inline]
+    #[must_use]
     pub fn root_choice(&self) -> Option<&RootChoice> {
         self.root.as_ref()
     }
 
     /// The cut.
     #[inline]
+    #[must_use]
     pub fn cut(&self) -> &LightCut {
         &self.cut
     }
 
     /// The importance.
     #[inline]
+    #[must_use]
     pub fn importance(&self) -> &BlImportance {
         &self.importance
     }
 
     /// The tree.
     #[inline]
+    #[must_use]
     pub fn tree(&self) -> &'a LightTree {
         self.tree
     }
@@ -246,6 +255,7 @@ pub struct PinfSampler<'a> {
 
 impl<'a> PinfSampler<'a> {
     /// The sampler for an importance already set up.
+    #[must_use]
     pub fn with_importance(tree: &'a LightTree, importance: TlImportance) -> PinfSampler<'a> {
         let n = tree.infinite_lights().len();
         let local = usize::from(!tree.nodes().is_empty());
@@ -263,6 +273,7 @@ impl<'a> PinfSampler<'a> {
 
     /// pInfinite: the probability of choosing a light at infinity.
     #[inline]
+    #[must_use]
     pub fn p_infinite(&self) -> f32 {
         self.p_infinite
     }
@@ -315,6 +326,7 @@ pub struct UniformSampler {
 
 impl UniformSampler {
     /// Over `n` lights.
+    #[must_use]
     pub fn new(n: u32) -> UniformSampler {
         UniformSampler { n }
     }
@@ -322,6 +334,7 @@ impl UniformSampler {
     /// A light for the uniform number `u` in [0, 1) with 53 bits (for more lights than an
     /// f32 can tell apart); clamped, NaN counts as 0.
     #[inline]
+    #[must_use]
     pub fn sample_f64(&self, u: f64) -> Option<LightSample> {
         if self.n == 0 {
             return None;
@@ -360,12 +373,14 @@ pub struct PowerSampler<'a> {
 
 impl<'a> PowerSampler<'a> {
     /// The sampler of a light set.
+    #[must_use]
     pub fn new(set: &'a LightSet) -> PowerSampler<'a> {
         PowerSampler { table: set.power() }
     }
 
     /// A light for the uniform number `u` in [0, 1) with 53 bits; clamped, NaN counts as 0.
     #[inline]
+    #[must_use]
     pub fn sample_f64(&self, u: f64) -> Option<LightSample> {
         self.table
             .sample(u)

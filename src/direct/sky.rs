@@ -55,6 +55,7 @@ pub struct UniformSky {
 
 impl UniformSky {
     /// Its light: irradiance bounds `π Y(radiance)` on every axis.
+    #[must_use]
     pub fn light(&self) -> Light {
         Light::Environment {
             irradiance: [PI * self.radiance.luminance(); 6],
@@ -125,6 +126,7 @@ impl GradientSky {
     /// at most `Y_up π (1 + c)/2 + Y(ground) π (1 − c)/2`, `Y_up` the larger of the zenith's and
     /// the horizon's luminance (the clamped cosine integrates to `π (1 + c)/2` over the upper
     /// hemisphere), rounded up.
+    #[must_use]
     pub fn light(&self) -> Light {
         let y_up = self.zenith.luminance().max(self.horizon.luminance());
         let y_low = self.ground.luminance();

@@ -203,16 +203,19 @@ impl BlImportance {
     }
 
     /// The shading position.
+    #[must_use]
     pub fn position(&self) -> Vec3 {
         self.position
     }
 
     /// The unit normal, turned to the side of ωo.
+    #[must_use]
     pub fn normal(&self) -> Vec3 {
         self.normal
     }
 
     /// The whole hemisphere's ∫ f cos (the material's directional albedo, as approximated).
+    #[must_use]
     pub fn albedo(&self) -> f32 {
         self.albedo
     }
@@ -232,6 +235,7 @@ impl BlImportance {
     }
 
     /// The scalar reference: importance and cap integral of one cluster.
+    #[must_use]
     pub fn eval(&self, b: &SlotBounds) -> BlEval {
         let v = ClusterView::new(self.position, b);
         let n = self.normal;
@@ -283,6 +287,7 @@ impl BlImportance {
     /// a surface facing away from it 0. The environment, of irradiance bound E_n at the
     /// normal, as a uniform environment of radiance E_n/π: `4π (E_n/π) ρ (1 + DEFENSIVE)`, ρ
     /// the whole hemisphere's ∫ f cos ([`BlImportance::albedo`]).
+    #[must_use]
     pub fn eval_infinite_with_integral(&self, light: &InfiniteLight) -> BlEval {
         let four_pi = 4.0 * PI;
         match light.kind() {
@@ -335,6 +340,7 @@ impl BlImportance {
 
     /// The 4-wide twin of [`BlImportance::eval`]: `(importances, cap integrals)`.
     #[inline]
+    #[must_use]
     pub fn eval4_with_integrals(&self, node: &Node4) -> (f32x4, f32x4) {
         let (w, sc, _) = self.eval4_with_lobe_integrals(node);
         (w, sc)
@@ -343,6 +349,7 @@ impl BlImportance {
     /// [`BlImportance::eval4_with_integrals`] plus the glossy lobe's part of each cap integral
     /// (`ks ∫ f_GGX cos`, 0 for Lambert): `(importances, cap integrals, glossy parts)`.
     #[inline]
+    #[must_use]
     pub fn eval4_with_lobe_integrals(&self, node: &Node4) -> (f32x4, f32x4, f32x4) {
         let (w, sc, glossy, _) = self.eval4_core::<true>(node);
         (w, sc, glossy)

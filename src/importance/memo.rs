@@ -41,6 +41,7 @@ impl Default for MemoTable {
 
 impl MemoTable {
     /// An empty table.
+    #[must_use]
     pub fn new() -> MemoTable {
         MemoTable {
             slots: core::array::from_fn(|_| Cell::new((0, 0, [0.0; 4]))),

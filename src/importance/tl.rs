@@ -70,12 +70,14 @@ impl TlImportance {
     /// length (in f64 where f32 would overflow or underflow); the zero vector or a non-finite
     /// normal makes the point omnidirectional; a non-finite position makes every importance 0.
     #[inline]
+    #[must_use]
     pub fn new(position: Vec3, normal: Vec3) -> TlImportance {
         TlImportance::with_receiver(position, normal, Receiver::Reflective)
     }
 
     /// A point with the given kind of receiver.
     #[inline]
+    #[must_use]
     pub fn with_receiver(position: Vec3, normal: Vec3, receiver: Receiver) -> TlImportance {
         let l2 = normal.length_squared();
         let unit = if math::len2_is_safe(l2) {
@@ -96,21 +98,25 @@ impl TlImportance {
     }
 
     /// The shading position.
+    #[must_use]
     pub fn position(&self) -> Vec3 {
         self.position
     }
 
     /// The unit normal (zero for an omnidirectional point).
+    #[must_use]
     pub fn normal(&self) -> Vec3 {
         self.normal
     }
 
     /// The kind of receiver.
+    #[must_use]
     pub fn receiver(&self) -> Receiver {
         self.receiver
     }
 
     /// The scalar reference: the importance of one cluster.
+    #[must_use]
     pub fn eval(&self, b: &SlotBounds) -> f32 {
         if !self.valid {
             return 0.0;
@@ -130,6 +136,7 @@ impl TlImportance {
     ///
     /// [`eval`]: TlImportance::eval
     #[inline]
+    #[must_use]
     pub fn eval_scaled(&self, b: &SlotBounds) -> f32 {
         self.scaled(b, b.axis)
     }
@@ -712,6 +719,7 @@ impl InfiniteLight {
     /// `Σ |n_i| E(sign(n_i) e_i)` for a reflective receiver (with `max(0, n·ω) ≤
     /// Σ |n_i| max(0, sign(n_i) e_i·ω)` it bounds the irradiance), the bounds of both
     /// sides for a transmissive one, all six for an omnidirectional one (`1 ≤ Σ |ω_i|`).
+    #[must_use]
     pub fn environment_bound(&self, n: Vec3, receiver: Receiver) -> f32 {
         let e = &self.irradiance;
         let pick = |c: f32, pos: f32, neg: f32| if c >= 0.0 { pos } else { neg };

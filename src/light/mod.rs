@@ -467,6 +467,7 @@ impl Light {
     }
 
     /// Emitting area (0 for point, spot, virtual point, distant and environment lights).
+    #[must_use]
     pub fn area(&self) -> f32 {
         self.area_f64() as f32
     }
@@ -474,6 +475,7 @@ impl Light {
     /// Whether the light is at infinity (distant or environment): it has no position, is not
     /// in the node tree and is weighed against it at the root (see [`crate::light_set`]).
     #[inline]
+    #[must_use]
     pub fn is_infinite(&self) -> bool {
         matches!(self, Light::Distant { .. } | Light::Environment { .. })
     }
@@ -537,6 +539,7 @@ impl Light {
     /// a light that emits: a positive energy below f32's range is the smallest positive f32,
     /// 2⁻¹⁴⁹, so that every light that can light a point is in the tree. Valid only for a light
     /// that passed [`Light::validate`].
+    #[must_use]
     pub fn energy(&self) -> f32 {
         energy_f32(self.energy_f64())
     }

@@ -243,6 +243,7 @@ impl LightTree {
     /// (at least 1), the paths each light's path in `2·depth + 1` bits, each array packed back
     /// to back into 64-bit words (value `i` in bits `i·w` to `(i + 1)·w − 1` of the words read
     /// as one little-endian bit stream), with one word of padding after the last.
+    #[must_use]
     pub fn as_bytes(&self) -> Vec<u8> {
         let mut out = Vec::with_capacity(COUNTS + self.array_bytes());
         out.extend_from_slice(&(self.nodes.len() as u64).to_le_bytes());

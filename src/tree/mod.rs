@@ -161,6 +161,7 @@ impl Node4 {
 
     /// What slot `k` (0..4) holds.
     #[inline(always)]
+    #[must_use]
     pub fn child(&self, k: usize) -> Child {
         let bit = 1u32 << (k & 3);
         let below = bit - 1;
@@ -176,24 +177,28 @@ impl Node4 {
 
     /// Number of inner-node slots.
     #[inline]
+    #[must_use]
     pub fn inner_count(&self) -> u32 {
         count4(u32::from(self.mask))
     }
 
     /// Number of light slots.
     #[inline]
+    #[must_use]
     pub fn leaf_count(&self) -> u32 {
         count4(u32::from(self.mask) >> 4)
     }
 
     /// The scale of the sphere codes.
     #[inline(always)]
+    #[must_use]
     pub fn scale(&self) -> f32 {
         quantize::scale_of(self.exponent)
     }
 
     /// The four slots' spheres, decoded lane by lane (the twin of [`Node4::bounds`]).
     #[inline(always)]
+    #[must_use]
     pub fn spheres4(&self) -> Spheres4 {
         let q = i32x4::new(bytemuck::cast(self.sphere));
         let s = f32x4::splat(self.scale());
@@ -207,6 +212,7 @@ impl Node4 {
 
     /// Slot `k`'s 20-bit energy code.
     #[inline(always)]
+    #[must_use]
     pub fn energy_code(&self, k: usize) -> u32 {
         let k = k & 3;
         (u32::from(self.energy[k]) << 4) | ((u32::from(self.energy_low) >> (4 * k)) & 0xF)
@@ -225,6 +231,7 @@ impl Node4 {
     /// and bits 4k..4k+4 of `energy_low` at bits 12..16 of the lower half, moved there by a
     /// product with 2^(12 − 4k) (the bits it pushes beyond 16 fall off).
     #[inline(always)]
+    #[must_use]
     pub fn energy4(&self) -> f32x4 {
         let e = self.energy;
         let upper = u16x8::new([0, e[0], 0, e[1], 0, e[2], 0, e[3]]);
@@ -235,17 +242,20 @@ impl Node4 {
 
     /// The four slots' energies, as numbers.
     #[inline]
+    #[must_use]
     pub fn energies(&self) -> [f32; 4] {
         [0, 1, 2, 3].map(|k| self.energy_of(k))
     }
 
     /// Slot `k`'s energy.
     #[inline]
+    #[must_use]
     pub fn energy_of(&self, k: usize) -> f32 {
         quantize::decode_energy(self.energy_code(k))
     }
 
     /// Slot `k`'s bounds, decoded.
+    #[must_use]
     pub fn bounds(&self, k: usize) -> SlotBounds {
         let k = k & 3;
         let s = self.sphere(k);
@@ -381,6 +391,7 @@ impl LightTree {
     }
 
     /// The nodes; node 0 is the root (absent for a tree that samples nothing).
+    #[must_use]
     pub fn nodes(&self) -> &[Node4] {
         &self.nodes
     }
@@ -388,6 +399,7 @@ impl LightTree {
     /// The variance of the energies of the lights under node `node`, over their squared mean
     /// (0 for a node out of range): what split sampling's variance heuristic reads.
     #[inline]
+    #[must_use]
     pub fn energy_rel_variance(&self, node: u32) -> f32 {
         self.variances
             .get(node as usize)
@@ -397,11 +409,13 @@ impl LightTree {
     /// The light of light slot `i` in tree order (a slot [`Child::Leaf`]`(i)` holds it); `None`
     /// past the last light slot.
     #[inline(always)]
+    #[must_use]
     pub fn leaf_light(&self, i: u32) -> Option<u32> {
         self.leaves.get(i as usize).map(|l| l as u32)
     }
 
     /// Number of light slots (the lights of positive energy).
+    #[must_use]
     pub fn leaf_count(&self) -> u32 {
         self.leaves.len() as u32
     }
@@ -410,27 +424,32 @@ impl LightTree {
     /// highest pair, below a marker bit 1 (so a path of L levels is `1 << 2L | choices`); 0 for
     /// a light that is not in the tree (zero energy) or out of range.
     #[inline]
+    #[must_use]
     pub fn path(&self, light: u32) -> u64 {
         self.paths.get(light as usize).unwrap_or(0)
     }
 
     /// Number of lights the tree was built from.
+    #[must_use]
     pub fn light_count(&self) -> u32 {
         self.paths.len() as u32
     }
 
     /// Levels of nodes (0 for an empty tree).
+    #[must_use]
     pub fn depth(&self) -> u32 {
         self.depth
     }
 
     /// Whether the tree samples nothing: no light of the node tree has positive energy and
     /// there is no distant or environment light.
+    #[must_use]
     pub fn is_empty(&self) -> bool {
         self.nodes.is_empty() && self.infinite.is_empty()
     }
 
     /// Total energy of the sampled lights (as the root's slots store it, rounded up).
+    #[must_use]
     pub fn total_energy(&self) -> f32 {
         self.nodes
             .first()
@@ -439,6 +458,7 @@ impl LightTree {
 
     /// What slot `k` of `node` (a node of this tree) holds.
     #[inline(always)]
+    #[must_use]
     pub fn slot(&self, node: &Node4, k: usize) -> Slot {
         match node.child(k) {
             Child::Empty => Slot::Empty,
@@ -462,6 +482,7 @@ impl LightTree {
     }
 
     /// Size and shape.
+    #[must_use]
     pub fn stats(&self) -> TreeStats {
         let bytes = self.array_bytes();
         let lights = self.paths.len() as u32;
@@ -491,6 +512,7 @@ impl LightTree {
 
     /// The `(node, slot)` a path (encoded as in [`LightTree::path`]) ends at; `None` when the
     /// path leaves the tree.
+    #[must_use]
     pub fn slot_at(&self, path: u64) -> Option<(u32, usize)> {
         let levels = path_len(path);
         if levels == 0 || self.nodes.is_empty() {

@@ -37,6 +37,7 @@ pub struct AcceptStats {
 
 impl AcceptStats {
     /// Accepted / candidates (0 with no candidate).
+    #[must_use]
     pub fn acceptance_rate(&self) -> f64 {
         if self.candidates == 0 {
             0.0
@@ -47,6 +48,7 @@ impl AcceptStats {
 
     /// `accepted_energy / candidate_energy` (1 in expectation) and its standard deviation
     /// from [`AcceptStats::energy_variance`]; (1, 0) with no candidate energy.
+    #[must_use]
     pub fn energy_ratio(&self) -> (f64, f64) {
         if self.candidate_energy > 0.0 {
             (
@@ -69,6 +71,7 @@ impl AcceptStats {
     }
 
     /// The mean acceptance probability (0 with no candidate).
+    #[must_use]
     pub fn mean_probability(&self) -> f64 {
         if self.candidates == 0 {
             0.0
@@ -194,21 +197,25 @@ impl VplAcceptor {
     }
 
     /// ε.
+    #[must_use]
     pub fn epsilon(&self) -> f32 {
         self.epsilon
     }
 
     /// P.
+    #[must_use]
     pub fn pixels(&self) -> usize {
         self.pixels
     }
 
     /// N.
+    #[must_use]
     pub fn wanted(&self) -> usize {
         self.wanted
     }
 
     /// The importons the decisions use.
+    #[must_use]
     pub fn importons(&self) -> &Importons {
         &self.importons
     }
@@ -219,6 +226,7 @@ impl VplAcceptor {
     }
 
     /// Φ̃_total.
+    #[must_use]
     pub fn total_luminance(&self) -> f64 {
         self.total
     }
@@ -243,11 +251,13 @@ impl VplAcceptor {
     }
 
     /// Φ̃_v = Φ̃_total / (P·N).
+    #[must_use]
     pub fn target(&self) -> f64 {
         self.total / (self.pixels as f64 * self.wanted as f64)
     }
 
     /// The decisions counted since the last reset.
+    #[must_use]
     pub fn stats(&self) -> AcceptStats {
         self.stats
     }

@@ -57,11 +57,13 @@ fn with_lane(v: f32x4, lane: usize, x: f32) -> f32x4 {
 
 impl Importons {
     /// No importons.
+    #[must_use]
     pub fn new() -> Importons {
         Importons::default()
     }
 
     /// No importons, with room for `n` without reallocating.
+    #[must_use]
     pub fn with_capacity(n: usize) -> Importons {
         let blocks = n.div_ceil(4);
         let v = || Vec::with_capacity(blocks);
@@ -96,21 +98,25 @@ impl Importons {
     }
 
     /// N_C: the importons stored, misses included.
+    #[must_use]
     pub fn len(&self) -> usize {
         self.len
     }
 
     /// Whether there is none.
+    #[must_use]
     pub fn is_empty(&self) -> bool {
         self.len == 0
     }
 
     /// Number of f32x4 blocks (`len` rounded up to a multiple of 4, over 4).
+    #[must_use]
     pub fn blocks(&self) -> usize {
         self.px.len()
     }
 
     /// Position of importon `j` (`j < len`).
+    #[must_use]
     pub fn position(&self, j: usize) -> Vec3 {
         let (b, l) = (j / 4, j % 4);
         Vec3::new(
@@ -205,6 +211,7 @@ impl Importons {
     /// The unoccluded contributions `f · G · I` of the VPL at `y` with unit normal `m` and
     /// intensity `intensity` to the four importons of block `b`, G clamped to `g_max`. The
     /// scalar twin is [`Importons::contribution`]; lanes agree to the bit.
+    #[must_use]
     pub fn contribution4(&self, b: usize, y: Vec3, m: Vec3, intensity: f32, g_max: f32) -> f32x4 {
         let zero = f32x4::ZERO;
         let dx = f32x4::splat(y.x) - self.px[b];
@@ -236,6 +243,7 @@ impl Importons {
     /// The unoccluded contribution `f · G · I` of the VPL at `y` (unit normal `m`, intensity
     /// `intensity`) to importon `j`, G clamped to `g_max`: the scalar twin of
     /// [`Importons::contribution4`]. 0 for a miss or `j ≥ len`.
+    #[must_use]
     pub fn contribution(&self, j: usize, y: Vec3, m: Vec3, intensity: f32, g_max: f32) -> f32 {
         if j >= self.len {
             return 0.0;

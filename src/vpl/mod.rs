@@ -64,6 +64,7 @@ pub struct Vpl {
 
 impl Vpl {
     /// The light of this VPL.
+    #[must_use]
     pub fn light(&self) -> Light {
         Light::Vpl {
             position: self.position,
@@ -73,6 +74,7 @@ impl Vpl {
     }
 
     /// Its emitted power πI, I the intensity's luminance (as [`Light::energy`]).
+    #[must_use]
     pub fn energy(&self) -> f32 {
         core::f32::consts::PI * self.intensity.luminance()
     }

@@ -45,6 +45,7 @@ impl Weighted {
 
     /// The MIS weight, in [0, 1].
     #[inline]
+    #[must_use]
     pub fn weight(&self) -> f32 {
         (self.f.num * self.f.pdf / self.f.den).clamp(0.0, 1.0)
     }
@@ -57,6 +58,7 @@ impl Weighted {
     /// combined density of the BRDF-aware mixture (BL and BSDF, as the technique mixes them)
     /// for `mis-equal` and `full`. The contribution is `value · weight / pdf` in every case.
     #[inline]
+    #[must_use]
     pub fn pdf(&self) -> f32 {
         self.f.pdf
     }
@@ -68,6 +70,7 @@ impl Weighted {
     /// `value · num / den`, with weight = num·pdf/den); the C ABI's `ml_weighted.scale` is
     /// this factor, bit for bit.
     #[inline]
+    #[must_use]
     pub fn factor(&self) -> f32 {
         let v = self.f.num / self.f.den;
         if v < f32::INFINITY {
@@ -79,6 +82,7 @@ impl Weighted {
 
     /// [`Weighted::contribution`] of each channel of `value`.
     #[inline]
+    #[must_use]
     pub fn contribution_rgb(&self, value: Rgb) -> Rgb {
         value.map(|c| self.contribution(c))
     }
@@ -88,6 +92,7 @@ impl Weighted {
     /// not positive, and never NaN or infinite. For values of any sign use
     /// [`Weighted::factor`].
     #[inline]
+    #[must_use]
     pub fn contribution(&self, value: f32) -> f32 {
         if value.is_nan() || value <= 0.0 {
             return 0.0;

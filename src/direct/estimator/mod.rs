@@ -147,42 +147,49 @@ fn next2(u: &mut (impl Uniforms + ?Sized)) -> Result<[f32; 2], DirectError> {
 impl<'a> Estimator<'a> {
     /// The parameters.
     #[inline]
+    #[must_use]
     pub fn params(&self) -> &Params {
         &self.params
     }
 
     /// The technique.
     #[inline]
+    #[must_use]
     pub fn technique(&self) -> Technique {
         self.technique
     }
 
     /// The split cut (empty for techniques without split sampling).
     #[inline]
+    #[must_use]
     pub fn split_cut(&self) -> &LightCut {
         &self.split
     }
 
     /// The BRDF-oriented sampler, where the technique built one.
     #[inline]
+    #[must_use]
     pub fn cut_sampler(&self) -> Option<&CutSampler<'a>> {
         self.bl.as_ref()
     }
 
     /// The tree sampler with TL importance at this point.
     #[inline]
+    #[must_use]
     pub fn tree_sampler(&self) -> &TreeSampler<'a> {
         &self.tl
     }
 
     /// IB(x): the largest BRDF integral over the BRDF-oriented cut (0 without one).
     #[inline]
+    #[must_use]
     pub fn ib(&self) -> f32 {
         self.bl.as_ref().map_or(0.0, |b| b.cut().max_score())
     }
 
     /// The number of BRDF-aware samples N of `mis-equal` and `full` (0 otherwise).
     #[inline]
+    #[must_use]
     pub fn budget(&self) -> u32 {
         self.n_mix
     }

@@ -71,6 +71,7 @@ impl Cap {
     /// A cap from the cosine of its half-angle (clamped to `[-1, 1]`). Loses tiny caps: prefer
     /// [`Cap::from_sin`] when σ may be below ~1e-3.
     #[inline]
+    #[must_use]
     pub fn new(axis: Vec3, cos: f32) -> Cap {
         let cos = if cos > -1.0 { cos } else { -1.0 };
         let cos = if cos < 1.0 { cos } else { 1.0 };
@@ -85,6 +86,7 @@ impl Cap {
     /// A cap of half-angle σ ∈ [0, π/2] from `sin σ` (clamped to `[0, 1]`; NaN gives the
     /// empty cap): exact for tiny caps.
     #[inline]
+    #[must_use]
     pub fn from_sin(axis: Vec3, sin: f32) -> Cap {
         let s = if sin > 0.0 { sin } else { 0.0 };
         let s = if s < 1.0 { s } else { 1.0 };
@@ -99,6 +101,7 @@ impl Cap {
 
     /// The hemisphere around `axis`.
     #[inline]
+    #[must_use]
     pub fn hemisphere(axis: Vec3) -> Cap {
         Cap {
             axis,
@@ -110,12 +113,14 @@ impl Cap {
 
     /// The solid angle, `2π (1 − cos σ)`.
     #[inline]
+    #[must_use]
     pub fn area(&self) -> f32 {
         2.0 * PI * self.one_minus_cos
     }
 
     /// The closure of the rest of the sphere.
     #[inline]
+    #[must_use]
     pub fn complement(&self) -> Cap {
         Cap {
             axis: -self.axis,
@@ -128,6 +133,7 @@ impl Cap {
     /// Whether the unit vector `w` lies in the cap (tested through `|w − axis|²/2 ≤ 1 − cos`
     /// for small caps, which keeps the test exact to f32 rounding for tiny ones).
     #[inline]
+    #[must_use]
     pub fn contains(&self, w: Vec3) -> bool {
         if self.cos > 0.5 {
             let d = w - self.axis;
@@ -158,6 +164,7 @@ pub struct Cap4 {
 impl Cap4 {
     /// The same cap in all four lanes.
     #[inline]
+    #[must_use]
     pub fn splat(c: &Cap) -> Cap4 {
         Cap4 {
             ax: f32x4::splat(c.axis.x),
@@ -171,6 +178,7 @@ impl Cap4 {
 
     /// Four caps of half-angles in [0, π/2] from their sines: the twin of [`Cap::from_sin`].
     #[inline]
+    #[must_use]
     pub fn from_sin(ax: f32x4, ay: f32x4, az: f32x4, sin: f32x4) -> Cap4 {
         let zero = f32x4::ZERO;
         let one = f32x4::ONE;
@@ -188,6 +196,7 @@ impl Cap4 {
 
     /// Lane `i` as a scalar cap.
     #[inline]
+    #[must_use]
     pub fn lane(&self, i: usize) -> Cap {
         let i = i & 3;
         Cap {
@@ -270,6 +279,7 @@ fn lens(c1: Vec3, z1: f32, a1: f32, c2: Vec3, z2: f32, a2: f32) -> f32 {
 
 /// The exact solid angle of `p ∩ q`, for caps of any size (0 for NaN input, never NaN).
 #[inline]
+#[must_use]
 pub fn intersection_area(p: &Cap, q: &Cap) -> f32 {
     let fp = p.cos < 0.0;
     let fq = q.cos < 0.0;
@@ -370,6 +380,7 @@ fn lens4(
 // Always inlined: a call would save every vector register its callers (the BRDF-oriented
 // evaluations) keep live across it: the System V x86-64 convention preserves none of them.
 #[inline(always)]
+#[must_use]
 pub fn intersection_area4(p: &Cap4, q: &Cap4) -> f32x4 {
     let zero = f32x4::ZERO;
     let two_pi = f32x4::splat(2.0 * PI);

@@ -103,6 +103,7 @@ pub struct GgxParams {
 
 /// The (α, θo) that table node `(i, j)` was fitted at: `u = i/(SIZE − 1)`, `α = max(u², MIN_ALPHA)`,
 /// `θo = min(j/(SIZE − 1) · π/2, THETA_O_MAX)`. Returns `(α, θo)`.
+#[must_use]
 pub fn table_node(i: usize, j: usize) -> (f32, f32) {
     let n = (TABLE_SIZE - 1) as f32;
     let u = (i.min(TABLE_SIZE - 1)) as f32 / n;
@@ -112,6 +113,7 @@ pub fn table_node(i: usize, j: usize) -> (f32, f32) {
 
 /// The table's parameters at (α, |cos θo|), bilinearly interpolated in `(√α, 2θo/π)`.
 /// α is clamped to `[MIN_ALPHA, 1]` (NaN to 1), θo to `[0, THETA_O_MAX]`.
+#[must_use]
 pub fn ggx_params(alpha: f32, cos_theta_o: f32) -> GgxParams {
     let alpha = if alpha.is_nan() {
         1.0
@@ -245,6 +247,7 @@ impl SptdGgx {
     /// In the local frame: `n = +z`, `ωo = (sin θo, 0, cos θo)` with `cos θo = |cos_theta_o|`
     /// (a view from below the surface is mirrored to above it). Cap axes given to the
     /// evaluators are then in this frame. NaN `cos_theta_o` gives a zero lobe.
+    #[must_use]
     pub fn new(alpha: f32, cos_theta_o: f32) -> SptdGgx {
         if cos_theta_o.is_nan() {
             return SptdGgx::zero();
@@ -258,6 +261,7 @@ impl SptdGgx {
     /// world directions, so no per-cluster frame change is needed. A zero or non-finite
     /// normal or `wo` gives a zero lobe; any other length is fine (a tiny or huge vector,
     /// whose f32 length would underflow or overflow, is normalised in f64).
+    #[must_use]
     pub fn oriented(alpha: f32, normal: Vec3, wo: Vec3) -> SptdGgx {
         let unit = |v: Vec3| {
             let l2 = v.length_squared();
@@ -296,6 +300,7 @@ impl SptdGgx {
     /// From explicit parameters, for roughness `alpha` and view cosine `cos_theta_o` (used by
     /// the masking term), with the frame given by the unit `normal` and the unit `tangent`
     /// towards ωo. This is the form the fitting tool uses.
+    #[must_use]
     pub fn with_params(
         alpha: f32,
         cos_theta_o: f32,
@@ -531,32 +536,38 @@ impl SptdGgx {
     }
 
     /// The parameters looked up.
+    #[must_use]
     pub fn params(&self) -> GgxParams {
         self.params
     }
 
     /// The pivot (in the frame of the constructor).
+    #[must_use]
     pub fn pivot(&self) -> &Pivot {
         &self.pivot
     }
 
     /// `P(H)`, the image of the upper hemisphere.
+    #[must_use]
     pub fn horizon_image(&self) -> &Cap {
         &self.horizon
     }
 
     /// The unit normal of the frame (flipped towards ωo).
+    #[must_use]
     pub fn normal(&self) -> Vec3 {
         self.normal
     }
 
     /// The SPTD's amplitude `A = 4π ρ (1 − β) / (|P(H)| M(½))`.
+    #[must_use]
     pub fn amplitude(&self) -> f32 {
         4.0 * PI * self.scale_lobe
     }
 
     /// The directional albedo `ρ`: the integral over the whole upper hemisphere, also the
     /// value for a shading point inside a cluster's bounding sphere.
+    #[must_use]
     pub fn albedo(&self) -> f32 {
         self.albedo
     }
@@ -564,6 +575,7 @@ impl SptdGgx {
     /// `f cos θi` of the GGX lobe at the unit direction `w`, exact (`D(h) G2/(4 cos θo)`): the
     /// limit of the model's cap average `S(C)/|C ∩ H|` for a vanishing cap about `w`; 0 below
     /// the horizon.
+    #[must_use]
     pub fn lobe(&self, w: Vec3) -> f32 {
         let n = self.normal;
         let c = w.x * n.x + w.y * n.y + w.z * n.z;
@@ -627,6 +639,7 @@ impl SptdGgx {
     /// `sin_sigma ≥ 1` (the shading point inside the sphere) gives the whole hemisphere, the
     /// albedo. NaN gives 0; never negative.
     #[inline]
+    #[must_use]
     pub fn integral(&self, axis: Vec3, sin_sigma: f32) -> f32 {
         self.cap_integrals(axis, sin_sigma).ggx
     }
@@ -635,6 +648,7 @@ impl SptdGgx {
     /// `∫_{C∩H} cos θi dωi` (a Lambert lobe's cap integral, as
     /// [`lambert_cap`](super::lambert_cap)) and `|C ∩ H|` (so callers need neither again).
     #[inline]
+    #[must_use]
     pub fn cap_integrals(&self, axis: Vec3, sin_sigma: f32) -> CapIntegrals {
         if sin_sigma >= 1.0 {
             return CapIntegrals {
@@ -710,6 +724,7 @@ impl SptdGgx {
     /// `≈ ∫_{C∩H} f cos θi dωi` for any cap (half-angle up to π); caps of a hemisphere or
     /// more take the SPTD part.
     #[inline]
+    #[must_use]
     pub fn integral_cap(&self, cap: &Cap) -> f32 {
         let (lens, l, v) = self.cap_parts(cap);
         let m = self.mask_raw(Self::mean_cos(l, v));
@@ -737,6 +752,7 @@ impl SptdGgx {
     /// `S_sptd(C) = ρ[(1 − β)·|P(C) ∩ P(H)|/|P(H)|·M(c̄)/M(½) + β·L(C)/π]` clamped into
     /// `[0, ρ]`, for any cap (half-angle up to π): the part `sptd-fit` (tools/sptd-fit) fits.
     #[inline]
+    #[must_use]
     pub fn sptd_integral_cap(&self, cap: &Cap) -> f32 {
         let (lens, l, v) = self.cap_parts(cap);
         self.combine(lens, l, v)
@@ -745,12 +761,14 @@ impl SptdGgx {
     /// The 4-wide twin of [`SptdGgx::integral`]: four caps with unit axes `(ax, ay, az)` and
     /// sines of their half-angles.
     #[inline]
+    #[must_use]
     pub fn integral4(&self, ax: f32x4, ay: f32x4, az: f32x4, sin_sigma: f32x4) -> f32x4 {
         self.cap_integrals4(ax, ay, az, sin_sigma).ggx
     }
 
     /// The 4-wide twin of [`SptdGgx::cap_integrals`].
     #[inline]
+    #[must_use]
     pub fn cap_integrals4(
         &self,
         ax: f32x4,

@@ -83,6 +83,7 @@ fn seg_angle4(x: f32x4, y: f32x4, theta: f32x4) -> f32x4 {
 /// inside the bounding sphere: the whole upper hemisphere, π. Multiply by ρ/π for a Lambert
 /// BRDF. NaN gives 0. Never negative.
 #[inline]
+#[must_use]
 pub fn lambert_cap(cos_omega: f32, sin_sigma: f32) -> f32 {
     if sin_sigma >= 1.0 {
         return PI;
@@ -104,6 +105,7 @@ pub fn lambert_cap(cos_omega: f32, sin_sigma: f32) -> f32 {
 
 /// The 4-wide twin of [`lambert_cap`].
 #[inline]
+#[must_use]
 pub fn lambert_cap4(cos_omega: f32x4, sin_sigma: f32x4) -> f32x4 {
     let zero = f32x4::ZERO;
     let one = f32x4::ONE;
@@ -128,6 +130,7 @@ pub fn lambert_cap4(cos_omega: f32x4, sin_sigma: f32x4) -> f32x4 {
 /// its Gram determinant is the `Q²` above, the hemisphere's segment vanishes, and
 /// `|C ∩ H| = 2 (a β − ψ)`, `a = 1 − cos σ`, `ψ = atan2(−a Q cos ω, cos σ cos²ω + Q²)`.
 #[inline]
+#[must_use]
 pub fn lambert_visible(cos_omega: f32, sin_sigma: f32) -> (f32, f32) {
     if sin_sigma >= 1.0 {
         return (PI, 2.0 * PI);
@@ -156,6 +159,7 @@ pub fn lambert_visible(cos_omega: f32, sin_sigma: f32) -> (f32, f32) {
 // Always inlined: a call would save every vector register its callers (the BRDF-oriented
 // evaluations) keep live across it: the System V x86-64 convention preserves none of them.
 #[inline(always)]
+#[must_use]
 pub fn lambert_visible4(cos_omega: f32x4, sin_sigma: f32x4) -> (f32x4, f32x4) {
     let zero = f32x4::ZERO;
     let one = f32x4::ONE;

@@ -50,6 +50,7 @@ impl Pivot {
     /// The pivot at `rp`, scaled back to [`MAX_NORM`] if longer; a non-finite `rp` gives the
     /// centre (the transform is then the antipodal map).
     #[inline]
+    #[must_use]
     pub fn new(rp: Vec3) -> Pivot {
         let rp = if rp.is_finite() { rp } else { Vec3::ZERO };
         let r = math::sqrt(rp.x * rp.x + rp.y * rp.y + rp.z * rp.z);
@@ -63,6 +64,7 @@ impl Pivot {
     /// The pivot `norm · dir` for a unit `dir`; `norm` is clamped to `[0, MAX_NORM]` (NaN to
     /// 0), a non-finite `dir` gives the centre.
     #[inline]
+    #[must_use]
     pub fn from_direction(dir: Vec3, norm: f32) -> Pivot {
         let (dir, norm) = if dir.is_finite() {
             (dir, norm)
@@ -83,24 +85,28 @@ impl Pivot {
 
     /// The pivot point `rp`.
     #[inline]
+    #[must_use]
     pub fn point(&self) -> Vec3 {
         self.dir * self.norm
     }
 
     /// The unit direction of the pivot.
     #[inline]
+    #[must_use]
     pub fn direction(&self) -> Vec3 {
         self.dir
     }
 
     /// The norm `R`.
     #[inline]
+    #[must_use]
     pub fn norm(&self) -> f32 {
         self.norm
     }
 
     /// `k = 1 − |rp|²`.
     #[inline]
+    #[must_use]
     pub fn k(&self) -> f32 {
         self.k
     }
@@ -115,6 +121,7 @@ impl Pivot {
 
     /// `P(ω)` for a unit `ω` (P is an involution).
     #[inline]
+    #[must_use]
     pub fn transform(&self, w: Vec3) -> Vec3 {
         let (d2, e) = self.dist2(w);
         if d2 <= 0.0 {
@@ -128,6 +135,7 @@ impl Pivot {
 
     /// The Jacobian `|dP/dω| = k²/|ω − rp|⁴`.
     #[inline]
+    #[must_use]
     pub fn jacobian(&self, w: Vec3) -> f32 {
         let (d2, _) = self.dist2(w);
         self.k * self.k / (d2 * d2)
@@ -135,6 +143,7 @@ impl Pivot {
 
     /// `|ω − rp|²` for a unit `ω`, as `(1 − R)² + R |ω − p̂|²` (no cancellation near `p̂`).
     #[inline]
+    #[must_use]
     pub fn distance2(&self, w: Vec3) -> f32 {
         self.dist2(w).0
     }
@@ -142,6 +151,7 @@ impl Pivot {
     /// The SPTD density of a uniform base distribution, `Dp(ω) = k²/(4π |ω − rp|⁴)`;
     /// it integrates to 1 over the sphere.
     #[inline]
+    #[must_use]
     pub fn density(&self, w: Vec3) -> f32 {
         self.jacobian(w) / (4.0 * PI)
     }
@@ -153,6 +163,7 @@ impl Pivot {
     /// which equal the textbook forms but add no rounding error of order `k` to results of
     /// order `k²` near the pivot's direction.
     #[inline]
+    #[must_use]
     pub fn map_cap(&self, cap: &Cap) -> Cap {
         let (p, r, g, k) = (self.dir, self.norm, self.gap, self.k);
         let c = cap.axis;
@@ -193,6 +204,7 @@ impl Pivot {
 
     /// The 4-wide twin of [`Pivot::map_cap`].
     #[inline]
+    #[must_use]
     pub fn map_cap4(&self, cap: &Cap4) -> Cap4 {
         Pivot4::new(self).map_cap(cap)
     }

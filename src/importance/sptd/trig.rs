@@ -63,6 +63,7 @@ fn atan_unit4(t: f32x4) -> f32x4 {
 
 /// The angle of `(x, y)` in `[-π, π]`. `atan2(0, 0) = 0`; never NaN.
 #[inline]
+#[must_use]
 pub fn atan2(y: f32, x: f32) -> f32 {
     let ay = y.abs();
     let ax = x.abs();
@@ -86,6 +87,7 @@ pub fn atan2(y: f32, x: f32) -> f32 {
 
 /// The 4-wide twin of [`atan2`].
 #[inline]
+#[must_use]
 pub fn atan2_4(y: f32x4, x: f32x4) -> f32x4 {
     let r = atan2_upper4(y.abs(), x);
     y.simd_lt(f32x4::ZERO).select(-r, r)
@@ -126,6 +128,7 @@ fn clamp_unit(x: f32) -> f32 {
 
 /// Arc sine, argument clamped to `[-1, 1]` (NaN as −1).
 #[inline]
+#[must_use]
 pub fn asin(x: f32) -> f32 {
     let x = clamp_unit(x);
     let c = (1.0 - x) * (1.0 + x);
@@ -134,6 +137,7 @@ pub fn asin(x: f32) -> f32 {
 
 /// Arc cosine, argument clamped to `[-1, 1]` (NaN as −1).
 #[inline]
+#[must_use]
 pub fn acos(x: f32) -> f32 {
     let x = clamp_unit(x);
     let s = (1.0 - x) * (1.0 + x);
@@ -142,6 +146,7 @@ pub fn acos(x: f32) -> f32 {
 
 /// The 4-wide twin of [`asin`].
 #[inline]
+#[must_use]
 pub fn asin4(x: f32x4) -> f32x4 {
     let one = f32x4::ONE;
     let x = clamp4(x, -one, one);
@@ -151,6 +156,7 @@ pub fn asin4(x: f32x4) -> f32x4 {
 
 /// The 4-wide twin of [`acos`].
 #[inline]
+#[must_use]
 pub fn acos4(x: f32x4) -> f32x4 {
     let one = f32x4::ONE;
     let x = clamp4(x, -one, one);

@@ -159,6 +159,7 @@ fn unit_square(u: [f32; 2]) -> Option<[f64; 2]> {
 /// assert_eq!(s.pdf, light::pdf_point(&sphere, Vec3::ZERO, s.position));
 /// assert_eq!(s.radiance, Rgb::grey(2.0));
 /// ```
+#[must_use]
 pub fn sample_point(light: &Light, x: Vec3, u: [f32; 2]) -> Option<LightPoint> {
     let u = unit_square(u)?;
     if !x.is_finite() {
@@ -225,6 +226,7 @@ pub fn sample_point(light: &Light, x: Vec3, u: [f32; 2]) -> Option<LightPoint> {
 /// `None`, and for the environment (the host's). For point, spot and virtual point lights and
 /// distant ones of angular radius 0 the delta's weight, reported as 1, exactly as
 /// `sample_point` reports it: 1 at the light's position (direction), 0 at any other point.
+#[must_use]
 pub fn pdf_point(light: &Light, x: Vec3, point: Vec3) -> f32 {
     if !(x.is_finite() && point.is_finite()) {
         return 0.0;
@@ -265,6 +267,7 @@ pub fn pdf_point(light: &Light, x: Vec3, point: Vec3) -> f32 {
 /// point, the radiance it sends to x and the pdf with which [`sample_point`] would have chosen
 /// it. `None` if the ray misses (always for delta lights). This is what a host needs
 /// when a BRDF-sampled ray hits an emitter.
+#[must_use]
 pub fn intersect(light: &Light, x: Vec3, direction: Vec3) -> Option<LightPoint> {
     if !x.is_finite() {
         return None;
@@ -304,6 +307,7 @@ pub fn intersect(light: &Light, x: Vec3, direction: Vec3) -> Option<LightPoint> 
 
 /// The solid-angle pdf at `x` with which [`sample_point`] samples `direction` (need not be unit
 /// length): the pdf of the first point of the light along it, 0 if the ray misses.
+#[must_use]
 pub fn pdf_direction(light: &Light, x: Vec3, direction: Vec3) -> f32 {
     intersect(light, x, direction).map_or(0.0, |lp| lp.pdf)
 }
