@@ -128,7 +128,7 @@ pub struct Cone {
 
 /// The angle between two unit vectors, accurate also when they are nearly (anti)parallel,
 /// where `acos` of the dot product loses half the digits.
-pub fn angle_between(a: Vec3, b: Vec3) -> f32 {
+pub(crate) fn angle_between(a: Vec3, b: Vec3) -> f32 {
     angle_with::<Exact>(a, b)
 }
 

@@ -45,7 +45,7 @@ const fn tables() -> [[u64; 256]; 8] {
 
 /// A running CRC-64/XZ: [`Crc64::update`] with the bytes in order, then [`Crc64::finish`].
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub struct Crc64 {
+pub(crate) struct Crc64 {
     state: u64,
 }
 
@@ -57,12 +57,12 @@ impl Default for Crc64 {
 
 impl Crc64 {
     /// The CRC of no bytes yet.
-    pub const fn new() -> Crc64 {
+    pub(crate) const fn new() -> Crc64 {
         Crc64 { state: !0 }
     }
 
     /// Adds `bytes`.
-    pub fn update(&mut self, bytes: &[u8]) {
+    pub(crate) fn update(&mut self, bytes: &[u8]) {
         let t = &TABLES;
         let mut c = self.state;
         let mut chunks = bytes.chunks_exact(8);
@@ -86,7 +86,7 @@ impl Crc64 {
     }
 
     /// The CRC of the bytes added.
-    pub fn finish(self) -> u64 {
+    pub(crate) fn finish(self) -> u64 {
         !self.state
     }
 }

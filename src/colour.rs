@@ -9,7 +9,7 @@
 use core::ops::{Add, AddAssign, Div, Mul};
 
 /// Rec. 709 luminance weights of R, G and B.
-pub const LUMINANCE_WEIGHTS: [f64; 3] = [0.2126, 0.7152, 0.0722];
+pub(crate) const LUMINANCE_WEIGHTS: [f64; 3] = [0.2126, 0.7152, 0.0722];
 
 /// A linear RGB triple (radiance, intensity, irradiance or albedo, per channel).
 #[repr(C)]

@@ -32,8 +32,8 @@ use crate::light::Light;
 use crate::sample::{LightSample, WalkStart, MIN_PMF, ONE_MINUS_EPSILON};
 use crate::tree::LightTree;
 
-pub use crate::infinite_light::{InfiniteKind, InfiniteLight};
-pub use crate::limits::MAX_INFINITE_LIGHTS;
+pub(crate) use crate::infinite_light::{InfiniteKind, InfiniteLight};
+pub(crate) use crate::limits::MAX_INFINITE_LIGHTS;
 
 /// The choice at the root among the node tree (choice 0) and the lights at infinity (choice
 /// `1 + i` for entry `i`), from their weights at one shading point (see the module

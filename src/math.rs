@@ -27,7 +27,7 @@ pub const ONE_MINUS_EPSILON: f32 = 1.0 - f32::EPSILON / 2.0;
 
 /// Square root (f32).
 #[inline(always)]
-pub fn sqrt(x: f32) -> f32 {
+pub(crate) fn sqrt(x: f32) -> f32 {
     root::sqrtf(x)
 }
 
@@ -59,39 +59,39 @@ mod root {
 
 /// `v.length()` bit for bit, by [`sqrt`] (glam's is libm's).
 #[inline(always)]
-pub fn length(v: glam::Vec3) -> f32 {
+pub(crate) fn length(v: glam::Vec3) -> f32 {
     sqrt(v.length_squared())
 }
 
 /// `v.normalize()` bit for bit (`v · (1 / |v|)`), by [`sqrt`] (glam's is libm's).
 #[inline(always)]
-pub fn normalize(v: glam::Vec3) -> glam::Vec3 {
+pub(crate) fn normalize(v: glam::Vec3) -> glam::Vec3 {
     v * (1.0 / length(v))
 }
 
 /// `v.try_normalize()` bit for bit, by [`sqrt`]: `v · (1 / |v|)` where `1 / |v|` is finite and
 /// positive, else `None`.
 #[inline(always)]
-pub fn try_normalize(v: glam::Vec3) -> Option<glam::Vec3> {
+pub(crate) fn try_normalize(v: glam::Vec3) -> Option<glam::Vec3> {
     let rcp = 1.0 / length(v);
     (rcp.is_finite() && rcp > 0.0).then(|| v * rcp)
 }
 
 /// `v.normalize_or_zero()` bit for bit, by [`sqrt`].
 #[inline(always)]
-pub fn normalize_or_zero(v: glam::Vec3) -> glam::Vec3 {
+pub(crate) fn normalize_or_zero(v: glam::Vec3) -> glam::Vec3 {
     try_normalize(v).unwrap_or(glam::Vec3::ZERO)
 }
 
 /// `x²` (f64).
 #[inline(always)]
-pub fn sq(x: f64) -> f64 {
+pub(crate) fn sq(x: f64) -> f64 {
     x * x
 }
 
 /// Square root (f64).
 #[inline(always)]
-pub fn sqrt64(x: f64) -> f64 {
+pub(crate) fn sqrt64(x: f64) -> f64 {
     root::sqrt(x)
 }
 
@@ -99,13 +99,13 @@ pub fn sqrt64(x: f64) -> f64 {
 /// from the subnormal range, so that `v / sqrt(l2)` is accurate. Outside it (components above
 /// about 1e15 or below about 1e-15) use [`unit()`].
 #[inline(always)]
-pub fn len2_is_safe(l2: f32) -> bool {
+pub(crate) fn len2_is_safe(l2: f32) -> bool {
     (1e-30..=1e30).contains(&l2)
 }
 
 /// The unit vector of `v`, normalised in f64 so that tiny and huge f32 vectors survive;
 /// `None` for a zero or non-finite vector.
-pub fn unit_f64(v: [f64; 3]) -> Option<glam::Vec3> {
+pub(crate) fn unit_f64(v: [f64; 3]) -> Option<glam::Vec3> {
     let l = sqrt64(sq(v[0]) + sq(v[1]) + sq(v[2]));
     if !(l > 0.0 && l < f64::INFINITY) {
         return None;
@@ -115,18 +115,18 @@ pub fn unit_f64(v: [f64; 3]) -> Option<glam::Vec3> {
 }
 
 /// [`unit_f64`] of an f32 vector: `None` exactly when `v` is zero or not finite.
-pub fn unit(v: glam::Vec3) -> Option<glam::Vec3> {
+pub(crate) fn unit(v: glam::Vec3) -> Option<glam::Vec3> {
     unit_f64(v.to_array().map(f64::from))
 }
 
 /// Below this angle [`one_minus_cos64`] uses `2 sin²(θ/2)`.
-pub const SMALL_ANGLE: f64 = 1e-3;
+pub(crate) const SMALL_ANGLE: f64 = 1e-3;
 
 /// `1 − cos θ` in f64, accurate for every θ: `2 sin²(θ/2)` below [`SMALL_ANGLE`], where the
 /// subtraction cancels (it is 0 for θ ≤ 1e-8 and 11 % off at 2e-8); the subtraction above it,
 /// where its relative error is below 5e-10, far under f32 rounding.
 #[inline]
-pub fn one_minus_cos64(theta: f64) -> f64 {
+pub(crate) fn one_minus_cos64(theta: f64) -> f64 {
     if theta.abs() < SMALL_ANGLE {
         let s = libm::sin(0.5 * theta);
         2.0 * s * s
@@ -137,49 +137,49 @@ pub fn one_minus_cos64(theta: f64) -> f64 {
 
 /// Sine and cosine.
 #[inline]
-pub fn sin_cos(x: f32) -> (f32, f32) {
+pub(crate) fn sin_cos(x: f32) -> (f32, f32) {
     libm::sincosf(x)
 }
 
 /// Cosine.
 #[inline]
-pub fn cos(x: f32) -> f32 {
+pub(crate) fn cos(x: f32) -> f32 {
     libm::cosf(x)
 }
 
 /// Sine.
 #[inline]
-pub fn sin(x: f32) -> f32 {
+pub(crate) fn sin(x: f32) -> f32 {
     libm::sinf(x)
 }
 
 /// Sine and cosine (f64).
 #[inline(always)]
-pub fn sin_cos64(x: f64) -> (f64, f64) {
+pub(crate) fn sin_cos64(x: f64) -> (f64, f64) {
     libm::sincos(x)
 }
 
 /// Cosine (f64).
 #[inline(always)]
-pub fn cos64(x: f64) -> f64 {
+pub(crate) fn cos64(x: f64) -> f64 {
     libm::cos(x)
 }
 
 /// atan2(y, x) (f64).
 #[inline(always)]
-pub fn atan2_64(y: f64, x: f64) -> f64 {
+pub(crate) fn atan2_64(y: f64, x: f64) -> f64 {
     libm::atan2(y, x)
 }
 
 /// Arc cosine (f32).
 #[inline(always)]
-pub fn acos(x: f32) -> f32 {
+pub(crate) fn acos(x: f32) -> f32 {
     libm::acosf(x)
 }
 
 /// Arc sine (f32).
 #[inline(always)]
-pub fn asin(x: f32) -> f32 {
+pub(crate) fn asin(x: f32) -> f32 {
     libm::asinf(x)
 }
 
@@ -221,31 +221,31 @@ pub fn asin64(x: f64) -> f64 {
 
 /// Largest integer not above `x` (f32).
 #[inline(always)]
-pub fn floor(x: f32) -> f32 {
+pub(crate) fn floor(x: f32) -> f32 {
     libm::floorf(x)
 }
 
 /// Smallest integer not below `x` (f32).
 #[inline(always)]
-pub fn ceil(x: f32) -> f32 {
+pub(crate) fn ceil(x: f32) -> f32 {
     libm::ceilf(x)
 }
 
 /// Nearest integer to `x`, halfway cases away from zero (f32).
 #[inline(always)]
-pub fn round(x: f32) -> f32 {
+pub(crate) fn round(x: f32) -> f32 {
     libm::roundf(x)
 }
 
 /// `sqrt(max(0, 1 - c²))`: the sine belonging to a cosine, safe against rounding.
 #[inline(always)]
-pub fn sin_from_cos(c: f32) -> f32 {
+pub(crate) fn sin_from_cos(c: f32) -> f32 {
     sqrt((1.0 - c * c).max(0.0))
 }
 
 /// The next representable f32 above a finite, non-negative `x`.
 #[inline]
-pub fn next_up(x: f32) -> f32 {
+pub(crate) fn next_up(x: f32) -> f32 {
     if x.is_nan() || x == f32::INFINITY {
         return x;
     }
@@ -262,7 +262,7 @@ pub fn next_up(x: f32) -> f32 {
 
 /// The trigonometry the cone algebra needs, so one implementation of it serves both the exact
 /// bounds ([`Exact`]) and the SAOH's bucket estimates ([`Fast`]).
-pub trait Trig {
+pub(crate) trait Trig {
     /// atan2(y, x).
     fn atan2(y: f32, x: f32) -> f32;
     /// (sin x, cos x).
@@ -270,7 +270,7 @@ pub trait Trig {
 }
 
 /// libm: correctly rounded to within an ulp or two.
-pub struct Exact;
+pub(crate) struct Exact;
 
 impl Trig for Exact {
     #[inline]
@@ -285,7 +285,7 @@ impl Trig for Exact {
 
 /// Polynomial approximations (absolute error below 2e-5), for heuristics only: the SAOH
 /// compares bucket costs with them, while every bound stored in a tree uses [`Exact`].
-pub struct Fast;
+pub(crate) struct Fast;
 
 impl Trig for Fast {
     #[inline]

@@ -65,7 +65,7 @@ use crate::math;
 use crate::tree::LightTree;
 
 /// λ of Algorithm 1.
-pub const LAMBDA: f32 = 10.0;
+pub(crate) const LAMBDA: f32 = 10.0;
 /// Nmax of the sample budget.
 pub const N_MAX: u32 = 50;
 

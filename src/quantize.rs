@@ -39,7 +39,7 @@ pub(crate) fn byte_lanes(v: i32x4, shift: u32) -> f32x4 {
 
 /// Encodes a unit vector octahedrally (8 bits per coordinate, rounded to nearest), as the low
 /// 16 bits of a slot's cone word.
-pub fn encode_axis(a: Vec3) -> u32 {
+pub(crate) fn encode_axis(a: Vec3) -> u32 {
     let l1 = a.x.abs() + a.y.abs() + a.z.abs();
     let (mut x, mut y) = if l1 > 0.0 {
         (a.x / l1, a.y / l1)
@@ -66,7 +66,7 @@ fn sign(v: f32) -> f32 {
 
 /// Decodes [`encode_axis`] (the low 16 bits of `q`); the result is unit length.
 #[inline]
-pub fn decode_axis(q: u32) -> Vec3 {
+pub(crate) fn decode_axis(q: u32) -> Vec3 {
     let a = decode_axis_raw(q);
     let inv = 1.0 / math::sqrt(a.x * a.x + a.y * a.y + a.z * a.z);
     Vec3::new(a.x * inv, a.y * inv, a.z * inv)
@@ -75,7 +75,7 @@ pub fn decode_axis(q: u32) -> Vec3 {
 /// [`decode_axis`] before its normalisation: the point of the octahedron |x| + |y| + |z| = 1
 /// (length in [1/√3, 1]) that the 4-wide TL importance works with.
 #[inline]
-pub fn decode_axis_raw(q: u32) -> Vec3 {
+pub(crate) fn decode_axis_raw(q: u32) -> Vec3 {
     let x = (q & 0xFF) as f32 * (2.0 / Q8) - 1.0;
     let y = ((q >> 8) & 0xFF) as f32 * (2.0 / Q8) - 1.0;
     let z = 1.0 - x.abs() - y.abs();
@@ -86,7 +86,7 @@ pub fn decode_axis_raw(q: u32) -> Vec3 {
 }
 
 /// Encodes an angle in [0, π] as `ceil(255 · sin(θ/2))`, never below the true value.
-pub fn encode_angle(theta: f32) -> u32 {
+pub(crate) fn encode_angle(theta: f32) -> u32 {
     let s = math::sin(theta.clamp(0.0, PI) * 0.5);
     if s <= 0.0 {
         return 0;
@@ -98,7 +98,7 @@ pub fn encode_angle(theta: f32) -> u32 {
 
 /// Decodes [`encode_angle`] (the low 8 bits of `q`) to `(cos θ, sin θ)`.
 #[inline]
-pub fn decode_angle(q: u32) -> (f32, f32) {
+pub(crate) fn decode_angle(q: u32) -> (f32, f32) {
     let s = (q & 0xFF) as f32 * (1.0 / Q8);
     let cos = 1.0 - 2.0 * s * s;
     let sin = 2.0 * s * math::sqrt((1.0 - s * s).max(0.0));
@@ -108,7 +108,7 @@ pub fn decode_angle(q: u32) -> (f32, f32) {
 /// Encodes an emission angle θe in [0, π/2] as `ceil(255 · √2 · sin(θe/2))`, never below
 /// the true value: the code 255 is exactly π/2 (the common θe of area lights), where
 /// [`decode_emission`] gives `cos θe = 0` exactly.
-pub fn encode_emission(theta_e: f32) -> u32 {
+pub(crate) fn encode_emission(theta_e: f32) -> u32 {
     let s = math::sin(theta_e.clamp(0.0, FRAC_PI_2) * 0.5) * SQRT_2;
     if s <= 0.0 {
         return 0;
@@ -118,18 +118,18 @@ pub fn encode_emission(theta_e: f32) -> u32 {
 
 /// Decodes [`encode_emission`] (the low 8 bits of `q`) to `cos θe = (255² − q²) / 255²`.
 #[inline]
-pub fn decode_emission(q: u32) -> f32 {
+pub(crate) fn decode_emission(q: u32) -> f32 {
     let q = (q & 0xFF) as f32;
     (Q8 * Q8 - q * q) * (1.0 / (Q8 * Q8))
 }
 
 /// The angle θe of a code of [`encode_emission`], for checks off the hot path.
-pub fn emission_angle_of(q: u32) -> f32 {
+pub(crate) fn emission_angle_of(q: u32) -> f32 {
     math::acos(decode_emission(q).clamp(-1.0, 1.0))
 }
 
 /// The angle θ of a code of [`encode_angle`], for checks off the hot path.
-pub fn angle_of(q: u32) -> f32 {
+pub(crate) fn angle_of(q: u32) -> f32 {
     let s = (q & 0xFF) as f32 * (1.0 / Q8);
     2.0 * math::asin(s.min(1.0))
 }
@@ -153,7 +153,7 @@ pub fn encode_cone(c: &Cone) -> u32 {
 }
 
 /// Decodes a slot's cone word.
-pub fn decode_cone(word: u32) -> Cone {
+pub(crate) fn decode_cone(word: u32) -> Cone {
     Cone {
         axis: decode_axis(word),
         theta_o: angle_of(word >> 16),
@@ -175,12 +175,12 @@ pub fn encode_energy(e: f32) -> u32 {
 
 /// Decodes [`encode_energy`].
 #[inline]
-pub fn decode_energy(code: u32) -> f32 {
+pub(crate) fn decode_energy(code: u32) -> f32 {
     f32::from_bits((code & 0xF_FFFF) << 12)
 }
 
 /// The bfloat16 code of `x ≥ 0` (the upper 16 bits of its f32), rounded up.
-pub fn encode_bf16(x: f32) -> u16 {
+pub(crate) fn encode_bf16(x: f32) -> u16 {
     let bits = if x > 0.0 { x.to_bits() } else { 0 };
     let up = (bits >> 16) + u32::from(bits & 0xFFFF != 0);
     up.min(0x7F7F) as u16
@@ -188,20 +188,20 @@ pub fn encode_bf16(x: f32) -> u16 {
 
 /// Decodes [`encode_bf16`].
 #[inline]
-pub fn decode_bf16(q: u16) -> f32 {
+pub(crate) fn decode_bf16(q: u16) -> f32 {
     f32::from_bits(u32::from(q) << 16)
 }
 
 /// The scale `2^(exponent − 127)` of a node's sphere codes (`exponent` in 1..=254).
 #[inline]
-pub fn scale_of(exponent: u8) -> f32 {
+pub(crate) fn scale_of(exponent: u8) -> f32 {
     f32::from_bits(u32::from(exponent.clamp(1, 254)) << 23)
 }
 
 /// Decodes a slot's sphere word (x, y, z, radius codes in bytes 0..4) in the frame
 /// `(origin, scale)`.
 #[inline]
-pub fn decode_sphere(word: u32, origin: [f32; 3], scale: f32) -> Sphere {
+pub(crate) fn decode_sphere(word: u32, origin: [f32; 3], scale: f32) -> Sphere {
     let b = word.to_le_bytes();
     Sphere {
         center: Vec3::new(

@@ -55,12 +55,12 @@ impl BinNode {
 
     /// `Some(light)` for a leaf, `None` for an inner node.
     #[inline(always)]
-    pub fn light(&self) -> Option<u32> {
+    pub(crate) fn light(&self) -> Option<u32> {
         self.leaf.checked_sub(1)
     }
 
     /// The leaf of light `light` with bounds `b`.
-    pub fn leaf(b: &LightBounds, light: u32) -> BinNode {
+    pub(crate) fn leaf(b: &LightBounds, light: u32) -> BinNode {
         BinNode {
             bounds: NodeBounds {
                 sphere: b.sphere,
@@ -77,7 +77,7 @@ impl BinNode {
     /// Position of the subtree's first light among the leaves: the leaves of a subtree of
     /// `count` lights are `first .. first + count`, left to right.
     #[inline]
-    pub fn first(&self) -> usize {
+    pub(crate) fn first(&self) -> usize {
         self.first as usize
     }
 }

@@ -37,7 +37,7 @@ pub const DEFENSIVE: f32 = 0.05;
 /// Caps with `sin σ` below this are points: their average `f cos` over the cap is its limit,
 /// `f cos` in the cap's direction (the ratio of two vanishing integrals would be 0/0, and for
 /// point and spot lights both are exactly 0).
-pub const POINT_LIMIT_SIN: f32 = 1e-3;
+pub(crate) const POINT_LIMIT_SIN: f32 = 1e-3;
 
 /// The mask of all four lanes.
 const ALL_LANES: f32x4 = f32x4::new([f32::from_bits(u32::MAX); 4]);

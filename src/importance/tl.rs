@@ -29,13 +29,13 @@ use glam::Vec3;
 use wide::{f32x4, f32x8, i32x4};
 
 /// `d_min = DISTANCE_CLAMP_FRACTION · r`.
-pub const DISTANCE_CLAMP_FRACTION: f32 = 0.5;
+pub(crate) const DISTANCE_CLAMP_FRACTION: f32 = 0.5;
 /// Floor of the squared distance.
-pub const MIN_DISTANCE2: f32 = 1e-12;
+pub(crate) const MIN_DISTANCE2: f32 = 1e-12;
 /// A cosine this far past a zero boundary still counts as inside it.
-pub const COS_SLACK: f32 = 2e-6;
+pub(crate) const COS_SLACK: f32 = 2e-6;
 /// The cosine used for a cluster at the boundary.
-pub const COS_FLOOR: f32 = 1e-6;
+pub(crate) const COS_FLOOR: f32 = 1e-6;
 
 const CLAMP2: f32 = DISTANCE_CLAMP_FRACTION * DISTANCE_CLAMP_FRACTION;
 

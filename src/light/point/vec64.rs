@@ -19,28 +19,28 @@ pub(crate) struct V64 {
 
 impl V64 {
     #[inline]
-    pub fn new(x: f64, y: f64, z: f64) -> V64 {
+    pub(super) fn new(x: f64, y: f64, z: f64) -> V64 {
         V64 { x, y, z }
     }
 
     #[inline]
-    pub fn from_f32(v: Vec3) -> V64 {
+    pub(super) fn from_f32(v: Vec3) -> V64 {
         V64::new(f64::from(v.x), f64::from(v.y), f64::from(v.z))
     }
 
     /// Rounded to f32 (saturating to ±∞).
     #[inline]
-    pub fn to_f32(self) -> Vec3 {
+    pub(super) fn to_f32(self) -> Vec3 {
         Vec3::new(self.x as f32, self.y as f32, self.z as f32)
     }
 
     #[inline]
-    pub fn dot(self, o: V64) -> f64 {
+    pub(super) fn dot(self, o: V64) -> f64 {
         self.x * o.x + self.y * o.y + self.z * o.z
     }
 
     #[inline]
-    pub fn cross(self, o: V64) -> V64 {
+    pub(super) fn cross(self, o: V64) -> V64 {
         V64::new(
             self.y * o.z - self.z * o.y,
             self.z * o.x - self.x * o.z,
@@ -49,18 +49,18 @@ impl V64 {
     }
 
     #[inline]
-    pub fn length_squared(self) -> f64 {
+    pub(super) fn length_squared(self) -> f64 {
         self.dot(self)
     }
 
     #[inline]
-    pub fn length(self) -> f64 {
+    pub(super) fn length(self) -> f64 {
         math::sqrt64(self.length_squared())
     }
 
     /// The unit vector, or `None` for a zero or non-finite vector.
     #[inline]
-    pub fn normalize(self) -> Option<V64> {
+    pub(super) fn normalize(self) -> Option<V64> {
         let l = self.length();
         if l > 0.0 && l < f64::INFINITY {
             Some(self * (1.0 / l))
@@ -72,7 +72,7 @@ impl V64 {
     /// Two unit vectors completing the unit `n` to a right-handed orthonormal basis (Duff et
     /// al. 2017, "Building an Orthonormal Basis, Revisited").
     #[inline]
-    pub fn basis(self) -> (V64, V64) {
+    pub(super) fn basis(self) -> (V64, V64) {
         let n = self;
         let sign = if n.z >= 0.0 { 1.0 } else { -1.0 };
         let a = -1.0 / (sign + n.z);
