@@ -26,7 +26,15 @@ const LAYERS: [&[&str]; 7] = [
     &["importance"],
     &["sample", "cut", "trace"],
     &["infinite", "light_set"],
-    &["mis", "direct", "wavefront", "vpl", "baseline", "internals", "lib"],
+    &[
+        "mis",
+        "direct",
+        "wavefront",
+        "vpl",
+        "baseline",
+        "internals",
+        "lib",
+    ],
 ];
 
 type Module = Vec<String>;
