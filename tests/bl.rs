@@ -1528,25 +1528,10 @@ impl Ggx64 {
         g1 * self.d(h) / (4.0 * wo.z)
     }
 
-    /// wi = reflect(wo) about a visible normal (Heitz 2018), from (u1, u2) in [0, 1)².
+    /// wi = reflect(wo) about a visible normal (Heitz 2018), from (u1, u2) in [0, 1)²: the
+    /// shared f64 reference's sampler.
     fn sample_vndf(&self, wo: DVec3, u1: f64, u2: f64) -> DVec3 {
-        let a = self.alpha;
-        let vh = DVec3::new(a * wo.x, a * wo.y, wo.z).normalize();
-        let lensq = vh.x * vh.x + vh.y * vh.y;
-        let t1 = if lensq > 0.0 {
-            DVec3::new(-vh.y, vh.x, 0.0) / lensq.sqrt()
-        } else {
-            DVec3::X
-        };
-        let t2 = vh.cross(t1);
-        let r = u1.sqrt();
-        let phi = 2.0 * PI * u2;
-        let p1 = r * phi.cos();
-        let s = 0.5 * (1.0 + vh.z);
-        let p2 = (1.0 - s) * (1.0 - p1 * p1).max(0.0).sqrt() + s * r * phi.sin();
-        let nh = t1 * p1 + t2 * p2 + vh * (1.0 - p1 * p1 - p2 * p2).max(0.0).sqrt();
-        let ne = DVec3::new(a * nh.x, a * nh.y, nh.z.max(1e-12)).normalize();
-        ne * (2.0 * wo.dot(ne)) - wo
+        manylights_testkit::ggx::Ggx::new(self.alpha).sample_vndf(wo, u1, u2)
     }
 
     /// ∫_H f cos: the directional albedo, by `grid²` stratified VNDF samples (the estimator
