@@ -880,3 +880,87 @@ fn bl_gives_a_sun_behind_a_glossy_lobe_only_its_defensive_share() {
     let pinf = PinfSampler::with_importance(tree, TlImportance::new(Vec3::ZERO, -Vec3::Z));
     assert_eq!(pinf.pmf(0), 0.5);
 }
+
+/// A host sky whose `eval` gives a bad radiance (NaN, negative, infinite) in one channel is an
+/// error of the one call, as a bad radiance from its `sample` is, for the techniques that take
+/// a BSDF sample at every Lambert point (the one-sample MIS ones); a good one is not.
+#[test]
+fn a_sky_whose_eval_gives_a_bad_radiance_is_an_error() {
+    struct BadEval(Rgb);
+    impl Environment for BadEval {
+        fn sample(&self, _u: [f32; 2]) -> Option<manylights::direct::EnvironmentSample> {
+            None
+        }
+        fn eval(&self, _direction: Vec3) -> (Rgb, f32) {
+            (self.0, 0.25)
+        }
+    }
+    let set = LightSet::build(vec![UniformSky {
+        radiance: Rgb::grey(1.0),
+    }
+    .light()])
+    .unwrap();
+    let sp = ShadingPoint {
+        position: Vec3::ZERO,
+        normal: Vec3::Z,
+        wo: Vec3::Z,
+        material: Material::Lambert {
+            albedo: Rgb::grey(0.8),
+        },
+    };
+    for technique in [Technique::TlMis, Technique::BlMis, Technique::TlMisPinf] {
+        for bad in [f32::NAN, -1.0, f32::INFINITY] {
+            let mut e = Estimator::new(&set, &sp, technique, &Params::default()).unwrap();
+            let mut u = TestUniforms::new(7);
+            let got = e.estimate_env(&Unoccluded, &BadEval(Rgb::new(1.0, bad, 1.0)), &mut u);
+            assert!(
+                matches!(got, Err(manylights::DirectError::EnvironmentRadiance { value })
+                    if value.to_bits() == bad.to_bits()),
+                "{technique:?} with {bad}: {got:?}"
+            );
+        }
+        let mut e = Estimator::new(&set, &sp, technique, &Params::default()).unwrap();
+        let mut u = TestUniforms::new(7);
+        let good = e.estimate_env(&Unoccluded, &BadEval(Rgb::grey(1.0)), &mut u);
+        assert!(good.is_ok(), "{technique:?}: {good:?}");
+    }
+}
+
+/// A tree whose entry of a light at infinity was edited and resealed (a valid tree by itself)
+/// does not load with the lights it no longer matches: the entry is compared with them.
+#[test]
+fn a_resealed_sun_entry_does_not_load_with_its_lights() {
+    let lights = vec![
+        distant(Vec3::new(0.3, 0.1, 1.0), SUN, Rgb::grey(2.0)),
+        Light::Point {
+            position: Vec3::new(0.0, 0.0, 2.0),
+            intensity: Rgb::grey(1.0),
+        },
+    ];
+    let set = LightSet::build(lights.clone()).unwrap();
+    let bytes = set.tree().as_bytes();
+    assert!(LightSet::from_bytes(&bytes, lights.clone()).is_ok());
+    // The payload ends with the one 64-byte entry; its irradiance's luminance is at byte 28.
+    let mut payload = bytes[manylights::internals::tree::HEADER_BYTES..].to_vec();
+    let at = payload.len() - 64 + 28;
+    let e = f32::from_ne_bytes(payload[at..at + 4].try_into().unwrap());
+    assert_eq!(e, 2.0);
+    payload[at..at + 4].copy_from_slice(&(16.0f32).to_ne_bytes());
+    let resealed = manylights::internals::tree::seal(&payload);
+    assert!(
+        LightTree::from_bytes(&resealed).is_ok(),
+        "a valid tree by itself"
+    );
+    assert_eq!(
+        LightSet::from_bytes(&resealed, lights.clone()).err(),
+        Some(FormatError::Invalid(ValidationError::BadInfinite {
+            entry: 0
+        }))
+    );
+    assert_eq!(
+        LightTree::from_bytes_with_lights(&resealed, &lights).err(),
+        Some(FormatError::Invalid(ValidationError::BadInfinite {
+            entry: 0
+        }))
+    );
+}

@@ -351,13 +351,18 @@ impl LightTree {
 
     /// [`LightTree::from_bytes`], then [`LightTree::check_lights`]: the tree of `bytes` if
     /// `lights` are the ones it was built from (else [`FormatError::Lights`] naming the first
-    /// mismatch).
+    /// mismatch), its entries of the lights at infinity included (else
+    /// [`FormatError::Invalid`] with `ValidationError::BadInfinite` naming the first entry
+    /// that differs from what `lights` give).
     pub fn from_bytes_with_lights(
         bytes: &[u8],
         lights: &[Light],
     ) -> Result<LightTree, FormatError> {
         let tree = LightTree::from_bytes(bytes)?;
         tree.check_lights(lights).map_err(FormatError::Lights)?;
+        // The entries are outside the lights' checksums: compare them with the lights.
+        tree.validate_infinite_lights(lights)
+            .map_err(FormatError::Invalid)?;
         Ok(tree)
     }
 }

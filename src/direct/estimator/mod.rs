@@ -603,6 +603,12 @@ impl<'a> Estimator<'a> {
                     if !(0.0..f32::INFINITY).contains(&env_pdf) {
                         return Err(DirectError::EnvironmentPdf { value: env_pdf });
                     }
+                    // The host's radiance along the ray is checked as its samples' is.
+                    for c in env_radiance.to_array() {
+                        if !(0.0..f32::INFINITY).contains(&c) {
+                            return Err(DirectError::EnvironmentRadiance { value: c });
+                        }
+                    }
                     let mut value = [0.0f64; 3];
                     self.bsdf_hits_with_env(
                         &b,
