@@ -64,19 +64,7 @@ pub mod tree {
     use crate::tree::Node4;
     use bytemuck::{Pod, Zeroable};
 
-    use alloc::vec::Vec;
-
-    /// Bytes of the byte form's header: magic (7), version (1), payload length (8), checksum (8).
-    pub const HEADER_BYTES: usize = crate::tree::HEADER_BYTES;
-
-    /// The byte form of a payload: the header (magic, version, the payload's length, its
-    /// CRC-64/XZ) followed by `payload`, as [`LightTree::as_bytes`](crate::LightTree::as_bytes)
-    /// writes it; [`LightTree::from_bytes`](crate::LightTree::from_bytes) still validates the
-    /// payload fully.
-    #[must_use]
-    pub fn seal(payload: &[u8]) -> Vec<u8> {
-        crate::tree::seal(payload)
-    }
+    pub use crate::tree::bytes::{seal, HEADER_BYTES};
 
     /// A [`Node4`] with its fields readable and writable: the same bytes
     /// ([`Node4Ext::raw`], [`Node4Ext::raw_mut`], `From` both ways).

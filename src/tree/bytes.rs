@@ -19,7 +19,7 @@ use alloc::vec::Vec;
 pub const FORMAT_VERSION: u8 = 4;
 const MAGIC: [u8; 7] = *b"MLTREE\x00";
 /// Bytes of the header: magic (7), version (1), payload length (8), checksum (8).
-pub(crate) const HEADER_BYTES: usize = 24;
+pub const HEADER_BYTES: usize = 24;
 /// Bytes of the payload's own header: three counts (8 each), the depth (4), the byte-order
 /// mark (4).
 const COUNTS: usize = 32;
@@ -29,7 +29,8 @@ const COUNTS: usize = 32;
 /// write payloads of their own (a fuzzer that reaches the parser behind the checksum, a
 /// test of the structural checks); [`LightTree::from_bytes`] still validates the payload
 /// fully.
-pub(crate) fn seal(payload: &[u8]) -> Vec<u8> {
+#[must_use]
+pub fn seal(payload: &[u8]) -> Vec<u8> {
     let mut out = Vec::with_capacity(HEADER_BYTES + payload.len());
     out.extend_from_slice(&MAGIC);
     out.push(FORMAT_VERSION);

@@ -12,13 +12,12 @@
 //! `crate::sample` (sampling and pmfs), [`crate::cut`] (sampling inside one cluster,
 //! [`LightTree::sample_cluster`]) and `crate::trace` (the lights a ray reaches).
 
-mod bytes;
+pub(crate) mod bytes;
 mod validate;
 
 pub(crate) use bytes::light_check_count;
 pub use bytes::FORMAT_VERSION;
 pub(crate) use bytes::{light_checks, LIGHT_BLOCK};
-pub(crate) use bytes::{seal, HEADER_BYTES};
 
 use crate::bounds::{Cone, Sphere};
 use crate::infinite_light::InfiniteLight;
