@@ -184,13 +184,7 @@ pub struct Truth {
 /// jitter (deterministic).
 fn jitter(seed: u64, i: usize, j: usize, n: usize) -> (f64, f64) {
     let mut z = seed ^ ((i as u64) << 32 | j as u64).wrapping_mul(0x9E37_79B9_7F4A_7C15);
-    let mut next = || {
-        z = z.wrapping_add(0x9E37_79B9_7F4A_7C15);
-        let mut x = z;
-        x = (x ^ (x >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-        x = (x ^ (x >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-        ((x ^ (x >> 31)) >> 11) as f64 * (1.0 / (1u64 << 53) as f64)
-    };
+    let mut next = || (crate::splitmix64(&mut z) >> 11) as f64 * (1.0 / (1u64 << 53) as f64);
     let a = next();
     let b = next();
     ((i as f64 + a) / n as f64, (j as f64 + b) / n as f64)
