@@ -1,4 +1,4 @@
-//! Not part of the API: what the crate's tests, the fuzz checks and the renderer's instruments
+//! Not part of the API: what the crate's tests, the fuzz checks, the instruments and the SPTD fit
 //! reach inside the crate (the quantisation codes, the byte format's sealing, the SPTD tables,
 //! the MIS weights, brute-force oracles), with the cargo feature `internals`. Nothing here has
 //! a stability promise: names, signatures and behaviour change without notice.

@@ -135,7 +135,8 @@ pub(crate) fn admit4(w: f32x4, sum: f32, reach: f32, floor: f32) -> (f32x4, f32)
 /// first of equal ones). Every slot left then has `reach · w_k / sum' ≥ floor`, so the
 /// descent's pmf never drops below `floor`. When every positive slot passes, `(w, sum)` is
 /// returned unchanged.
-/// (The scalar twin of [`admit4`], used by the binary baseline tree.)
+///
+/// The scalar twin of [`admit4`] (the binary baseline tree's rule).
 #[cfg(any(test, feature = "baseline"))]
 #[inline(always)]
 pub(crate) fn admit(w: [f32; 4], sum: f32, reach: f32, floor: f32) -> ([f32; 4], f32) {
