@@ -238,6 +238,7 @@ impl Cone {
     /// `2π(1 − cos θo) + π/2 · (2 θw sin θo − cos(θo − 2θw) − 2 θo sin θo + cos θo)`,
     /// `θw = min(θo + θe, π)`.
     #[must_use]
+    #[cfg(any(test, feature = "internals"))]
     pub fn measure(&self) -> f32 {
         self.measure_with::<Exact>()
     }

@@ -157,6 +157,13 @@ pub enum BuildError {
         /// Index of the second environment light.
         index: usize,
     },
+    /// Light `index` of a [`crate::LightSet`]'s list is an environment light: a light set's
+    /// environment is the host's, given with
+    /// [`crate::LightSet::build_with_environment`], which adds its light.
+    EnvironmentLight {
+        /// Index of the environment light.
+        index: usize,
+    },
 }
 
 impl fmt::Display for BuildError {
@@ -194,6 +201,10 @@ impl fmt::Display for BuildError {
             BuildError::SecondEnvironment { index } => write!(
                 f,
                 "light {index}: a second environment light (at most one is supported)"
+            ),
+            BuildError::EnvironmentLight { index } => write!(
+                f,
+                "light {index}: field `kind` is environment: a light set takes the host's environment itself (build_with_environment), not its light"
             ),
         }
     }
@@ -572,17 +583,15 @@ pub enum DirectError {
         /// The distance.
         value: f32,
     },
-    /// The light set has an environment light and the call takes none: use the calls that
-    /// take the host's environment ([`crate::Estimator::estimate_env`],
-    /// [`crate::Estimator::bsdf_hits_env`], [`crate::Estimator::bsdf_hits_with_env`]).
-    NeedsEnvironment,
-    /// The host's environment pdf is NaN, negative or infinite (or not positive for a sample
-    /// of its map).
+    /// The host environment's pdf ([`crate::light::Environment::sample`] or
+    /// [`crate::light::Environment::eval`]) is NaN, negative or infinite (or not positive for
+    /// a sample).
     EnvironmentPdf {
         /// The pdf.
         value: f32,
     },
-    /// A channel of the host's environment radiance is NaN, negative or infinite.
+    /// A channel of the host environment's radiance (of a sample or of `eval`) is NaN,
+    /// negative or infinite.
     EnvironmentRadiance {
         /// The channel's value.
         value: f32,
@@ -615,17 +624,13 @@ impl fmt::Display for DirectError {
                     "hit_distance: must be non-negative or +inf (got {value})"
                 )
             }
-            DirectError::NeedsEnvironment => write!(
-                f,
-                "the lights include an environment: pass the host's environment (its pdf of a BSDF direction that escapes)"
-            ),
             DirectError::EnvironmentPdf { value } => write!(
                 f,
-                "environment pdf: must be finite and non-negative, and positive for a sample (got {value})"
+                "the environment's pdf (of its sample or eval): must be finite and non-negative, and positive for a sample (got {value})"
             ),
             DirectError::EnvironmentRadiance { value } => write!(
                 f,
-                "environment radiance: every channel must be finite and non-negative (got {value})"
+                "the environment's radiance (of its sample or eval): every channel must be finite and non-negative (got {value})"
             ),
         }
     }

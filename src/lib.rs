@@ -90,9 +90,9 @@
 #![deny(missing_docs)]
 // Pure functions and builders say so: a result dropped by mistake is a warning.
 #![warn(clippy::must_use_candidate)]
-// Without `internals`, what only the tests, fuzz checks and instruments reach (through
-// `internals`) has no user inside the crate; with it (as every test build has) it is checked.
-#![cfg_attr(not(feature = "internals"), allow(dead_code, unused_imports))]
+// What only the tests, the fuzz checks and the tools reach (through `internals`) is compiled
+// where it is defined under `cfg(any(test, feature = "internals"))`: a product build has no
+// code it does not use, and no lint is silenced crate-wide.
 
 /// The README, whose Rust example `cargo test --doc` compiles and runs.
 #[cfg(doctest)]

@@ -12,29 +12,50 @@
 //! One [`LightSet`] is built per scene (it allocates); it is immutable afterwards,
 //! `Send + Sync`, and shared by every thread and every shading point.
 
+use alloc::boxed::Box;
 use alloc::vec::Vec;
+use core::fmt;
 
 pub use crate::infinite::RootChoice;
 pub use crate::infinite_light::{InfiniteKind, InfiniteLight};
 
 use crate::build::BuildOptions;
-use crate::error::{BuildError, FormatError};
-use crate::light::point::LightPoint;
-use crate::light::Light;
+use crate::colour::Rgb;
+use crate::error::{BuildError, DirectError, FormatError, LightMismatch};
+use crate::light::point::{pdf_point, sample_point, LightPoint};
+use crate::light::{Environment, Light};
 use crate::tree::LightTree;
 use glam::Vec3;
 
-/// Lights, their tree and their power distribution.
-#[derive(Clone, Debug)]
+/// Lights, their tree and their power distribution, and the host's environment if it has one.
+///
+/// The environment is given once, here ([`LightSet::build_with_environment`]): a light set
+/// with an environment holds it for every estimate, point on a light and BSDF hit, and a
+/// plain light list cannot hold an environment light (the build refuses it), so no call
+/// downstream takes an environment or can be made without it.
 pub struct LightSet {
     lights: Vec<Light>,
     tree: LightTree,
     power: AliasTable,
+    environment: Option<Box<dyn Environment + Send + Sync>>,
+}
+
+impl fmt::Debug for LightSet {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.debug_struct("LightSet")
+            .field("lights", &self.lights)
+            .field("tree", &self.tree)
+            .field("power", &self.power)
+            .field("environment", &self.environment.as_ref().map(|_| "<host>"))
+            .finish()
+    }
 }
 
 impl LightSet {
     /// Validates `lights` (errors name the light and field, as [`LightTree::build`]) and builds
-    /// their tree and alias table.
+    /// their tree and alias table. An environment light in `lights` is
+    /// [`BuildError::EnvironmentLight`]: the environment enters with the host's own
+    /// ([`LightSet::build_with_environment`]).
     pub fn build(lights: Vec<Light>) -> Result<LightSet, BuildError> {
         LightSet::build_with(lights, &BuildOptions::default())
     }
@@ -51,12 +72,44 @@ impl LightSet {
         opts: &BuildOptions,
         join: &J,
     ) -> Result<LightSet, BuildError> {
+        no_environment_light(&lights)?;
+        LightSet::assemble(lights, None, opts, join)
+    }
+
+    /// `lights` and the host's `environment`: the set of [`LightSet::build_parallel`] over
+    /// `lights` followed by the environment's light, [`Light::Environment`] with
+    /// [`Environment::irradiance_bounds`] (its index is `lights.len()`), holding
+    /// `environment` for every estimate ([`crate::Estimator`] samples it and evaluates it
+    /// along BSDF rays that escape) and for [`LightSet::sample_point`]. Errors: those of the
+    /// build (the bounds validated as the light's fields, naming index `lights.len()`), and
+    /// [`BuildError::EnvironmentLight`] for an environment light in `lights`.
+    pub fn build_with_environment<J: crate::Join>(
+        mut lights: Vec<Light>,
+        environment: impl Environment + Send + Sync + 'static,
+        opts: &BuildOptions,
+        join: &J,
+    ) -> Result<LightSet, BuildError> {
+        no_environment_light(&lights)?;
+        lights.push(Light::Environment {
+            irradiance: environment.irradiance_bounds(),
+        });
+        LightSet::assemble(lights, Some(Box::new(environment)), opts, join)
+    }
+
+    /// The tree and alias table of lights already checked for environment lights.
+    fn assemble<J: crate::Join>(
+        lights: Vec<Light>,
+        environment: Option<Box<dyn Environment + Send + Sync>>,
+        opts: &BuildOptions,
+        join: &J,
+    ) -> Result<LightSet, BuildError> {
         let tree = LightTree::build_parallel(&lights, opts, join)?;
         let power = power_table(&lights);
         Ok(LightSet {
             lights,
             tree,
             power,
+            environment,
         })
     }
 
@@ -65,13 +118,44 @@ impl LightSet {
     /// (corrupt bytes, or lights other than the ones the tree was built from, are an error
     /// naming the first mismatch), and their alias table: a set that samples, answers pmfs,
     /// gives points on lights and estimates bit for bit as the set the tree was saved from.
+    /// The tree of a set with an environment loads with
+    /// [`LightSet::from_bytes_with_environment`]; an environment light in `lights` is an error.
     pub fn from_bytes(bytes: &[u8], lights: Vec<Light>) -> Result<LightSet, FormatError> {
+        no_environment_light(&lights)
+            .map_err(|e| FormatError::Lights(LightMismatch::Invalid(e)))?;
+        LightSet::load(bytes, lights, None)
+    }
+
+    /// [`LightSet::from_bytes`] of the tree of a set made by
+    /// [`LightSet::build_with_environment`] from `lights` and an environment of the same
+    /// bounds: `lights` are the lights without the environment's, which `environment`'s
+    /// bounds give.
+    pub fn from_bytes_with_environment(
+        bytes: &[u8],
+        mut lights: Vec<Light>,
+        environment: impl Environment + Send + Sync + 'static,
+    ) -> Result<LightSet, FormatError> {
+        no_environment_light(&lights)
+            .map_err(|e| FormatError::Lights(LightMismatch::Invalid(e)))?;
+        lights.push(Light::Environment {
+            irradiance: environment.irradiance_bounds(),
+        });
+        LightSet::load(bytes, lights, Some(Box::new(environment)))
+    }
+
+    /// The set of `bytes` and lights already checked for environment lights.
+    fn load(
+        bytes: &[u8],
+        lights: Vec<Light>,
+        environment: Option<Box<dyn Environment + Send + Sync>>,
+    ) -> Result<LightSet, FormatError> {
         let tree = LightTree::from_bytes_with_lights(bytes, &lights)?;
         let power = power_table(&lights);
         Ok(LightSet {
             lights,
             tree,
             power,
+            environment,
         })
     }
 
@@ -96,11 +180,71 @@ impl LightSet {
         &self.power
     }
 
-    /// The environment light's index, if the set has one.
+    /// The environment light's index (the last light), if the set has an environment.
     #[inline]
     #[must_use]
-    pub fn environment(&self) -> Option<u32> {
+    pub fn environment_light(&self) -> Option<u32> {
         self.tree.environment()
+    }
+
+    /// The host's environment, if the set has one.
+    #[inline]
+    #[must_use]
+    pub fn environment(&self) -> Option<&(dyn Environment + Send + Sync)> {
+        self.environment.as_deref()
+    }
+
+    /// A point on light `light` seen from `x`, for the uniform numbers `u` in [0, 1)²: the
+    /// light's [`sample_point`], or for the environment light the host's sample turned into a
+    /// point at infinity (`position` = `direction`, `distance` +∞, `normal` zero). `Ok(None)`
+    /// where none is given (a light out of range, a zero-area light, an environment that
+    /// returns no sample). Errors: a host sample with a zero or non-finite direction
+    /// ([`DirectError::Direction`]), a pdf not positive and finite
+    /// ([`DirectError::EnvironmentPdf`]) or a radiance channel negative or not finite
+    /// ([`DirectError::EnvironmentRadiance`]).
+    pub fn sample_point(
+        &self,
+        light: u32,
+        x: Vec3,
+        u: [f32; 2],
+    ) -> Result<Option<LightPoint>, DirectError> {
+        let Some(l) = self.lights.get(light as usize) else {
+            return Ok(None);
+        };
+        match (l, self.environment()) {
+            (Light::Environment { .. }, Some(env)) => match env.sample(u) {
+                Some(s) => environment_point(s.direction, s.radiance, s.pdf).map(Some),
+                None => Ok(None),
+            },
+            _ => Ok(sample_point(l, x, u)),
+        }
+    }
+
+    /// The solid-angle pdf with which [`LightSet::sample_point`] gives the point `point` of
+    /// light `light` from `x` ([`pdf_point`]; for the environment, where `point` is the
+    /// direction, the host's pdf of it, checked as in [`LightSet::sample_point`]); 0 for a
+    /// light out of range.
+    pub fn pdf_point(&self, light: u32, x: Vec3, point: Vec3) -> Result<f32, DirectError> {
+        let Some(l) = self.lights.get(light as usize) else {
+            return Ok(0.0);
+        };
+        match (l, self.environment()) {
+            (Light::Environment { .. }, Some(env)) => {
+                let l2 = point.length_squared();
+                if !(l2 > 0.0 && l2 < f32::INFINITY && point.is_finite()) {
+                    return Ok(0.0);
+                }
+                // A direction already of unit length (to f32 rounding) is taken as it is.
+                let d = if (l2 - 1.0).abs() <= 4.0 * f32::EPSILON {
+                    point
+                } else {
+                    point / crate::math::sqrt(l2)
+                };
+                let (_, pdf) = environment_eval(env, d)?;
+                Ok(pdf)
+            }
+            _ => Ok(pdf_point(l, x, point)),
+        }
     }
 
     /// Number of lights.
@@ -123,6 +267,67 @@ impl LightSet {
     pub fn trace(&self, x: Vec3, d: Vec3, hit: impl FnMut(u32, &LightPoint)) {
         self.tree.trace(&self.lights, x, d, hit);
     }
+}
+
+/// [`BuildError::EnvironmentLight`] for the first environment light of `lights`.
+fn no_environment_light(lights: &[Light]) -> Result<(), BuildError> {
+    match lights
+        .iter()
+        .position(|l| matches!(l, Light::Environment { .. }))
+    {
+        Some(index) => Err(BuildError::EnvironmentLight { index }),
+        None => Ok(()),
+    }
+}
+
+/// The light point of a host environment's sample: `direction` (any positive, finite length),
+/// its `radiance` and solid-angle `pdf` (> 0), each checked.
+pub(crate) fn environment_point(
+    direction: Vec3,
+    radiance: Rgb,
+    pdf: f32,
+) -> Result<LightPoint, DirectError> {
+    let l2 = direction.length_squared();
+    if !(l2 > 0.0 && l2 < f32::INFINITY && direction.is_finite()) {
+        return Err(DirectError::Direction { length_squared: l2 });
+    }
+    if !(pdf > 0.0 && pdf < f32::INFINITY) {
+        return Err(DirectError::EnvironmentPdf { value: pdf });
+    }
+    check_radiance(radiance)?;
+    let d = direction / crate::math::sqrt(l2);
+    Ok(LightPoint {
+        position: d,
+        normal: Vec3::ZERO,
+        direction: d,
+        distance: f32::INFINITY,
+        pdf,
+        delta: false,
+        radiance,
+    })
+}
+
+/// The host environment's radiance along the unit `direction` and its pdf (≥ 0), checked.
+pub(crate) fn environment_eval(
+    env: &(dyn Environment + Send + Sync),
+    direction: Vec3,
+) -> Result<(Rgb, f32), DirectError> {
+    let (radiance, pdf) = env.eval(direction);
+    if !(0.0..f32::INFINITY).contains(&pdf) {
+        return Err(DirectError::EnvironmentPdf { value: pdf });
+    }
+    check_radiance(radiance)?;
+    Ok((radiance, pdf))
+}
+
+/// [`DirectError::EnvironmentRadiance`] for a channel that is negative or not finite.
+fn check_radiance(radiance: Rgb) -> Result<(), DirectError> {
+    for c in radiance.to_array() {
+        if !(0.0..f32::INFINITY).contains(&c) {
+            return Err(DirectError::EnvironmentRadiance { value: c });
+        }
+    }
+    Ok(())
 }
 
 /// The squared radius of the bounding sphere of the boxes of the lights of positive energy

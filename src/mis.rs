@@ -60,8 +60,10 @@
 //! overflow the weights are the plain formulas, bit for bit.
 
 use crate::cut::LightCut;
+#[cfg(any(test, feature = "internals"))]
 use crate::importance::{Importance, TlImportance};
 use crate::math;
+#[cfg(any(test, feature = "internals"))]
 use crate::tree::LightTree;
 
 /// λ of Algorithm 1.
@@ -97,6 +99,7 @@ pub fn brdf_budget(cut: &LightCut, n_max: u32) -> u32 {
 
 /// The densities (solid angle) of one light point under the three techniques.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
+#[cfg(any(test, feature = "internals"))]
 pub struct TechniquePdfs {
     /// TL split sampling: the light's pmf within its cluster × the point's pdf.
     pub tl: f32,
@@ -111,6 +114,7 @@ pub struct TechniquePdfs {
 /// BRDF's pdf of the direction towards it. `bl` is `None` when BL is not used (diffuse-only
 /// materials). The same function serves light samples and BRDF rays that hit a light.
 #[must_use]
+#[cfg(any(test, feature = "internals"))]
 pub fn technique_pdfs<B: Importance + ?Sized>(
     tree: &LightTree,
     split: &LightCut,
@@ -133,6 +137,7 @@ pub fn technique_pdfs<B: Importance + ?Sized>(
 /// `others` (each `(n, pdf)`): `n_a·pdf_a / Σ n·pdf`, in [0, 1]. 0 when every density is 0;
 /// negative, NaN and infinite inputs as the module documentation says.
 #[must_use]
+#[cfg(any(test, feature = "internals"))]
 pub fn balance(n_a: f32, pdf_a: f32, others: &[(f32, f32)]) -> f32 {
     heuristic(n_a, pdf_a, others, false)
 }
@@ -442,6 +447,7 @@ impl SequentialWeights {
 
     /// The planned number of BRDF-aware samples N.
     #[must_use]
+    #[cfg(any(test, feature = "internals"))]
     pub fn budget(&self) -> u32 {
         self.n
     }
@@ -470,6 +476,7 @@ impl SequentialWeights {
     /// a point of value `g` (`f·L·cos`) and densities `pdf_tl`, `pdf_bl`, `pdf_tb` (0 if the
     /// sample's mixture density there is 0).
     #[must_use]
+    #[cfg(any(test, feature = "internals"))]
     pub fn mixture_term(&self, g: f32, p_bl: f32, pdf_tl: f32, pdf_bl: f32, pdf_tb: f32) -> f32 {
         if g.is_nan() || g <= 0.0 {
             return 0.0;
@@ -536,6 +543,7 @@ impl SequentialWeights {
     /// What a TL sample of value `g` and densities `pdf_tl` (> 0), `pdf_bl`, `pdf_tb`
     /// contributes: `g·w_TL/pdf_TL` (0 if `pdf_tl` is not positive).
     #[must_use]
+    #[cfg(any(test, feature = "internals"))]
     pub fn tl_term(&self, g: f32, pdf_tl: f32, pdf_bl: f32, pdf_tb: f32) -> f32 {
         if pdf_tl.is_nan() || pdf_tl <= 0.0 || g.is_nan() || g <= 0.0 {
             return 0.0;

@@ -87,6 +87,7 @@ impl LightTree {
 
 /// Calls `hit(light, point)` for every light of `lights` that the ray from `x` along the unit
 /// `d` reaches, by testing every light: what [`LightTree::trace`] must agree with.
+#[cfg(any(test, feature = "internals"))]
 pub fn trace_all(lights: &[Light], x: Vec3, d: Vec3, mut hit: impl FnMut(u32, &LightPoint)) {
     for (i, l) in lights.iter().enumerate() {
         if let Some(lp) = intersect(l, x, d) {

@@ -1,8 +1,8 @@
 //! Batches for wavefront hosts, which hold many path vertices at once: points on lights for
 //! many (light, shading point, uniform numbers) triples, and the estimators' per-point set-up
-//! with their one-call estimates for many shading points. Each is bit for bit the single
-//! calls made one after the other ([`sample_point`], [`Estimator::new`] and
-//! [`Estimator::estimate`]).
+//! with their one-call estimates for many shading points (the set's environment included,
+//! as [`Estimator::estimate`] takes it). Each is bit for bit the single calls made one after
+//! the other ([`sample_point`], [`Estimator::new`] and [`Estimator::estimate`]).
 
 use crate::direct::{Estimator, Occluder, Params, Technique, Uniforms};
 use crate::error::{DirectError, LengthMismatch};

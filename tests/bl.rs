@@ -54,6 +54,7 @@ use manylights::{
     BlCutOptions, BlImportance, Importance, Light, LightCut, LightTree, Material, ShadingPoint,
     SplitCutOptions, TlImportance,
 };
+use manylights_testkit::ggx::{Cap64, Ggx};
 use std::f64::consts::PI;
 
 /// Cosine margin of the contribution predicate (see `tests/importance.rs`: two orders of
@@ -1427,13 +1428,6 @@ fn bl_cut_edges() {
 // 5. SC against ground truth
 // ---------------------------------------------------------------------------------------------
 
-/// A local frame (t, b, n) around a unit `n`.
-fn frame(n: DVec3) -> (DVec3, DVec3) {
-    let a = if n.x.abs() < 0.9 { DVec3::X } else { DVec3::Y };
-    let t = (a - n * a.dot(n)).normalize();
-    (t, n.cross(t))
-}
-
 /// `∫_{C∩H} cos θ dω` for the cap of half-angle σ (given as `sin σ`, `1 − cos σ`) whose axis
 /// makes angle ω with the normal, by quadrature in f64: around the cap axis, the integral over
 /// the azimuth φ of `max(0, cos ω cos θ + sin ω sin θ cos φ)` is closed-form, leaving a 1-D
@@ -1476,127 +1470,13 @@ fn lambert_quadrature(cos_w: f64, sigma: f64) -> f64 {
     total
 }
 
-/// Isotropic GGX with height-correlated Smith masking-shadowing, no Fresnel, in the local
-/// frame (n = +z), f64: Walter et al. 2007 for D, Heitz 2014 for Λ and G2, Heitz 2018 for the
-/// visible-normal sampling.
-#[derive(Clone, Copy, Debug)]
-struct Ggx64 {
-    alpha: f64,
-}
-
-impl Ggx64 {
-    fn lambda(&self, w: DVec3) -> f64 {
-        let c2 = w.z * w.z;
-        let s2 = (1.0 - c2).max(0.0);
-        if s2 == 0.0 {
-            return 0.0;
-        }
-        let a2t2 = self.alpha * self.alpha * s2 / c2;
-        0.5 * (-1.0 + (1.0 + a2t2).sqrt())
-    }
-
-    fn d(&self, h: DVec3) -> f64 {
-        if h.z <= 0.0 {
-            return 0.0;
-        }
-        let a2 = self.alpha * self.alpha;
-        let t = (h.x * h.x + h.y * h.y) / a2 + h.z * h.z;
-        1.0 / (PI * a2 * t * t)
-    }
-
-    /// f(wo, wi) · cos θi (0 below the horizon).
-    fn f_cos(&self, wo: DVec3, wi: DVec3) -> f64 {
-        if wi.z <= 0.0 || wo.z <= 0.0 {
-            return 0.0;
-        }
-        let h = (wo + wi).normalize();
-        let g2 = 1.0 / (1.0 + self.lambda(wo) + self.lambda(wi));
-        self.d(h) * g2 / (4.0 * wo.z)
-    }
-
-    /// The solid-angle pdf of `sample_vndf` at wi: G1(wo) D(h) / (4 cos θo).
-    fn pdf_vndf(&self, wo: DVec3, wi: DVec3) -> f64 {
-        let h = wo + wi;
-        if h.length_squared() == 0.0 {
-            return 0.0;
-        }
-        let h = h.normalize();
-        if wo.dot(h) <= 0.0 {
-            return 0.0;
-        }
-        let g1 = 1.0 / (1.0 + self.lambda(wo));
-        g1 * self.d(h) / (4.0 * wo.z)
-    }
-
-    /// wi = reflect(wo) about a visible normal (Heitz 2018), from (u1, u2) in [0, 1)²: the
-    /// shared f64 reference's sampler.
-    fn sample_vndf(&self, wo: DVec3, u1: f64, u2: f64) -> DVec3 {
-        manylights_testkit::ggx::Ggx::new(self.alpha).sample_vndf(wo, u1, u2)
-    }
-
-    /// ∫_H f cos: the directional albedo, by `grid²` stratified VNDF samples (the estimator
-    /// f cos / pdf = G2/G1 is bounded by 1, so this is accurate to ~1e-4).
-    fn albedo(&self, wo: DVec3, grid: usize) -> f64 {
-        let mut s = 0.0;
-        for i in 0..grid {
-            for j in 0..grid {
-                let u1 = (i as f64 + 0.5) / grid as f64;
-                let u2 = (j as f64 + 0.5) / grid as f64;
-                let wi = self.sample_vndf(wo, u1, u2);
-                let p = self.pdf_vndf(wo, wi);
-                if p > 0.0 {
-                    s += self.f_cos(wo, wi) / p;
-                }
-            }
-        }
-        s / (grid * grid) as f64
-    }
-}
-
-/// A cap in the local frame: unit axis, half-angle, `1 − cos σ` (exact for tiny caps).
-#[derive(Clone, Copy, Debug)]
-struct Cap64 {
-    axis: DVec3,
-    sigma: f64,
-    omc: f64,
-}
-
-impl Cap64 {
-    fn from_sphere(axis: DVec3, sin_sigma: f64) -> Cap64 {
-        let s = sin_sigma.min(1.0);
-        let c = (1.0 - s * s).max(0.0).sqrt();
-        Cap64 {
-            axis,
-            sigma: s.asin(),
-            omc: s * s / (1.0 + c),
-        }
-    }
-
-    fn area(&self) -> f64 {
-        2.0 * PI * self.omc
-    }
-
-    fn contains(&self, w: DVec3) -> bool {
-        0.5 * (w - self.axis).length_squared() <= self.omc
-    }
-
-    /// A direction uniform in the cap from (u1, u2).
-    fn sample(&self, u1: f64, u2: f64) -> DVec3 {
-        let (t, b) = frame(self.axis);
-        let omc = u1 * self.omc; // 1 − cos θ, uniform in [0, 1 − cos σ]
-        let sin_t = (omc * (2.0 - omc)).max(0.0).sqrt();
-        let phi = 2.0 * PI * u2;
-        (t * phi.cos() + b * phi.sin()) * sin_t + self.axis * (1.0 - omc)
-    }
-}
-
 /// `∫_{C∩H} g dω` by MIS (balance heuristic) of uniform-in-cap sampling and, when `vndf` is
 /// given, GGX VNDF sampling, over `grid²` stratified pairs; `g(wi)` must vanish below the
 /// horizon. Returns (estimate, standard error as if unstratified: an upper bound).
 fn cap_mc(
     cap: &Cap64,
     g: impl Fn(DVec3) -> f64,
-    vndf: Option<(&Ggx64, DVec3)>,
+    vndf: Option<(&Ggx, DVec3)>,
     grid: usize,
     rng: &mut Rng,
 ) -> (f64, f64) {
@@ -1663,7 +1543,7 @@ fn single_sphere(
     .unwrap();
     let c = b.center.as_dvec3();
     let d = c.length();
-    let cap = Cap64::from_sphere(c / d, f64::from(b.radius) / d);
+    let cap = Cap64::from_sine(c / d, f64::from(b.radius) / d);
     // The 4-wide lane too.
     let wide = imp.eval4_with_integrals(node).1.to_array()[k];
     (imp, b, cap, wide)
@@ -1751,7 +1631,7 @@ fn lambert_cap_integral_matches_ground_truth() {
 /// MIS ground truth of `grid²` pairs. Also checks the 4-wide lane and that plastic is exactly
 /// the weighted sum of its lobes. Returns (SC, truth, its standard error, cap area).
 fn ggx_case(
-    ggx: &Ggx64,
+    ggx: &Ggx,
     wo: DVec3,
     axis: DVec3,
     sigma: f64,
@@ -1793,7 +1673,7 @@ fn ggx_case(
         close(got, sum, 1e-5, 1e-12),
         "plastic SC {got} vs 0.25·Lambert + 0.5·GGX {sum}"
     );
-    let (truth, se) = cap_mc(&cap, |w| ggx.f_cos(wo, w), Some((ggx, wo)), grid, rng);
+    let (truth, se) = cap_mc(&cap, |w| ggx.eval_cos(wo, w), Some((ggx, wo)), grid, rng);
     (sc, truth, se, cap.area())
 }
 
@@ -1870,12 +1750,10 @@ fn ggx_cap_integral_on_random_caps() {
         let to = f64::from(rng.range(0.0, 85.0)).to_radians();
         let sigma = f64::from(rng.log_range(1e-3, 1.2));
         let axis = rng.unit().as_dvec3().normalize();
-        let ggx = Ggx64 {
-            alpha: f64::from(alpha as f32),
-        };
+        let ggx = Ggx::new(f64::from(alpha as f32));
         let wo = DVec3::new(to.sin(), 0.0, to.cos());
         let (sc, truth, se, area) = ggx_case(&ggx, wo, axis, sigma, 128, &mut rng);
-        let rho = ggx.albedo(wo, 64);
+        let rho = ggx.albedo(wo, 64).0;
         let ctx = format!(
             "case {case}: α = {alpha:.4}, θo = {:.1}°, σ = {sigma:.2e}, axis {axis:.3}: SC \
              {sc:.4e}, truth {truth:.4e} ± {se:.1e}",
@@ -1946,12 +1824,10 @@ fn ggx_cap_integral_at_grazing_views() {
         if axis.z <= -sigma.sin() {
             continue;
         }
-        let ggx = Ggx64 {
-            alpha: f64::from(alpha as f32),
-        };
+        let ggx = Ggx::new(f64::from(alpha as f32));
         let wo = DVec3::new(to.sin(), 0.0, to.cos());
         let (sc, truth, se, area) = ggx_case(&ggx, wo, axis, sigma, 128, &mut rng);
-        let rho = ggx.albedo(wo, 64);
+        let rho = ggx.albedo(wo, 64).0;
         let ctx = format!(
             "case {case}: α = {alpha:.4}, θo = {:.1}°, σ = {sigma:.2e}, axis {axis:.4}: SC \
              {sc:.4e}, truth {truth:.4e} ± {se:.1e}",
@@ -2003,9 +1879,7 @@ fn ggx_cap_integral_on_chosen_configurations() {
     let mut albedo_worst = 0.0f64;
     let mut heavy = Vec::new();
     for &alpha in &ALPHAS {
-        let ggx = Ggx64 {
-            alpha: f64::from(alpha),
-        };
+        let ggx = Ggx::new(f64::from(alpha));
         let mut per_alpha = Accuracy::default();
         for &theta_o_deg in &[0.0f64, 30.0, 60.0, 80.0] {
             let to = theta_o_deg.to_radians();
@@ -2018,7 +1892,7 @@ fn ggx_cap_integral_on_chosen_configurations() {
             let (imp, b, _, _) =
                 single_sphere(Vec3::new(0.0, 0.1, 0.0), 1.0, wo.as_vec3(), material);
             let sc_in = f64::from(imp.eval(&b).cap_integral);
-            let rho = ggx.albedo(wo, 256);
+            let rho = ggx.albedo(wo, 256).0;
             let rel = (sc_in - rho).abs() / rho;
             albedo_worst = albedo_worst.max(rel);
             assert!(

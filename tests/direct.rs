@@ -625,16 +625,21 @@ fn host_estimate(est: &mut Estimator, host: &HostLambert, u: &mut TestUniforms) 
             Step::Bsdf(b) => {
                 let (dir, pdf) = host.sample(b.u);
                 let cos = host.cos(dir);
-                est.bsdf_hits(&b, dir, pdf, f32::INFINITY, |h| {
-                    let radiance = h.point.radiance.to_array();
-                    for (c, s) in sum.iter_mut().enumerate() {
-                        let value = host.albedo[c] / std::f32::consts::PI * radiance[c] * cos;
-                        *s += f64::from(h.weighted.contribution(value));
-                    }
-                })
+                est.bsdf_hits(
+                    &b,
+                    dir,
+                    pdf,
+                    |p| p.reached_before(f32::INFINITY),
+                    |h| {
+                        let radiance = h.point.radiance.to_array();
+                        for (c, s) in sum.iter_mut().enumerate() {
+                            let value = host.albedo[c] / std::f32::consts::PI * radiance[c] * cos;
+                            *s += f64::from(h.weighted.contribution(value));
+                        }
+                    },
+                )
                 .unwrap();
             }
-            Step::Environment(_) => unreachable!("no environment light here"),
         }
     }
 }
@@ -745,7 +750,7 @@ fn one_call_is_the_lower_level_loop() {
                             &s,
                             frame.to_world(wi).normalize(),
                             pdf,
-                            f32::INFINITY,
+                            |p| p.reached_before(f32::INFINITY),
                             |h| {
                                 let g = f * h.point.radiance * wi.z;
                                 for (s, c) in v.iter_mut().zip(g.to_array()) {
@@ -758,7 +763,6 @@ fn one_call_is_the_lower_level_loop() {
                             sum[c] += v[c];
                         }
                     }
-                    Step::Environment(_) => unreachable!("no environment light here"),
                 }
             }
             assert_eq!(one.map(f64::to_bits), sum.map(f64::to_bits), "{t}");
@@ -1004,24 +1008,27 @@ fn bad_input_is_an_error_naming_it() {
             }
             Step::Bsdf(b) => {
                 let cases = [
-                    (Vec3::ZERO, 1.0, 1.0, "direction"),
-                    (Vec3::new(f32::NAN, 0.0, 1.0), 1.0, 1.0, "direction"),
-                    (Vec3::Z, f32::NAN, 1.0, "bsdf_pdf"),
-                    (Vec3::Z, 1.0, f32::NAN, "hit_distance"),
-                    (Vec3::Z, 1.0, -1.0, "hit_distance"),
+                    (Vec3::ZERO, 1.0, "direction"),
+                    (Vec3::new(f32::NAN, 0.0, 1.0), 1.0, "direction"),
+                    (Vec3::Z, f32::NAN, "bsdf_pdf"),
+                    (Vec3::Z, -1.0, "bsdf_pdf"),
                 ];
-                for (d, pdf, t, what) in cases {
-                    let e = est.bsdf_hits(&b, d, pdf, t, |_| {}).unwrap_err();
+                for (d, pdf, what) in cases {
+                    let e = est.bsdf_hits(&b, d, pdf, |_| true, |_| {}).unwrap_err();
                     assert!(e.to_string().starts_with(what), "{e}");
                 }
-                // A blocked ray reaches nothing; a free one is weighted in [0, 1].
-                assert!(!est.bsdf_hits(&b, Vec3::Z, 1.0, 0.0, |_| {}).unwrap());
-                est.bsdf_hits(&b, Vec3::new(0.0, 0.0, 3.0), 1.0, f32::INFINITY, |h| {
+                // A blocked ray reaches nothing (a NaN distance neither); a free one is
+                // weighted in [0, 1].
+                for t in [0.0, f32::NAN] {
+                    let reached = est.bsdf_hits(&b, Vec3::Z, 1.0, |p| p.reached_before(t), |_| {});
+                    assert!(!reached.unwrap());
+                }
+                let free = |p: &manylights::LightPoint| p.reached_before(f32::INFINITY);
+                est.bsdf_hits(&b, Vec3::new(0.0, 0.0, 3.0), 1.0, free, |h| {
                     assert!((0.0..=1.0).contains(&h.weighted.weight()));
                 })
                 .unwrap();
             }
-            Step::Environment(_) => unreachable!("no environment light here"),
         }
     }
     assert!(saw_light);

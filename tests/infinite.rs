@@ -20,15 +20,16 @@ mod common;
 use common::{Rng, SceneSpec, Stats};
 use glam::{DVec3, Vec3};
 use manylights::direct::{
-    CutSampler, Environment, Estimator, GradientSky, LightSampler, Params, PinfSampler, Step,
-    Technique, TreeSampler, UniformSky, Unoccluded,
+    CutSampler, Estimator, LightSampler, Params, PinfSampler, Step, Technique, TreeSampler,
+    Unoccluded,
 };
 use manylights::error::{LightField, Problem};
 use manylights::importance::Receiver;
+use manylights::light::{Environment, EnvironmentSample, GradientSky, UniformSky};
 use manylights::light_set::InfiniteKind;
 use manylights::{
-    BlCutOptions, BlImportance, BuildError, FormatError, Importance, Light, LightSet, LightTree,
-    Material, Rgb, ShadingPoint, TlImportance, ValidationError,
+    BlCutOptions, BlImportance, BuildError, BuildOptions, FormatError, Importance, Light, LightSet,
+    LightTree, Material, Rgb, Serial, ShadingPoint, TlImportance, ValidationError,
 };
 use manylights_testkit::TestUniforms;
 
@@ -159,8 +160,8 @@ proptest::proptest! {
 fn check_infinite_scene(rng: &mut Rng, n_local: usize, points: usize) {
     {
         let lights = infinite_scene(rng, n_local);
-        let set = LightSet::build(lights.clone()).unwrap();
-        let tree = set.tree();
+        // The tree level takes the environment's light anywhere in the list.
+        let tree = &LightTree::build(&lights).unwrap();
         tree.validate_lights(&lights).unwrap();
         let n = lights.len() as u32;
         for _ in 0..points {
@@ -254,12 +255,11 @@ fn root_choice_frequencies_follow_the_pmfs() {
             intensity: Rgb::grey(1.0),
         },
         distant(Vec3::new(0.3, 0.0, 1.0), SUN, Rgb::new(2.0, 1.5, 1.0)),
-        UniformSky {
-            radiance: Rgb::new(0.1, 0.2, 0.4),
-        }
-        .light(),
     ];
-    let set = LightSet::build(lights).unwrap();
+    let sky = UniformSky {
+        radiance: Rgb::new(0.1, 0.2, 0.4),
+    };
+    let set = with_sky(lights, sky);
     let tl = TlImportance::new(Vec3::ZERO, Vec3::Z);
     let p: Vec<f64> = (0..3).map(|l| f64::from(set.tree().pmf(&tl, l))).collect();
     assert!(p.iter().all(|&x| x > 0.01), "{p:?}");
@@ -404,10 +404,12 @@ fn bad_lights_at_infinity_are_errors_naming_them() {
             other => panic!("{l:?}: {other:?}"),
         }
     }
-    let sky = UniformSky {
-        radiance: Rgb::grey(1.0),
-    }
-    .light();
+    let sky = Light::Environment {
+        irradiance: UniformSky {
+            radiance: Rgb::grey(1.0),
+        }
+        .irradiance_bounds(),
+    };
     assert_eq!(
         LightTree::build(&[sky, sky]),
         Err(BuildError::SecondEnvironment { index: 1 })
@@ -426,16 +428,14 @@ fn bad_lights_at_infinity_are_errors_naming_them() {
 // Unbiasedness, in colour
 // ---------------------------------------------------------------------------------------------
 
+/// The light set of `lights` and the environment `sky` (its last light).
+fn with_sky(lights: Vec<Light>, sky: impl Environment + Send + Sync + 'static) -> LightSet {
+    LightSet::build_with_environment(lights, sky, &BuildOptions::default(), &Serial).unwrap()
+}
+
 /// Every technique through the one call: each channel's mean of `k` estimates within 5
 /// standard errors of `exact`.
-fn check_unbiased<E: Environment>(
-    set: &LightSet,
-    sp: &ShadingPoint,
-    env: &E,
-    exact: [f64; 3],
-    k: usize,
-    seed: u64,
-) {
+fn check_unbiased(set: &LightSet, sp: &ShadingPoint, exact: [f64; 3], k: usize, seed: u64) {
     for (i, &t) in Technique::ALL.iter().enumerate() {
         let k = match t {
             Technique::Uniform | Technique::Power => 3 * k,
@@ -446,7 +446,7 @@ fn check_unbiased<E: Environment>(
         let mut u = TestUniforms::new(seed + i as u64);
         let mut st: [Stats; 3] = Default::default();
         for _ in 0..k {
-            let v = est.estimate_env(&Unoccluded, env, &mut u).unwrap();
+            let v = est.estimate(&Unoccluded, &mut u).unwrap();
             for c in 0..3 {
                 st[c].add(v[c]);
             }
@@ -484,7 +484,6 @@ fn every_technique_is_unbiased_under_a_sky_and_suns_in_colour() {
             radius: r,
             radiance: l,
         },
-        sky.light(),
         distant(low_dir, 0.0, low_e),
         // Below the horizon: contributes nothing.
         distant(-Vec3::Z, 0.1, Rgb::grey(5.0)),
@@ -499,14 +498,14 @@ fn every_technique_is_unbiased_under_a_sky_and_suns_in_colour() {
             + a / pi * f64::from(low_e.to_array()[k]) * cos(low_dir)
             + a * f64::from(l.to_array()[k]) * f64::from(r * r) / (d * d) * f64::from(c.z) / d
     });
-    let set = LightSet::build(lights).unwrap();
+    let set = with_sky(lights, sky);
     let sp = ShadingPoint {
         position: Vec3::ZERO,
         normal: Vec3::Z,
         wo: Vec3::new(0.3, 0.1, 1.0),
         material: Material::Lambert { albedo },
     };
-    check_unbiased(&set, &sp, &sky, exact, 30_000, 101);
+    check_unbiased(&set, &sp, exact, 30_000, 101);
 }
 
 /// `∫ f(ωo, ω) L(ω) cos θ dω` at the origin (normal +z) by the midpoint rule in (cos θ, φ)
@@ -570,7 +569,7 @@ fn every_technique_is_unbiased_for_glossy_materials_under_sun_and_sky() {
         ground: Rgb::new(0.1, 0.08, 0.05),
     };
     let (sun_dir, gamma, sun_e) = (Vec3::new(-0.5, -0.2, 0.8), 0.05f32, Rgb::new(2.0, 1.8, 1.2));
-    let set = LightSet::build(vec![distant(sun_dir, gamma, sun_e), sky.light()]).unwrap();
+    let set = with_sky(vec![distant(sun_dir, gamma, sun_e)], sky);
     let wo = Vec3::new(0.5, 0.2, 0.8).normalize();
     for (mi, material) in [
         Material::Plastic {
@@ -599,7 +598,7 @@ fn every_technique_is_unbiased_for_glossy_materials_under_sun_and_sky() {
             wo,
             material,
         };
-        check_unbiased(&set, &sp, &sky, exact, 30_000, 200 + 20 * mi as u64);
+        check_unbiased(&set, &sp, exact, 30_000, 200 + 20 * mi as u64);
     }
 }
 
@@ -645,8 +644,7 @@ fn every_technique_is_unbiased_on_surfaces_tilted_against_the_sky() {
             .collect();
         lights.push(distant(wide_dir, wide_r, wide_e));
         lights.push(distant(low_dir, SUN, low_e));
-        lights.push(sky.light());
-        let set = LightSet::build(lights).unwrap();
+        let set = with_sky(lights, sky);
         let wo = Vec3::new(0.4, -0.3, 0.6).normalize();
         for (mi, material) in [
             Material::Lambert {
@@ -683,20 +681,14 @@ fn every_technique_is_unbiased_on_surfaces_tilted_against_the_sky() {
                 wo,
                 material,
             };
-            check_unbiased(
-                &set,
-                &sp,
-                &sky,
-                exact,
-                30_000,
-                300 + 20 * ui as u64 + mi as u64,
-            );
+            check_unbiased(&set, &sp, exact, 30_000, 300 + 20 * ui as u64 + mi as u64);
         }
     }
 }
 
-/// The lower level with a host environment and the host's own Lambert BSDF in colour: the
-/// environment steps sampled by the host, the escaping BSDF rays weighed with its pdf.
+/// The lower level with an environment and the host's own Lambert BSDF in colour: the
+/// environment's samples come as light steps (at distance +∞), the escaping BSDF rays reach it
+/// with its radiance and pdf.
 #[test]
 fn lower_level_with_a_host_environment_is_unbiased() {
     let sky = GradientSky {
@@ -706,15 +698,18 @@ fn lower_level_with_a_host_environment_is_unbiased() {
         ground: Rgb::ZERO,
     };
     let (sun_dir, sun_e) = (Vec3::new(0.3, 0.5, 0.7), Rgb::new(2.0, 1.5, 1.0));
-    let set = LightSet::build(vec![
-        sky.light(),
-        distant(sun_dir, SUN, sun_e),
-        Light::Point {
-            position: Vec3::new(0.0, 0.5, 1.5),
-            intensity: Rgb::new(1.0, 0.5, 0.2),
-        },
-    ])
-    .unwrap();
+    let set = with_sky(
+        vec![
+            distant(sun_dir, SUN, sun_e),
+            Light::Point {
+                position: Vec3::new(0.0, 0.5, 1.5),
+                intensity: Rgb::new(1.0, 0.5, 0.2),
+            },
+        ],
+        sky,
+    );
+    let env = set.environment_light().expect("an environment");
+    assert_eq!(env, 2, "the environment is the last light");
     let albedo = [0.7f32, 0.5, 0.3];
     let lambert = Material::Lambert {
         albedo: Rgb::from_array(albedo),
@@ -760,12 +755,6 @@ fn lower_level_with_a_host_environment_is_unbiased() {
                 let d = match est.next(&mut u).unwrap() {
                     Step::Done => break,
                     Step::Light(d) => d,
-                    Step::Environment(e) => {
-                        env_steps += 1;
-                        let Some(s) = sky.sample(e.u) else { continue };
-                        est.environment_point(&e, s.direction, s.radiance, s.pdf)
-                            .unwrap()
-                    }
                     Step::Bsdf(b) => {
                         // Cosine sampling of the host's Lambert.
                         let r = b.u[0].sqrt();
@@ -773,20 +762,19 @@ fn lower_level_with_a_host_environment_is_unbiased() {
                         let z = (1.0 - b.u[0]).max(0.0).sqrt();
                         let dir = Vec3::new(r * phi.cos(), r * phi.sin(), z);
                         let (env_l, env_pdf) = sky.eval(dir);
-                        est.bsdf_hits_env(
+                        est.bsdf_hits(
                             &b,
                             dir,
                             z / std::f32::consts::PI,
-                            f32::INFINITY,
-                            env_pdf,
+                            |p| p.reached_before(f32::INFINITY),
                             |h| {
-                                let l = if h.light == 0 {
-                                    env_l
-                                } else {
-                                    h.point.radiance
-                                };
+                                if h.light == env {
+                                    // The environment's own radiance and pdf along the ray.
+                                    assert_eq!((h.point.radiance, h.point.pdf), (env_l, env_pdf));
+                                }
                                 for c in 0..3 {
-                                    let v = albedo[c] / std::f32::consts::PI * l.to_array()[c] * z;
+                                    let l = h.point.radiance.to_array()[c];
+                                    let v = albedo[c] / std::f32::consts::PI * l * z;
                                     sum[c] += f64::from(h.weighted.contribution(v));
                                 }
                             },
@@ -795,6 +783,16 @@ fn lower_level_with_a_host_environment_is_unbiased() {
                         continue;
                     }
                 };
+                if d.light == env {
+                    env_steps += 1;
+                    assert_eq!(d.point.distance, f32::INFINITY);
+                    // The sky's sample, its direction renormalised (to an ulp).
+                    let (l, pdf) = sky.eval(d.point.direction);
+                    assert!((d.point.pdf - pdf).abs() <= 1e-5 * pdf, "{d:?}");
+                    for (a, b) in d.point.radiance.to_array().into_iter().zip(l.to_array()) {
+                        assert!((a - b).abs() <= 1e-5 * b.max(1.0), "{d:?}");
+                    }
+                }
                 let cos = d.point.direction.z;
                 if cos <= 0.0 {
                     continue;
@@ -819,8 +817,8 @@ fn lower_level_with_a_host_environment_is_unbiased() {
                 exact[c]
             );
         }
-        // The plain calls refuse a set with an environment.
-        assert!(est.estimate(&Unoccluded, &mut u).is_err());
+        // The one call takes the set's environment too.
+        assert!(est.estimate(&Unoccluded, &mut u).is_ok());
     }
 }
 
@@ -888,18 +886,18 @@ fn bl_gives_a_sun_behind_a_glossy_lobe_only_its_defensive_share() {
 fn a_sky_whose_eval_gives_a_bad_radiance_is_an_error() {
     struct BadEval(Rgb);
     impl Environment for BadEval {
-        fn sample(&self, _u: [f32; 2]) -> Option<manylights::direct::EnvironmentSample> {
+        fn sample(&self, _u: [f32; 2]) -> Option<EnvironmentSample> {
             None
         }
         fn eval(&self, _direction: Vec3) -> (Rgb, f32) {
             (self.0, 0.25)
         }
+        fn irradiance_bounds(&self) -> [f32; 6] {
+            [1.0; 6]
+        }
     }
-    let set = LightSet::build(vec![UniformSky {
-        radiance: Rgb::grey(1.0),
-    }
-    .light()])
-    .unwrap();
+    let sets = [f32::NAN, -1.0, f32::INFINITY, 1.0]
+        .map(|v| with_sky(Vec::new(), BadEval(Rgb::new(1.0, v, 1.0))));
     let sp = ShadingPoint {
         position: Vec3::ZERO,
         normal: Vec3::Z,
@@ -909,19 +907,19 @@ fn a_sky_whose_eval_gives_a_bad_radiance_is_an_error() {
         },
     };
     for technique in [Technique::TlMis, Technique::BlMis, Technique::TlMisPinf] {
-        for bad in [f32::NAN, -1.0, f32::INFINITY] {
-            let mut e = Estimator::new(&set, &sp, technique, &Params::default()).unwrap();
+        for (set, bad) in sets.iter().zip([f32::NAN, -1.0, f32::INFINITY]) {
+            let mut e = Estimator::new(set, &sp, technique, &Params::default()).unwrap();
             let mut u = TestUniforms::new(7);
-            let got = e.estimate_env(&Unoccluded, &BadEval(Rgb::new(1.0, bad, 1.0)), &mut u);
+            let got = e.estimate(&Unoccluded, &mut u);
             assert!(
                 matches!(got, Err(manylights::DirectError::EnvironmentRadiance { value })
                     if value.to_bits() == bad.to_bits()),
                 "{technique:?} with {bad}: {got:?}"
             );
         }
-        let mut e = Estimator::new(&set, &sp, technique, &Params::default()).unwrap();
+        let mut e = Estimator::new(&sets[3], &sp, technique, &Params::default()).unwrap();
         let mut u = TestUniforms::new(7);
-        let good = e.estimate_env(&Unoccluded, &BadEval(Rgb::grey(1.0)), &mut u);
+        let good = e.estimate(&Unoccluded, &mut u);
         assert!(good.is_ok(), "{technique:?}: {good:?}");
     }
 }
@@ -963,4 +961,236 @@ fn a_resealed_sun_entry_does_not_load_with_its_lights() {
             entry: 0
         }))
     );
+}
+
+// ---------------------------------------------------------------------------------------------
+// The environment given once, to the light set
+// ---------------------------------------------------------------------------------------------
+
+/// A light set takes the environment from the host, never as a light of its list: the light
+/// is refused by name (index), the environment's light is appended after the lights with its
+/// bounds (validated as a light's fields are), and the bytes load back only with an
+/// environment of the same bounds.
+#[test]
+fn the_environment_enters_a_light_set_once_with_its_bounds() {
+    let sky = UniformSky {
+        radiance: Rgb::new(0.2, 0.3, 0.5),
+    };
+    let local = vec![
+        Light::Point {
+            position: Vec3::new(0.0, 0.0, 2.0),
+            intensity: Rgb::grey(1.0),
+        },
+        distant(Vec3::new(0.2, 0.1, 1.0), SUN, Rgb::grey(2.0)),
+    ];
+    let mut with_light = local.clone();
+    with_light.insert(
+        1,
+        Light::Environment {
+            irradiance: sky.irradiance_bounds(),
+        },
+    );
+    assert_eq!(
+        LightSet::build(with_light.clone()).err(),
+        Some(BuildError::EnvironmentLight { index: 1 })
+    );
+    let e = LightSet::build(with_light).unwrap_err().to_string();
+    assert!(e.contains("light 1") && e.contains("kind"), "{e}");
+    let set = with_sky(local.clone(), sky);
+    assert_eq!(set.environment_light(), Some(2));
+    assert_eq!(set.lights().len(), 3);
+    assert_eq!(
+        set.lights()[2],
+        Light::Environment {
+            irradiance: sky.irradiance_bounds()
+        }
+    );
+    assert!(set.environment().is_some());
+    // Bad bounds name the environment's light, one past the list.
+    struct Bounds([f32; 6]);
+    impl Environment for Bounds {
+        fn sample(&self, _u: [f32; 2]) -> Option<EnvironmentSample> {
+            None
+        }
+        fn eval(&self, _d: Vec3) -> (Rgb, f32) {
+            (Rgb::ZERO, 0.0)
+        }
+        fn irradiance_bounds(&self) -> [f32; 6] {
+            self.0
+        }
+    }
+    let bad = LightSet::build_with_environment(
+        local.clone(),
+        Bounds([1.0, 1.0, -1.0, 1.0, 1.0, 1.0]),
+        &BuildOptions::default(),
+        &Serial,
+    );
+    assert!(
+        matches!(
+            bad,
+            Err(BuildError::InvalidLight {
+                index: 2,
+                field: LightField::Irradiance,
+                problem: Problem::Negative,
+                ..
+            })
+        ),
+        "{bad:?}"
+    );
+    // The bytes: with the environment they load and estimate bit for bit; without it (or
+    // with other bounds) they do not.
+    let bytes = set.tree().as_bytes();
+    let loaded = LightSet::from_bytes_with_environment(&bytes, local.clone(), sky).unwrap();
+    assert!(LightSet::from_bytes(&bytes, local.clone()).is_err());
+    let brighter = UniformSky {
+        radiance: Rgb::grey(4.0),
+    };
+    assert!(LightSet::from_bytes_with_environment(&bytes, local.clone(), brighter).is_err());
+    let sp = ShadingPoint {
+        position: Vec3::ZERO,
+        normal: Vec3::Z,
+        wo: Vec3::new(0.2, 0.1, 1.0),
+        material: Material::Plastic {
+            albedo: Rgb::new(0.6, 0.5, 0.4),
+            specular: 0.4,
+            alpha: 0.2,
+        },
+    };
+    for t in Technique::ALL {
+        let mut a = Estimator::new(&set, &sp, t, &Params::default()).unwrap();
+        let mut b = Estimator::new(&loaded, &sp, t, &Params::default()).unwrap();
+        let (mut ua, mut ub) = (TestUniforms::new(3), TestUniforms::new(3));
+        for _ in 0..50 {
+            let (x, y) = (
+                a.estimate(&Unoccluded, &mut ua).unwrap(),
+                b.estimate(&Unoccluded, &mut ub).unwrap(),
+            );
+            assert_eq!(x.map(f64::to_bits), y.map(f64::to_bits), "{t}");
+        }
+    }
+}
+
+/// Points on the environment through the light set are the environment's samples (as a point
+/// at infinity), and their pdf is its `eval`'s; a bad sample is an error, no sample is none.
+#[test]
+fn points_on_the_environment_come_from_the_sets_environment() {
+    let sky = GradientSky {
+        up: Vec3::Z,
+        zenith: Rgb::new(0.1, 0.2, 0.5),
+        horizon: Rgb::new(0.5, 0.5, 0.6),
+        ground: Rgb::new(0.1, 0.08, 0.05),
+    };
+    let set = with_sky(vec![distant(Vec3::Z, SUN, Rgb::grey(1.0))], sky);
+    let env = set.environment_light().unwrap();
+    let x = Vec3::new(1.0, 2.0, 3.0);
+    let mut rng = Rng::new(11);
+    for _ in 0..200 {
+        let u = [rng.f32(), rng.f32()];
+        let p = set
+            .sample_point(env, x, u)
+            .unwrap()
+            .expect("the sky samples every u");
+        let s = sky.sample(u).unwrap();
+        // The sample's direction, renormalised.
+        let d = s.direction / s.direction.length();
+        assert_eq!((p.direction, p.position), (d, d));
+        assert_eq!(
+            (p.radiance, p.pdf, p.distance),
+            (s.radiance, s.pdf, f32::INFINITY)
+        );
+        assert!(!p.delta);
+        assert_eq!(set.pdf_point(env, x, p.direction).unwrap(), sky.eval(d).1);
+    }
+    // A distant light's points are the light's own.
+    let u = [0.3, 0.7];
+    assert_eq!(
+        set.sample_point(0, x, u).unwrap(),
+        manylights::light::sample_point(&set.lights()[0], x, u)
+    );
+    assert_eq!(set.sample_point(9, x, u).unwrap(), None);
+    struct Bad(f32);
+    impl Environment for Bad {
+        fn sample(&self, _u: [f32; 2]) -> Option<EnvironmentSample> {
+            (self.0 != 0.0).then_some(EnvironmentSample {
+                direction: Vec3::Z,
+                radiance: Rgb::grey(1.0),
+                pdf: self.0,
+            })
+        }
+        fn eval(&self, _d: Vec3) -> (Rgb, f32) {
+            (Rgb::grey(1.0), self.0)
+        }
+        fn irradiance_bounds(&self) -> [f32; 6] {
+            [1.0; 6]
+        }
+    }
+    let none = with_sky(Vec::new(), Bad(0.0));
+    assert_eq!(none.sample_point(0, x, u).unwrap(), None);
+    let nan = with_sky(Vec::new(), Bad(f32::NAN));
+    assert!(matches!(
+        nan.sample_point(0, x, u),
+        Err(manylights::DirectError::EnvironmentPdf { .. })
+    ));
+    assert!(nan.pdf_point(0, x, Vec3::Z).is_err());
+}
+
+/// A wavefront batch on a set with an environment: bit for bit the single calls, and a
+/// uniform sky over a Lambert plane reflects ρL on average.
+#[test]
+fn a_wavefront_batch_takes_the_sets_environment() {
+    let sky = UniformSky {
+        radiance: Rgb::new(0.5, 1.0, 2.0),
+    };
+    let set = with_sky(Vec::new(), sky);
+    let albedo = Rgb::new(0.8, 0.5, 0.25);
+    let points: Vec<ShadingPoint> = (0..64)
+        .map(|i| ShadingPoint {
+            position: Vec3::new(i as f32, 0.0, 0.0),
+            normal: Vec3::Z,
+            wo: Vec3::new(0.1 * (i % 5) as f32, 0.0, 1.0),
+            material: Material::Lambert { albedo },
+        })
+        .collect();
+    let per = 64;
+    let params = Params::default();
+    for t in [Technique::BlMis, Technique::TlMis, Technique::Tl] {
+        let mut out = vec![[0.0f64; 3]; points.len() * per];
+        let mut u = TestUniforms::new(21);
+        manylights::wavefront::estimate_each(
+            &set,
+            &points,
+            per,
+            t,
+            &params,
+            &Unoccluded,
+            &mut u,
+            &mut out,
+        )
+        .unwrap();
+        let mut u = TestUniforms::new(21);
+        let mut st: [Stats; 3] = Default::default();
+        for (j, sp) in points.iter().enumerate() {
+            let mut e = Estimator::new(&set, sp, t, &params).unwrap();
+            for i in 0..per {
+                let v = e.estimate(&Unoccluded, &mut u).unwrap();
+                assert_eq!(
+                    v.map(f64::to_bits),
+                    out[j * per + i].map(f64::to_bits),
+                    "{t}"
+                );
+                for c in 0..3 {
+                    st[c].add(v[c]);
+                }
+            }
+        }
+        for c in 0..3 {
+            let exact = f64::from(albedo.to_array()[c]) * f64::from(sky.radiance.to_array()[c]);
+            let z = (st[c].mean() - exact) / st[c].se().max(1e-12);
+            assert!(
+                z.abs() <= 5.0,
+                "{t} channel {c}: {} vs {exact}: {z:.2} SE",
+                st[c].mean()
+            );
+        }
+    }
 }

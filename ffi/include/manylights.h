@@ -135,7 +135,8 @@
  * unit m (the same as the scene's), intensity in W/sr, radiance in W/(m²·sr), irradiance in
  * W/m², each per channel of linear RGB; a light's energy (its flux, W, of the luminance:
  * what the tree's importance and `ml_tree_statistics.total_energy` add up) is given at each
- * kind and is at most `ML_MAX_LIGHT_ENERGY` (0 for distant and environment lights).
+ * kind and is at most `ML_MAX_LIGHT_ENERGY` (0 for distant lights). The environment is not a
+ * light kind: it is given to the tree as an `ml_environment`.
  */
 enum ml_light_kind
 #if defined(__cplusplus) || __STDC_VERSION__ >= 202311L
@@ -186,13 +187,6 @@ enum ml_light_kind
      * `power / (π sin²γ)`.
      */
     ML_LIGHT_KIND_DISTANT = 6,
-    /**
-     * The host's environment: `irradiance_bounds`, upper bounds of the irradiance
-     * (luminance, W/m²) it delivers on receivers facing +x, −x, +y, −y, +z, −z (π × the
-     * luminance of the radiance for a uniform environment); its radiance and sampling are
-     * the host's (`ml_environment`). At most one per tree.
-     */
-    ML_LIGHT_KIND_ENVIRONMENT = 7,
 };
 #ifndef __cplusplus
 #if __STDC_VERSION__ >= 202311L
@@ -366,24 +360,15 @@ enum ml_step_kind
     ML_STEP_KIND_LIGHT = 0,
     /**
      * A BSDF sample to take with `u0`, `u1`: sample the BSDF, cast the ray and report the
-     * direction, its pdf and the first surface's distance to `ml_estimator_bsdf_hits` (or
-     * `ml_estimator_bsdf_hits_env`, with the environment's pdf of the direction, for a tree
-     * with an environment light). When the host's BSDF gives no direction for them, skip the
-     * report (as the one call does): the sample contributes nothing, and `full` counts it as a
-     * ray that reached no light.
+     * direction, its pdf and the first surface's distance to `ml_estimator_bsdf_hits`. When
+     * the host's BSDF gives no direction for them, skip the report (as the one call does):
+     * the sample contributes nothing, and `full` counts it as a ray that reached no light.
      */
     ML_STEP_KIND_BSDF = 1,
     /**
      * The estimate is complete.
      */
     ML_STEP_KIND_DONE = 2,
-    /**
-     * A sample of the host's environment to take with `u0`, `u1` (light `light`, chosen with
-     * probability `pmf`): sample the map, then pass the direction, its radiance and pdf to
-     * `ml_estimator_environment_point`, which gives the light step to shade, test (to +∞)
-     * and weigh.
-     */
-    ML_STEP_KIND_ENVIRONMENT = 3,
 };
 #ifndef __cplusplus
 #if __STDC_VERSION__ >= 202311L
@@ -653,6 +638,16 @@ typedef struct ml_visibility {
      * Passed to both.
      */
     void *user_data;
+    /**
+     * Upper bounds of the irradiance the environment delivers (luminance, W/m²) to a
+     * receiver facing +x, −x, +y, −y, +z and −z: `∫ Y(L(ω)) max(0, a·ω) dω` for each axis
+     * direction a (πY(L) in all six for a uniform radiance L); finite and ≥ 0, each at most
+     * `ML_MAX_LIGHT_ENERGY`. They decide how often the environment is chosen, never its
+     * weight: bounds too large cost variance only; a bound of 0 at a receiver the
+     * environment lights makes the techniques without a BSDF sample there (`power`, `tl`,
+     * `bl`, `tl-split`, and `mis-equal`, `full` where their budget is 0) miss it, biased low.
+     */
+    float irradiance_bounds[6];
 } ml_visibility;
 
 /**
@@ -674,6 +669,16 @@ typedef struct ml_uniforms {
      * Passed to both.
      */
     void *user_data;
+    /**
+     * Upper bounds of the irradiance the environment delivers (luminance, W/m²) to a
+     * receiver facing +x, −x, +y, −y, +z and −z: `∫ Y(L(ω)) max(0, a·ω) dω` for each axis
+     * direction a (πY(L) in all six for a uniform radiance L); finite and ≥ 0, each at most
+     * `ML_MAX_LIGHT_ENERGY`. They decide how often the environment is chosen, never its
+     * weight: bounds too large cost variance only; a bound of 0 at a receiver the
+     * environment lights makes the techniques without a BSDF sample there (`power`, `tl`,
+     * `bl`, `tl-split`, and `mis-equal`, `full` where their budget is 0) miss it, biased low.
+     */
+    float irradiance_bounds[6];
 } ml_uniforms;
 
 /**
@@ -693,34 +698,6 @@ typedef struct ml_rgb64 {
      */
     double b;
 } ml_rgb64;
-
-/**
- * The host's environment (radiance, sampling and pdf of its map or sky), for the one call on
- * a tree with an environment light. `sample(user_data, u0, u1, direction, radiance, pdf)`
- * writes a unit direction towards the environment, the radiance along it and its
- * solid-angle pdf (> 0) and returns non-zero, or returns 0 for no sample;
- * `eval(user_data, direction, radiance, pdf)` writes the radiance along the unit `direction`
- * and the pdf with which `sample` returns it (≥ 0). Callbacks must return normally.
- */
-typedef struct ml_environment {
-    /**
-     * Samples a direction.
-     */
-    int32_t (*sample)(void *user_data,
-                      float u0,
-                      float u1,
-                      struct ml_vec3 *direction,
-                      struct ml_rgb *radiance,
-                      float *pdf);
-    /**
-     * Radiance and pdf of a direction.
-     */
-    void (*eval)(void *user_data, struct ml_vec3 direction, struct ml_rgb *radiance, float *pdf);
-    /**
-     * Passed to both.
-     */
-    void *user_data;
-} ml_environment;
 
 /**
  * A point on a light seen from a shading point x (sampled, or reached by a ray).
@@ -786,11 +763,11 @@ typedef struct ml_step {
      */
     struct ml_light_point point;
     /**
-     * BSDF and environment steps: the first uniform number for sampling the BSDF or the map.
+     * BSDF step: the first uniform number for sampling the BSDF.
      */
     float u0;
     /**
-     * BSDF and environment steps: the second uniform number.
+     * BSDF step: the second uniform number.
      */
     float u1;
 } ml_step;
@@ -897,12 +874,51 @@ typedef struct ml_light {
      * Spot falloff start θf in radians, in [0, θs].
      */
     float falloff_start;
+} ml_light;
+
+/**
+ * The host's environment (a sky or an environment map), given once to the tree
+ * (`ml_tree_build`, `ml_tree_build_parallel`, `ml_tree_load_with_lights`), which copies this
+ * struct and calls the callbacks for every estimate and point on the environment:
+ * `sample(user_data, u0, u1, direction, radiance, pdf)` writes a direction towards the
+ * environment (any positive length), the radiance along it and its solid-angle pdf (> 0)
+ * and returns non-zero, or returns 0 for no sample; `eval(user_data, direction, radiance,
+ * pdf)` writes the radiance along the unit `direction` and the pdf with which `sample`
+ * returns it (≥ 0, 0 where it never does). Their values are checked at every call: a NaN,
+ * negative or infinite radiance channel or pdf (or a pdf of 0 from `sample`) is
+ * `ML_ERR_INVALID_ARGUMENT` of the estimate. The callbacks must return normally, may be
+ * called from every thread that uses the tree at once, and `user_data` must stay valid
+ * until the tree and every cut and estimator made from it are freed.
+ */
+typedef struct ml_environment {
     /**
-     * Environment: irradiance bounds on receivers facing +x, −x, +y, −y, +z, −z (W/m²,
-     * luminance; finite, ≥ 0).
+     * Samples a direction.
+     */
+    int32_t (*sample)(void *user_data,
+                      float u0,
+                      float u1,
+                      struct ml_vec3 *direction,
+                      struct ml_rgb *radiance,
+                      float *pdf);
+    /**
+     * Radiance and pdf of a direction.
+     */
+    void (*eval)(void *user_data, struct ml_vec3 direction, struct ml_rgb *radiance, float *pdf);
+    /**
+     * Passed to both.
+     */
+    void *user_data;
+    /**
+     * Upper bounds of the irradiance the environment delivers (luminance, W/m²) to a
+     * receiver facing +x, −x, +y, −y, +z and −z: `∫ Y(L(ω)) max(0, a·ω) dω` for each axis
+     * direction a (πY(L) in all six for a uniform radiance L); finite and ≥ 0, each at most
+     * `ML_MAX_LIGHT_ENERGY`. They decide how often the environment is chosen, never its
+     * weight: bounds too large cost variance only; a bound of 0 at a receiver the
+     * environment lights makes the techniques without a BSDF sample there (`power`, `tl`,
+     * `bl`, `tl-split`, and `mis-equal`, `full` where their budget is 0) miss it, biased low.
      */
     float irradiance_bounds[6];
-} ml_light;
+} ml_environment;
 
 /**
  * Size and shape of a tree.
@@ -1307,17 +1323,18 @@ ml_status ml_cut_pmf_in(const struct ml_cut *cut, uint32_t light, uint32_t *clus
 ml_status ml_direct_params_default(struct ml_direct_params *out);
 
 /**
- * One estimate of the radiance reflected at `sp` towards `sp->wo` from the tree's lights,
- * with `technique` (an `ml_technique`), `params` (NULL: defaults), the host's `visibility`
- * (NULL: nothing occluded) and `uniforms`, with the core's material (`sp->material`), in
- * linear RGB. Every channel of the estimate is finite and ≥ 0; its expectation is the
- * reflected radiance (every technique is unbiased). For many estimates at one point, `ml_estimator_*` sets up once.
+ * One estimate of the radiance reflected at `sp` towards `sp->wo` from the tree's lights
+ * (and its environment, if it was given one), with `technique` (an `ml_technique`), `params`
+ * (NULL: defaults), the host's `visibility` (NULL: nothing occluded) and `uniforms`, with the
+ * core's material (`sp->material`), in linear RGB. Every channel of the estimate is finite
+ * and ≥ 0; its expectation is the reflected radiance (every technique is unbiased). For many
+ * estimates at one point, `ml_estimator_*` sets up once.
  *
  * Errors: `ML_ERR_NULL` (`tree`, `sp`, `uniforms`, `uniforms->next_f32`, `out`);
  * `ML_ERR_INVALID_ARGUMENT` (a bad shading point, technique or parameter; a uniform number
- * outside [0, 1); a NaN or negative `first_hit`); `ML_ERR_STATE` (a tree loaded by
- * `ml_tree_load`, without its lights; a tree with an environment light:
- * `ml_direct_estimate_env`).
+ * outside [0, 1); a NaN or negative `first_hit`; a bad value from the environment's
+ * callbacks, see `ml_environment`); `ML_ERR_STATE` (a tree loaded by `ml_tree_load`, without
+ * its lights).
  */
 ml_status ml_direct_estimate(const struct ml_tree *tree,
                              const struct ml_shading_point *sp,
@@ -1326,23 +1343,6 @@ ml_status ml_direct_estimate(const struct ml_tree *tree,
                              const struct ml_visibility *visibility,
                              const struct ml_uniforms *uniforms,
                              struct ml_rgb64 *out);
-
-/**
- * `ml_direct_estimate` with the host's `environment` (its radiance, sampling and pdf), for a
- * tree with an environment light (on a tree without one it is never called).
- *
- * Errors: those of `ml_direct_estimate`, and `ML_ERR_NULL` (`environment`,
- * `environment->sample`, `environment->eval`); `ML_ERR_INVALID_ARGUMENT` (a NaN, negative or
- * infinite pdf or radiance from the callbacks, a zero direction from `sample`).
- */
-ml_status ml_direct_estimate_env(const struct ml_tree *tree,
-                                 const struct ml_shading_point *sp,
-                                 uint32_t technique,
-                                 const struct ml_direct_params *params,
-                                 const struct ml_visibility *visibility,
-                                 const struct ml_environment *environment,
-                                 const struct ml_uniforms *uniforms,
-                                 struct ml_rgb64 *out);
 
 /**
  * Estimates at `count` shading points at once, for wavefront hosts: for each `points[j]` in
@@ -1356,8 +1356,8 @@ ml_status ml_direct_estimate_env(const struct ml_tree *tree,
  * Errors: `ML_ERR_NULL` (`tree`, `uniforms`, `uniforms->next_f32`; `points`, `out` when
  * `count` > 0); `ML_ERR_INVALID_ARGUMENT` (`per_point` 0, a count that overflows, a bad
  * technique or parameter, a bad shading point named `points[j]`, a uniform number outside
- * [0, 1) or a bad `first_hit` named with the point it was drawn for); `ML_ERR_STATE` (a
- * tree loaded without its lights; a tree with an environment light).
+ * [0, 1), a bad `first_hit` or a bad value from the environment's callbacks, named with the
+ * point it was drawn for); `ML_ERR_STATE` (a tree loaded without its lights).
  */
 ml_status ml_direct_estimate_batch(const struct ml_tree *tree,
                                    const struct ml_shading_point *points,
@@ -1405,26 +1405,13 @@ ml_status ml_estimator_set_point(struct ml_estimator *est,
  * `ml_direct_estimate`, without the set-up.
  *
  * Errors: `ML_ERR_NULL` (`est`, `uniforms`, `uniforms->next_f32`, `out`);
- * `ML_ERR_INVALID_ARGUMENT` (a uniform number outside [0, 1), a bad `first_hit`);
- * `ML_ERR_STATE` (not set up).
+ * `ML_ERR_INVALID_ARGUMENT` (a uniform number outside [0, 1), a bad `first_hit`, a bad value
+ * from the environment's callbacks); `ML_ERR_STATE` (not set up).
  */
 ml_status ml_estimator_estimate(struct ml_estimator *est,
                                 const struct ml_visibility *visibility,
                                 const struct ml_uniforms *uniforms,
                                 struct ml_rgb64 *out);
-
-/**
- * `ml_estimator_estimate` with the host's `environment` (see `ml_direct_estimate_env`).
- *
- * Errors: those of `ml_estimator_estimate`, and `ML_ERR_NULL` (`environment`,
- * `environment->sample`, `environment->eval`); `ML_ERR_INVALID_ARGUMENT` (bad values from
- * the callbacks).
- */
-ml_status ml_estimator_estimate_env(struct ml_estimator *est,
-                                    const struct ml_visibility *visibility,
-                                    const struct ml_environment *environment,
-                                    const struct ml_uniforms *uniforms,
-                                    struct ml_rgb64 *out);
 
 /**
  * Starts a new estimate of the lower level (forgetting the current one); then call
@@ -1456,35 +1443,20 @@ ml_status ml_estimator_next(struct ml_estimator *est,
 ml_status ml_estimator_weigh(struct ml_estimator *est, float bsdf_pdf, struct ml_weighted *out);
 
 /**
- * Turns the last environment step into its light step: the host sampled its map with the
- * step's `u0`, `u1` and got `direction` (any positive length), the `radiance` along it and
- * its solid-angle `pdf` (> 0). Writes the light step (`ML_STEP_KIND_LIGHT`, its point at
- * `distance` +∞) to `*out`; shade and test it, and weigh it with `ml_estimator_weigh`.
- *
- * Errors: `ML_ERR_NULL` (`est`, `out`); `ML_ERR_INVALID_ARGUMENT` (a zero or non-finite
- * `direction`, a `pdf` not positive and finite, a negative or non-finite channel of
- * `radiance`); `ML_ERR_STATE` (not set up, or no environment step yielded since the last
- * start).
- */
-ml_status ml_estimator_environment_point(struct ml_estimator *est,
-                                         struct ml_vec3 direction,
-                                         struct ml_rgb radiance,
-                                         float pdf,
-                                         struct ml_step *out);
-
-/**
  * Reports the last BSDF step's sample: the host sampled `direction` (world space, any
  * positive length) with density `bsdf_pdf` (solid angle), and its ray's first surface is at
  * `hit_distance` (+infinity for none). Calls `each(user_data, hit)` for every light reached in
  * front of it with non-zero radiance, with its weight (the host adds `value ·
  * hit->weighted.scale`) — a ray that escapes also reaches the distant lights whose cones
- * hold its direction; `*any_hit` gets 1 if any was reached (what the adaptive allocation
- * learns), else 0.
+ * hold its direction, and the tree's environment, whose hit carries the environment's
+ * radiance and pdf along `direction` (from `environment->eval`); `*any_hit` gets 1 if any
+ * was reached (what the adaptive allocation learns; the environment counts whatever its
+ * radiance), else 0.
  *
  * Errors: `ML_ERR_NULL` (`est`, `each`, `any_hit`); `ML_ERR_INVALID_ARGUMENT` (a zero or
- * non-finite `direction`, a bad `bsdf_pdf`, a NaN or negative `hit_distance`);
- * `ML_ERR_STATE` (not set up, or no BSDF step yielded since the last start; a tree with an
- * environment light: `ml_estimator_bsdf_hits_env`).
+ * non-finite `direction`, a bad `bsdf_pdf`, a NaN or negative `hit_distance`, a bad value
+ * from `environment->eval`); `ML_ERR_STATE` (not set up, or no BSDF step yielded since the
+ * last start).
  */
 ml_status ml_estimator_bsdf_hits(struct ml_estimator *est,
                                  struct ml_vec3 direction,
@@ -1493,25 +1465,6 @@ ml_status ml_estimator_bsdf_hits(struct ml_estimator *est,
                                  ml_hit_fn each,
                                  void *user_data,
                                  uint32_t *any_hit);
-
-/**
- * `ml_estimator_bsdf_hits` for any tree: a ray that escapes (`hit_distance` = +infinity) also
- * reaches the environment, weighed with `environment_pdf`, the host's pdf of sampling
- * `direction` from its map (finite, ≥ 0; ignored when the tree has no environment light or
- * the ray does not escape). The environment's hit has a black `point.radiance`: the host
- * shades it with its own radiance along the direction.
- *
- * Errors: those of `ml_estimator_bsdf_hits` (but for the environment's), and
- * `ML_ERR_INVALID_ARGUMENT` for a NaN, negative or infinite `environment_pdf`.
- */
-ml_status ml_estimator_bsdf_hits_env(struct ml_estimator *est,
-                                     struct ml_vec3 direction,
-                                     float bsdf_pdf,
-                                     float hit_distance,
-                                     float environment_pdf,
-                                     ml_hit_fn each,
-                                     void *user_data,
-                                     uint32_t *any_hit);
 
 /**
  * The message of the last call on this thread that failed (`""` if none failed): the
@@ -1540,19 +1493,24 @@ ml_status ml_build_options_default(struct ml_build_options *out);
 
 /**
  * Builds a tree from `count` light descriptors (`lights` may be NULL when `count` is 0: a
- * tree that samples nothing) with `options` (NULL: the defaults). Light indices everywhere
- * else are positions in this array. Every light is validated: the error names its index and
- * field, e.g. `lights[17].radius must be positive (got -1)`. Lights of zero power or area are
- * accepted and never sampled. Free the tree with `ml_tree_free`.
+ * tree that samples nothing) and the host's `environment` (NULL: none; see
+ * `ml_environment`: the tree copies the struct and keeps calling its callbacks) with
+ * `options` (NULL: the defaults). Light indices everywhere else are positions in this
+ * array; the environment, when given, is light `count`, one past the array. Every light is
+ * validated: the error names its index and field, e.g. `lights[17].radius must be positive
+ * (got -1)`. Lights of zero power or area are accepted and never sampled. Free the tree with
+ * `ml_tree_free`.
  *
- * Errors: `ML_ERR_NULL` (`lights` with `count` > 0, `out`); `ML_ERR_INVALID_ARGUMENT` (a bad
- * light, a bad option, more than `ML_MAX_LIGHTS` lights, a light's energy above
- * `ML_MAX_LIGHT_ENERGY`, coordinates beyond `ML_MAX_COORDINATE`, a total energy above
- * `ML_MAX_TOTAL_ENERGY`, a tree deeper than `ML_MAX_DEPTH`: the message names the macro, the
+ * Errors: `ML_ERR_NULL` (`lights` with `count` > 0, `out`, `environment->sample`,
+ * `environment->eval`); `ML_ERR_INVALID_ARGUMENT` (a bad light, a bad option, more than
+ * `ML_MAX_LIGHTS` lights, a light's energy above `ML_MAX_LIGHT_ENERGY`, coordinates beyond
+ * `ML_MAX_COORDINATE`, a total energy above `ML_MAX_TOTAL_ENERGY`, a tree deeper than
+ * `ML_MAX_DEPTH`, bad `environment->irradiance_bounds`: the message names the macro, the
  * light, the field and its value).
  */
 ml_status ml_tree_build(const struct ml_light *lights,
                         size_t count,
+                        const struct ml_environment *environment,
                         const struct ml_build_options *options,
                         struct ml_tree **out);
 
@@ -1566,6 +1524,7 @@ ml_status ml_tree_build(const struct ml_light *lights,
  */
 ml_status ml_tree_build_parallel(const struct ml_light *lights,
                                  size_t count,
+                                 const struct ml_environment *environment,
                                  const struct ml_build_options *options,
                                  uint32_t threads,
                                  struct ml_tree **out);
@@ -1619,15 +1578,16 @@ ml_status ml_tree_load(const uint8_t *bytes, size_t len, struct ml_tree **out);
 
 /**
  * Loads a tree written by `ml_tree_serialize` together with the `count` light descriptors it
- * was built from (`lights` may be NULL when `count` is 0): the bytes are checked as
+ * was built from (`lights` may be NULL when `count` is 0) and its environment (NULL: it had
+ * none; else one with the same `irradiance_bounds`, as `ml_tree_build` takes it): the bytes are checked as
  * `ml_tree_load` checks them, then the lights against the tree, in index order by blocks of
  * 64: their count, each light valid, in the tree exactly when its energy is positive, its
  * bounds inside its slot, and each block's checksum the one the bytes store. The tree is then
  * the one it was saved from with its lights: sampling, pmfs, points on lights and every
  * estimator give bit for bit what the saved tree gives. Free it with `ml_tree_free`.
  *
- * Errors: `ML_ERR_NULL` (`bytes` with `len` > 0, `lights` with `count` > 0, `out`);
- * `ML_ERR_FORMAT` (corrupt bytes, or lights other than the ones the tree was built from: the
+ * Errors: `ML_ERR_NULL` (`bytes` with `len` > 0, `lights` with `count` > 0, `out`,
+ * `environment->sample`, `environment->eval`); `ML_ERR_FORMAT` (corrupt bytes, or lights other than the ones the tree was built from: the
  * message names the first mismatch, `lights[123]` or the block `lights[64..128]`);
  * `ML_ERR_INVALID_ARGUMENT` (a light descriptor no tree could be built from, named as
  * `ml_tree_build` names it).
@@ -1636,6 +1596,7 @@ ml_status ml_tree_load_with_lights(const uint8_t *bytes,
                                    size_t len,
                                    const struct ml_light *lights,
                                    size_t count,
+                                   const struct ml_environment *environment,
                                    struct ml_tree **out);
 
 /**
@@ -1741,11 +1702,13 @@ ml_status ml_tree_pmf_bl_batch(const struct ml_tree *tree,
  * direction, distance, solid-angle pdf and arriving radiance (`pdf = 0` when the light cannot
  * reach x). The sample's contribution to an estimate is `f · radiance · cos θ / (pmf · pdf)`
  * (`radiance` is already divided by d² for point, spot and VPL lights, whose `pdf` is 1: see
- * `ml_light_point`).
+ * `ml_light_point`). For the environment (light `count` of `ml_tree_build`) the point is the
+ * tree's environment's sample: `environment->sample(u0, u1)` as a point at infinity
+ * (`position` = `direction`, `distance` = +infinity), `pdf = 0` when it returns none.
  *
  * Errors: `ML_ERR_NULL` (`tree`, `out`); `ML_ERR_INVALID_ARGUMENT` (`light` out of range, a
- * non-finite `x`, `u0` or `u1` outside [0, 1)); `ML_ERR_STATE` (a tree loaded without its
- * lights).
+ * non-finite `x`, `u0` or `u1` outside [0, 1), a bad value from `environment->sample`);
+ * `ML_ERR_STATE` (a tree loaded without its lights).
  */
 ml_status ml_light_sample_point(const struct ml_tree *tree,
                                 uint32_t light,
@@ -1758,10 +1721,12 @@ ml_status ml_light_sample_point(const struct ml_tree *tree,
  * The solid-angle pdf at `x` with which `ml_light_sample_point` returns the point `point` of
  * light `light` (0 where it returns none). Point, spot and VPL lights have the convention of
  * `ml_light_point.pdf`: the delta's weight reported as 1 at the light's position (0 at any
- * other point).
+ * other point). For a distant light and the environment `point` is the direction (as their
+ * points' `position` is); the environment's pdf is `environment->eval`'s.
  *
  * Errors: `ML_ERR_NULL` (`tree`, `out`); `ML_ERR_INVALID_ARGUMENT` (`light` out of range,
- * non-finite `x` or `point`); `ML_ERR_STATE` (a tree loaded without its lights).
+ * non-finite `x` or `point`, a bad value from `environment->eval`); `ML_ERR_STATE` (a tree
+ * loaded without its lights).
  */
 ml_status ml_light_pdf_point(const struct ml_tree *tree,
                              uint32_t light,
@@ -1772,11 +1737,13 @@ ml_status ml_light_pdf_point(const struct ml_tree *tree,
 /**
  * `count` points on lights at once, for wavefront hosts: `out[j]` is what
  * `ml_light_sample_point(tree, lights[j], xs[j], u0s[j], u1s[j])` gives, bit for bit. Every
- * input is checked before anything is written.
+ * input is checked before anything is written (a bad value from `environment->sample`, the
+ * host's, is found on the way: `out` then holds the points before it).
  *
  * Errors: `ML_ERR_NULL` (`tree`; `lights`, `xs`, `u0s`, `u1s`, `out` when `count` > 0);
  * `ML_ERR_INVALID_ARGUMENT` naming the element (`lights[j]` out of range, `xs[j]` not finite,
- * `u0s[j]` or `u1s[j]` outside [0, 1)); `ML_ERR_STATE` (a tree loaded without its lights).
+ * `u0s[j]` or `u1s[j]` outside [0, 1), a bad environment sample for `lights[j]`);
+ * `ML_ERR_STATE` (a tree loaded without its lights).
  */
 ml_status ml_light_sample_point_batch(const struct ml_tree *tree,
                                       const uint32_t *lights,

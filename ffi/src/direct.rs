@@ -15,9 +15,9 @@ use core::ffi::c_void;
 use glam::Vec3;
 use manylights::direct::MAX_LIGHT_SAMPLES;
 use manylights::direct::{
-    BsdfDraw, DirectError, Environment, EnvironmentDraw, EnvironmentSample, LambertMode, LightDraw,
-    Occluder, Params, Step, Technique, Uniforms,
+    BsdfDraw, DirectError, LambertMode, LightDraw, Occluder, Params, Step, Technique, Uniforms,
 };
+use manylights::light::{Environment, EnvironmentSample};
 use manylights::MAX_BUDGET;
 use manylights::{Estimator, Heuristic, LightSet};
 use std::cell::Cell;
@@ -48,7 +48,8 @@ pub enum ml_technique {
     /// sample, power heuristic with the counts: the default.
     BlMis = 8,
     /// `tl-mis` with pbrt-v4's handling of distant and environment lights: each picked with
-    /// the fixed probability 1 / (n + 1) whatever the point, the node tree otherwise.
+    /// the fixed probability 1 / (n + 1) whatever the point (n of them), the node tree
+    /// otherwise; 1 / n each when the tree holds no local light.
     TlMisPinf = 9,
 }
 
@@ -118,6 +119,14 @@ pub struct ml_uniforms {
     pub next_f64: Option<unsafe extern "C" fn(user_data: *mut c_void) -> f64>,
     /// Passed to both.
     pub user_data: *mut c_void,
+    /// Upper bounds of the irradiance the environment delivers (luminance, W/m²) to a
+    /// receiver facing +x, −x, +y, −y, +z and −z: `∫ Y(L(ω)) max(0, a·ω) dω` for each axis
+    /// direction a (πY(L) in all six for a uniform radiance L); finite and ≥ 0, each at most
+    /// `ML_MAX_LIGHT_ENERGY`. They decide how often the environment is chosen, never its
+    /// weight: bounds too large cost variance only; a bound of 0 at a receiver the
+    /// environment lights makes the techniques without a BSDF sample there (`power`, `tl`,
+    /// `bl`, `tl-split`, and `mis-equal`, `full` where their budget is 0) miss it, biased low.
+    pub irradiance_bounds: [f32; 6],
 }
 
 /// The host's visibility, one of two callbacks (both NULL: nothing is occluded):
@@ -136,6 +145,14 @@ pub struct ml_visibility {
         Option<unsafe extern "C" fn(user_data: *mut c_void, x: ml_vec3, d: ml_vec3) -> f32>,
     /// Passed to both.
     pub user_data: *mut c_void,
+    /// Upper bounds of the irradiance the environment delivers (luminance, W/m²) to a
+    /// receiver facing +x, −x, +y, −y, +z and −z: `∫ Y(L(ω)) max(0, a·ω) dω` for each axis
+    /// direction a (πY(L) in all six for a uniform radiance L); finite and ≥ 0, each at most
+    /// `ML_MAX_LIGHT_ENERGY`. They decide how often the environment is chosen, never its
+    /// weight: bounds too large cost variance only; a bound of 0 at a receiver the
+    /// environment lights makes the techniques without a BSDF sample there (`power`, `tl`,
+    /// `bl`, `tl-split`, and `mis-equal`, `full` where their budget is 0) miss it, biased low.
+    pub irradiance_bounds: [f32; 6],
 }
 
 /// The kind of an `ml_step`.
@@ -148,19 +165,12 @@ pub enum ml_step_kind {
     /// `needs_bsdf_pdf`) and add `value · scale`.
     Light = 0,
     /// A BSDF sample to take with `u0`, `u1`: sample the BSDF, cast the ray and report the
-    /// direction, its pdf and the first surface's distance to `ml_estimator_bsdf_hits` (or
-    /// `ml_estimator_bsdf_hits_env`, with the environment's pdf of the direction, for a tree
-    /// with an environment light). When the host's BSDF gives no direction for them, skip the
-    /// report (as the one call does): the sample contributes nothing, and `full` counts it as a
-    /// ray that reached no light.
+    /// direction, its pdf and the first surface's distance to `ml_estimator_bsdf_hits`. When
+    /// the host's BSDF gives no direction for them, skip the report (as the one call does):
+    /// the sample contributes nothing, and `full` counts it as a ray that reached no light.
     Bsdf = 1,
     /// The estimate is complete.
     Done = 2,
-    /// A sample of the host's environment to take with `u0`, `u1` (light `light`, chosen with
-    /// probability `pmf`): sample the map, then pass the direction, its radiance and pdf to
-    /// `ml_estimator_environment_point`, which gives the light step to shade, test (to +∞)
-    /// and weigh.
-    Environment = 3,
 }
 
 /// One step of an estimate (see `ml_step_kind`).
@@ -177,9 +187,9 @@ pub struct ml_step {
     pub needs_bsdf_pdf: u32,
     /// Light step: the point on the light.
     pub point: ml_light_point,
-    /// BSDF and environment steps: the first uniform number for sampling the BSDF or the map.
+    /// BSDF step: the first uniform number for sampling the BSDF.
     pub u0: f32,
-    /// BSDF and environment steps: the second uniform number.
+    /// BSDF step: the second uniform number.
     pub u1: f32,
 }
 
@@ -212,12 +222,18 @@ pub struct ml_light_hit {
     pub weighted: ml_weighted,
 }
 
-/// The host's environment (radiance, sampling and pdf of its map or sky), for the one call on
-/// a tree with an environment light. `sample(user_data, u0, u1, direction, radiance, pdf)`
-/// writes a unit direction towards the environment, the radiance along it and its
-/// solid-angle pdf (> 0) and returns non-zero, or returns 0 for no sample;
-/// `eval(user_data, direction, radiance, pdf)` writes the radiance along the unit `direction`
-/// and the pdf with which `sample` returns it (≥ 0). Callbacks must return normally.
+/// The host's environment (a sky or an environment map), given once to the tree
+/// (`ml_tree_build`, `ml_tree_build_parallel`, `ml_tree_load_with_lights`), which copies this
+/// struct and calls the callbacks for every estimate and point on the environment:
+/// `sample(user_data, u0, u1, direction, radiance, pdf)` writes a direction towards the
+/// environment (any positive length), the radiance along it and its solid-angle pdf (> 0)
+/// and returns non-zero, or returns 0 for no sample; `eval(user_data, direction, radiance,
+/// pdf)` writes the radiance along the unit `direction` and the pdf with which `sample`
+/// returns it (≥ 0, 0 where it never does). Their values are checked at every call: a NaN,
+/// negative or infinite radiance channel or pdf (or a pdf of 0 from `sample`) is
+/// `ML_ERR_INVALID_ARGUMENT` of the estimate. The callbacks must return normally, may be
+/// called from every thread that uses the tree at once, and `user_data` must stay valid
+/// until the tree and every cut and estimator made from it are freed.
 #[repr(C)]
 #[derive(Clone, Copy, Debug)]
 pub struct ml_environment {
@@ -243,21 +259,37 @@ pub struct ml_environment {
     >,
     /// Passed to both.
     pub user_data: *mut c_void,
+    /// Upper bounds of the irradiance the environment delivers (luminance, W/m²) to a
+    /// receiver facing +x, −x, +y, −y, +z and −z: `∫ Y(L(ω)) max(0, a·ω) dω` for each axis
+    /// direction a (πY(L) in all six for a uniform radiance L); finite and ≥ 0, each at most
+    /// `ML_MAX_LIGHT_ENERGY`. They decide how often the environment is chosen, never its
+    /// weight: bounds too large cost variance only; a bound of 0 at a receiver the
+    /// environment lights makes the techniques without a BSDF sample there (`power`, `tl`,
+    /// `bl`, `tl-split`, and `mis-equal`, `full` where their budget is 0) miss it, biased low.
+    pub irradiance_bounds: [f32; 6],
 }
 
 /// The host's environment as the core's.
-struct HostEnvironment {
+pub(crate) struct HostEnvironment {
     sample: unsafe extern "C" fn(*mut c_void, f32, f32, *mut ml_vec3, *mut ml_rgb, *mut f32) -> i32,
     eval: unsafe extern "C" fn(*mut c_void, ml_vec3, *mut ml_rgb, *mut f32),
     user: *mut c_void,
+    bounds: [f32; 6],
 }
 
+// SAFETY: the host's contract (`ml_environment`): its callbacks may be called from any
+// thread at once, and `user_data` stays valid while the tree lives.
+unsafe impl Send for HostEnvironment {}
+// SAFETY: as above.
+unsafe impl Sync for HostEnvironment {}
+
 impl HostEnvironment {
-    fn new(e: &ml_environment) -> Result<HostEnvironment> {
+    pub(crate) fn new(e: &ml_environment) -> Result<HostEnvironment> {
         Ok(HostEnvironment {
             sample: e.sample.ok_or_else(|| Error::null("environment->sample"))?,
             eval: e.eval.ok_or_else(|| Error::null("environment->eval"))?,
             user: e.user_data,
+            bounds: e.irradiance_bounds,
         })
     }
 }
@@ -280,6 +312,10 @@ impl Environment for HostEnvironment {
         unsafe { (self.eval)(self.user, direction.into(), &mut r, &mut pdf) };
         (r.into(), pdf)
     }
+
+    fn irradiance_bounds(&self) -> [f32; 6] {
+        self.bounds
+    }
 }
 
 /// Called by `ml_estimator_bsdf_hits` for each light reached.
@@ -293,7 +329,6 @@ pub struct ml_estimator {
     est: Option<Estimator<'static>>,
     last_light: Option<LightDraw>,
     last_bsdf: Option<BsdfDraw>,
-    last_environment: Option<EnvironmentDraw>,
     tree: Arc<TreeData>,
 }
 
@@ -457,7 +492,7 @@ impl Occluder for HostVisibility {
 }
 
 /// A core estimator error in the C arguments' terms.
-fn direct_error(e: DirectError) -> Error {
+pub(crate) fn direct_error(e: DirectError) -> Error {
     match e {
         DirectError::Shading(s) => shading_error(s, &|| "sp".into()),
         DirectError::Uniform { value } => Error::invalid(format_args!(
@@ -472,15 +507,13 @@ fn direct_error(e: DirectError) -> Error {
         DirectError::HitDistance { value } => Error::invalid(format_args!(
             "hit_distance must be non-negative or +infinity (got {value})"
         )),
-        DirectError::NeedsEnvironment => Error::state(
-            "the tree has an environment light: use the calls that take the host's environment \
-             (ml_direct_estimate_env, ml_estimator_estimate_env, ml_estimator_bsdf_hits_env)",
-        ),
         DirectError::EnvironmentPdf { value } => Error::invalid(format_args!(
-            "environment pdf must be finite and non-negative, and positive for a sample (got {value})"
+            "environment: the pdf from environment->sample or environment->eval must be \
+             finite and non-negative, and positive for a sample (got {value})"
         )),
         DirectError::EnvironmentRadiance { value } => Error::invalid(format_args!(
-            "environment radiance: every channel must be finite and non-negative (got {value})"
+            "environment: every channel of the radiance from environment->sample or \
+             environment->eval must be finite and non-negative (got {value})"
         )),
         _ => Error::invalid(e),
     }
@@ -490,7 +523,6 @@ fn direct_error(e: DirectError) -> Error {
 fn estimate_with(
     est: &mut Estimator<'_>,
     vis: Option<&ml_visibility>,
-    env: Option<&ml_environment>,
     u: &ml_uniforms,
 ) -> Result<ml_rgb64> {
     let mut u = HostUniforms::new(u)?;
@@ -498,14 +530,7 @@ fn estimate_with(
         vis: vis.copied(),
         bad: Cell::new(None),
     };
-    let r = match env {
-        Some(e) => {
-            let env = HostEnvironment::new(e)?;
-            est.estimate_env(&occ, &env, &mut u)
-        }
-        None => est.estimate(&occ, &mut u),
-    }
-    .map_err(direct_error)?;
+    let r = est.estimate(&occ, &mut u).map_err(direct_error)?;
     if let Some(h) = occ.bad.get() {
         return Err(Error::invalid(format_args!(
             "visibility->first_hit returned {h} (must be non-negative or +infinity)"
@@ -519,17 +544,18 @@ fn sp_arg(sp: *const ml_shading_point) -> Result<manylights::ShadingPoint> {
     shading_point(arg::get(sp, "sp")?, &|| "sp".into())
 }
 
-/// One estimate of the radiance reflected at `sp` towards `sp->wo` from the tree's lights,
-/// with `technique` (an `ml_technique`), `params` (NULL: defaults), the host's `visibility`
-/// (NULL: nothing occluded) and `uniforms`, with the core's material (`sp->material`), in
-/// linear RGB. Every channel of the estimate is finite and ≥ 0; its expectation is the
-/// reflected radiance (every technique is unbiased). For many estimates at one point, `ml_estimator_*` sets up once.
+/// One estimate of the radiance reflected at `sp` towards `sp->wo` from the tree's lights
+/// (and its environment, if it was given one), with `technique` (an `ml_technique`), `params`
+/// (NULL: defaults), the host's `visibility` (NULL: nothing occluded) and `uniforms`, with the
+/// core's material (`sp->material`), in linear RGB. Every channel of the estimate is finite
+/// and ≥ 0; its expectation is the reflected radiance (every technique is unbiased). For many
+/// estimates at one point, `ml_estimator_*` sets up once.
 ///
 /// Errors: `ML_ERR_NULL` (`tree`, `sp`, `uniforms`, `uniforms->next_f32`, `out`);
 /// `ML_ERR_INVALID_ARGUMENT` (a bad shading point, technique or parameter; a uniform number
-/// outside [0, 1); a NaN or negative `first_hit`); `ML_ERR_STATE` (a tree loaded by
-/// `ml_tree_load`, without its lights; a tree with an environment light:
-/// `ml_direct_estimate_env`).
+/// outside [0, 1); a NaN or negative `first_hit`; a bad value from the environment's
+/// callbacks, see `ml_environment`); `ML_ERR_STATE` (a tree loaded by `ml_tree_load`, without
+/// its lights).
 #[no_mangle]
 pub extern "C" fn ml_direct_estimate(
     tree: *const ml_tree,
@@ -550,41 +576,7 @@ pub extern "C" fn ml_direct_estimate(
         let out = arg::out(out, "out")?;
         let set = data.set()?;
         let mut est = Estimator::new(set, &sp, t, &p).map_err(direct_error)?;
-        out.write(estimate_with(&mut est, vis, None, u)?);
-        Ok(())
-    })
-}
-
-/// `ml_direct_estimate` with the host's `environment` (its radiance, sampling and pdf), for a
-/// tree with an environment light (on a tree without one it is never called).
-///
-/// Errors: those of `ml_direct_estimate`, and `ML_ERR_NULL` (`environment`,
-/// `environment->sample`, `environment->eval`); `ML_ERR_INVALID_ARGUMENT` (a NaN, negative or
-/// infinite pdf or radiance from the callbacks, a zero direction from `sample`).
-#[no_mangle]
-#[allow(clippy::too_many_arguments)] // the arguments of ml_direct_estimate and the environment
-pub extern "C" fn ml_direct_estimate_env(
-    tree: *const ml_tree,
-    sp: *const ml_shading_point,
-    technique: u32,
-    params: *const ml_direct_params,
-    visibility: *const ml_visibility,
-    environment: *const ml_environment,
-    uniforms: *const ml_uniforms,
-    out: *mut ml_rgb64,
-) -> ml_status {
-    ffi_fn!("ml_direct_estimate_env", {
-        let data = tree_arg(tree)?;
-        let sp = sp_arg(sp)?;
-        let t = technique_of(technique)?;
-        let p = params_of(arg::opt(params, "params")?)?;
-        let vis = arg::opt(visibility, "visibility")?;
-        let env = arg::get(environment, "environment")?;
-        let u = arg::get(uniforms, "uniforms")?;
-        let out = arg::out(out, "out")?;
-        let set = data.set()?;
-        let mut est = Estimator::new(set, &sp, t, &p).map_err(direct_error)?;
-        out.write(estimate_with(&mut est, vis, Some(env), u)?);
+        out.write(estimate_with(&mut est, vis, u)?);
         Ok(())
     })
 }
@@ -600,8 +592,8 @@ pub extern "C" fn ml_direct_estimate_env(
 /// Errors: `ML_ERR_NULL` (`tree`, `uniforms`, `uniforms->next_f32`; `points`, `out` when
 /// `count` > 0); `ML_ERR_INVALID_ARGUMENT` (`per_point` 0, a count that overflows, a bad
 /// technique or parameter, a bad shading point named `points[j]`, a uniform number outside
-/// [0, 1) or a bad `first_hit` named with the point it was drawn for); `ML_ERR_STATE` (a
-/// tree loaded without its lights; a tree with an environment light).
+/// [0, 1), a bad `first_hit` or a bad value from the environment's callbacks, named with the
+/// point it was drawn for); `ML_ERR_STATE` (a tree loaded without its lights).
 #[no_mangle]
 pub extern "C" fn ml_direct_estimate_batch(
     tree: *const ml_tree,
@@ -645,7 +637,7 @@ pub extern "C" fn ml_direct_estimate_batch(
             let est = Estimator::reuse(&mut slot, set, sp, t, &p)
                 .map_err(|e| direct_error_at(e, &name()))?;
             for v in r {
-                *v = estimate_with(est, vis, None, u).map_err(|e| e.within(&name()))?;
+                *v = estimate_with(est, vis, u).map_err(|e| e.within(&name()))?;
             }
         }
         for (i, v) in res.into_iter().enumerate() {
@@ -682,7 +674,6 @@ pub extern "C" fn ml_estimator_create(
             est: None,
             last_light: None,
             last_bsdf: None,
-            last_environment: None,
             tree: Arc::clone(data),
         }));
         Ok(())
@@ -726,7 +717,6 @@ pub extern "C" fn ml_estimator_set_point(
         Estimator::reuse(&mut h.est, set, &sp, t, &p).map_err(direct_error)?;
         h.last_light = None;
         h.last_bsdf = None;
-        h.last_environment = None;
         Ok(())
     })
 }
@@ -741,8 +731,8 @@ fn set_up(h: &mut ml_estimator) -> Result<&mut Estimator<'static>> {
 /// `ml_direct_estimate`, without the set-up.
 ///
 /// Errors: `ML_ERR_NULL` (`est`, `uniforms`, `uniforms->next_f32`, `out`);
-/// `ML_ERR_INVALID_ARGUMENT` (a uniform number outside [0, 1), a bad `first_hit`);
-/// `ML_ERR_STATE` (not set up).
+/// `ML_ERR_INVALID_ARGUMENT` (a uniform number outside [0, 1), a bad `first_hit`, a bad value
+/// from the environment's callbacks); `ML_ERR_STATE` (not set up).
 #[no_mangle]
 pub extern "C" fn ml_estimator_estimate(
     est: *mut ml_estimator,
@@ -751,50 +741,15 @@ pub extern "C" fn ml_estimator_estimate(
     out: *mut ml_rgb64,
 ) -> ml_status {
     ffi_fn!("ml_estimator_estimate", {
-        estimator_estimate(est, visibility, None, uniforms, out)
-    })
-}
-
-/// The body of `ml_estimator_estimate` and `ml_estimator_estimate_env`: one estimate at the
-/// estimator's point, the lower level's state forgotten.
-fn estimator_estimate(
-    est: *mut ml_estimator,
-    visibility: *const ml_visibility,
-    environment: Option<*const ml_environment>,
-    uniforms: *const ml_uniforms,
-    out: *mut ml_rgb64,
-) -> Result<()> {
-    let h = arg::get_mut(est, "est")?;
-    let vis = arg::opt(visibility, "visibility")?;
-    let env = match environment {
-        Some(e) => Some(arg::get(e, "environment")?),
-        None => None,
-    };
-    let u = arg::get(uniforms, "uniforms")?;
-    let out = arg::out(out, "out")?;
-    let e = set_up(h)?;
-    out.write(estimate_with(e, vis, env, u)?);
-    h.last_light = None;
-    h.last_bsdf = None;
-    h.last_environment = None;
-    Ok(())
-}
-
-/// `ml_estimator_estimate` with the host's `environment` (see `ml_direct_estimate_env`).
-///
-/// Errors: those of `ml_estimator_estimate`, and `ML_ERR_NULL` (`environment`,
-/// `environment->sample`, `environment->eval`); `ML_ERR_INVALID_ARGUMENT` (bad values from
-/// the callbacks).
-#[no_mangle]
-pub extern "C" fn ml_estimator_estimate_env(
-    est: *mut ml_estimator,
-    visibility: *const ml_visibility,
-    environment: *const ml_environment,
-    uniforms: *const ml_uniforms,
-    out: *mut ml_rgb64,
-) -> ml_status {
-    ffi_fn!("ml_estimator_estimate_env", {
-        estimator_estimate(est, visibility, Some(environment), uniforms, out)
+        let h = arg::get_mut(est, "est")?;
+        let vis = arg::opt(visibility, "visibility")?;
+        let u = arg::get(uniforms, "uniforms")?;
+        let out = arg::out(out, "out")?;
+        let e = set_up(h)?;
+        out.write(estimate_with(e, vis, u)?);
+        h.last_light = None;
+        h.last_bsdf = None;
+        Ok(())
     })
 }
 
@@ -809,7 +764,6 @@ pub extern "C" fn ml_estimator_start(est: *mut ml_estimator) -> ml_status {
         set_up(h)?.start();
         h.last_light = None;
         h.last_bsdf = None;
-        h.last_environment = None;
         Ok(())
     })
 }
@@ -852,17 +806,6 @@ pub extern "C" fn ml_estimator_next(
                     ..ml_step::default()
                 }
             }
-            Step::Environment(e) => {
-                h.last_environment = Some(e);
-                ml_step {
-                    kind: ml_step_kind::Environment as u32,
-                    light: e.light,
-                    pmf: e.pmf,
-                    u0: e.u[0],
-                    u1: e.u[1],
-                    ..ml_step::default()
-                }
-            }
             Step::Done => ml_step {
                 kind: ml_step_kind::Done as u32,
                 ..ml_step::default()
@@ -896,97 +839,20 @@ pub extern "C" fn ml_estimator_weigh(
     })
 }
 
-/// Turns the last environment step into its light step: the host sampled its map with the
-/// step's `u0`, `u1` and got `direction` (any positive length), the `radiance` along it and
-/// its solid-angle `pdf` (> 0). Writes the light step (`ML_STEP_KIND_LIGHT`, its point at
-/// `distance` +∞) to `*out`; shade and test it, and weigh it with `ml_estimator_weigh`.
-///
-/// Errors: `ML_ERR_NULL` (`est`, `out`); `ML_ERR_INVALID_ARGUMENT` (a zero or non-finite
-/// `direction`, a `pdf` not positive and finite, a negative or non-finite channel of
-/// `radiance`); `ML_ERR_STATE` (not set up, or no environment step yielded since the last
-/// start).
-#[no_mangle]
-pub extern "C" fn ml_estimator_environment_point(
-    est: *mut ml_estimator,
-    direction: ml_vec3,
-    radiance: ml_rgb,
-    pdf: f32,
-    out: *mut ml_step,
-) -> ml_status {
-    ffi_fn!("ml_estimator_environment_point", {
-        let h = arg::get_mut(est, "est")?;
-        let out = arg::out(out, "out")?;
-        let draw = h.last_environment;
-        let e = set_up(h)?;
-        let draw = draw.ok_or_else(|| Error::state("est: no environment step to take"))?;
-        let d = finite3(direction, &|| "direction".into())?;
-        let ld = e
-            .environment_point(&draw, d, radiance.into(), pdf)
-            .map_err(direct_error)?;
-        h.last_environment = None;
-        h.last_light = Some(ld);
-        out.write(ml_step {
-            kind: ml_step_kind::Light as u32,
-            light: ld.light,
-            pmf: ld.pmf,
-            needs_bsdf_pdf: u32::from(ld.needs_bsdf_pdf),
-            point: Some(ld.point).into(),
-            ..ml_step::default()
-        });
-        Ok(())
-    })
-}
-
-/// The lights the last BSDF step's ray reached (see `ml_estimator_bsdf_hits`).
-#[allow(clippy::too_many_arguments)] // the arguments of both exports
-fn bsdf_hits(
-    est: *mut ml_estimator,
-    direction: ml_vec3,
-    bsdf_pdf: f32,
-    hit_distance: f32,
-    environment_pdf: Option<f32>,
-    each: ml_hit_fn,
-    user_data: *mut c_void,
-    any_hit: *mut u32,
-) -> Result<()> {
-    let h = arg::get_mut(est, "est")?;
-    let each = each.ok_or_else(|| Error::null("each"))?;
-    let any_hit = arg::out(any_hit, "any_hit")?;
-    let draw = h.last_bsdf;
-    let e = set_up(h)?;
-    let draw = draw.ok_or_else(|| Error::state("est: no BSDF step to report"))?;
-    let d = finite3(direction, &|| "direction".into())?;
-    let call = |lh: manylights::direct::LightHit| {
-        let c = ml_light_hit {
-            light: lh.light,
-            point: Some(lh.point).into(),
-            weighted: lh.weighted.into(),
-        };
-        // SAFETY: a host callback with its own user data; `c` outlives the call.
-        unsafe { each(user_data, &c) };
-    };
-    let hit = match environment_pdf {
-        Some(pdf) => e.bsdf_hits_env(&draw, d, bsdf_pdf, hit_distance, pdf, call),
-        None => e.bsdf_hits(&draw, d, bsdf_pdf, hit_distance, call),
-    }
-    .map_err(direct_error)?;
-    h.last_bsdf = None;
-    any_hit.write(u32::from(hit));
-    Ok(())
-}
-
 /// Reports the last BSDF step's sample: the host sampled `direction` (world space, any
 /// positive length) with density `bsdf_pdf` (solid angle), and its ray's first surface is at
 /// `hit_distance` (+infinity for none). Calls `each(user_data, hit)` for every light reached in
 /// front of it with non-zero radiance, with its weight (the host adds `value ·
 /// hit->weighted.scale`) — a ray that escapes also reaches the distant lights whose cones
-/// hold its direction; `*any_hit` gets 1 if any was reached (what the adaptive allocation
-/// learns), else 0.
+/// hold its direction, and the tree's environment, whose hit carries the environment's
+/// radiance and pdf along `direction` (from `environment->eval`); `*any_hit` gets 1 if any
+/// was reached (what the adaptive allocation learns; the environment counts whatever its
+/// radiance), else 0.
 ///
 /// Errors: `ML_ERR_NULL` (`est`, `each`, `any_hit`); `ML_ERR_INVALID_ARGUMENT` (a zero or
-/// non-finite `direction`, a bad `bsdf_pdf`, a NaN or negative `hit_distance`);
-/// `ML_ERR_STATE` (not set up, or no BSDF step yielded since the last start; a tree with an
-/// environment light: `ml_estimator_bsdf_hits_env`).
+/// non-finite `direction`, a bad `bsdf_pdf`, a NaN or negative `hit_distance`, a bad value
+/// from `environment->eval`); `ML_ERR_STATE` (not set up, or no BSDF step yielded since the
+/// last start).
 #[no_mangle]
 pub extern "C" fn ml_estimator_bsdf_hits(
     est: *mut ml_estimator,
@@ -998,49 +864,32 @@ pub extern "C" fn ml_estimator_bsdf_hits(
     any_hit: *mut u32,
 ) -> ml_status {
     ffi_fn!("ml_estimator_bsdf_hits", {
-        bsdf_hits(
-            est,
-            direction,
-            bsdf_pdf,
-            hit_distance,
-            None,
-            each,
-            user_data,
-            any_hit,
-        )
-    })
-}
-
-/// `ml_estimator_bsdf_hits` for any tree: a ray that escapes (`hit_distance` = +infinity) also
-/// reaches the environment, weighed with `environment_pdf`, the host's pdf of sampling
-/// `direction` from its map (finite, ≥ 0; ignored when the tree has no environment light or
-/// the ray does not escape). The environment's hit has a black `point.radiance`: the host
-/// shades it with its own radiance along the direction.
-///
-/// Errors: those of `ml_estimator_bsdf_hits` (but for the environment's), and
-/// `ML_ERR_INVALID_ARGUMENT` for a NaN, negative or infinite `environment_pdf`.
-#[no_mangle]
-#[allow(clippy::too_many_arguments)] // ml_estimator_bsdf_hits' arguments and the pdf
-pub extern "C" fn ml_estimator_bsdf_hits_env(
-    est: *mut ml_estimator,
-    direction: ml_vec3,
-    bsdf_pdf: f32,
-    hit_distance: f32,
-    environment_pdf: f32,
-    each: ml_hit_fn,
-    user_data: *mut c_void,
-    any_hit: *mut u32,
-) -> ml_status {
-    ffi_fn!("ml_estimator_bsdf_hits_env", {
-        bsdf_hits(
-            est,
-            direction,
-            bsdf_pdf,
-            hit_distance,
-            Some(environment_pdf),
-            each,
-            user_data,
-            any_hit,
-        )
+        let h = arg::get_mut(est, "est")?;
+        let each = each.ok_or_else(|| Error::null("each"))?;
+        let any_hit = arg::out(any_hit, "any_hit")?;
+        let draw = h.last_bsdf;
+        let e = set_up(h)?;
+        let draw = draw.ok_or_else(|| Error::state("est: no BSDF step to report"))?;
+        let d = finite3(direction, &|| "direction".into())?;
+        if hit_distance.is_nan() || hit_distance < 0.0 {
+            return Err(direct_error(DirectError::HitDistance {
+                value: hit_distance,
+            }));
+        }
+        let call = |lh: manylights::direct::LightHit| {
+            let c = ml_light_hit {
+                light: lh.light,
+                point: Some(lh.point).into(),
+                weighted: lh.weighted.into(),
+            };
+            // SAFETY: a host callback with its own user data; `c` outlives the call.
+            unsafe { each(user_data, &c) };
+        };
+        let hit = e
+            .bsdf_hits(&draw, d, bsdf_pdf, |p| p.reached_before(hit_distance), call)
+            .map_err(direct_error)?;
+        h.last_bsdf = None;
+        any_hit.write(u32::from(hit));
+        Ok(())
     })
 }

@@ -2,6 +2,7 @@
 //! sampling and pmfs (single and batch), points on lights.
 
 use crate::arg;
+use crate::direct::{direct_error, ml_environment, HostEnvironment};
 use crate::error::{ml_status, Error, Result};
 use crate::ffi_fn;
 use crate::limits::{ML_MAX_BUCKETS, ML_MIN_BUCKETS};
@@ -10,10 +11,9 @@ use crate::types::{
     ml_tl_point, ml_vec3, shading_point, tl_point, unit,
 };
 use manylights::error::LightMismatch;
-use manylights::light::{pdf_point, sample_point};
 use manylights::{
-    BlImportance, BuildOptions, FormatError, Importance, Light, LightSample, LightSet, LightTree,
-    TlImportance,
+    BlImportance, BuildError, BuildOptions, FormatError, Importance, Light, LightSample, LightSet,
+    LightTree, Serial, TlImportance,
 };
 use std::sync::Arc;
 
@@ -128,27 +128,40 @@ pub extern "C" fn ml_build_options_default(out: *mut ml_build_options) -> ml_sta
 }
 
 /// Builds a tree from `count` light descriptors (`lights` may be NULL when `count` is 0: a
-/// tree that samples nothing) with `options` (NULL: the defaults). Light indices everywhere
-/// else are positions in this array. Every light is validated: the error names its index and
-/// field, e.g. `lights[17].radius must be positive (got -1)`. Lights of zero power or area are
-/// accepted and never sampled. Free the tree with `ml_tree_free`.
+/// tree that samples nothing) and the host's `environment` (NULL: none; see
+/// `ml_environment`: the tree copies the struct and keeps calling its callbacks) with
+/// `options` (NULL: the defaults). Light indices everywhere else are positions in this
+/// array; the environment, when given, is light `count`, one past the array. Every light is
+/// validated: the error names its index and field, e.g. `lights[17].radius must be positive
+/// (got -1)`. Lights of zero power or area are accepted and never sampled. Free the tree with
+/// `ml_tree_free`.
 ///
-/// Errors: `ML_ERR_NULL` (`lights` with `count` > 0, `out`); `ML_ERR_INVALID_ARGUMENT` (a bad
-/// light, a bad option, more than `ML_MAX_LIGHTS` lights, a light's energy above
-/// `ML_MAX_LIGHT_ENERGY`, coordinates beyond `ML_MAX_COORDINATE`, a total energy above
-/// `ML_MAX_TOTAL_ENERGY`, a tree deeper than `ML_MAX_DEPTH`: the message names the macro, the
+/// Errors: `ML_ERR_NULL` (`lights` with `count` > 0, `out`, `environment->sample`,
+/// `environment->eval`); `ML_ERR_INVALID_ARGUMENT` (a bad light, a bad option, more than
+/// `ML_MAX_LIGHTS` lights, a light's energy above `ML_MAX_LIGHT_ENERGY`, coordinates beyond
+/// `ML_MAX_COORDINATE`, a total energy above `ML_MAX_TOTAL_ENERGY`, a tree deeper than
+/// `ML_MAX_DEPTH`, bad `environment->irradiance_bounds`: the message names the macro, the
 /// light, the field and its value).
 #[no_mangle]
 pub extern "C" fn ml_tree_build(
     lights: *const ml_light,
     count: usize,
+    environment: *const ml_environment,
     options: *const ml_build_options,
     out: *mut *mut ml_tree,
 ) -> ml_status {
     ffi_fn!("ml_tree_build", {
-        build_tree(lights, count, options, out, |core, opts, descs| {
-            LightSet::build_with(core, opts).map_err(|e| build_error(e, descs, "lights"))
-        })
+        build_tree(
+            lights,
+            count,
+            environment,
+            options,
+            out,
+            |core, env, opts| match env {
+                Some(env) => LightSet::build_with_environment(core, env, opts, &Serial),
+                None => LightSet::build_with(core, opts),
+            },
+        )
     })
 }
 
@@ -162,6 +175,7 @@ pub extern "C" fn ml_tree_build(
 pub extern "C" fn ml_tree_build_parallel(
     lights: *const ml_light,
     count: usize,
+    environment: *const ml_environment,
     options: *const ml_build_options,
     threads: u32,
     out: *mut *mut ml_tree,
@@ -172,19 +186,29 @@ pub extern "C" fn ml_tree_build_parallel(
                 "threads must be at most 1024 (got {threads})"
             )));
         }
-        build_tree(lights, count, options, out, |core, opts, descs| {
-            let pool = rayon::ThreadPoolBuilder::new()
-                .num_threads(threads as usize)
-                .build()
-                .map_err(|e| Error::internal(format_args!("threads: cannot start them ({e})")))?;
-            pool.install(|| LightSet::build_parallel(core, opts, &RayonJoin))
-                .map_err(|e| build_error(e, descs, "lights"))
-        })
+        let pool = rayon::ThreadPoolBuilder::new()
+            .num_threads(threads as usize)
+            .build()
+            .map_err(|e| Error::internal(format_args!("threads: cannot start them ({e})")))?;
+        build_tree(
+            lights,
+            count,
+            environment,
+            options,
+            out,
+            |core, env, opts| {
+                pool.install(|| match env {
+                    Some(env) => LightSet::build_with_environment(core, env, opts, &RayonJoin),
+                    None => LightSet::build_parallel(core, opts, &RayonJoin),
+                })
+            },
+        )
     })
 }
 
 /// The build's fork-join on the rayon pool the call runs in.
-// The renderer's `RayonJoin` again: the C library depends on no crate of the workspace but the core.
+// The C library depends on no crate of the workspace but the core: the tools' `RayonJoin`
+// (in the test kit) is not a dependency a product library takes.
 struct RayonJoin;
 
 impl manylights::Join for RayonJoin {
@@ -199,16 +223,22 @@ impl manylights::Join for RayonJoin {
     }
 }
 
-/// The checks of `ml_tree_build`, then `build` of the lights, the options and the
-/// descriptors (for its errors).
+/// The checks of `ml_tree_build`, then `build` of the lights, the environment and the
+/// options.
 fn build_tree(
     lights: *const ml_light,
     count: usize,
+    environment: *const ml_environment,
     options: *const ml_build_options,
     out: *mut *mut ml_tree,
-    build: impl FnOnce(Vec<Light>, &BuildOptions, &[ml_light]) -> Result<LightSet>,
+    build: impl FnOnce(
+        Vec<Light>,
+        Option<HostEnvironment>,
+        &BuildOptions,
+    ) -> std::result::Result<LightSet, BuildError>,
 ) -> Result<()> {
     let descs = arg::slice(lights, count, "lights")?;
+    let env = environment_arg(environment)?;
     let options = arg::opt(options, "options")?;
     let out = arg::out(out, "out")?;
     let mut opts = BuildOptions::default();
@@ -233,11 +263,19 @@ fn build_tree(
     for (i, l) in descs.iter().enumerate() {
         core.push(light(l, i, "lights")?);
     }
-    let set = build(core, &opts, descs)?;
+    let set = build(core, env, &opts).map_err(|e| build_error(e, descs, "lights"))?;
     out.write(arg::into_handle(ml_tree {
         data: Arc::new(TreeData::Set(set)),
     }));
     Ok(())
+}
+
+/// The host's environment of a build or load (NULL: none), checked.
+fn environment_arg(environment: *const ml_environment) -> Result<Option<HostEnvironment>> {
+    match arg::opt(environment, "environment")? {
+        Some(e) => Ok(Some(HostEnvironment::new(e)?)),
+        None => Ok(None),
+    }
 }
 
 /// Frees a tree (NULL: nothing). Cuts and estimators made from it stay valid.
@@ -340,15 +378,16 @@ pub extern "C" fn ml_tree_load(bytes: *const u8, len: usize, out: *mut *mut ml_t
 }
 
 /// Loads a tree written by `ml_tree_serialize` together with the `count` light descriptors it
-/// was built from (`lights` may be NULL when `count` is 0): the bytes are checked as
+/// was built from (`lights` may be NULL when `count` is 0) and its environment (NULL: it had
+/// none; else one with the same `irradiance_bounds`, as `ml_tree_build` takes it): the bytes are checked as
 /// `ml_tree_load` checks them, then the lights against the tree, in index order by blocks of
 /// 64: their count, each light valid, in the tree exactly when its energy is positive, its
 /// bounds inside its slot, and each block's checksum the one the bytes store. The tree is then
 /// the one it was saved from with its lights: sampling, pmfs, points on lights and every
 /// estimator give bit for bit what the saved tree gives. Free it with `ml_tree_free`.
 ///
-/// Errors: `ML_ERR_NULL` (`bytes` with `len` > 0, `lights` with `count` > 0, `out`);
-/// `ML_ERR_FORMAT` (corrupt bytes, or lights other than the ones the tree was built from: the
+/// Errors: `ML_ERR_NULL` (`bytes` with `len` > 0, `lights` with `count` > 0, `out`,
+/// `environment->sample`, `environment->eval`); `ML_ERR_FORMAT` (corrupt bytes, or lights other than the ones the tree was built from: the
 /// message names the first mismatch, `lights[123]` or the block `lights[64..128]`);
 /// `ML_ERR_INVALID_ARGUMENT` (a light descriptor no tree could be built from, named as
 /// `ml_tree_build` names it).
@@ -358,17 +397,23 @@ pub extern "C" fn ml_tree_load_with_lights(
     len: usize,
     lights: *const ml_light,
     count: usize,
+    environment: *const ml_environment,
     out: *mut *mut ml_tree,
 ) -> ml_status {
     ffi_fn!("ml_tree_load_with_lights", {
         let bytes = arg::slice(bytes, len, "bytes")?;
         let descs = arg::slice(lights, count, "lights")?;
+        let env = environment_arg(environment)?;
         let out = arg::out(out, "out")?;
         let mut core = Vec::with_capacity(count);
         for (i, l) in descs.iter().enumerate() {
             core.push(light(l, i, "lights")?);
         }
-        let set = LightSet::from_bytes(bytes, core).map_err(|e| match e {
+        let set = match env {
+            Some(env) => LightSet::from_bytes_with_environment(bytes, core, env),
+            None => LightSet::from_bytes(bytes, core),
+        };
+        let set = set.map_err(|e| match e {
             FormatError::Lights(LightMismatch::Invalid(b)) => build_error(b, descs, "lights"),
             FormatError::Lights(m) => Error::format(format_args!("lights: {}", mismatch(m))),
             e => Error::format(format_args!("bytes: {e}")),
@@ -792,11 +837,13 @@ pub extern "C" fn ml_tree_pmf_bl_batch(
 /// direction, distance, solid-angle pdf and arriving radiance (`pdf = 0` when the light cannot
 /// reach x). The sample's contribution to an estimate is `f · radiance · cos θ / (pmf · pdf)`
 /// (`radiance` is already divided by d² for point, spot and VPL lights, whose `pdf` is 1: see
-/// `ml_light_point`).
+/// `ml_light_point`). For the environment (light `count` of `ml_tree_build`) the point is the
+/// tree's environment's sample: `environment->sample(u0, u1)` as a point at infinity
+/// (`position` = `direction`, `distance` = +infinity), `pdf = 0` when it returns none.
 ///
 /// Errors: `ML_ERR_NULL` (`tree`, `out`); `ML_ERR_INVALID_ARGUMENT` (`light` out of range, a
-/// non-finite `x`, `u0` or `u1` outside [0, 1)); `ML_ERR_STATE` (a tree loaded without its
-/// lights).
+/// non-finite `x`, `u0` or `u1` outside [0, 1), a bad value from `environment->sample`);
+/// `ML_ERR_STATE` (a tree loaded without its lights).
 #[no_mangle]
 pub extern "C" fn ml_light_sample_point(
     tree: *const ml_tree,
@@ -809,11 +856,12 @@ pub extern "C" fn ml_light_sample_point(
     ffi_fn!("ml_light_sample_point", {
         let data = tree_arg(tree)?;
         let out = arg::out(out, "out")?;
-        let l = data.light(light, "light")?;
+        data.light(light, "light")?;
         let x = finite3(x, &|| "x".into())?;
         let u0 = unit(u0, &|| "u0".into())?;
         let u1 = unit(u1, &|| "u1".into())?;
-        out.write(sample_point(l, x, [u0, u1]).into());
+        let p = data.set()?.sample_point(light, x, [u0, u1]);
+        out.write(p.map_err(direct_error)?.into());
         Ok(())
     })
 }
@@ -821,10 +869,12 @@ pub extern "C" fn ml_light_sample_point(
 /// The solid-angle pdf at `x` with which `ml_light_sample_point` returns the point `point` of
 /// light `light` (0 where it returns none). Point, spot and VPL lights have the convention of
 /// `ml_light_point.pdf`: the delta's weight reported as 1 at the light's position (0 at any
-/// other point).
+/// other point). For a distant light and the environment `point` is the direction (as their
+/// points' `position` is); the environment's pdf is `environment->eval`'s.
 ///
 /// Errors: `ML_ERR_NULL` (`tree`, `out`); `ML_ERR_INVALID_ARGUMENT` (`light` out of range,
-/// non-finite `x` or `point`); `ML_ERR_STATE` (a tree loaded without its lights).
+/// non-finite `x` or `point`, a bad value from `environment->eval`); `ML_ERR_STATE` (a tree
+/// loaded without its lights).
 #[no_mangle]
 pub extern "C" fn ml_light_pdf_point(
     tree: *const ml_tree,
@@ -836,21 +886,24 @@ pub extern "C" fn ml_light_pdf_point(
     ffi_fn!("ml_light_pdf_point", {
         let data = tree_arg(tree)?;
         let out = arg::out(out, "out")?;
-        let l = data.light(light, "light")?;
+        data.light(light, "light")?;
         let x = finite3(x, &|| "x".into())?;
         let p = finite3(point, &|| "point".into())?;
-        out.write(pdf_point(l, x, p));
+        let pdf = data.set()?.pdf_point(light, x, p).map_err(direct_error)?;
+        out.write(pdf);
         Ok(())
     })
 }
 
 /// `count` points on lights at once, for wavefront hosts: `out[j]` is what
 /// `ml_light_sample_point(tree, lights[j], xs[j], u0s[j], u1s[j])` gives, bit for bit. Every
-/// input is checked before anything is written.
+/// input is checked before anything is written (a bad value from `environment->sample`, the
+/// host's, is found on the way: `out` then holds the points before it).
 ///
 /// Errors: `ML_ERR_NULL` (`tree`; `lights`, `xs`, `u0s`, `u1s`, `out` when `count` > 0);
 /// `ML_ERR_INVALID_ARGUMENT` naming the element (`lights[j]` out of range, `xs[j]` not finite,
-/// `u0s[j]` or `u1s[j]` outside [0, 1)); `ML_ERR_STATE` (a tree loaded without its lights).
+/// `u0s[j]` or `u1s[j]` outside [0, 1), a bad environment sample for `lights[j]`);
+/// `ML_ERR_STATE` (a tree loaded without its lights).
 #[no_mangle]
 pub extern "C" fn ml_light_sample_point_batch(
     tree: *const ml_tree,
@@ -869,8 +922,8 @@ pub extern "C" fn ml_light_sample_point_batch(
         let u0s = arg::slice(u0s, count, "u0s")?;
         let u1s = arg::slice(u1s, count, "u1s")?;
         let mut out = arg::out_slice(out, count, "out")?;
-        let lights = data.set()?.lights();
-        let n = lights.len();
+        let set = data.set()?;
+        let n = set.len();
         for j in 0..count {
             let x = xs[j];
             let fine = (which[j] as usize) < n
@@ -886,8 +939,12 @@ pub extern "C" fn ml_light_sample_point_batch(
         }
         // What `ml_light_sample_point` computes, element by element.
         for j in 0..count {
-            let l = &lights[which[j] as usize];
-            out.set(j, sample_point(l, xs[j].into(), [u0s[j], u1s[j]]).into());
+            let p = set.sample_point(which[j], xs[j].into(), [u0s[j], u1s[j]]);
+            out.set(
+                j,
+                p.map_err(|e| direct_error(e).within(&format!("lights[{j}]")))?
+                    .into(),
+            );
         }
         Ok(())
     })

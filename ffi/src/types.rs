@@ -96,7 +96,8 @@ impl From<[f64; 3]> for ml_rgb64 {
 /// unit m (the same as the scene's), intensity in W/sr, radiance in W/(m²·sr), irradiance in
 /// W/m², each per channel of linear RGB; a light's energy (its flux, W, of the luminance:
 /// what the tree's importance and `ml_tree_statistics.total_energy` add up) is given at each
-/// kind and is at most `ML_MAX_LIGHT_ENERGY` (0 for distant and environment lights).
+/// kind and is at most `ML_MAX_LIGHT_ENERGY` (0 for distant lights). The environment is not a
+/// light kind: it is given to the tree as an `ml_environment`.
 #[repr(u32)]
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum ml_light_kind {
@@ -130,11 +131,6 @@ pub enum ml_light_kind {
     /// its irradiance at normal incidence (W/m²); the radiance of its cone is
     /// `power / (π sin²γ)`.
     Distant = 6,
-    /// The host's environment: `irradiance_bounds`, upper bounds of the irradiance
-    /// (luminance, W/m²) it delivers on receivers facing +x, −x, +y, −y, +z, −z (π × the
-    /// luminance of the radiance for a uniform environment); its radiance and sampling are
-    /// the host's (`ml_environment`). At most one per tree.
-    Environment = 7,
 }
 
 /// One light, as given to `ml_tree_build`. Which fields a kind reads is listed at each
@@ -164,9 +160,6 @@ pub struct ml_light {
     pub half_angle: f32,
     /// Spot falloff start θf in radians, in [0, θs].
     pub falloff_start: f32,
-    /// Environment: irradiance bounds on receivers facing +x, −x, +y, −y, +z, −z (W/m²,
-    /// luminance; finite, ≥ 0).
-    pub irradiance_bounds: [f32; 6],
 }
 
 /// The descriptor of a core light, field for field (what a Rust host that also calls the
@@ -252,10 +245,6 @@ impl From<&Light> for ml_light {
                 d.direction = direction.into();
                 d.half_angle = angular_radius;
                 d.power = irradiance.into();
-            }
-            Light::Environment { irradiance } => {
-                d.kind = ml_light_kind::Environment as u32;
-                d.irradiance_bounds = irradiance;
             }
             // A kind the C ABI has no descriptor for: a kind value `ml_tree_build` rejects
             // (ML_ERR_INVALID_ARGUMENT), never a different light.
@@ -420,7 +409,6 @@ fn kind_name(kind: u32) -> &'static str {
         3 => "disk",
         4 => "triangle",
         6 => "distant",
-        7 => "environment",
         _ => "VPL",
     }
 }
@@ -441,9 +429,6 @@ fn light_field(kind: u32, f: LightField) -> String {
         LightField::HalfAngle => ("half_angle", None),
         LightField::FalloffStart => ("falloff_start", None),
         LightField::AngularRadius => ("half_angle", Some("angular radius")),
-        LightField::Irradiance if kind == ml_light_kind::Environment as u32 => {
-            ("irradiance_bounds", None)
-        }
         LightField::Irradiance => ("power", Some("irradiance")),
         _ => ("a field", Some(f.name())),
     };
@@ -505,12 +490,15 @@ pub(crate) fn light(l: &ml_light, index: usize, name: &str) -> Result<Light> {
             angular_radius: l.half_angle,
             irradiance: l.power.into(),
         },
-        7 => Light::Environment {
-            irradiance: l.irradiance_bounds,
-        },
+        7 => {
+            return Err(Error::invalid(format_args!(
+                "{name}[{index}].kind: 7 is not an ml_light_kind (0 to 6): the environment is \
+                 given to the tree as an ml_environment (ml_tree_build's `environment`)"
+            )))
+        }
         k => {
             return Err(Error::invalid(format_args!(
-                "{name}[{index}].kind: {k} is not an ml_light_kind (0 to 7)"
+                "{name}[{index}].kind: {k} is not an ml_light_kind (0 to 6)"
             )))
         }
     })
@@ -519,6 +507,22 @@ pub(crate) fn light(l: &ml_light, index: usize, name: &str) -> Result<Light> {
 /// A build error in the C struct's terms.
 pub(crate) fn build_error(e: BuildError, lights: &[ml_light], name: &str) -> Error {
     match e {
+        BuildError::InvalidLight {
+            index,
+            field: _,
+            problem,
+            value,
+        } if index >= lights.len() => {
+            // The light after the descriptors: the environment's, of its bounds.
+            let what = match problem {
+                Problem::EnergyTooLarge => "exceeds ML_MAX_LIGHT_ENERGY (1e24)",
+                p => describe(p),
+            };
+            Error::invalid(format_args!(
+                "environment->irradiance_bounds: a bound {what} (got {})",
+                Num(value)
+            ))
+        }
         BuildError::InvalidLight {
             index,
             field,

@@ -194,7 +194,7 @@ pub struct BuildFigures {
     pub build_cpu_ms: f64,
     /// [`LightTree::build`], peak heap bytes per light (the tree included).
     pub build_peak_bytes_per_light: Option<f64>,
-    /// [`LightTree::build_parallel`] on rayon's pool ([`manylights_render::RayonJoin`]), wall-clock ms;
+    /// [`LightTree::build_parallel`] on rayon's pool ([`manylights_testkit::RayonJoin`]), wall-clock ms;
     /// the tree is checked to be the serial build's, byte for byte.
     pub build_parallel_ms: f64,
     /// [`LightTree::build_parallel`], CPU ms of the calling thread plus those of the busiest
@@ -408,7 +408,7 @@ fn measure_builds(
         let tree = LightTree::build_parallel(
             lights,
             &BuildOptions::default(),
-            &manylights_render::RayonJoin,
+            &manylights_testkit::RayonJoin,
         )
         .expect("the bench scene is valid");
         if let (Some((pool_b, caller_b)), Some((pool_a, caller_a))) =
@@ -517,7 +517,13 @@ impl FfiBench {
     fn new(lights: &[Light], points: &[BenchPoint]) -> FfiBench {
         let descs: Vec<ffi::ml_light> = lights.iter().map(ffi::ml_light::from).collect();
         let mut tree: *mut ffi::ml_tree = std::ptr::null_mut();
-        let status = ffi::ml_tree_build(descs.as_ptr(), descs.len(), std::ptr::null(), &mut tree);
+        let status = ffi::ml_tree_build(
+            descs.as_ptr(),
+            descs.len(),
+            std::ptr::null(),
+            std::ptr::null(),
+            &mut tree,
+        );
         assert_eq!(status, ffi::ML_OK, "the bench scene is valid");
         let points: Vec<ffi::ml_tl_point> = points
             .iter()

@@ -10,20 +10,3 @@ pub mod params;
 pub mod render;
 pub mod scene;
 pub mod uniforms;
-
-/// The tree build's fork-join on rayon's thread pool ([`manylights::Join`]): what
-/// [`manylights::LightTree::build_parallel`] is given here.
-#[derive(Clone, Copy, Debug, Default)]
-pub struct RayonJoin;
-
-impl manylights::Join for RayonJoin {
-    fn join<A, B, RA, RB>(&self, a: A, b: B) -> (RA, RB)
-    where
-        A: FnOnce() -> RA + Send,
-        B: FnOnce() -> RB + Send,
-        RA: Send,
-        RB: Send,
-    {
-        rayon::join(a, b)
-    }
-}

@@ -193,8 +193,8 @@ fn moments(spp: usize, mut estimate: impl FnMut() -> [f64; 3]) -> (Pixel, Pixel)
 /// No light: black with no variance.
 const BLACK: (Pixel, Pixel) = ([0.0; 3], [0.0; 3]);
 
-/// One estimate at the estimator's point, with the scene's sky if it has one; an error
-/// counts in `failed` and as black.
+/// One estimate at the estimator's point (the light set holds the scene's sky, if it has
+/// one); an error counts in `failed` and as black.
 #[inline]
 fn estimate(
     scene: &RenderScene,
@@ -203,11 +203,7 @@ fn estimate(
     failed: &mut u64,
 ) -> [f64; 3] {
     let mut u = RngUniforms(rng);
-    let r = match &scene.sky {
-        Some(sky) => est.estimate_env(&scene.geometry, sky, &mut u),
-        None => est.estimate(&scene.geometry, &mut u),
-    };
-    r.unwrap_or_else(|_| {
+    est.estimate(&scene.geometry, &mut u).unwrap_or_else(|_| {
         *failed += 1;
         [0.0; 3]
     })

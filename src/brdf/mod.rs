@@ -50,6 +50,7 @@ pub trait Brdf {
 /// weight a [`Ggx`] lobe; `cos_theta` is clamped into [0, 1].
 #[inline]
 #[must_use]
+#[cfg(any(test, feature = "internals"))]
 pub fn schlick(f0: f32, cos_theta: f32) -> f32 {
     let m = 1.0 - cos_theta.clamp(0.0, 1.0);
     let m2 = m * m;

@@ -168,13 +168,11 @@
 
 mod estimator;
 mod sampler;
-mod sky;
 
-pub use estimator::{BsdfDraw, EnvironmentDraw, Estimator, LightDraw, LightHit, Step, Weighted};
+pub use estimator::{BsdfDraw, Estimator, LightDraw, LightHit, Step, Weighted};
 pub use sampler::{
     CutSampler, LightSampler, PinfSampler, PowerSampler, TreeSampler, UniformSampler,
 };
-pub use sky::{Environment, EnvironmentSample, GradientSky, UniformSky};
 
 pub use crate::error::DirectError;
 
@@ -206,9 +204,10 @@ pub enum Technique {
     /// [`Params::bl_light_samples`] samples of one BRDF-oriented cut + one BSDF sample, power
     /// heuristic with the counts.
     BlMis,
-    /// `tl-mis` with pbrt-v4's handling of distant and environment lights: each picked with
-    /// the fixed probability `1 / (n + 1)` whatever the point, the node tree otherwise
-    /// ([`PinfSampler`]): the yardstick of weighing them per shading point.
+    /// `tl-mis` with pbrt-v4's handling of distant and environment lights: with n of them,
+    /// each picked with the fixed probability `1 / (n + 1)` whatever the point, the node tree
+    /// otherwise — `1 / n` each when the tree holds no local light ([`PinfSampler`]): the
+    /// yardstick of weighing them per shading point.
     TlMisPinf,
 }
 

@@ -44,13 +44,19 @@ pub mod trig;
 
 pub mod table;
 
-pub use cap::{intersection_area, intersection_area4, Cap, Cap4};
+pub use ggx::SptdGgx;
 pub(crate) use ggx::SptdGgx4;
+pub use lambert::{lambert_visible, lambert_visible4};
+// What the fit and the tests reach through `internals`.
+#[cfg(any(test, feature = "internals"))]
+pub use cap::{intersection_area, intersection_area4, Cap, Cap4};
+#[cfg(any(test, feature = "internals"))]
 pub use ggx::{
-    ggx_params, table_node, CapIntegrals, CapIntegrals4, GgxParams, SptdGgx, TABLE_SIZE,
-    THETA_O_MAX,
+    ggx_params, table_node, CapIntegrals, CapIntegrals4, GgxParams, TABLE_SIZE, THETA_O_MAX,
 };
-pub use lambert::{lambert_cap, lambert_cap4, lambert_visible, lambert_visible4};
+#[cfg(any(test, feature = "internals"))]
+pub use lambert::{lambert_cap, lambert_cap4};
+#[cfg(any(test, feature = "internals"))]
 pub use pivot::{Pivot, MAX_NORM};
 
 #[cfg(test)]

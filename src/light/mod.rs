@@ -39,10 +39,12 @@ use crate::bounds::{Aabb, Cone, LightBounds, Sphere};
 use crate::colour::Rgb;
 use crate::error::{BuildError, LightField, Problem};
 pub use crate::limits::MAX_INFINITE_LIGHTS;
+mod environment;
 pub(crate) mod point;
 
 use crate::math;
 use core::f32::consts::{FRAC_PI_2, PI};
+pub use environment::{Environment, EnvironmentSample, GradientSky, UniformSky};
 use glam::Vec3;
 pub use point::{intersect, pdf_direction, pdf_point, sample_point, LightPoint};
 
@@ -124,9 +126,13 @@ pub enum Light {
         /// Irradiance at normal incidence (W/m²).
         irradiance: Rgb,
     },
-    /// The host's environment (a sky or an environment map): its radiance, sampling and pdf
-    /// belong to the host (see [`crate::direct::Environment`]); the light carries what the
-    /// importance needs, bounds of the irradiance it delivers. At most one per light set.
+    /// The environment's entry (a sky or an environment map): its radiance, sampling and pdf
+    /// belong to the host's [`Environment`]; the light carries what the importance needs,
+    /// bounds of the irradiance it delivers ([`Environment::irradiance_bounds`]). At most one
+    /// per tree. A [`crate::LightSet`] makes it from the host's environment
+    /// ([`crate::LightSet::build_with_environment`]) and refuses it in a plain light list;
+    /// [`crate::LightTree::build`] takes it as it is (the tree level samples and answers pmfs
+    /// of it; points on it are the environment's own, [`sample_point`] gives none).
     Environment {
         /// Upper bounds of the irradiance (luminance, W/m²) on a receiver facing +x, −x, +y,
         /// −y, +z and −z: `∫ Y(L(ω)) max(0, a·ω) dω` for each axis direction a. The bound at a

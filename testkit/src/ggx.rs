@@ -149,6 +149,18 @@ impl Cap64 {
         }
     }
 
+    /// The cap of a sphere seen under `sin σ = sin_sigma` (clamped to 1) around the unit
+    /// `axis`, its `1 − cos σ = sin²σ / (1 + cos σ)` exact for tiny caps.
+    pub fn from_sine(axis: DVec3, sin_sigma: f64) -> Cap64 {
+        let s = sin_sigma.min(1.0);
+        let c = (1.0 - s * s).max(0.0).sqrt();
+        Cap64 {
+            axis,
+            sigma: s.asin(),
+            one_minus_cos: s * s / (1.0 + c),
+        }
+    }
+
     /// Solid angle.
     pub fn area(&self) -> f64 {
         2.0 * PI * self.one_minus_cos

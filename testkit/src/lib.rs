@@ -11,13 +11,33 @@
 //!
 //! Beside the scenes, the helpers the tests share: [`SplitMix64`], their deterministic
 //! generator; [`TestUniforms`], its numbers behind the core's [`manylights::Uniforms`]; and
-//! [`ggx`], the f64 GGX reference of the tests and the SPTD fit.
+//! [`ggx`], the f64 GGX reference of the tests and the SPTD fit; with the feature `rayon`,
+//! `RayonJoin`, the build's fork-join on rayon's pool.
 
 pub mod ggx;
 mod rng;
 mod uniforms;
 pub use rng::{splitmix64, SplitMix64};
 pub use uniforms::TestUniforms;
+
+/// The tree build's fork-join on rayon's thread pool ([`manylights::Join`]): what
+/// [`LightTree::build_parallel`] is given by the tools.
+#[cfg(feature = "rayon")]
+#[derive(Clone, Copy, Debug, Default)]
+pub struct RayonJoin;
+
+#[cfg(feature = "rayon")]
+impl manylights::Join for RayonJoin {
+    fn join<A, B, RA, RB>(&self, a: A, b: B) -> (RA, RB)
+    where
+        A: FnOnce() -> RA + Send,
+        B: FnOnce() -> RB + Send,
+        RA: Send,
+        RB: Send,
+    {
+        rayon::join(a, b)
+    }
+}
 
 use glam::Vec3;
 use manylights::Rgb;

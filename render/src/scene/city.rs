@@ -4,9 +4,9 @@
 use super::geometry::{cuboid, disk_light, quad, sphere_light, Geometry, Triangle};
 use super::{hash, Camera, LightSet, Palette, RenderScene};
 use glam::Vec3;
-use manylights::direct::GradientSky;
+use manylights::light::GradientSky;
 use manylights::Rgb;
-use manylights::{Light, Material};
+use manylights::{BuildOptions, Light, Material, Serial};
 use rand::{Rng, SeedableRng};
 use rand_pcg::Pcg64Mcg;
 use std::f32::consts::FRAC_PI_2;
@@ -370,10 +370,11 @@ pub fn city_sun(palette: Palette) -> RenderScene {
         angular_radius: SUN_RADIUS,
         irradiance: tint(SUN_IRRADIANCE),
     });
-    lights.push(sky.light());
     RenderScene {
         name: "city-sun".into(),
-        lights: LightSet::build(lights).expect("the built-in lights are valid"),
+        // The sky is the set's last light.
+        lights: LightSet::build_with_environment(lights, sky, &BuildOptions::default(), &Serial)
+            .expect("the built-in lights are valid"),
         sky: Some(sky),
         ..city
     }

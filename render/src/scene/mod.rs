@@ -53,7 +53,7 @@ pub use geometry::{Geometry, Hit, Triangle};
 pub use stairs::stairs;
 
 use glam::Vec3;
-use manylights::direct::GradientSky;
+use manylights::light::GradientSky;
 use manylights::{LightSet, Material, Rgb};
 use std::path::Path;
 
@@ -139,8 +139,8 @@ pub struct RenderScene {
     pub geometry: Geometry,
     /// Lights, light tree and the power distribution.
     pub lights: LightSet,
-    /// The sky, for a scene whose lights include an environment (its radiance and sampling;
-    /// the light set holds its irradiance bounds).
+    /// The sky the light set was given as its environment, if any (kept here for the
+    /// fingerprint: the light set holds the sky itself).
     pub sky: Option<GradientSky>,
     /// Camera.
     pub camera: Camera,

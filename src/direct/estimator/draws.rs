@@ -1,5 +1,5 @@
 //! What the lower level hands the host and takes back: the steps of an estimate (light
-//! points, environment samples, BSDF samples), the lights a BSDF ray reached, and a sample's
+//! points, BSDF samples), the lights a BSDF ray reached, and a sample's
 //! weight.
 
 use crate::colour::Rgb;
@@ -137,23 +137,8 @@ pub struct LightDraw {
     pub(super) role: Role,
 }
 
-/// A sample of the host's environment to take: sample its map with `u` (a direction, the
-/// radiance along it and the pdf), hand them to [`Estimator::environment_point`](super::Estimator::environment_point) — which
-/// turns this step into a [`LightDraw`] — then shade, test and weigh that as any light point
-/// (its `distance` is +∞).
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct EnvironmentDraw {
-    /// The environment light's index in the light set.
-    pub light: u32,
-    /// The probability of having chosen it.
-    pub pmf: f32,
-    /// The two uniform numbers (in [0, 1)) for sampling the map.
-    pub u: [f32; 2],
-    pub(super) role: Role,
-}
-
 /// A BSDF sample for the host to take: sample its BSDF with `u`, cast the ray, and report the
-/// direction, its pdf and the first surface's distance to [`Estimator::bsdf_hits`](super::Estimator::bsdf_hits). A host
+/// direction, its pdf and what the ray reaches to [`Estimator::bsdf_hits`](super::Estimator::bsdf_hits). A host
 /// whose BSDF gives no direction for `u` (below the surface, a zero pdf) skips the report, as
 /// the one call does: the sample contributes nothing, and for `full` it counts as a ray that
 /// reached no light (the next [`Estimator::next`](super::Estimator::next) records it so).
@@ -170,9 +155,8 @@ pub struct BsdfDraw {
 /// weighted.factor()` per channel). `weighted.pdf()` is the BSDF's pdf only for `tl-mis` and
 /// `bl-mis`; for `mis-equal` and `full` it is the combined density of the mixed samples (see
 /// [`Weighted::pdf`]). A ray that escapes (no surface) reaches the distant lights whose cones
-/// hold its direction (`point.distance` = +∞) and the environment, whose `point.radiance` is
-/// black and `point.pdf` the host's pdf of the direction: the radiance is the host's to
-/// evaluate.
+/// hold its direction (`point.distance` = +∞) and the set's environment, whose
+/// `point.radiance` and `point.pdf` are the environment's along the direction.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct LightHit {
     /// The light's index in the light set.
@@ -188,8 +172,6 @@ pub struct LightHit {
 pub enum Step {
     /// A light point to shade.
     Light(LightDraw),
-    /// A sample of the host's environment to take.
-    Environment(EnvironmentDraw),
     /// A BSDF sample to take.
     Bsdf(BsdfDraw),
     /// The estimate is complete.

@@ -84,22 +84,22 @@ impl Estimator<'_> {
 
     /// The next split sample before the mixture; then the mixture (`mis-equal` with BRDF-aware
     /// samples) or the end.
-    pub(super) fn tl_first(&mut self) -> Option<Step> {
-        if let Some(d) = self.next_split() {
-            return Some(d);
+    pub(super) fn tl_first(&mut self) -> Result<Option<Step>, DirectError> {
+        if let Some(d) = self.next_split()? {
+            return Ok(Some(d));
         }
         let mixture = self.technique == Technique::MisEqual && self.n_mix > 0 && self.bl.is_some();
         self.run.phase = if mixture { Phase::Mixture } else { Phase::Done };
-        None
+        Ok(None)
     }
 
     /// The next split sample after the mixture (`full`); then the end.
-    pub(super) fn tl_last(&mut self) -> Option<Step> {
-        if let Some(d) = self.next_split() {
-            return Some(d);
+    pub(super) fn tl_last(&mut self) -> Result<Option<Step>, DirectError> {
+        if let Some(d) = self.next_split()? {
+            return Ok(Some(d));
         }
         self.run.phase = Phase::Done;
-        None
+        Ok(None)
     }
 
     /// The next BRDF-aware sample, or the phase after the last (the split samples for `full`,
@@ -279,15 +279,15 @@ impl Estimator<'_> {
     }
 
     /// The next split sample with a point, if any is left.
-    pub(super) fn next_split(&mut self) -> Option<Step> {
+    pub(super) fn next_split(&mut self) -> Result<Option<Step>, DirectError> {
         while self.run.tl_next < self.run.tl_len {
             let (light, pmf, uv) = self.run.tl[self.run.tl_next];
             self.run.tl_next += 1;
-            if let Some(d) = self.draw(light, pmf, uv, Role::Split) {
-                return Some(d);
+            if let Some(d) = self.draw(light, pmf, uv, Role::Split)? {
+                return Ok(Some(d));
             }
         }
-        None
+        Ok(None)
     }
 
     /// Settles a BSDF sample of the mixture that was never reported: its ray reached nothing.
@@ -334,7 +334,7 @@ impl Estimator<'_> {
                     return Ok(None);
                 };
                 let role = Role::MixtureBl { p, pmf_bl: s.pmf };
-                Ok(self.draw(s.light, s.pmf, uv, role))
+                self.draw(s.light, s.pmf, uv, role)
             }
             Mixture::Tb => {
                 let v = next1(u)?;

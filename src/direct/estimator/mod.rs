@@ -11,19 +11,17 @@ mod setup;
 mod single;
 
 use draws::Role;
-pub use draws::{BsdfDraw, EnvironmentDraw, LightDraw, LightHit, Step, Weighted};
+pub use draws::{BsdfDraw, LightDraw, LightHit, Step, Weighted};
 use mixture::PmfCache;
 
 use super::sampler::{CutSampler, PinfSampler, TreeSampler};
-use super::sky::Environment;
 use super::{DirectError, Occluder, Params, Technique, Uniforms};
 use crate::brdf::{Brdf, Frame};
 use crate::colour::Rgb;
 use crate::cut::{LightCut, CUT_CAPACITY};
 use crate::infinite_light::InfiniteKind;
-use crate::light::point::{intersect, sample_point, LightPoint};
-use crate::light::Light;
-use crate::light_set::LightSet;
+use crate::light::point::{intersect, LightPoint};
+use crate::light_set::{environment_eval, LightSet};
 use crate::limits::MAX_INFINITE_LIGHTS;
 use crate::material::Material;
 use crate::math;
@@ -219,68 +217,26 @@ impl<'a> Estimator<'a> {
             }
     }
 
-    /// A light sample of `light` chosen with probability `pmf`, its point from `uv`: a light
-    /// point, or for the environment a sample of the host's map to take.
+    /// A light sample of `light` chosen with probability `pmf`, its point from `uv` (for the
+    /// environment, the host's sample: [`LightSet::sample_point`]); `None` where it has no point.
     #[inline]
-    fn draw(&self, light: u32, pmf: f32, uv: [f32; 2], role: Role) -> Option<Step> {
-        let l = self.set.lights().get(light as usize)?;
-        if let Light::Environment { .. } = l {
-            return Some(Step::Environment(EnvironmentDraw {
-                light,
-                pmf,
-                u: uv,
-                role,
-            }));
-        }
-        let point = sample_point(l, self.x, uv)?;
-        Some(Step::Light(LightDraw {
+    fn draw(
+        &self,
+        light: u32,
+        pmf: f32,
+        uv: [f32; 2],
+        role: Role,
+    ) -> Result<Option<Step>, DirectError> {
+        let Some(point) = self.set.sample_point(light, self.x, uv)? else {
+            return Ok(None);
+        };
+        Ok(Some(Step::Light(LightDraw {
             light,
             pmf,
             point,
             needs_bsdf_pdf: self.needs_bsdf_pdf(role, point.delta),
             role,
-        }))
-    }
-
-    /// Turns an environment step into the light point the host sampled from its map:
-    /// `direction` (world space, any positive length), the `radiance` along it and its
-    /// solid-angle `pdf` (> 0). Shade, test (to `distance` = +∞) and weigh it as any light
-    /// point.
-    pub fn environment_point(
-        &self,
-        draw: &EnvironmentDraw,
-        direction: Vec3,
-        radiance: Rgb,
-        pdf: f32,
-    ) -> Result<LightDraw, DirectError> {
-        let l2 = direction.length_squared();
-        if !(l2 > 0.0 && l2 < f32::INFINITY && direction.is_finite()) {
-            return Err(DirectError::Direction { length_squared: l2 });
-        }
-        if !(pdf > 0.0 && pdf < f32::INFINITY) {
-            return Err(DirectError::EnvironmentPdf { value: pdf });
-        }
-        for c in radiance.to_array() {
-            if !(0.0..f32::INFINITY).contains(&c) {
-                return Err(DirectError::EnvironmentRadiance { value: c });
-            }
-        }
-        let d = direction / crate::math::sqrt(l2);
-        Ok(LightDraw {
-            light: draw.light,
-            pmf: draw.pmf,
-            point: LightPoint {
-                position: d,
-                normal: Vec3::ZERO,
-                direction: d,
-                distance: f32::INFINITY,
-                pdf,
-                delta: false,
-                radiance,
-            },
-            needs_bsdf_pdf: self.needs_bsdf_pdf(draw.role, false),
-            role: draw.role,
-        })
+        })))
     }
 
     /// The next step of the estimate begun by [`Estimator::start`], drawing uniform numbers
@@ -294,9 +250,9 @@ impl<'a> Estimator<'a> {
                 Phase::Start => self.first_step(u)?,
                 Phase::OneMisLight => self.one_mis_light(u)?,
                 Phase::OneMisBsdf => Some(self.one_mis_bsdf(u)?),
-                Phase::TlFirst => self.tl_first(),
+                Phase::TlFirst => self.tl_first()?,
                 Phase::Mixture => self.mixture(u)?,
-                Phase::TlLast => self.tl_last(),
+                Phase::TlLast => self.tl_last()?,
             };
             if let Some(step) = step {
                 return Ok(step);
@@ -365,80 +321,24 @@ impl<'a> Estimator<'a> {
     }
 
     /// Reports a BSDF sample: the host sampled `direction` (world space, any positive length)
-    /// with density `bsdf_pdf`, and its ray's first surface is at `hit_distance` (+∞ for none).
-    /// Calls `each` for every light reached in front of it with non-zero radiance, with its
-    /// weight — a ray that escapes also reaches the distant lights whose cones hold its
-    /// direction. Returns whether any was reached (what the adaptive allocation learns). For a
-    /// light set with an environment light, [`Estimator::bsdf_hits_env`] (this gives
-    /// [`DirectError::NeedsEnvironment`]).
+    /// with density `bsdf_pdf`, and `visible` says whether its ray reaches a light point
+    /// before any surface — for a ray whose first surface is at distance t (+∞ when it
+    /// escapes), `|p| p.reached_before(t)` ([`LightPoint::reached_before`]); a host may test
+    /// each point with a shadow ray instead. Calls `each` for every light reached with
+    /// non-zero radiance, with its weight: the lights in front of it, and for a ray that
+    /// escapes the distant lights whose cones hold its direction and the set's environment
+    /// (its radiance and pdf along `direction` from
+    /// [`Environment::eval`](crate::light::Environment::eval), `point.distance` = +∞).
+    /// Returns whether any light was reached (what the adaptive allocation learns; the
+    /// environment counts whatever its radiance).
+    ///
+    /// Errors: a zero or non-finite `direction`, a NaN, negative or infinite `bsdf_pdf`, and
+    /// the environment's bad radiance or pdf along `direction` ([`DirectError`]).
     pub fn bsdf_hits(
         &mut self,
         draw: &BsdfDraw,
         direction: Vec3,
         bsdf_pdf: f32,
-        hit_distance: f32,
-        each: impl FnMut(LightHit),
-    ) -> Result<bool, DirectError> {
-        self.needs_no_environment()?;
-        self.bsdf_hits_env(draw, direction, bsdf_pdf, hit_distance, 0.0, each)
-    }
-
-    /// [`Estimator::bsdf_hits`] for any light set: an escaping ray (`hit_distance` = +∞) also
-    /// reaches the environment, weighed with `environment_pdf`, the host's pdf of sampling
-    /// `direction` from its map (≥ 0, finite; ignored without an environment light or when
-    /// the ray does not escape). The environment's hit has a black `point.radiance`: the host
-    /// shades it with its own radiance along `direction`.
-    pub fn bsdf_hits_env(
-        &mut self,
-        draw: &BsdfDraw,
-        direction: Vec3,
-        bsdf_pdf: f32,
-        hit_distance: f32,
-        environment_pdf: f32,
-        each: impl FnMut(LightHit),
-    ) -> Result<bool, DirectError> {
-        if hit_distance.is_nan() || hit_distance < 0.0 {
-            return Err(DirectError::HitDistance {
-                value: hit_distance,
-            });
-        }
-        // Points at infinity are reached only by a ray that escapes.
-        let escapes = hit_distance == f32::INFINITY;
-        self.bsdf_hits_with_env(
-            draw,
-            direction,
-            bsdf_pdf,
-            environment_pdf,
-            |lp| lp.distance < hit_distance || escapes,
-            each,
-        )
-    }
-
-    /// [`Estimator::bsdf_hits`] with visibility decided per light point by `visible` (a
-    /// shadow ray to the point, say; to `distance` = +∞ for a distant light). For a light set
-    /// with an environment light, [`Estimator::bsdf_hits_with_env`] (this gives
-    /// [`DirectError::NeedsEnvironment`]).
-    pub fn bsdf_hits_with(
-        &mut self,
-        draw: &BsdfDraw,
-        direction: Vec3,
-        bsdf_pdf: f32,
-        visible: impl FnMut(&LightPoint) -> bool,
-        each: impl FnMut(LightHit),
-    ) -> Result<bool, DirectError> {
-        self.needs_no_environment()?;
-        self.bsdf_hits_with_env(draw, direction, bsdf_pdf, 0.0, visible, each)
-    }
-
-    /// [`Estimator::bsdf_hits_with`] for any light set: the environment is reached where
-    /// `visible` passes its point at infinity along `direction`, and weighed with
-    /// `environment_pdf` (as [`Estimator::bsdf_hits_env`]).
-    pub fn bsdf_hits_with_env(
-        &mut self,
-        draw: &BsdfDraw,
-        direction: Vec3,
-        bsdf_pdf: f32,
-        environment_pdf: f32,
         mut visible: impl FnMut(&LightPoint) -> bool,
         mut each: impl FnMut(LightHit),
     ) -> Result<bool, DirectError> {
@@ -449,16 +349,17 @@ impl<'a> Estimator<'a> {
         if !(0.0..f32::INFINITY).contains(&bsdf_pdf) {
             return Err(DirectError::BsdfPdf { value: bsdf_pdf });
         }
-        if !(0.0..f32::INFINITY).contains(&environment_pdf) {
-            return Err(DirectError::EnvironmentPdf {
-                value: environment_pdf,
-            });
-        }
         // A direction already of unit length (to f32 rounding) is taken as it is.
         let dir = if (l2 - 1.0).abs() <= 4.0 * f32::EPSILON {
             direction
         } else {
             direction / crate::math::sqrt(l2)
+        };
+        let set = self.set;
+        // The environment along the ray, checked before anything is reported.
+        let env = match set.environment() {
+            Some(env) => Some(environment_eval(env, dir)?),
+            None => None,
         };
         let mixture = draw.p;
         // This sample's outcome is recorded here, not when the next step settles it.
@@ -468,7 +369,6 @@ impl<'a> Estimator<'a> {
             None
         };
         let mut hit = false;
-        let set = self.set;
         let x = self.x;
         set.trace(x, dir, |light, lp| {
             if lp.radiance.is_black() || !visible(lp) {
@@ -484,26 +384,26 @@ impl<'a> Estimator<'a> {
         });
         // The lights at infinity along the ray.
         for e in set.tree().infinite_lights() {
-            let lp = match e.kind() {
-                Some(InfiniteKind::Distant) => set
+            let environment = e.kind() == Some(InfiniteKind::Environment);
+            let lp = match (e.kind(), env) {
+                (Some(InfiniteKind::Distant), _) => set
                     .lights()
                     .get(e.light as usize)
                     .and_then(|l| intersect(l, x, dir)),
-                Some(InfiniteKind::Environment) => Some(LightPoint {
+                (Some(InfiniteKind::Environment), Some((radiance, pdf))) => Some(LightPoint {
                     position: dir,
                     normal: Vec3::ZERO,
                     direction: dir,
                     distance: f32::INFINITY,
-                    pdf: environment_pdf,
+                    pdf,
                     delta: false,
-                    radiance: Rgb::ZERO,
+                    radiance,
                 }),
-                None => None,
+                _ => None,
             };
             let Some(lp) = lp else {
                 continue;
             };
-            let environment = e.kind() == Some(InfiniteKind::Environment);
             if (!environment && lp.radiance.is_black()) || !visible(&lp) {
                 continue;
             }
@@ -522,15 +422,6 @@ impl<'a> Estimator<'a> {
         Ok(hit)
     }
 
-    /// [`DirectError::NeedsEnvironment`] for a light set with an environment light.
-    #[inline]
-    fn needs_no_environment(&self) -> Result<(), DirectError> {
-        match self.set.environment() {
-            Some(_) => Err(DirectError::NeedsEnvironment),
-            None => Ok(()),
-        }
-    }
-
     /// `f · L · cos θi` of a light point with the core's material (per channel), and the
     /// local direction.
     #[inline]
@@ -543,86 +434,36 @@ impl<'a> Estimator<'a> {
     }
 
     /// One estimate of the reflected radiance with the core's material and the host's
-    /// occluder: the lower level's loop ([`Estimator::start`], [`Estimator::next`],
-    /// [`Estimator::weigh`], [`Estimator::bsdf_hits_with`]), summed in f64 per channel
-    /// (red, green, blue). Finite and non-negative. For a light set with an environment
-    /// light, [`Estimator::estimate_env`] (this gives [`DirectError::NeedsEnvironment`]).
+    /// occluder (and the set's environment, if it has one): the lower level's loop
+    /// ([`Estimator::start`], [`Estimator::next`], [`Estimator::weigh`],
+    /// [`Estimator::bsdf_hits`]), summed in f64 per channel (red, green, blue). Finite and
+    /// non-negative.
     pub fn estimate<O: Occluder + ?Sized>(
         &mut self,
         occluder: &O,
         u: &mut (impl Uniforms + ?Sized),
     ) -> Result<[f64; 3], DirectError> {
-        self.needs_no_environment()?;
-        self.estimate_with(occluder, None, u)
-    }
-
-    /// [`Estimator::estimate`] with the host's environment: its samples
-    /// ([`Step::Environment`]) from [`Environment::sample`], and for a BSDF ray that escapes
-    /// its radiance and pdf from [`Environment::eval`] ([`Estimator::bsdf_hits_with_env`]).
-    /// A set without an environment light never calls it.
-    pub fn estimate_env<O: Occluder + ?Sized, E: Environment + ?Sized>(
-        &mut self,
-        occluder: &O,
-        environment: &E,
-        u: &mut (impl Uniforms + ?Sized),
-    ) -> Result<[f64; 3], DirectError> {
-        self.estimate_with(occluder, Some(&environment), u)
-    }
-
-    /// The loop of the one call, with the host's environment if the set has one.
-    fn estimate_with<O: Occluder + ?Sized>(
-        &mut self,
-        occluder: &O,
-        environment: Option<&dyn Environment>,
-        u: &mut (impl Uniforms + ?Sized),
-    ) -> Result<[f64; 3], DirectError> {
         self.start();
         let x = self.x;
-        let env_light = self.set.environment();
         let mut sum = [0.0f64; 3];
         loop {
             let d = match self.next(u)? {
                 Step::Done => break,
                 Step::Light(d) => d,
-                Step::Environment(e) => {
-                    let Some(s) = environment.and_then(|env| env.sample(e.u)) else {
-                        continue;
-                    };
-                    self.environment_point(&e, s.direction, s.radiance, s.pdf)?
-                }
                 Step::Bsdf(b) => {
                     let Some((wi, pdf)) = self.material.sample(self.wo, b.u) else {
                         continue;
                     };
                     let f = self.material.eval_rgb(self.wo, wi);
                     let dir = math::normalize(self.frame.to_world(wi));
-                    let (env_radiance, env_pdf) = match (environment, env_light) {
-                        (Some(env), Some(_)) => env.eval(dir),
-                        _ => (Rgb::ZERO, 0.0),
-                    };
-                    if !(0.0..f32::INFINITY).contains(&env_pdf) {
-                        return Err(DirectError::EnvironmentPdf { value: env_pdf });
-                    }
-                    // The host's radiance along the ray is checked as its samples' is.
-                    for c in env_radiance.to_array() {
-                        if !(0.0..f32::INFINITY).contains(&c) {
-                            return Err(DirectError::EnvironmentRadiance { value: c });
-                        }
-                    }
                     let mut value = [0.0f64; 3];
-                    self.bsdf_hits_with_env(
+                    self.bsdf_hits(
                         &b,
                         dir,
                         pdf,
-                        env_pdf,
                         |lp| !occluder.occluded(x, dir, lp.distance),
                         |h| {
-                            let radiance = if Some(h.light) == env_light {
-                                env_radiance
-                            } else {
-                                h.point.radiance
-                            };
-                            let g = f * radiance * wi.z;
+                            let g = f * h.point.radiance * wi.z;
                             add(&mut value, h.weighted.contribution_rgb(g));
                         },
                     )?;

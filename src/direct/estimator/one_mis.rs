@@ -46,7 +46,10 @@ impl Estimator<'_> {
             Technique::TlMisPinf => self.pinf.as_ref().and_then(|p| p.sample(v)),
             _ => self.bl.as_ref().and_then(|b| b.sample(v)),
         };
-        Ok(s.and_then(|s| self.draw(s.light, s.pmf, uv, Role::OneMis)))
+        match s {
+            Some(s) => self.draw(s.light, s.pmf, uv, Role::OneMis),
+            None => Ok(None),
+        }
     }
 
     /// The BSDF sample, the estimate's last.

@@ -29,14 +29,15 @@ impl Estimator<'_> {
             _ => None,
         };
         match s {
-            Some(s) => Ok(Some(self.single(s.light, s.pmf, next2(u)?))),
+            // The only light sample, if it has a point.
+            Some(s) => {
+                let uv = next2(u)?;
+                Ok(Some(
+                    self.draw(s.light, s.pmf, uv, Role::Plain)?
+                        .unwrap_or(Step::Done),
+                ))
+            }
             None => Ok(None),
         }
-    }
-
-    /// The only light sample of `uniform`, `power`, `tl` and `bl`, if it has a point.
-    #[inline]
-    fn single(&mut self, light: u32, pmf: f32, uv: [f32; 2]) -> Step {
-        self.draw(light, pmf, uv, Role::Plain).unwrap_or(Step::Done)
     }
 }

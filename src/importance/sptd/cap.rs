@@ -53,6 +53,7 @@ pub struct Cap {
 
 impl Cap {
     /// The whole sphere.
+    #[cfg(any(test, feature = "internals"))]
     pub const SPHERE: Cap = Cap {
         axis: Vec3::Z,
         cos: -1.0,
@@ -72,6 +73,7 @@ impl Cap {
     /// [`Cap::from_sin`] when σ may be below ~1e-3.
     #[inline]
     #[must_use]
+    #[cfg(any(test, feature = "internals"))]
     pub fn new(axis: Vec3, cos: f32) -> Cap {
         let cos = if cos > -1.0 { cos } else { -1.0 };
         let cos = if cos < 1.0 { cos } else { 1.0 };
@@ -121,6 +123,7 @@ impl Cap {
     /// The closure of the rest of the sphere.
     #[inline]
     #[must_use]
+    #[cfg(any(test, feature = "internals"))]
     pub fn complement(&self) -> Cap {
         Cap {
             axis: -self.axis,
@@ -134,6 +137,7 @@ impl Cap {
     /// for small caps, which keeps the test exact to f32 rounding for tiny ones).
     #[inline]
     #[must_use]
+    #[cfg(any(test, feature = "internals"))]
     pub fn contains(&self, w: Vec3) -> bool {
         if self.cos > 0.5 {
             let d = w - self.axis;
@@ -197,6 +201,7 @@ impl Cap4 {
     /// Lane `i` as a scalar cap.
     #[inline]
     #[must_use]
+    #[cfg(any(test, feature = "internals"))]
     pub fn lane(&self, i: usize) -> Cap {
         let i = i & 3;
         Cap {

@@ -73,11 +73,14 @@ use super::table;
 use crate::lanes::{gt_or, lt_or};
 use crate::material::MIN_ALPHA;
 use crate::math;
-use core::f32::consts::{FRAC_PI_2, PI};
+#[cfg(any(test, feature = "internals"))]
+use core::f32::consts::FRAC_PI_2;
+use core::f32::consts::PI;
 use glam::Vec3;
 use wide::f32x4;
 
 /// The mask of all four lanes.
+#[cfg(any(test, feature = "internals"))]
 const ALL_LANES: f32x4 = f32x4::new([f32::from_bits(u32::MAX); 4]);
 
 /// View angles beyond this (radians from the normal, 89°) are clamped to it.
@@ -104,6 +107,7 @@ pub struct GgxParams {
 /// The (α, θo) that table node `(i, j)` was fitted at: `u = i/(SIZE − 1)`, `α = max(u², MIN_ALPHA)`,
 /// `θo = min(j/(SIZE − 1) · π/2, THETA_O_MAX)`. Returns `(α, θo)`.
 #[must_use]
+#[cfg(any(test, feature = "internals"))]
 pub fn table_node(i: usize, j: usize) -> (f32, f32) {
     let n = (TABLE_SIZE - 1) as f32;
     let u = (i.min(TABLE_SIZE - 1)) as f32 / n;
@@ -217,6 +221,8 @@ pub struct SptdGgx {
     /// `G2(c_ref)`.
     g2_ref: f32,
     albedo: f32,
+    // Read by the fit and the tests (`params()`), not by the importance.
+    #[cfg_attr(not(any(test, feature = "internals")), allow(dead_code))]
     params: GgxParams,
     /// `cos θo` (θo clamped to [`THETA_O_MAX`]).
     cos_o: f32,
@@ -248,6 +254,7 @@ impl SptdGgx {
     /// (a view from below the surface is mirrored to above it). Cap axes given to the
     /// evaluators are then in this frame. NaN `cos_theta_o` gives a zero lobe.
     #[must_use]
+    #[cfg(any(test, feature = "internals"))]
     pub fn new(alpha: f32, cos_theta_o: f32) -> SptdGgx {
         if cos_theta_o.is_nan() {
             return SptdGgx::zero();
@@ -301,6 +308,7 @@ impl SptdGgx {
     /// the masking term), with the frame given by the unit `normal` and the unit `tangent`
     /// towards ωo. This is the form the fitting tool uses.
     #[must_use]
+    #[cfg(any(test, feature = "internals"))]
     pub fn with_params(
         alpha: f32,
         cos_theta_o: f32,
@@ -537,30 +545,35 @@ impl SptdGgx {
 
     /// The parameters looked up.
     #[must_use]
+    #[cfg(any(test, feature = "internals"))]
     pub fn params(&self) -> GgxParams {
         self.params
     }
 
     /// The pivot (in the frame of the constructor).
     #[must_use]
+    #[cfg(any(test, feature = "internals"))]
     pub fn pivot(&self) -> &Pivot {
         &self.pivot
     }
 
     /// `P(H)`, the image of the upper hemisphere.
     #[must_use]
+    #[cfg(any(test, feature = "internals"))]
     pub fn horizon_image(&self) -> &Cap {
         &self.horizon
     }
 
     /// The unit normal of the frame (flipped towards ωo).
     #[must_use]
+    #[cfg(any(test, feature = "internals"))]
     pub fn normal(&self) -> Vec3 {
         self.normal
     }
 
     /// The SPTD's amplitude `A = 4π ρ (1 − β) / (|P(H)| M(½))`.
     #[must_use]
+    #[cfg(any(test, feature = "internals"))]
     pub fn amplitude(&self) -> f32 {
         4.0 * PI * self.scale_lobe
     }
@@ -619,6 +632,7 @@ impl SptdGgx {
     /// cap that nearly holds the hemisphere past `ρ` (by 1.25 % at α ≈ 0.9 with ωo near
     /// grazing, `fuzz/regressions/sptd/`); NaN gives 0.
     #[inline(always)]
+    #[cfg(any(test, feature = "internals"))]
     fn combine(&self, lens: f32, lambert: f32, visible: f32) -> f32 {
         let v = self.sptd_value(
             lens,
@@ -640,6 +654,7 @@ impl SptdGgx {
     /// albedo. NaN gives 0; never negative.
     #[inline]
     #[must_use]
+    #[cfg(any(test, feature = "internals"))]
     pub fn integral(&self, axis: Vec3, sin_sigma: f32) -> f32 {
         self.cap_integrals(axis, sin_sigma).ggx
     }
@@ -706,6 +721,7 @@ impl SptdGgx {
 
     /// The lens `|P(C) ∩ P(H)|` and the Lambert pair `(∫_{C∩H} cos, |C ∩ H|)` of any cap.
     #[inline]
+    #[cfg(any(test, feature = "internals"))]
     fn cap_parts(&self, cap: &Cap) -> (f32, f32, f32) {
         let lens = intersection_area(&self.pivot.map_cap(cap), &self.horizon);
         let n = self.normal;
@@ -725,6 +741,7 @@ impl SptdGgx {
     /// more take the SPTD part.
     #[inline]
     #[must_use]
+    #[cfg(any(test, feature = "internals"))]
     pub fn integral_cap(&self, cap: &Cap) -> f32 {
         let (lens, l, v) = self.cap_parts(cap);
         let m = self.mask_raw(Self::mean_cos(l, v));
@@ -753,6 +770,7 @@ impl SptdGgx {
     /// `[0, ρ]`, for any cap (half-angle up to π): the part `sptd-fit` (tools/sptd-fit) fits.
     #[inline]
     #[must_use]
+    #[cfg(any(test, feature = "internals"))]
     pub fn sptd_integral_cap(&self, cap: &Cap) -> f32 {
         let (lens, l, v) = self.cap_parts(cap);
         self.combine(lens, l, v)
@@ -762,6 +780,7 @@ impl SptdGgx {
     /// sines of their half-angles.
     #[inline]
     #[must_use]
+    #[cfg(any(test, feature = "internals"))]
     pub fn integral4(&self, ax: f32x4, ay: f32x4, az: f32x4, sin_sigma: f32x4) -> f32x4 {
         self.cap_integrals4(ax, ay, az, sin_sigma).ggx
     }
@@ -769,6 +788,7 @@ impl SptdGgx {
     /// The 4-wide twin of [`SptdGgx::cap_integrals`].
     #[inline]
     #[must_use]
+    #[cfg(any(test, feature = "internals"))]
     pub fn cap_integrals4(
         &self,
         ax: f32x4,

@@ -30,6 +30,7 @@ const G_SERIES: [f32; 5] = [2.0 / 3.0, 1.0 / 5.0, 3.0 / 28.0, 5.0 / 72.0, 35.0 /
 
 /// `g(θ) = θ − sin θ cos θ` for the angle θ ∈ [0, π] of `(x, y)`, `y ≥ 0`.
 #[inline(always)]
+#[cfg(any(test, feature = "internals"))]
 fn seg(x: f32, y: f32) -> f32 {
     seg_angle(x, y, atan2(y, x))
 }
@@ -56,6 +57,7 @@ fn seg_angle(x: f32, y: f32, theta: f32) -> f32 {
 }
 
 #[inline(always)]
+#[cfg(any(test, feature = "internals"))]
 fn seg4(x: f32x4, y: f32x4) -> f32x4 {
     seg_angle4(x, y, atan2_4(y, x))
 }
@@ -84,6 +86,7 @@ fn seg_angle4(x: f32x4, y: f32x4, theta: f32x4) -> f32x4 {
 /// BRDF. NaN gives 0. Never negative.
 #[inline]
 #[must_use]
+#[cfg(any(test, feature = "internals"))]
 pub fn lambert_cap(cos_omega: f32, sin_sigma: f32) -> f32 {
     if sin_sigma >= 1.0 {
         return PI;
@@ -106,6 +109,7 @@ pub fn lambert_cap(cos_omega: f32, sin_sigma: f32) -> f32 {
 /// The 4-wide twin of [`lambert_cap`].
 #[inline]
 #[must_use]
+#[cfg(any(test, feature = "internals"))]
 pub fn lambert_cap4(cos_omega: f32x4, sin_sigma: f32x4) -> f32x4 {
     let zero = f32x4::ZERO;
     let one = f32x4::ONE;

@@ -21,6 +21,7 @@
 use super::cap::{Cap, Cap4};
 use crate::lanes::{clamp4, gt_or};
 use crate::math;
+#[cfg(any(test, feature = "internals"))]
 use core::f32::consts::PI;
 use glam::Vec3;
 use wide::f32x4;
@@ -86,6 +87,7 @@ impl Pivot {
     /// The pivot point `rp`.
     #[inline]
     #[must_use]
+    #[cfg(any(test, feature = "internals"))]
     pub fn point(&self) -> Vec3 {
         self.dir * self.norm
     }
@@ -93,6 +95,7 @@ impl Pivot {
     /// The unit direction of the pivot.
     #[inline]
     #[must_use]
+    #[cfg(any(test, feature = "internals"))]
     pub fn direction(&self) -> Vec3 {
         self.dir
     }
@@ -100,6 +103,7 @@ impl Pivot {
     /// The norm `R`.
     #[inline]
     #[must_use]
+    #[cfg(any(test, feature = "internals"))]
     pub fn norm(&self) -> f32 {
         self.norm
     }
@@ -107,6 +111,7 @@ impl Pivot {
     /// `k = 1 − |rp|²`.
     #[inline]
     #[must_use]
+    #[cfg(any(test, feature = "internals"))]
     pub fn k(&self) -> f32 {
         self.k
     }
@@ -122,6 +127,7 @@ impl Pivot {
     /// `P(ω)` for a unit `ω` (P is an involution).
     #[inline]
     #[must_use]
+    #[cfg(any(test, feature = "internals"))]
     pub fn transform(&self, w: Vec3) -> Vec3 {
         let (d2, e) = self.dist2(w);
         if d2 <= 0.0 {
@@ -136,6 +142,7 @@ impl Pivot {
     /// The Jacobian `|dP/dω| = k²/|ω − rp|⁴`.
     #[inline]
     #[must_use]
+    #[cfg(any(test, feature = "internals"))]
     pub fn jacobian(&self, w: Vec3) -> f32 {
         let (d2, _) = self.dist2(w);
         self.k * self.k / (d2 * d2)
@@ -152,6 +159,7 @@ impl Pivot {
     /// it integrates to 1 over the sphere.
     #[inline]
     #[must_use]
+    #[cfg(any(test, feature = "internals"))]
     pub fn density(&self, w: Vec3) -> f32 {
         self.jacobian(w) / (4.0 * PI)
     }
@@ -205,6 +213,7 @@ impl Pivot {
     /// The 4-wide twin of [`Pivot::map_cap`].
     #[inline]
     #[must_use]
+    #[cfg(any(test, feature = "internals"))]
     pub fn map_cap4(&self, cap: &Cap4) -> Cap4 {
         Pivot4::new(self).map_cap(cap)
     }
@@ -252,6 +261,7 @@ impl Pivot4 {
 
     /// [`Pivot::map_cap4`].
     #[inline(always)]
+    #[cfg(any(test, feature = "internals"))]
     pub(crate) fn map_cap(&self, cap: &Cap4) -> Cap4 {
         self.map_cap_at(cap, &self.offset(cap.ax, cap.ay, cap.az))
     }

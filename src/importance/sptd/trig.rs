@@ -12,7 +12,10 @@
 //! Never NaN out: `atan2(0, 0)` is 0, a NaN coordinate gives a value in `[-π, π]`, and [`asin`]
 //! and [`acos`] treat a NaN argument as −1.
 
-use crate::lanes::{clamp4, gt_or, lt_or};
+#[cfg(any(test, feature = "internals"))]
+use crate::lanes::clamp4;
+use crate::lanes::{gt_or, lt_or};
+#[cfg(any(test, feature = "internals"))]
 use crate::math;
 use core::f32::consts::{FRAC_PI_2, PI};
 use wide::f32x4;
@@ -117,6 +120,7 @@ pub(crate) fn atan2_first4(ay: f32x4, ax: f32x4) -> f32x4 {
 
 /// `x` clamped to `[-1, 1]`, NaN to −1 (as the 4-wide `max` does).
 #[inline(always)]
+#[cfg(any(test, feature = "internals"))]
 fn clamp_unit(x: f32) -> f32 {
     let x = if x > -1.0 { x } else { -1.0 };
     if x < 1.0 {
@@ -129,6 +133,7 @@ fn clamp_unit(x: f32) -> f32 {
 /// Arc sine, argument clamped to `[-1, 1]` (NaN as −1).
 #[inline]
 #[must_use]
+#[cfg(any(test, feature = "internals"))]
 pub fn asin(x: f32) -> f32 {
     let x = clamp_unit(x);
     let c = (1.0 - x) * (1.0 + x);
@@ -138,6 +143,7 @@ pub fn asin(x: f32) -> f32 {
 /// Arc cosine, argument clamped to `[-1, 1]` (NaN as −1).
 #[inline]
 #[must_use]
+#[cfg(any(test, feature = "internals"))]
 pub fn acos(x: f32) -> f32 {
     let x = clamp_unit(x);
     let s = (1.0 - x) * (1.0 + x);
@@ -147,6 +153,7 @@ pub fn acos(x: f32) -> f32 {
 /// The 4-wide twin of [`asin`].
 #[inline]
 #[must_use]
+#[cfg(any(test, feature = "internals"))]
 pub fn asin4(x: f32x4) -> f32x4 {
     let one = f32x4::ONE;
     let x = clamp4(x, -one, one);
@@ -157,6 +164,7 @@ pub fn asin4(x: f32x4) -> f32x4 {
 /// The 4-wide twin of [`acos`].
 #[inline]
 #[must_use]
+#[cfg(any(test, feature = "internals"))]
 pub fn acos4(x: f32x4) -> f32x4 {
     let one = f32x4::ONE;
     let x = clamp4(x, -one, one);

@@ -14,7 +14,7 @@
 //! | triangle, smaller | uniform by area | `d² / (A · abs(cos θy))` |
 //! | distant, γ > 0 | uniform in its cone of directions | `1 / (2π(1 − cos γ))` |
 //! | distant, γ = 0 | its direction | delta: reported as `pdf = 1`, `delta = true` |
-//! | environment | the host's (see [`crate::direct::Environment`]) | the host's |
+//! | environment | the host's (see [`crate::light::Environment`]; [`crate::LightSet::sample_point`] samples it) | the host's |
 //!
 //! # The estimator
 //!
@@ -68,24 +68,31 @@ use crate::light::Light;
 use glam::Vec3;
 use vec64::V64;
 
+#[cfg(any(test, feature = "internals"))]
 pub use triangle::MIN_SPHERICAL_SOLID_ANGLE;
 
 /// A point sampled on a light (or hit on it by a ray), seen from the shading point x.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct LightPoint {
-    /// The point on the light (for point, spot and virtual point lights, their position).
+    /// The point on the light (for point, spot and virtual point lights, their position). For
+    /// a distant light or the environment, a point at infinity: the unit direction towards it
+    /// (the same as `direction`).
     pub position: Vec3,
     /// Unit surface normal at `position`: outwards for a sphere, the emitting side for a
     /// one-sided disk or triangle, towards x for a two-sided one; zero for point, spot and
-    /// virtual point lights.
+    /// virtual point lights, distant lights and the environment.
     pub normal: Vec3,
     /// Unit direction from x to `position`.
     pub direction: Vec3,
-    /// Distance from x to `position` (> 0; +∞ for a distant or environment light).
+    /// Distance from x to `position` (> 0; +∞ for a distant light or the environment: a
+    /// shadow ray tests the whole ray).
     pub distance: f32,
     /// Solid-angle pdf at x of having sampled `direction` (> 0, finite); 1 for a delta light.
     pub pdf: f32,
-    /// The light is a point, spot or virtual point light: `pdf` is a Dirac delta reported as 1.
+    /// The light is a Dirac delta in direction — a point, spot or virtual point light, or a
+    /// distant light whose cone is a single direction (angular radius 0) — and `pdf` is
+    /// reported as 1; `radiance` is then the irradiance it delivers at normal incidence. No
+    /// BSDF ray reaches it.
     pub delta: bool,
     /// What the estimator multiplies by (≥ 0, finite): the emitted radiance arriving at x along
     /// `-direction` for area lights (0 if x is behind a one-sided emitter, or inside or on a
@@ -97,6 +104,17 @@ pub struct LightPoint {
 }
 
 impl LightPoint {
+    /// Whether a ray from the shading point whose first surface is at `hit_distance` (+∞ when
+    /// the ray escapes) reaches this point: it lies in front of the surface, or the ray
+    /// escapes (the only way to reach a point at infinity). NaN reaches nothing. What
+    /// [`crate::Estimator::bsdf_hits`] takes as `visible` for a host that casts the BSDF ray
+    /// itself: `|p| p.reached_before(t)`.
+    #[inline]
+    #[must_use]
+    pub fn reached_before(&self, hit_distance: f32) -> bool {
+        self.distance < hit_distance || hit_distance == f32::INFINITY
+    }
+
     /// A light point if every field is valid, else `None`.
     #[inline]
     fn checked(

@@ -1,13 +1,15 @@
-//! The host's environment as the one call takes it ([`Environment`]: radiance, sampling and
-//! pdf of an environment map or sky), and two built-in ones for renderers and tests: a
-//! uniform environment ([`UniformSky`]) and an analytic sky ([`GradientSky`]).
+//! The environment: the host's sky or environment map ([`Environment`]: its radiance, its
+//! sampling and that sampling's pdf, and bounds of the irradiance it delivers), and two
+//! built-in ones for renderers and tests: a uniform environment ([`UniformSky`]) and an
+//! analytic sky ([`GradientSky`]).
 //!
-//! An environment is infinitely far: its radiance and pdf depend on the direction alone. The
-//! light set holds it as a [`Light::Environment`] whose six irradiance bounds the importances
-//! weigh it by; the built-in skies give theirs ([`UniformSky::light`], [`GradientSky::light`]).
+//! An environment is infinitely far: its radiance and pdf depend on the direction alone. It
+//! is given once, to the light set ([`crate::LightSet::build_with_environment`]), which holds it
+//! for every estimate: there it is the light [`Light::Environment`](crate::Light::Environment) carrying
+//! [`Environment::irradiance_bounds`], the last of the set's lights, which the importances
+//! weigh against the other lights.
 
 use crate::colour::Rgb;
-use crate::light::Light;
 use crate::math;
 use core::f32::consts::PI;
 use glam::Vec3;
@@ -23,13 +25,32 @@ pub struct EnvironmentSample {
     pub pdf: f32,
 }
 
-/// The host's environment: its radiance, its importance sampling and that sampling's pdf.
+/// The host's environment: its radiance, its importance sampling and that sampling's pdf, and
+/// bounds of the irradiance it delivers.
+///
+/// Its values are checked where they are used: a sample's direction must be finite and
+/// non-zero, its pdf positive and finite, every radiance channel (of a sample and of
+/// [`Environment::eval`]) finite and non-negative, `eval`'s pdf finite and non-negative;
+/// anything else is an error of the estimate ([`crate::error::DirectError`]), never a NaN.
 pub trait Environment {
     /// A direction for the uniform numbers `u` in [0, 1)², or `None` (the sample is skipped).
     fn sample(&self, u: [f32; 2]) -> Option<EnvironmentSample>;
     /// The radiance arriving along `-direction` from the unit `direction`, and the solid-angle
     /// pdf with which [`Environment::sample`] returns it (0 where it never does).
     fn eval(&self, direction: Vec3) -> (Rgb, f32);
+    /// Upper bounds of the irradiance (luminance, W/m²) the environment delivers to a receiver
+    /// facing +x, −x, +y, −y, +z and −z: `∫ Y(L(ω)) max(0, a·ω) dω` for each axis direction
+    /// a (the field of [`Light::Environment`](crate::Light::Environment), with the same validation when the set is
+    /// built). A uniform environment of radiance L has πY(L) in all six.
+    ///
+    /// The bounds decide how often the environment is chosen, never how it is weighed, so
+    /// bounds that are too large cost variance only. Bounds must not be too small: where the
+    /// bound at a receiver's normal is 0 while the environment lights it, the importances
+    /// never choose the environment there, and the techniques that take no BSDF sample at
+    /// the point (`power`, `tl`, `bl`, `tl-split`, and `mis-equal` and `full` where their
+    /// budget is 0) lose its light — biased low. Positive bounds that are too small keep
+    /// every technique unbiased, at the cost of variance.
+    fn irradiance_bounds(&self) -> [f32; 6];
 }
 
 impl<E: Environment + ?Sized> Environment for &E {
@@ -42,6 +63,48 @@ impl<E: Environment + ?Sized> Environment for &E {
     fn eval(&self, direction: Vec3) -> (Rgb, f32) {
         (**self).eval(direction)
     }
+
+    #[inline]
+    fn irradiance_bounds(&self) -> [f32; 6] {
+        (**self).irradiance_bounds()
+    }
+}
+
+impl<E: Environment + ?Sized> Environment for alloc::boxed::Box<E> {
+    #[inline]
+    fn sample(&self, u: [f32; 2]) -> Option<EnvironmentSample> {
+        (**self).sample(u)
+    }
+
+    #[inline]
+    fn eval(&self, direction: Vec3) -> (Rgb, f32) {
+        (**self).eval(direction)
+    }
+
+    #[inline]
+    fn irradiance_bounds(&self) -> [f32; 6] {
+        (**self).irradiance_bounds()
+    }
+}
+
+/// A shared environment: a host that keeps its map elsewhere as well gives the light set an
+/// `Arc` of it.
+#[cfg(target_has_atomic = "ptr")]
+impl<E: Environment + ?Sized> Environment for alloc::sync::Arc<E> {
+    #[inline]
+    fn sample(&self, u: [f32; 2]) -> Option<EnvironmentSample> {
+        (**self).sample(u)
+    }
+
+    #[inline]
+    fn eval(&self, direction: Vec3) -> (Rgb, f32) {
+        (**self).eval(direction)
+    }
+
+    #[inline]
+    fn irradiance_bounds(&self) -> [f32; 6] {
+        (**self).irradiance_bounds()
+    }
 }
 
 /// A uniform environment of radiance `radiance`, sampled uniformly over the sphere (pdf
@@ -51,16 +114,6 @@ impl<E: Environment + ?Sized> Environment for &E {
 pub struct UniformSky {
     /// The radiance from every direction.
     pub radiance: Rgb,
-}
-
-impl UniformSky {
-    /// Its light: irradiance bounds `π Y(radiance)` on every axis.
-    #[must_use]
-    pub fn light(&self) -> Light {
-        Light::Environment {
-            irradiance: [PI * self.radiance.luminance(); 6],
-        }
-    }
 }
 
 /// The unit direction of `u` on the sphere (uniform), `z = 1 − 2 u₀`.
@@ -83,6 +136,11 @@ impl Environment for UniformSky {
 
     fn eval(&self, _direction: Vec3) -> (Rgb, f32) {
         (self.radiance, 1.0 / (4.0 * PI))
+    }
+
+    /// `π Y(radiance)` on every axis.
+    fn irradiance_bounds(&self) -> [f32; 6] {
+        [PI * self.radiance.luminance(); 6]
     }
 }
 
@@ -122,12 +180,11 @@ impl GradientSky {
         }
     }
 
-    /// Its light: on a receiver facing the axis direction a, with `c = a·up`, the irradiance is
-    /// at most `Y_up π (1 + c)/2 + Y(ground) π (1 − c)/2`, `Y_up` the larger of the zenith's and
-    /// the horizon's luminance (the clamped cosine integrates to `π (1 + c)/2` over the upper
+    /// On a receiver facing the axis direction a, with `c = a·up`, the irradiance is at most
+    /// `Y_up π (1 + c)/2 + Y(ground) π (1 − c)/2`, `Y_up` the larger of the zenith's and the
+    /// horizon's luminance (the clamped cosine integrates to `π (1 + c)/2` over the upper
     /// hemisphere), rounded up.
-    #[must_use]
-    pub fn light(&self) -> Light {
+    fn bounds(&self) -> [f32; 6] {
         let y_up = self.zenith.luminance().max(self.horizon.luminance());
         let y_low = self.ground.luminance();
         let axes = [Vec3::X, -Vec3::X, Vec3::Y, -Vec3::Y, Vec3::Z, -Vec3::Z];
@@ -137,7 +194,7 @@ impl GradientSky {
             let e = y_up * PI * (1.0 + c) * 0.5 + y_low * PI * (1.0 - c) * 0.5;
             e * (1.0 + 1e-5)
         });
-        Light::Environment { irradiance }
+        irradiance
     }
 
     /// The radiance along `-d` for a unit `d`.
@@ -195,6 +252,10 @@ impl Environment for GradientSky {
             (1.0 - q) / (2.0 * PI)
         };
         (self.radiance(d), pdf)
+    }
+
+    fn irradiance_bounds(&self) -> [f32; 6] {
+        self.bounds()
     }
 }
 
