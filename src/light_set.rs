@@ -1,9 +1,9 @@
 //! A renderer's lights as the direct-lighting estimators use them: the lights themselves (for
 //! points on them and ray hits), their [`LightTree`] (the node tree and, beside it, the distant
 //! and environment lights it weighs against the nodes at the root: [`crate::light_set`]), and
-//! an alias table for sampling ∝ power.
+//! an alias table for sampling ∝ energy.
 //!
-//! The power of a light at infinity, for the alias table (pbrt-v4's `Phi` of its infinite
+//! The energy of a light at infinity, for the alias table (pbrt-v4's `Phi` of its infinite
 //! lights, with the scene's bounding sphere taken as that of the local lights' boxes, radius
 //! R, or R = 1 without local lights): `π R² Y(E)` for a distant light of irradiance E, and for
 //! the environment `(2/3) π R² Σ` of its six irradiance bounds (`4π · πR² · Y(L)` for a
@@ -27,7 +27,7 @@ use crate::light::{Environment, Light};
 use crate::tree::LightTree;
 use glam::Vec3;
 
-/// Lights, their tree and their power distribution, and the host's environment if it has one.
+/// Lights, their tree and their energy distribution, and the host's environment if it has one.
 ///
 /// The environment is given once, here ([`LightSet::build_with_environment`]): a light set
 /// with an environment holds it for every estimate, point on a light and BSDF hit, and a
@@ -36,7 +36,7 @@ use glam::Vec3;
 pub struct LightSet {
     lights: Vec<Light>,
     tree: LightTree,
-    power: AliasTable,
+    energies: AliasTable,
     environment: Option<Box<dyn Environment + Send + Sync>>,
 }
 
@@ -45,7 +45,7 @@ impl fmt::Debug for LightSet {
         f.debug_struct("LightSet")
             .field("lights", &self.lights)
             .field("tree", &self.tree)
-            .field("power", &self.power)
+            .field("energies", &self.energies)
             .field("environment", &self.environment.as_ref().map(|_| "<host>"))
             .finish()
     }
@@ -104,11 +104,11 @@ impl LightSet {
         join: &J,
     ) -> Result<LightSet, BuildError> {
         let tree = LightTree::build_parallel(&lights, opts, join)?;
-        let power = power_table(&lights);
+        let energies = energy_table(&lights);
         Ok(LightSet {
             lights,
             tree,
-            power,
+            energies,
             environment,
         })
     }
@@ -150,11 +150,11 @@ impl LightSet {
         environment: Option<Box<dyn Environment + Send + Sync>>,
     ) -> Result<LightSet, FormatError> {
         let tree = LightTree::from_bytes_with_lights(bytes, &lights)?;
-        let power = power_table(&lights);
+        let energies = energy_table(&lights);
         Ok(LightSet {
             lights,
             tree,
-            power,
+            energies,
             environment,
         })
     }
@@ -173,11 +173,11 @@ impl LightSet {
         &self.tree
     }
 
-    /// The alias table of their energies.
+    /// The alias table of their energies (what [`crate::direct::Technique::Energy`] samples).
     #[inline]
     #[must_use]
-    pub fn power(&self) -> &AliasTable {
-        &self.power
+    pub fn energies(&self) -> &AliasTable {
+        &self.energies
     }
 
     /// The environment light's index (the last light), if the set has an environment.
@@ -350,15 +350,15 @@ fn scene_radius2(lights: &[Light]) -> f64 {
     }
 }
 
-/// The alias table of the power-proportional technique over `lights` ([`power`]).
-fn power_table(lights: &[Light]) -> AliasTable {
+/// The alias table of the energy-proportional technique over `lights` ([`energy`]).
+fn energy_table(lights: &[Light]) -> AliasTable {
     let r2 = scene_radius2(lights);
-    AliasTable::new(lights.iter().map(|l| power(l, r2)))
+    AliasTable::new(lights.iter().map(|l| energy(l, r2)))
 }
 
 /// A light's weight in the alias table: its energy, or for a light at infinity the power of
 /// the module documentation.
-fn power(l: &Light, r2: f64) -> f64 {
+fn energy(l: &Light, r2: f64) -> f64 {
     let disk = core::f64::consts::PI * r2;
     match *l {
         Light::Distant { irradiance, .. } => disk * f64::from(irradiance.luminance()),

@@ -17,7 +17,7 @@ mod common;
 use common::{Rng, Stats};
 use glam::Vec3;
 use manylights::direct::{
-    DirectError, Estimator, LambertMode, LightSampler, Occluder, Params, PowerSampler, Step,
+    DirectError, EnergySampler, Estimator, LambertMode, LightSampler, Occluder, Params, Step,
     Technique, TreeSampler, UniformSampler, Uniforms, Unoccluded,
 };
 use manylights::internals::mis::{AdaptiveAllocator, CombinedWeights, SequentialWeights};
@@ -197,7 +197,7 @@ fn check_unbiased(set: &LightSet, sp: &ShadingPoint, exact: f64, k: usize, seed:
     let mut worst = 0.0f64;
     for (i, (t, p)) in cases.into_iter().enumerate() {
         let k = match t {
-            Technique::Uniform | Technique::Power => 4 * k,
+            Technique::Uniform | Technique::Energy => 4 * k,
             Technique::TlSplit | Technique::MisEqual | Technique::Full => k / 4,
             _ => k,
         };
@@ -836,7 +836,7 @@ fn samplers_honour_the_light_sampler_contract() {
     let set = LightSet::build(lights.clone()).unwrap();
     let mut rng = Rng::new(6);
     check_sampler(&UniformSampler::new(n), n, &mut rng, "uniform");
-    check_sampler(&PowerSampler::new(&set), n, &mut rng, "power");
+    check_sampler(&EnergySampler::new(&set), n, &mut rng, "energy");
     for _ in 0..20 {
         let x = common::random_shading_point(&mut rng, &lights, 5.0);
         let normal = common::random_normal(&mut rng);
@@ -982,7 +982,7 @@ fn bad_input_is_an_error_naming_it() {
             }
         }
         // A technique that draws f32s refuses a bad one.
-        if !matches!(t, Technique::Uniform | Technique::Power) {
+        if !matches!(t, Technique::Uniform | Technique::Energy) {
             let e = est
                 .estimate(&Unoccluded, &mut Constant(1.5, 0.5))
                 .unwrap_err();

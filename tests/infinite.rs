@@ -438,7 +438,7 @@ fn with_sky(lights: Vec<Light>, sky: impl Environment + Send + Sync + 'static) -
 fn check_unbiased(set: &LightSet, sp: &ShadingPoint, exact: [f64; 3], k: usize, seed: u64) {
     for (i, &t) in Technique::ALL.iter().enumerate() {
         let k = match t {
-            Technique::Uniform | Technique::Power => 3 * k,
+            Technique::Uniform | Technique::Energy => 3 * k,
             Technique::TlSplit | Technique::MisEqual | Technique::Full => k / 3,
             _ => k,
         };
@@ -1178,18 +1178,19 @@ fn a_wavefront_batch_takes_the_sets_environment() {
                     out[j * per + i].map(f64::to_bits),
                     "{t}"
                 );
-                for c in 0..3 {
-                    st[c].add(v[c]);
+                for (s, x) in st.iter_mut().zip(v) {
+                    s.add(x);
                 }
             }
         }
-        for c in 0..3 {
-            let exact = f64::from(albedo.to_array()[c]) * f64::from(sky.radiance.to_array()[c]);
-            let z = (st[c].mean() - exact) / st[c].se().max(1e-12);
+        let exact = [0, 1, 2]
+            .map(|c| f64::from(albedo.to_array()[c]) * f64::from(sky.radiance.to_array()[c]));
+        for (c, (s, exact)) in st.iter().zip(exact).enumerate() {
+            let z = (s.mean() - exact) / s.se().max(1e-12);
             assert!(
                 z.abs() <= 5.0,
                 "{t} channel {c}: {} vs {exact}: {z:.2} SE",
-                st[c].mean()
+                s.mean()
             );
         }
     }

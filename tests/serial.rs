@@ -194,8 +194,8 @@ fn a_tree_loaded_with_its_lights_estimates_bit_for_bit() {
                 sample_point(b, sp.position, uv)
             );
             assert_eq!(
-                loaded.power().sample(f64::from(u)),
-                set.power().sample(f64::from(u))
+                loaded.energies().sample(f64::from(u)),
+                set.energies().sample(f64::from(u))
             );
         }
         // Every technique: the same estimates from the same uniform numbers.

@@ -273,7 +273,8 @@ enum ml_technique
     ML_TECHNIQUE_BL_MIS = 8,
     /**
      * `tl-mis` with pbrt-v4's handling of distant and environment lights: each picked with
-     * the fixed probability 1 / (n + 1) whatever the point, the node tree otherwise.
+     * the fixed probability 1 / (n + 1) whatever the point (n of them), the node tree
+     * otherwise; 1 / n each when the tree holds no local light.
      */
     ML_TECHNIQUE_TL_MIS_PINF = 9,
 };
@@ -702,14 +703,22 @@ typedef struct ml_rgb64 {
 /**
  * A point on a light seen from a shading point x (sampled, or reached by a ray).
  * `pdf = 0` (and every other field 0) when there is none.
+ *
+ * A distant light or the environment gives a point at infinity: `position` = `direction`
+ * (the unit direction towards it), `normal` zero, `distance` = +infinity (a shadow ray tests
+ * the whole ray). A distant light of angular radius 0 is a delta direction: `pdf` 1, `delta`
+ * 1 and `radiance` its irradiance at normal incidence; a wider one has the uniform radiance of
+ * its cone and the cone's pdf.
  */
 typedef struct ml_light_point {
     /**
-     * The point on the light (point, spot and VPL: their position).
+     * The point on the light (point, spot and VPL: their position; distant lights and the
+     * environment: the unit direction towards them).
      */
     struct ml_vec3 position;
     /**
-     * Unit surface normal there (zero for point, spot and VPL lights).
+     * Unit surface normal there (zero for point, spot and VPL lights, distant lights and the
+     * environment).
      */
     struct ml_vec3 normal;
     /**
@@ -717,23 +726,25 @@ typedef struct ml_light_point {
      */
     struct ml_vec3 direction;
     /**
-     * Distance from x to `position` (> 0).
+     * Distance from x to `position` (> 0; +infinity for distant lights and the environment).
      */
     float distance;
     /**
      * Solid-angle pdf of `direction` at x (> 0, finite); 1 for delta lights (as
-     * `ml_light_pdf_point` reports it at their position); 0: no point.
+     * `ml_light_pdf_point` reports it at their position or direction); 0: no point.
      */
     float pdf;
     /**
      * What the estimate multiplies by (every channel ≥ 0), linear RGB: the radiance arriving
-     * at x for area lights (W/(m²·sr)); for point, spot and VPL lights `I · falloff / d²`
-     * (W/m²), already divided by the squared distance: do not divide again (the contribution
-     * is `f · radiance · cos θi / pdf`, `pdf` = 1).
+     * at x for area lights, wide distant lights and the environment (W/(m²·sr)); for point,
+     * spot and VPL lights `I · falloff / d²` (W/m²), already divided by the squared distance:
+     * do not divide again (the contribution is `f · radiance · cos θi / pdf`, `pdf` = 1); for
+     * a distant light of angular radius 0 its irradiance (W/m², `pdf` = 1).
      */
     struct ml_rgb radiance;
     /**
-     * 1 for point, spot and VPL lights (`pdf` is a Dirac delta reported as 1), else 0.
+     * 1 for point, spot and VPL lights and distant lights of angular radius 0 (`pdf` is a
+     * Dirac delta reported as 1; no BSDF ray reaches them), else 0.
      */
     uint32_t delta;
 } ml_light_point;

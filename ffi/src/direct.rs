@@ -29,8 +29,8 @@ use std::sync::Arc;
 pub enum ml_technique {
     /// One light uniformly, a point on it.
     Uniform = 0,
-    /// One light in proportion to its power (an alias table).
-    Power = 1,
+    /// One light in proportion to its energy (an alias table).
+    Energy = 1,
     /// One light by tree descent with the Conty–Kulla importance.
     Tl = 2,
     /// Conty & Kulla's split sampling: one light in each cluster of the split cut.

@@ -347,26 +347,36 @@ impl From<Option<LightSample>> for ml_light_sample {
 
 /// A point on a light seen from a shading point x (sampled, or reached by a ray).
 /// `pdf = 0` (and every other field 0) when there is none.
+///
+/// A distant light or the environment gives a point at infinity: `position` = `direction`
+/// (the unit direction towards it), `normal` zero, `distance` = +infinity (a shadow ray tests
+/// the whole ray). A distant light of angular radius 0 is a delta direction: `pdf` 1, `delta`
+/// 1 and `radiance` its irradiance at normal incidence; a wider one has the uniform radiance of
+/// its cone and the cone's pdf.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct ml_light_point {
-    /// The point on the light (point, spot and VPL: their position).
+    /// The point on the light (point, spot and VPL: their position; distant lights and the
+    /// environment: the unit direction towards them).
     pub position: ml_vec3,
-    /// Unit surface normal there (zero for point, spot and VPL lights).
+    /// Unit surface normal there (zero for point, spot and VPL lights, distant lights and the
+    /// environment).
     pub normal: ml_vec3,
     /// Unit direction from x to `position`.
     pub direction: ml_vec3,
-    /// Distance from x to `position` (> 0).
+    /// Distance from x to `position` (> 0; +infinity for distant lights and the environment).
     pub distance: f32,
     /// Solid-angle pdf of `direction` at x (> 0, finite); 1 for delta lights (as
-    /// `ml_light_pdf_point` reports it at their position); 0: no point.
+    /// `ml_light_pdf_point` reports it at their position or direction); 0: no point.
     pub pdf: f32,
     /// What the estimate multiplies by (every channel ≥ 0), linear RGB: the radiance arriving
-    /// at x for area lights (W/(m²·sr)); for point, spot and VPL lights `I · falloff / d²`
-    /// (W/m²), already divided by the squared distance: do not divide again (the contribution
-    /// is `f · radiance · cos θi / pdf`, `pdf` = 1).
+    /// at x for area lights, wide distant lights and the environment (W/(m²·sr)); for point,
+    /// spot and VPL lights `I · falloff / d²` (W/m²), already divided by the squared distance:
+    /// do not divide again (the contribution is `f · radiance · cos θi / pdf`, `pdf` = 1); for
+    /// a distant light of angular radius 0 its irradiance (W/m², `pdf` = 1).
     pub radiance: ml_rgb,
-    /// 1 for point, spot and VPL lights (`pdf` is a Dirac delta reported as 1), else 0.
+    /// 1 for point, spot and VPL lights and distant lights of angular radius 0 (`pdf` is a
+    /// Dirac delta reported as 1; no BSDF ray reaches them), else 0.
     pub delta: u32,
 }
 

@@ -155,7 +155,7 @@ fn every_technique_is_unbiased_on_a_small_scene() {
         }
         for (i, (t, p)) in cases.into_iter().enumerate() {
             let k = match t {
-                Technique::Uniform | Technique::Power | Technique::Tl | Technique::Bl => 200_000,
+                Technique::Uniform | Technique::Energy | Technique::Tl | Technique::Bl => 200_000,
                 Technique::TlMis | Technique::BlMis | Technique::TlMisPinf => 100_000,
                 Technique::TlSplit => 40_000,
                 Technique::MisEqual | Technique::Full => 12_000,

@@ -17,7 +17,7 @@ const W: usize = 12;
 const H: usize = 8;
 const NAMES: [&str; 10] = [
     "uniform",
-    "power",
+    "energy",
     "tl",
     "tl-split",
     "bl",

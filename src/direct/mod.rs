@@ -64,7 +64,7 @@
 //! # Techniques
 //!
 //! - `uniform`, `power`: one light uniformly or ∝ energy ([`UniformSampler`],
-//!   [`PowerSampler`]: an alias table), a point on it.
+//!   [`EnergySampler`]: an alias table), a point on it.
 //! - `tl`: one light by tree descent with the Conty–Kulla importance ([`TreeSampler`]).
 //! - `tl-split`: Conty & Kulla's split sampling: one light in each cluster of the split cut
 //!   ([`LightCut::build_split`](crate::LightCut::build_split)), summed.
@@ -171,7 +171,7 @@ mod sampler;
 
 pub use estimator::{BsdfDraw, Estimator, LightDraw, LightHit, Step, Weighted};
 pub use sampler::{
-    CutSampler, LightSampler, PinfSampler, PowerSampler, TreeSampler, UniformSampler,
+    CutSampler, EnergySampler, LightSampler, PinfSampler, TreeSampler, UniformSampler,
 };
 
 pub use crate::error::DirectError;
@@ -187,8 +187,8 @@ use glam::Vec3;
 pub enum Technique {
     /// One light uniformly.
     Uniform,
-    /// One light ∝ energy.
-    Power,
+    /// One light ∝ energy (its flux; for a light at infinity, its power over the scene).
+    Energy,
     /// Tree descent with TL importance, one sample.
     Tl,
     /// Split sampling, one sample per cluster.
@@ -215,7 +215,7 @@ impl Technique {
     /// Every technique.
     pub const ALL: [Technique; 10] = [
         Technique::Uniform,
-        Technique::Power,
+        Technique::Energy,
         Technique::Tl,
         Technique::TlSplit,
         Technique::Bl,
@@ -242,7 +242,7 @@ impl Technique {
     pub fn name(self) -> &'static str {
         match self {
             Technique::Uniform => "uniform",
-            Technique::Power => "power",
+            Technique::Energy => "energy",
             Technique::Tl => "tl",
             Technique::TlSplit => "tl-split",
             Technique::Bl => "bl",

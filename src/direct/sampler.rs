@@ -367,15 +367,17 @@ impl LightSampler for UniformSampler {
 /// Every light with probability ∝ its energy, through the light set's alias table: O(1) per
 /// sample (pbrt-v4's `PowerLightSampler`). The same at every shading point.
 #[derive(Clone, Copy, Debug)]
-pub struct PowerSampler<'a> {
+pub struct EnergySampler<'a> {
     table: &'a AliasTable,
 }
 
-impl<'a> PowerSampler<'a> {
+impl<'a> EnergySampler<'a> {
     /// The sampler of a light set.
     #[must_use]
-    pub fn new(set: &'a LightSet) -> PowerSampler<'a> {
-        PowerSampler { table: set.power() }
+    pub fn new(set: &'a LightSet) -> EnergySampler<'a> {
+        EnergySampler {
+            table: set.energies(),
+        }
     }
 
     /// A light for the uniform number `u` in [0, 1) with 53 bits; clamped, NaN counts as 0.
@@ -388,7 +390,7 @@ impl<'a> PowerSampler<'a> {
     }
 }
 
-impl LightSampler for PowerSampler<'_> {
+impl LightSampler for EnergySampler<'_> {
     #[inline]
     fn sample(&self, u: f32) -> Option<LightSample> {
         self.sample_f64(f64::from(u))

@@ -189,12 +189,11 @@ impl GradientSky {
         let y_low = self.ground.luminance();
         let axes = [Vec3::X, -Vec3::X, Vec3::Y, -Vec3::Y, Vec3::Z, -Vec3::Z];
         let up = math::normalize(self.up);
-        let irradiance = axes.map(|a| {
+        axes.map(|a| {
             let c = a.dot(up).clamp(-1.0, 1.0);
             let e = y_up * PI * (1.0 + c) * 0.5 + y_low * PI * (1.0 - c) * 0.5;
             e * (1.0 + 1e-5)
-        });
-        irradiance
+        })
     }
 
     /// The radiance along `-d` for a unit `d`.

@@ -267,7 +267,7 @@ impl<'a> Estimator<'a> {
     ) -> Result<Option<Step>, DirectError> {
         self.run.phase = Phase::Done;
         match self.technique {
-            Technique::Uniform | Technique::Power | Technique::Tl | Technique::Bl => {
+            Technique::Uniform | Technique::Energy | Technique::Tl | Technique::Bl => {
                 self.single_sample(u)
             }
             Technique::TlMis | Technique::BlMis | Technique::TlMisPinf => {

@@ -2,7 +2,7 @@
 //! weigh it alone (weight 1, density pmf · point pdf).
 
 use super::{next1, next2, next64, Estimator, Role, Step};
-use crate::direct::sampler::{LightSampler, PowerSampler, UniformSampler};
+use crate::direct::sampler::{EnergySampler, LightSampler, UniformSampler};
 use crate::direct::{DirectError, Technique, Uniforms};
 
 impl Estimator<'_> {
@@ -17,9 +17,9 @@ impl Estimator<'_> {
                 let v = next64(u)?;
                 UniformSampler::new(self.set.len() as u32).sample_f64(v)
             }
-            Technique::Power => {
+            Technique::Energy => {
                 let v = next64(u)?;
-                PowerSampler::new(self.set).sample_f64(v)
+                EnergySampler::new(self.set).sample_f64(v)
             }
             Technique::Tl => self.tl.sample(next1(u)?),
             Technique::Bl => {
