@@ -114,9 +114,9 @@ int main(int argc, char **argv) {
     ml_light *lights = make_lights(&n_lights);
     ml_tree *tree = NULL;
     ml_estimator *est = NULL;
-    ml_visibility vis = {occluded, NULL, NULL};
+    ml_visibility vis = {.occluded = occluded, .first_hit = NULL, .user_data = NULL};
     lcg g = {2024};
-    ml_uniforms uniforms = {next_f32, next_f64, &g};
+    ml_uniforms uniforms = {.next_f32 = next_f32, .next_f64 = next_f64, .user_data = &g};
     unsigned char *image;
     FILE *f;
     int x, y, k, ok = 1;
@@ -127,7 +127,7 @@ int main(int argc, char **argv) {
         return 2;
     }
     image = (unsigned char *)malloc((size_t)width * (size_t)height * 3);
-    if (!check(ml_tree_build(lights, n_lights, NULL, &tree), "ml_tree_build") ||
+    if (!check(ml_tree_build(lights, n_lights, NULL, NULL, &tree), "ml_tree_build") ||
         !check(ml_estimator_create(tree, &est), "ml_estimator_create")) {
         return 1;
     }

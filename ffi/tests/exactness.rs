@@ -25,11 +25,14 @@ unsafe extern "C" fn next_f64(user: *mut c_void) -> f64 {
     (*(user as *mut Rng)).f64()
 }
 
+#[allow(clippy::needless_update)]
 fn uniforms(r: &mut Rng) -> ml_uniforms {
     ml_uniforms {
         next_f32: Some(next_f32),
         next_f64: Some(next_f64),
         user_data: r as *mut Rng as *mut c_void,
+        // SAFETY: any further field is a number, for which zero bytes are valid.
+        ..unsafe { std::mem::zeroed() }
     }
 }
 
@@ -208,7 +211,13 @@ fn the_lower_level_with_the_librarys_brdf_is_the_one_call_up_to_the_hosts_roundi
     let mut r = Rng(2027);
     let ls = lights(&mut r);
     let mut tree = ptr::null_mut();
-    ok(ml_tree_build(ls.as_ptr(), ls.len(), ptr::null(), &mut tree));
+    ok(ml_tree_build(
+        ls.as_ptr(),
+        ls.len(),
+        ptr::null(),
+        ptr::null(),
+        &mut tree,
+    ));
     let mut est = ptr::null_mut();
     ok(ml_estimator_create(tree, &mut est));
     let mut worst = 0.0f64;

@@ -65,6 +65,7 @@ static double cb_f64(void *user) { return rng_f64((rng *)user); }
 
 static ml_uniforms uniforms_of(rng *r) {
     ml_uniforms u;
+    memset(&u, 0, sizeof u);
     u.next_f32 = cb_f32;
     u.next_f64 = cb_f64;
     u.user_data = r;
@@ -179,7 +180,7 @@ static ml_shading_point make_sp(rng *r) {
 
 static ml_tree *build_tree(const ml_light *lights, size_t n) {
     ml_tree *tree = NULL;
-    OK(ml_tree_build(lights, n, NULL, &tree));
+    OK(ml_tree_build(lights, n, NULL, NULL, &tree));
     return tree;
 }
 
@@ -482,7 +483,7 @@ static void scenario_cache(const ml_tree *tree, const ml_light *lights, size_t n
     OK(ml_tree_serialized_size(tree, &size));
     buf = (uint8_t *)malloc(size);
     OK(ml_tree_serialize(tree, buf, size, &written));
-    OK(ml_tree_load_with_lights(buf, size, lights, n, &loaded));
+    OK(ml_tree_load_with_lights(buf, size, lights, n, NULL, &loaded));
     if (loaded != NULL) {
         OK(ml_tree_stats(loaded, &st));
         CHECK(st.lights == n && st.has_lights == 1);
@@ -516,18 +517,18 @@ static void scenario_cache(const ml_tree *tree, const ml_light *lights, size_t n
     /* The wrong lights: the first mismatch is named. */
     memcpy(wrong, lights, n * sizeof(ml_light));
     wrong[123].position.z += 1000;
-    CHECK(ml_tree_load_with_lights(buf, size, wrong, n, &bad) == ML_ERR_FORMAT && bad == NULL);
+    CHECK(ml_tree_load_with_lights(buf, size, wrong, n, NULL, &bad) == ML_ERR_FORMAT && bad == NULL);
     CHECK(message_has("lights[123] lies outside its slot's bounds"));
     wrong[123] = lights[123];
-    CHECK(ml_tree_load_with_lights(buf, size, lights, n - 1, &bad) == ML_ERR_FORMAT);
+    CHECK(ml_tree_load_with_lights(buf, size, lights, n - 1, NULL, &bad) == ML_ERR_FORMAT);
     CHECK(message_has("count is 9999, the tree was built from 10000 lights"));
     wrong[100].position.x = nextafterf(wrong[100].position.x, (float)INFINITY);
-    CHECK(ml_tree_load_with_lights(buf, size, wrong, n, &bad) == ML_ERR_FORMAT);
+    CHECK(ml_tree_load_with_lights(buf, size, wrong, n, NULL, &bad) == ML_ERR_FORMAT);
     CHECK(message_has("lights[100]") || message_has("lights[64..128] differ"));
     wrong[100] = lights[100];
     wrong[0] = lights[n - 1];
     wrong[n - 1] = lights[0];
-    CHECK(ml_tree_load_with_lights(buf, size, wrong, n, &bad) == ML_ERR_FORMAT);
+    CHECK(ml_tree_load_with_lights(buf, size, wrong, n, NULL, &bad) == ML_ERR_FORMAT);
     CHECK(message_has("lights[0"));
     CHECK(bad == NULL);
     /* Corrupt bytes never load: 0xFF into every 97th byte, one at a time, then random flips,
@@ -550,7 +551,7 @@ static void scenario_cache(const ml_tree *tree, const ml_light *lights, size_t n
         buf[at] ^= x;
         if (ml_tree_load(buf, size, &bad) == ML_ERR_FORMAT && bad == NULL) rejected++;
         if (k % 100 == 1) {
-            CHECK(ml_tree_load_with_lights(buf, size, lights, n, &bad) == ML_ERR_FORMAT);
+            CHECK(ml_tree_load_with_lights(buf, size, lights, n, NULL, &bad) == ML_ERR_FORMAT);
             CHECK(message_has("bytes: tree bytes are corrupt"));
         }
         buf[at] = old;
@@ -1011,32 +1012,68 @@ static void scenario_wavefront(void) {
 /* The host's uniform environment of radiance SKY_L, sampled uniformly over the sphere. */
 static const float SKY_L[3] = {0.2f, 0.3f, 0.45f};
 
+/* The environment's user data: its calls, and the radiance its callbacks give (SKY_L, or a
+ * bad value for the checks of bad values). */
+typedef struct sky_host {
+    long calls;
+    ml_rgb sample_radiance;
+    ml_rgb eval_radiance;
+} sky_host;
+
+static void sky_host_init(sky_host *h) {
+    h->calls = 0;
+    h->sample_radiance = rgb(SKY_L[0], SKY_L[1], SKY_L[2]);
+    h->eval_radiance = h->sample_radiance;
+}
+
+static ml_vec3 sky_direction(float u0, float u1) {
+    float z = 1 - 2 * u0, r = sqrtf(1 - z * z > 0 ? 1 - z * z : 0), phi = 2 * (float)ML_PI * u1;
+    return v3(r * cosf(phi), r * sinf(phi), z);
+}
+
 static int32_t sky_sample(void *user, float u0, float u1, ml_vec3 *d, ml_rgb *radiance,
                           float *pdf) {
-    float z = 1 - 2 * u0, r = sqrtf(1 - z * z > 0 ? 1 - z * z : 0), phi = 2 * (float)ML_PI * u1;
-    ++*(long *)user;
-    *d = v3(r * cosf(phi), r * sinf(phi), z);
-    *radiance = rgb(SKY_L[0], SKY_L[1], SKY_L[2]);
+    sky_host *h = (sky_host *)user;
+    ++h->calls;
+    *d = sky_direction(u0, u1);
+    *radiance = h->sample_radiance;
     *pdf = 1 / (4 * (float)ML_PI);
     return 1;
 }
 
 static void sky_eval(void *user, ml_vec3 d, ml_rgb *radiance, float *pdf) {
-    (void)user;
+    sky_host *h = (sky_host *)user;
     (void)d;
-    *radiance = rgb(SKY_L[0], SKY_L[1], SKY_L[2]);
+    ++h->calls;
+    *radiance = h->eval_radiance;
     *pdf = 1 / (4 * (float)ML_PI);
 }
 
-#define INFINITE_LIGHTS (DIRECT_LIGHTS + 2)
-#define SKY_INDEX (DIRECT_LIGHTS + 1)
+/* The environment of the host `h`, with bounds π Y(L) (a hair above). */
+static ml_environment sky_environment(sky_host *h) {
+    ml_environment env;
+    double y = ML_PI * (0.2126 * SKY_L[0] + 0.7152 * SKY_L[1] + 0.0722 * SKY_L[2]) * 1.0001;
+    int c;
+    memset(&env, 0, sizeof env);
+    env.sample = sky_sample;
+    env.eval = sky_eval;
+    env.user_data = h;
+    for (c = 0; c < 6; c++) env.irradiance_bounds[c] = (float)y;
+    return env;
+}
 
-/* direct_scene's lights, a sun of irradiance E (its cap entirely above the horizon, at θ from
- * the normal: it reflects ρ/π · E cos θ) and the uniform sky (it reflects ρ L). */
+/* The lights of a tree with the sun; the environment given at the build is light
+ * INFINITE_LIGHTS, one past them. */
+#define INFINITE_LIGHTS (DIRECT_LIGHTS + 1)
+#define SKY_INDEX INFINITE_LIGHTS
+
+/* direct_scene's lights and a sun of irradiance E (its cap entirely above the horizon, at θ
+ * from the normal: it reflects ρ/π · E cos θ); with the uniform sky (given at the build) the
+ * point reflects ρ L more. */
 static void infinite_scene(ml_light *ls, float rho, double exact[3]) {
-    ml_light sun, sky;
+    ml_light sun;
     const float e[3] = {1.5f, 1.1f, 0.7f};
-    double len, cos_t, y;
+    double len, cos_t;
     int c;
     direct_scene(ls, rho, exact);
     memset(&sun, 0, sizeof sun);
@@ -1047,31 +1084,28 @@ static void infinite_scene(ml_light *ls, float rho, double exact[3]) {
     len = sqrt(0.16 + 0.09 + 1.0);
     cos_t = 1.0 / len;
     for (c = 0; c < 3; c++) exact[c] += rho / ML_PI * e[c] * cos_t + rho * SKY_L[c];
-    memset(&sky, 0, sizeof sky);
-    sky.kind = ML_LIGHT_KIND_ENVIRONMENT;
-    y = ML_PI * (0.2126 * SKY_L[0] + 0.7152 * SKY_L[1] + 0.0722 * SKY_L[2]) * 1.0001;
-    for (c = 0; c < 6; c++) sky.irradiance_bounds[c] = (float)y;
     ls[DIRECT_LIGHTS] = sun;
-    ls[SKY_INDEX] = sky;
 }
 
-/* The sky's hits are shaded with the host's radiance. */
+/* The radiance is SKY_L, bit for bit. */
+static int is_sky(ml_rgb l) { return l.r == SKY_L[0] && l.g == SKY_L[1] && l.b == SKY_L[2]; }
+
+/* The sky's hits carry its radiance (from eval) and pdf, at infinity. */
 static void on_hit_sky(void *user, const ml_light_hit *hit) {
     host_hit *h = (host_hit *)user;
-    ml_rgb l = hit->point.radiance;
     if (hit->light == SKY_INDEX) {
-        CHECK(l.r == 0 && l.g == 0 && l.b == 0);
-        l = rgb(SKY_L[0], SKY_L[1], SKY_L[2]);
+        CHECK(is_sky(hit->point.radiance) && hit->point.distance == (float)INFINITY &&
+              hit->point.pdf == 1 / (4 * (float)ML_PI));
     }
-    add_scaled(&h->sum, l, (double)h->f * h->cos_theta * hit->weighted.scale);
+    add_scaled(&h->sum, hit->point.radiance, (double)h->f * h->cos_theta * hit->weighted.scale);
 }
 
-/* host_estimate with the environment: its steps sampled by the host, escaping rays weighed
- * with its pdf. */
-static ml_rgb64 host_estimate_env(ml_estimator *est, ml_uniforms *u, float rho, long *env_steps) {
+/* host_estimate on a tree with the environment: its samples come as light steps at infinity,
+ * escaping rays reach it. */
+static ml_rgb64 host_estimate_env(ml_estimator *est, ml_uniforms *u, float rho, long *env_steps,
+                                  long *env_hits) {
     ml_rgb64 sum = {0, 0, 0};
     float f = rho / (float)ML_PI;
-    long calls = 0;
     OK(ml_estimator_start(est));
     for (;;) {
         ml_step s;
@@ -1081,19 +1115,14 @@ static ml_rgb64 host_estimate_env(ml_estimator *est, ml_uniforms *u, float rho, 
             break;
         }
         if (s.kind == ML_STEP_KIND_DONE) break;
-        if (s.kind == ML_STEP_KIND_ENVIRONMENT) {
-            ml_vec3 d;
-            ml_rgb l;
-            float pdf;
-            CHECK(s.light == SKY_INDEX && s.pmf > 0 && s.pmf <= 1);
-            ++*env_steps;
-            if (!sky_sample(&calls, s.u0, s.u1, &d, &l, &pdf)) continue;
-            OK(ml_estimator_environment_point(est, d, l, pdf, &s));
-            CHECK(s.kind == ML_STEP_KIND_LIGHT && s.point.distance == (float)INFINITY);
-        }
         if (s.kind == ML_STEP_KIND_LIGHT) {
             float c = s.point.direction.z;
             ml_weighted w;
+            if (s.light == SKY_INDEX) {
+                ++*env_steps;
+                CHECK(s.point.distance == (float)INFINITY && is_sky(s.point.radiance) &&
+                      s.point.pdf == 1 / (4 * (float)ML_PI));
+            }
             if (c <= 0) continue;
             OK(ml_estimator_weigh(est, s.needs_bsdf_pdf ? c / (float)ML_PI : 0, &w));
             CHECK(w.weight >= 0 && w.weight <= 1 && w.scale >= 0);
@@ -1108,9 +1137,11 @@ static ml_rgb64 host_estimate_env(ml_estimator *est, ml_uniforms *u, float rho, 
             h.sum.r = h.sum.g = h.sum.b = 0;
             h.f = f;
             h.cos_theta = z;
-            OK(ml_estimator_bsdf_hits_env(est, wi, z / (float)ML_PI, (float)INFINITY,
-                                          1 / (4 * (float)ML_PI), on_hit_sky, &h, &any));
+            OK(ml_estimator_bsdf_hits(est, wi, z / (float)ML_PI, (float)INFINITY, on_hit_sky, &h,
+                                      &any));
+            /* An escaping ray always reaches the environment. */
             CHECK(any == 1);
+            ++*env_hits;
             sum.r += h.sum.r;
             sum.g += h.sum.g;
             sum.b += h.sum.b;
@@ -1119,27 +1150,31 @@ static ml_rgb64 host_estimate_env(ml_estimator *est, ml_uniforms *u, float rho, 
     return sum;
 }
 
-/* The lights of direct_scene with a sun and a host sky, in colour: every technique through
- * the one call with the host's environment and through the step loop, against the closed
- * form. */
+/* The lights of direct_scene with a sun and a host sky given at the build, in colour: every
+ * technique through the one call and through the step loop, against the closed form. */
 static void scenario_infinite(void) {
     ml_light ls[INFINITE_LIGHTS];
     const float rho = 0.7f;
     double exact[3];
-    ml_tree *tree;
+    ml_tree *tree = NULL;
     ml_shading_point sp = direct_point(rho);
     ml_estimator *est = NULL;
     ml_environment env;
+    sky_host host;
     uint32_t t;
-    long calls = 0, env_steps = 0;
+    long env_steps = 0, env_hits = 0;
     rng r;
     ml_uniforms u = uniforms_of(&r);
+    ml_tree_statistics st;
     infinite_scene(ls, rho, exact);
-    tree = build_tree(ls, INFINITE_LIGHTS);
+    sky_host_init(&host);
+    env = sky_environment(&host);
+    OK(ml_tree_build(ls, INFINITE_LIGHTS, &env, NULL, &tree));
+    /* The tree copied the struct: the caller's copy may go. */
+    memset(&env, 0, sizeof env);
+    OK(ml_tree_stats(tree, &st));
+    CHECK(st.lights == INFINITE_LIGHTS + 1);
     r.s = 8080;
-    env.sample = sky_sample;
-    env.eval = sky_eval;
-    env.user_data = &calls;
     OK(ml_estimator_create(tree, &est));
     for (t = 0; t < N_TECHNIQUES; t++) {
         running3 s, s2;
@@ -1150,110 +1185,240 @@ static void scenario_infinite(void) {
         OK(ml_estimator_set_point(est, &sp, t, NULL));
         for (k = 0; k < n; k++) {
             ml_rgb64 e = {-1, -1, -1};
-            OK(ml_estimator_estimate_env(est, NULL, &env, &u, &e));
+            OK(ml_estimator_estimate(est, NULL, &u, &e));
             CHECK(estimate_ok(e));
             running3_add(&s, e);
-            running3_add(&s2, host_estimate_env(est, &u, rho, &env_steps));
+            running3_add(&s2, host_estimate_env(est, &u, rho, &env_steps, &env_hits));
         }
         running3_check(&s, exact, technique_names[t], __LINE__);
         running3_check(&s2, exact, technique_names[t], __LINE__);
         {
             ml_rgb64 e = {-1, -1, -1};
-            OK(ml_direct_estimate_env(tree, &sp, t, NULL, NULL, &env, &u, &e));
+            OK(ml_direct_estimate(tree, &sp, t, NULL, NULL, &u, &e));
             CHECK(estimate_ok(e));
         }
     }
-    CHECK(calls > 0 && env_steps > 0);
+    CHECK(host.calls > 0 && env_steps > 0 && env_hits > 0);
+    /* The tree may go first: the estimator keeps the environment. */
+    OK(ml_tree_free(tree));
+    {
+        ml_rgb64 e = {-1, -1, -1};
+        long before = host.calls;
+        OK(ml_estimator_set_point(est, &sp, ML_TECHNIQUE_TL_MIS, NULL));
+        OK(ml_estimator_estimate(est, NULL, &u, &e));
+        CHECK(estimate_ok(e) && host.calls > before);
+    }
     OK(ml_estimator_free(est));
+}
+
+/* The environment's points through ml_light_sample_point (light `count`): its sample at
+ * infinity, its pdf from eval; the batch equal to the single calls. */
+static void scenario_environment_points(void) {
+    ml_light ls[INFINITE_LIGHTS];
+    double exact[3];
+    ml_tree *tree = NULL;
+    ml_environment env;
+    sky_host host;
+    rng r;
+    int i;
+    uint32_t which[64];
+    ml_vec3 xs[64];
+    float u0s[64], u1s[64];
+    ml_light_point pts[64];
+    infinite_scene(ls, 0.5f, exact);
+    sky_host_init(&host);
+    env = sky_environment(&host);
+    OK(ml_tree_build(ls, INFINITE_LIGHTS, &env, NULL, &tree));
+    r.s = 5150;
+    for (i = 0; i < 64; i++) {
+        ml_light_point p;
+        ml_vec3 x = v3(rng_range(&r, -2, 2), rng_range(&r, -2, 2), 0), d;
+        float u0 = rng_f32(&r), u1 = rng_f32(&r), q = -1;
+        memset(&p, 0, sizeof p);
+        OK(ml_light_sample_point(tree, SKY_INDEX, x, u0, u1, &p));
+        d = sky_direction(u0, u1);
+        CHECK(p.pdf > 0 && p.pdf == 1 / (4 * (float)ML_PI));
+        CHECK(p.distance == (float)INFINITY && is_sky(p.radiance));
+        /* position = direction, the host's direction (unit up to its rounding). */
+        CHECK(fabs(p.position.x - d.x) < 1e-5 && fabs(p.position.y - d.y) < 1e-5 &&
+              fabs(p.position.z - d.z) < 1e-5);
+        CHECK(p.position.x == p.direction.x && p.position.y == p.direction.y &&
+              p.position.z == p.direction.z);
+        OK(ml_light_pdf_point(tree, SKY_INDEX, x, p.position, &q));
+        CHECK(q == 1 / (4 * (float)ML_PI));
+        which[i] = (uint32_t)(i % 3 == 0 ? SKY_INDEX : rng_next(&r) % (INFINITE_LIGHTS + 1));
+        xs[i] = x;
+        u0s[i] = u0;
+        u1s[i] = u1;
+    }
+    OK(ml_light_sample_point_batch(tree, which, xs, u0s, u1s, 64, pts));
+    for (i = 0; i < 64; i++) {
+        ml_light_point p;
+        OK(ml_light_sample_point(tree, which[i], xs[i], u0s[i], u1s[i], &p));
+        CHECK(memcmp(&p, &pts[i], sizeof p) == 0);
+    }
+    {
+        ml_light_point p;
+        BAD_VALUE(ml_light_sample_point,
+                  ml_light_sample_point(tree, SKY_INDEX + 1, v3(0, 0, 0), 0.5f, 0.5f, &p),
+                  ML_ERR_INVALID_ARGUMENT, "light");
+    }
     OK(ml_tree_free(tree));
 }
 
-/* Bad input to the calls of the environment. */
-static void bad_input_infinite(void) {
-    ml_light ls[INFINITE_LIGHTS];
+/* The wavefront batch on a tree with only a uniform environment of radiance L over a Lambert
+ * plane of albedo ρ (the whole upper hemisphere unoccluded): every technique's mean is ρ·L
+ * within 5 standard errors of the sample mean. */
+#define ENV_POINTS 40
+#define ENV_PER_POINT 50
+
+static void scenario_environment_batch(void) {
+    const float rho = 0.6f;
     double exact[3];
-    ml_tree *tree;
-    ml_shading_point sp = direct_point(0.5f);
-    ml_estimator *est = NULL;
-    ml_environment env, noeval;
-    ml_rgb64 e = {0, 0, 0};
-    ml_step step;
-    uint32_t any;
-    long calls = 0;
-    int i, env_step = 0, bsdf_step = 0;
+    ml_tree *tree = NULL;
+    ml_environment env;
+    sky_host host;
+    ml_shading_point sps[ENV_POINTS];
+    static ml_rgb64 out[ENV_POINTS * ENV_PER_POINT];
     rng r;
     ml_uniforms u = uniforms_of(&r);
+    uint32_t t;
+    int i, c;
+    sky_host_init(&host);
+    env = sky_environment(&host);
+    OK(ml_tree_build(NULL, 0, &env, NULL, &tree));
+    for (c = 0; c < 3; c++) exact[c] = rho * SKY_L[c];
+    r.s = 6060;
+    for (i = 0; i < ENV_POINTS; i++) {
+        sps[i] = direct_point(rho);
+        sps[i].position = v3(rng_range(&r, -5, 5), rng_range(&r, -5, 5), 0);
+        sps[i].wo = v3(rng_range(&r, -1, 1), rng_range(&r, -1, 1), 1);
+    }
+    for (t = 0; t < N_TECHNIQUES; t++) {
+        running3 s;
+        char what[64];
+        memset(&s, 0, sizeof s);
+        OK(ml_direct_estimate_batch(tree, sps, ENV_POINTS, ENV_PER_POINT, t, NULL, NULL, &u, out));
+        for (i = 0; i < ENV_POINTS * ENV_PER_POINT; i++) {
+            CHECK(estimate_ok(out[i]));
+            running3_add(&s, out[i]);
+        }
+        snprintf(what, sizeof what, "batch on an environment, %s", technique_names[t]);
+        running3_check(&s, exact, what, __LINE__);
+    }
+    OK(ml_tree_free(tree));
+}
+
+/* Bad input to the calls of the environment, and bad values from its callbacks. */
+static void bad_input_infinite(void) {
+    ml_light ls[INFINITE_LIGHTS], seven[4];
+    double exact[3];
+    ml_tree *tree = NULL, *t2 = NULL;
+    ml_shading_point sp = direct_point(0.5f);
+    ml_estimator *est = NULL;
+    ml_environment env, bad;
+    sky_host host;
+    ml_rgb64 e = {0, 0, 0};
+    ml_rgb64 batch[4];
+    unsigned char *bytes;
+    size_t sz = 0, written = 0;
+    int i, k;
+    rng r;
+    ml_uniforms u = uniforms_of(&r);
+    const float bad_values[3] = {(float)NAN, -1.0f, (float)INFINITY};
     r.s = 99;
     infinite_scene(ls, 0.5f, exact);
-    tree = build_tree(ls, INFINITE_LIGHTS);
-    env.sample = sky_sample;
-    env.eval = sky_eval;
-    env.user_data = &calls;
-    noeval = env;
-    noeval.eval = NULL;
-    BAD_VALUE(ml_direct_estimate, ml_direct_estimate(tree, &sp, 0, NULL, NULL, &u, &e), ML_ERR_STATE,
-              "environment");
-    BAD_NULL(ml_direct_estimate_env, ml_direct_estimate_env(tree, &sp, 0, NULL, NULL, NULL, &u, &e),
-             "`environment` is NULL");
-    BAD_NULL(ml_direct_estimate_env, ml_direct_estimate_env(tree, &sp, 0, NULL, NULL, &noeval, &u, &e),
+    sky_host_init(&host);
+    env = sky_environment(&host);
+    /* The environment's callbacks and bounds at the build. */
+    bad = env;
+    bad.sample = NULL;
+    BAD_NULL(ml_tree_build, ml_tree_build(ls, INFINITE_LIGHTS, &bad, NULL, &t2),
+             "environment->sample");
+    CHECK(t2 == NULL);
+    bad = env;
+    bad.eval = NULL;
+    BAD_NULL(ml_tree_build_parallel, ml_tree_build_parallel(ls, INFINITE_LIGHTS, &bad, NULL, 2, &t2),
              "environment->eval");
-    BAD_VALUE(ml_direct_estimate_env, ml_direct_estimate_env(tree, &sp, 10, NULL, NULL, &env, &u, &e),
-              ML_ERR_INVALID_ARGUMENT, "technique: 10 is not an ml_technique");
+    CHECK(t2 == NULL);
+    bad = env;
+    bad.irradiance_bounds[3] = -1;
+    BAD_VALUE(ml_tree_build, ml_tree_build(ls, INFINITE_LIGHTS, &bad, NULL, &t2),
+              ML_ERR_INVALID_ARGUMENT, "environment->irradiance_bounds");
+    bad.irradiance_bounds[3] = (float)NAN;
+    BAD_VALUE(ml_tree_build, ml_tree_build(ls, INFINITE_LIGHTS, &bad, NULL, &t2),
+              ML_ERR_INVALID_ARGUMENT, "environment->irradiance_bounds");
+    bad.irradiance_bounds[3] = 1e30f;
+    BAD_VALUE(ml_tree_build_parallel,
+              ml_tree_build_parallel(ls, INFINITE_LIGHTS, &bad, NULL, 2, &t2),
+              ML_ERR_INVALID_ARGUMENT, "environment->irradiance_bounds");
+    CHECK(t2 == NULL);
+    /* Kind 7, the former environment light, is no light kind. */
+    memcpy(seven, ls, sizeof seven);
+    seven[3].kind = 7;
+    BAD_VALUE(ml_tree_build, ml_tree_build(seven, 4, NULL, NULL, &t2), ML_ERR_INVALID_ARGUMENT,
+              "lights[3].kind");
+    BAD_VALUE(ml_tree_build, ml_tree_build(seven, 4, &env, NULL, &t2), ML_ERR_INVALID_ARGUMENT,
+              "lights[3].kind");
+    CHECK(t2 == NULL);
+    /* A tree with an environment, cached and loaded with its lights and environment. */
+    OK(ml_tree_build(ls, INFINITE_LIGHTS, &env, NULL, &tree));
+    OK(ml_tree_serialized_size(tree, &sz));
+    bytes = (unsigned char *)malloc(sz);
+    OK(ml_tree_serialize(tree, bytes, sz, &written));
+    bad = env;
+    bad.eval = NULL;
+    BAD_NULL(ml_tree_load_with_lights,
+             ml_tree_load_with_lights(bytes, sz, ls, INFINITE_LIGHTS, &bad, &t2),
+             "environment->eval");
+    CHECK(t2 == NULL);
+    OK(ml_tree_load_with_lights(bytes, sz, ls, INFINITE_LIGHTS, &env, &t2));
+    {
+        ml_light_point a, b;
+        OK(ml_light_sample_point(tree, SKY_INDEX, v3(0, 0, 0), 0.3f, 0.6f, &a));
+        OK(ml_light_sample_point(t2, SKY_INDEX, v3(0, 0, 0), 0.3f, 0.6f, &b));
+        CHECK(memcmp(&a, &b, sizeof a) == 0 && a.pdf > 0);
+    }
+    OK(ml_tree_free(t2));
+    t2 = NULL;
+    free(bytes);
+    /* Bad values from the callbacks: an environment whose eval returns a NaN, negative or
+     * infinite radiance makes the estimates whose BSDF ray escapes (tl-mis at an unoccluded
+     * point: every BSDF ray escapes) ML_ERR_INVALID_ARGUMENT, naming the environment. */
     OK(ml_estimator_create(tree, &est));
-    BAD_VALUE(ml_estimator_estimate_env, ml_estimator_estimate_env(est, NULL, &env, &u, &e),
-              ML_ERR_STATE, "est: not set up");
-    OK(ml_estimator_set_point(est, &sp, ML_TECHNIQUE_BL_MIS, NULL));
-    BAD_NULL(ml_estimator_estimate_env, ml_estimator_estimate_env(est, NULL, NULL, &u, &e),
-             "`environment` is NULL");
-    BAD_VALUE(ml_estimator_estimate, ml_estimator_estimate(est, NULL, &u, &e), ML_ERR_STATE,
-              "environment");
-    OK(ml_estimator_start(est));
-    BAD_NULL(ml_estimator_environment_point,
-             ml_estimator_environment_point(est, v3(0, 0, 1), rgb(1, 1, 1), 1, NULL), "`out` is NULL");
-    BAD_VALUE(ml_estimator_environment_point,
-              ml_estimator_environment_point(est, v3(0, 0, 1), rgb(1, 1, 1), 1, &step), ML_ERR_STATE,
-              "no environment step");
-    BAD_NULL(ml_estimator_bsdf_hits_env,
-             ml_estimator_bsdf_hits_env(est, v3(0, 0, 1), 1, (float)INFINITY, 0, NULL, NULL, &any),
-             "`each` is NULL");
-    /* Walk bl-mis until both an environment step and a BSDF step were given bad values. */
-    for (i = 0; i < 4000 && !(env_step && bsdf_step); i++) {
-        OK(ml_estimator_next(est, &u, &step));
-        if (step.kind == ML_STEP_KIND_DONE) {
-            OK(ml_estimator_start(est));
-        } else if (step.kind == ML_STEP_KIND_ENVIRONMENT && !env_step) {
-            env_step = 1;
-            BAD_VALUE(ml_estimator_environment_point,
-                      ml_estimator_environment_point(est, v3(0, 0, 1), rgb(1, 1, 1), -1, &step),
-                      ML_ERR_INVALID_ARGUMENT, "environment pdf");
-            BAD_VALUE(ml_estimator_environment_point,
-                      ml_estimator_environment_point(est, v3(0, 0, 0), rgb(1, 1, 1), 1, &step),
-                      ML_ERR_INVALID_ARGUMENT, "direction");
-            BAD_VALUE(ml_estimator_environment_point,
-                      ml_estimator_environment_point(est, v3(0, 0, 1), rgb(1, (float)NAN, 1), 1, &step),
-                      ML_ERR_INVALID_ARGUMENT, "environment radiance");
-        } else if (step.kind == ML_STEP_KIND_BSDF && !bsdf_step) {
-            host_hit h;
-            memset(&h, 0, sizeof h);
-            bsdf_step = 1;
-            BAD_VALUE(ml_estimator_bsdf_hits,
-                      ml_estimator_bsdf_hits(est, v3(0, 0, 1), 1, (float)INFINITY, on_hit_sky, &h, &any),
-                      ML_ERR_STATE, "environment");
-            BAD_VALUE(ml_estimator_bsdf_hits_env,
-                      ml_estimator_bsdf_hits_env(est, v3(0, 0, 1), 1, (float)INFINITY, (float)NAN,
-                                                 on_hit_sky, &h, &any),
-                      ML_ERR_INVALID_ARGUMENT, "environment pdf");
+    OK(ml_estimator_set_point(est, &sp, ML_TECHNIQUE_TL_MIS, NULL));
+    for (i = 0; i < 3; i++) {
+        sky_host_init(&host);
+        host.eval_radiance = rgb(0.2f, bad_values[i], 0.4f);
+        for (k = 0; k < 20; k++) {
+            BAD_VALUE(ml_direct_estimate,
+                      ml_direct_estimate(tree, &sp, ML_TECHNIQUE_TL_MIS, NULL, NULL, &u, &e),
+                      ML_ERR_INVALID_ARGUMENT, "environment");
+            BAD_VALUE(ml_estimator_estimate, ml_estimator_estimate(est, NULL, &u, &e),
+                      ML_ERR_INVALID_ARGUMENT, "environment");
+        }
+        BAD_VALUE(ml_direct_estimate_batch,
+                  ml_direct_estimate_batch(tree, &sp, 1, 4, ML_TECHNIQUE_TL_MIS, NULL, NULL, &u,
+                                           batch),
+                  ML_ERR_INVALID_ARGUMENT, "environment");
+        /* And from sample: a point on the environment is refused. */
+        host.sample_radiance = host.eval_radiance;
+        {
+            ml_light_point p;
+            BAD_VALUE(ml_light_sample_point,
+                      ml_light_sample_point(tree, SKY_INDEX, v3(0, 0, 0), 0.5f, 0.5f, &p),
+                      ML_ERR_INVALID_ARGUMENT, "environment");
+        }
+        {
+            float q;
+            BAD_VALUE(ml_light_pdf_point,
+                      ml_light_pdf_point(tree, SKY_INDEX, v3(0, 0, 0), v3(0, 0, 1), &q),
+                      ML_ERR_INVALID_ARGUMENT, "environment");
         }
     }
-    CHECK(env_step && bsdf_step);
-    /* A second environment light is refused, naming it. */
-    ls[DIRECT_LIGHTS] = ls[SKY_INDEX];
-    {
-        ml_tree *t2 = NULL;
-        BAD_VALUE(ml_tree_build, ml_tree_build(ls, INFINITE_LIGHTS, NULL, &t2), ML_ERR_INVALID_ARGUMENT,
-                  "lights[51]");
-        CHECK(t2 == NULL);
-    }
+    sky_host_init(&host);
+    OK(ml_estimator_estimate(est, NULL, &u, &e));
+    CHECK(estimate_ok(e));
     OK(ml_estimator_free(est));
     OK(ml_tree_free(tree));
 }
@@ -1398,9 +1563,9 @@ static void scenario_parallel_build(void) {
     ml_tree *serial = NULL, *two = NULL, *all = NULL;
     size_t ns = 0, n2 = 0, na = 0;
     uint8_t *bs, *b2, *ba;
-    OK(ml_tree_build(lights, n, NULL, &serial));
-    OK(ml_tree_build_parallel(lights, n, NULL, 2, &two));
-    OK(ml_tree_build_parallel(lights, n, NULL, 0, &all));
+    OK(ml_tree_build(lights, n, NULL, NULL, &serial));
+    OK(ml_tree_build_parallel(lights, n, NULL, NULL, 2, &two));
+    OK(ml_tree_build_parallel(lights, n, NULL, NULL, 0, &all));
     if (serial != NULL && two != NULL && all != NULL) {
         bs = tree_bytes(serial, &ns);
         b2 = tree_bytes(two, &n2);
@@ -1497,58 +1662,58 @@ static void scenario_bad_input(const ml_tree *tree, size_t n) {
         ls[i].radius = 0.1f;
         ls[i].power = grey(1);
     }
-    BAD_NULL(ml_tree_build, ml_tree_build(NULL, 3, NULL, &t), "`lights` is NULL");
-    BAD_NULL(ml_tree_build, ml_tree_build(ls, 4, NULL, NULL), "`out` is NULL");
+    BAD_NULL(ml_tree_build, ml_tree_build(NULL, 3, NULL, NULL, &t), "`lights` is NULL");
+    BAD_NULL(ml_tree_build, ml_tree_build(ls, 4, NULL, NULL, NULL), "`out` is NULL");
     ls[1].position.y = (float)NAN;
-    BAD_VALUE(ml_tree_build, ml_tree_build(ls, 4, NULL, &t), ML_ERR_INVALID_ARGUMENT,
+    BAD_VALUE(ml_tree_build, ml_tree_build(ls, 4, NULL, NULL, &t), ML_ERR_INVALID_ARGUMENT,
               "lights[1].position (the sphere light's centre) is NaN or infinite");
     ls[1].position.y = 0;
     ls[2].power = rgb(1, -1, 1);
-    BAD_VALUE(ml_tree_build, ml_tree_build(ls, 4, NULL, &t), ML_ERR_INVALID_ARGUMENT,
+    BAD_VALUE(ml_tree_build, ml_tree_build(ls, 4, NULL, NULL, &t), ML_ERR_INVALID_ARGUMENT,
               "lights[2].power (the sphere light's radiance) is negative (got -1)");
     ls[2].power = grey(1);
     ls[3].radius = -1;
-    BAD_VALUE(ml_tree_build, ml_tree_build(ls, 4, NULL, &t), ML_ERR_INVALID_ARGUMENT,
+    BAD_VALUE(ml_tree_build, ml_tree_build(ls, 4, NULL, NULL, &t), ML_ERR_INVALID_ARGUMENT,
               "lights[3].radius must be positive (got -1)");
     ls[3].radius = 0.1f;
     ls[0].kind = 9;
-    BAD_VALUE(ml_tree_build, ml_tree_build(ls, 4, NULL, &t), ML_ERR_INVALID_ARGUMENT,
+    BAD_VALUE(ml_tree_build, ml_tree_build(ls, 4, NULL, NULL, &t), ML_ERR_INVALID_ARGUMENT,
               "lights[0].kind: 9 is not an ml_light_kind");
     ls[0].kind = ML_LIGHT_KIND_DISK;
     ls[0].direction = v3(0, 0, -1);
     ls[0].two_sided = 2;
-    BAD_VALUE(ml_tree_build, ml_tree_build(ls, 4, NULL, &t), ML_ERR_INVALID_ARGUMENT,
+    BAD_VALUE(ml_tree_build, ml_tree_build(ls, 4, NULL, NULL, &t), ML_ERR_INVALID_ARGUMENT,
               "lights[0].two_sided must be 0 or 1");
     ls[0].two_sided = 0;
     ls[0].direction = v3(0, 0, 0);
-    BAD_VALUE(ml_tree_build, ml_tree_build(ls, 4, NULL, &t), ML_ERR_INVALID_ARGUMENT,
+    BAD_VALUE(ml_tree_build, ml_tree_build(ls, 4, NULL, NULL, &t), ML_ERR_INVALID_ARGUMENT,
               "lights[0].direction (the disk light's normal) has zero length");
     ls[0].kind = ML_LIGHT_KIND_SPOT;
     ls[0].direction = v3(0, 0, -1);
     ls[0].half_angle = 4;
-    BAD_VALUE(ml_tree_build, ml_tree_build(ls, 4, NULL, &t), ML_ERR_INVALID_ARGUMENT,
+    BAD_VALUE(ml_tree_build, ml_tree_build(ls, 4, NULL, NULL, &t), ML_ERR_INVALID_ARGUMENT,
               "lights[0].half_angle must be in (0, pi] (got 4)");
     ls[0].half_angle = 0.5f;
-    BAD_VALUE(ml_tree_build, ml_tree_build(ls, (size_t)-1, NULL, &t), ML_ERR_INVALID_ARGUMENT,
+    BAD_VALUE(ml_tree_build, ml_tree_build(ls, (size_t)-1, NULL, NULL, &t), ML_ERR_INVALID_ARGUMENT,
               "overflow");
     bo.buckets = 5;
-    BAD_VALUE(ml_tree_build, ml_tree_build(ls, 4, &bo, &t), ML_ERR_INVALID_ARGUMENT,
+    BAD_VALUE(ml_tree_build, ml_tree_build(ls, 4, NULL, &bo, &t), ML_ERR_INVALID_ARGUMENT,
               "options.buckets must be 0 or in [12, 64], ML_MIN_BUCKETS to ML_MAX_BUCKETS (got 5)");
     CHECK(t == NULL); /* no output on failure */
-    BAD_NULL(ml_tree_build_parallel, ml_tree_build_parallel(NULL, 3, NULL, 2, &t),
+    BAD_NULL(ml_tree_build_parallel, ml_tree_build_parallel(NULL, 3, NULL, NULL, 2, &t),
              "`lights` is NULL");
-    BAD_NULL(ml_tree_build_parallel, ml_tree_build_parallel(ls, 4, NULL, 2, NULL),
+    BAD_NULL(ml_tree_build_parallel, ml_tree_build_parallel(ls, 4, NULL, NULL, 2, NULL),
              "`out` is NULL");
-    BAD_VALUE(ml_tree_build_parallel, ml_tree_build_parallel(ls, 4, NULL, 5000, &t),
+    BAD_VALUE(ml_tree_build_parallel, ml_tree_build_parallel(ls, 4, NULL, NULL, 5000, &t),
               ML_ERR_INVALID_ARGUMENT, "threads must be at most 1024 (got 5000)");
     ls[2].power = rgb(1, -1, 1);
-    BAD_VALUE(ml_tree_build_parallel, ml_tree_build_parallel(ls, 4, NULL, 2, &t),
+    BAD_VALUE(ml_tree_build_parallel, ml_tree_build_parallel(ls, 4, NULL, NULL, 2, &t),
               ML_ERR_INVALID_ARGUMENT,
               "lights[2].power (the sphere light's radiance) is negative (got -1)");
     ls[2].power = grey(1);
     CHECK(t == NULL);
     bo.buckets = 32;
-    OK(ml_tree_build(ls, 4, &bo, &t));
+    OK(ml_tree_build(ls, 4, NULL, &bo, &t));
     FREE_NULL(ml_tree_free, ml_tree_free(NULL));
 
     BAD_NULL(ml_tree_stats, ml_tree_stats(NULL, &st), "`tree` is NULL");
@@ -1572,40 +1737,40 @@ static void scenario_bad_input(const ml_tree *tree, size_t n) {
     bytes[0] ^= 1;
     BAD_VALUE(ml_tree_load, ml_tree_load(bytes, sz - 8, &loaded), ML_ERR_FORMAT, "truncated");
     OK(ml_tree_load(bytes, sz, &loaded));
-    BAD_NULL(ml_tree_load_with_lights, ml_tree_load_with_lights(bytes, sz, NULL, 4, &t2),
+    BAD_NULL(ml_tree_load_with_lights, ml_tree_load_with_lights(bytes, sz, NULL, 4, NULL, &t2),
              "`lights` is NULL");
-    BAD_NULL(ml_tree_load_with_lights, ml_tree_load_with_lights(bytes, sz, ls, 4, NULL),
+    BAD_NULL(ml_tree_load_with_lights, ml_tree_load_with_lights(bytes, sz, ls, 4, NULL, NULL),
              "`out` is NULL");
-    BAD_VALUE(ml_tree_load_with_lights, ml_tree_load_with_lights(bytes, sz, ls, 3, &t2),
+    BAD_VALUE(ml_tree_load_with_lights, ml_tree_load_with_lights(bytes, sz, ls, 3, NULL, &t2),
               ML_ERR_FORMAT, "lights: count is 3, the tree was built from 4 lights");
     ls[1].position.y = (float)NAN;
-    BAD_VALUE(ml_tree_load_with_lights, ml_tree_load_with_lights(bytes, sz, ls, 4, &t2),
+    BAD_VALUE(ml_tree_load_with_lights, ml_tree_load_with_lights(bytes, sz, ls, 4, NULL, &t2),
               ML_ERR_INVALID_ARGUMENT,
               "lights[1].position (the sphere light's centre) is NaN or infinite");
     ls[1].position.y = 0;
     ls[2].position.z += 5;
-    BAD_VALUE(ml_tree_load_with_lights, ml_tree_load_with_lights(bytes, sz, ls, 4, &t2),
+    BAD_VALUE(ml_tree_load_with_lights, ml_tree_load_with_lights(bytes, sz, ls, 4, NULL, &t2),
               ML_ERR_FORMAT, "lights[2] lies outside its slot's bounds");
     ls[2].position.z -= 5;
     bytes[sz / 2] ^= 4;
-    BAD_VALUE(ml_tree_load_with_lights, ml_tree_load_with_lights(bytes, sz, ls, 4, &t2),
+    BAD_VALUE(ml_tree_load_with_lights, ml_tree_load_with_lights(bytes, sz, ls, 4, NULL, &t2),
               ML_ERR_FORMAT, "bytes: tree bytes are corrupt: their checksum is");
     bytes[sz / 2] ^= 4;
     CHECK(t2 == NULL);
-    OK(ml_tree_load_with_lights(bytes, sz, ls, 4, &t2));
+    OK(ml_tree_load_with_lights(bytes, sz, ls, 4, NULL, &t2));
     OK(ml_tree_free(t2));
     t2 = NULL;
     free(bytes);
     /* The limits, named by their macros with the field's own value. */
     ls[0].kind = ML_LIGHT_KIND_POINT;
     ls[0].power = grey(5e25f / (4 * (float)ML_PI));
-    BAD_VALUE(ml_tree_build, ml_tree_build(ls, 4, NULL, &t2), ML_ERR_INVALID_ARGUMENT,
+    BAD_VALUE(ml_tree_build, ml_tree_build(ls, 4, NULL, NULL, &t2), ML_ERR_INVALID_ARGUMENT,
               "lights[0].power (the point light's intensity) gives an energy of 5e25 W, above "
               "ML_MAX_LIGHT_ENERGY (1e24) (got 3.9788736e24)");
     CHECK(5e25 > ML_MAX_LIGHT_ENERGY);
     ls[0].power = grey(1);
     ls[0].position.x = 2 * ML_MAX_COORDINATE;
-    BAD_VALUE(ml_tree_build, ml_tree_build(ls, 4, NULL, &t2), ML_ERR_INVALID_ARGUMENT,
+    BAD_VALUE(ml_tree_build, ml_tree_build(ls, 4, NULL, NULL, &t2), ML_ERR_INVALID_ARGUMENT,
               "lights[0].position exceeds ML_MAX_COORDINATE (1e15) in magnitude (got 2e15)");
     ls[0].position.x = 0;
     ls[0].kind = ML_LIGHT_KIND_SPOT;

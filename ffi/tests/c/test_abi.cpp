@@ -70,6 +70,8 @@ int main(int argc, char **argv) {
     scenario_lower_level();
     scenario_wavefront();
     scenario_infinite();
+    scenario_environment_points();
+    scenario_environment_batch();
     scenario_vpl();
     scenario_parallel_build();
     scenario_bad_input(tree.get(), n);

@@ -244,7 +244,9 @@ impl Index {
 /// A light descriptor (`ml_light`), every field drawn.
 #[derive(Arbitrary, Debug, Clone, Copy)]
 pub struct Light {
-    /// An `ml_light_kind` (six values).
+    /// An `ml_light_kind` (seven values), or 7: the first light of kind 7 of a build's
+    /// lights is its environment instead (`EnvSpec::from_light`: bounds, callbacks and values
+    /// from the other fields), any further one stays in the array (invalid).
     pub kind: Enum,
     /// 0 or 1, or out of range.
     pub two_sided: Enum,
@@ -275,7 +277,6 @@ impl Light {
             power: grey(self.power.value()),
             radius: self.radius.value(),
             half_angle: self.half_angle.value(),
-            irradiance_bounds: [self.power.value(); 6],
             falloff_start: match self.falloff_start {
                 F::Unit(_) => self.falloff_start.value() * self.half_angle.value(),
                 f => f.value(),
@@ -1074,11 +1075,12 @@ pub enum Op {
         /// `points`, `out`.
         ptrs: [Ptr; 2],
     },
-    /// `ml_direct_estimate_env`; on a tree without an environment light the environment is
-    /// never called and the estimate is `ml_direct_estimate`'s, on one with it
-    /// `ml_direct_estimate` is `ML_ERR_STATE`.
-    DirectEstimateEnv {
-        /// The tree.
+    /// `ml_tree_build` of the descriptors of `tree` (a tree that holds them) with the host's
+    /// `environment` (any environment `tree` had replaced; NULL when absent), the new tree
+    /// kept, then `ml_direct_estimate` on it: an environment whose callbacks return a bad value
+    /// makes the estimate `ML_ERR_INVALID_ARGUMENT` when they are called.
+    EnvBuild {
+        /// The tree whose descriptors are taken.
         tree: Handle,
         /// The shading point.
         sp: Arg<Sp>,
@@ -1088,28 +1090,29 @@ pub enum Op {
         params: Option<Arg<Params>>,
         /// `visibility` (NULL: unoccluded).
         visibility: Option<Arg<Visibility>>,
-        /// `environment` (NULL when absent).
+        /// `environment` of the build (NULL when absent).
         environment: Option<Arg<EnvDesc>>,
         /// `uniforms`.
         uniforms: Arg<Uniforms>,
         /// `out`.
         out: Ptr,
     },
-    /// `ml_estimator_estimate_env` (the environment never called on a tree without an
-    /// environment light).
+    /// `ml_estimator_estimate` (the slot of the former `ml_estimator_estimate_env`; its
+    /// `environment` is unused).
     EstimateEnv {
         /// The estimator.
         est: Handle,
         /// `visibility` (NULL: unoccluded).
         visibility: Option<Arg<Visibility>>,
-        /// `environment` (NULL when absent).
+        /// Unused.
         environment: Option<Arg<EnvDesc>>,
         /// `uniforms`.
         uniforms: Arg<Uniforms>,
         /// `out`.
         out: Ptr,
     },
-    /// `ml_estimator_bsdf_hits_env`.
+    /// `ml_estimator_bsdf_hits` of an escaping ray (`hit_distance` +∞ when `environment_pdf`
+    /// is in [0, 1), else the drawn one): on a tree with an environment it reaches it.
     BsdfHitsEnv {
         /// The estimator.
         est: Handle,
@@ -1117,20 +1120,19 @@ pub enum Op {
         direction: V3,
         /// The BSDF pdf.
         bsdf_pdf: F,
-        /// The first surface's distance.
+        /// The first surface's distance (when used).
         hit_distance: F,
-        /// The environment's pdf of the direction.
+        /// Chooses +∞ over `hit_distance`.
         environment_pdf: F,
         /// `each` NULL (rarely).
         no_each: Rare,
         /// `any_hit`.
         any_hit: Ptr,
     },
-    /// [`Op::Run`] with the host's environment: `ml_estimator_estimate_env`, environment
-    /// steps sampled from it and passed to `ml_estimator_environment_point`, BSDF rays
-    /// reported to `ml_estimator_bsdf_hits_env` with its pdf of their direction.
+    /// [`Op::Run`] on a new tree: `ml_tree_build` of the descriptors of `tree` with the host's
+    /// `environment` (valid pointer), kept as a live tree.
     RunEnv {
-        /// The tree.
+        /// The tree whose descriptors are taken.
         tree: Handle,
         /// The shading point.
         sp: Sp,
@@ -1185,10 +1187,11 @@ pub enum LightsArg {
     Drawn(Vec<Light>),
 }
 
-/// The host's environment (`ml_environment`): uniform over the sphere (the direction from
-/// `u0`, `u1`), grey radiance from `radiance` (its magnitude, at most 1e4; 1 if not finite),
-/// pdf 1/4π from both callbacks; `sample` gives no direction where `misses` says so
-/// (cycled). `raw` passes the radiance and the pdf `pdf` as drawn (NaN, negative, infinite
+/// The host's environment (`ml_environment`, given to a build): uniform over the sphere (the
+/// direction from `u0`, `u1`), grey radiance from `radiance` (its magnitude, at most 1e4; 1
+/// if not finite), pdf 1/4π from both callbacks, irradiance bounds π times that radiance;
+/// `sample` gives no direction for the numbers whose bit of `misses` (the first eight) is
+/// set. `raw` passes the radiance and the pdf `pdf` as drawn (NaN, negative, infinite
 /// included), and `zero` a zero direction.
 #[derive(Arbitrary, Debug, Clone)]
 pub struct EnvDesc {
@@ -1198,7 +1201,7 @@ pub struct EnvDesc {
     pub no_eval: Rare,
     /// The radiance.
     pub radiance: F,
-    /// `sample`'s answers: `true` for no direction (the first [`MAX_LEN`]).
+    /// `sample`'s answers: `true` for no direction (the first eight, chosen by the numbers).
     pub misses: Vec<bool>,
     /// Radiance and pdf as drawn (rarely).
     pub raw: Rare,

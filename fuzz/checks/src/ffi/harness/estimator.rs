@@ -1,16 +1,17 @@
-//! The estimator family: the whole method in one call (`ml_direct_estimate`, with the host's
-//! environment `ml_direct_estimate_env`, at many points `ml_direct_estimate_batch`, checked
-//! against the single calls) and estimators (`ml_estimator_*`): created on a tree, set up at
-//! a shading point, one-call estimates (with or without the environment), the lower-level
-//! steps, weights and BSDF hits (with or without the environment's pdf), freed.
+//! The estimator family: the whole method in one call (`ml_direct_estimate`, at many points
+//! `ml_direct_estimate_batch`, checked against the single calls) and estimators
+//! (`ml_estimator_*`): created on a tree, set up at a shading point, one-call estimates, the
+//! lower-level steps, weights and BSDF hits, freed; on trees with and without an
+//! environment (whose bad values from the callbacks make the calls that reach them
+//! `ML_ERR_INVALID_ARGUMENT`, and whose points carry its radiance and pdf).
 
-use super::{estimate_ok, message, same_bits, Est, Harness};
+use super::{estimate_ok, message, same_bits, Env, Est, Harness};
 use crate::ffi::buffers::{HandleArg, In, Out};
 use crate::ffi::grammar::{
-    grey, v3, Arg, Count, Enum, EnvDesc, Handle, Op, Params, Ptr, Sp, Uniforms, Visibility, F,
-    MAX_ESTIMATE_BATCH, MAX_STEPS,
+    v3, Arg, Count, Enum, Handle, Op, Params, Ptr, Sp, Uniforms, Visibility, F, MAX_ESTIMATE_BATCH,
+    MAX_STEPS,
 };
-use crate::ffi::host::{each_hit, environment, host, uniforms, visibility, Host};
+use crate::ffi::host::{each_hit, host, uniforms, visibility, EnvSpec, Host};
 use manylights_ffi::*;
 use std::ptr;
 
@@ -27,24 +28,19 @@ impl Harness<'_> {
                 uniforms: uni,
                 out,
             } => {
-                let (t, _, th) = self.tree(*tree);
-                let p = In::one(sp.value.ml(), sp.ptr);
-                let prm = In::opt(params.as_ref().map(|o| (o.value.ml(), o.ptr)));
-                let mut h = Host::with_uniforms(&uni.value);
-                let hp: *mut Host = &mut h;
-                let v = visibility_arg(hp, vis.as_ref());
-                let u = In::one(uniforms(&uni.value, hp), uni.ptr);
-                let mut o = Out::<ml_rgb64>::one(*out);
-                let s =
-                    ml_direct_estimate(t, p.p(), technique.value(10), prm.p(), v.p(), u.p(), o.p());
-                if self.status("ml_direct_estimate", s, &[&th, &p, &prm, &v, &u, &o]) {
-                    let e = o.get(0);
-                    self.ensure(estimate_ok(e), || format!("ml_direct_estimate: {e:?}"));
-                }
+                self.direct_estimate(
+                    *tree,
+                    sp,
+                    *technique,
+                    params.as_ref(),
+                    vis.as_ref(),
+                    uni,
+                    *out,
+                );
             }
             Op::EstimatorCreate { tree, out } => {
                 let (t, n, th) = self.tree(*tree);
-                let env = self.tree_at(*tree).and_then(|t| t.environment());
+                let env = self.tree_at(*tree).and_then(|t| t.env);
                 let mut o = Out::<*mut ml_estimator>::one(*out);
                 let s = ml_estimator_create(t, o.p());
                 if self.status("ml_estimator_create", s, &[&th, &o]) {
@@ -89,14 +85,24 @@ impl Harness<'_> {
                 visibility: vis,
                 uniforms: uni,
                 out,
+            }
+            | Op::EstimateEnv {
+                est,
+                visibility: vis,
+                uniforms: uni,
+                out,
+                ..
             } => {
-                let (_, e, eh) = self.est(*est);
+                let (ei, e, eh) = self.est(*est);
+                let env = ei.and_then(|i| self.ests[i].env);
                 let mut h = Host::with_uniforms(&uni.value);
                 let hp: *mut Host = &mut h;
                 let v = visibility_arg(hp, vis.as_ref());
                 let u = In::one(uniforms(&uni.value, hp), uni.ptr);
                 let mut o = Out::<ml_rgb64>::one(*out);
+                Harness::env_reset(env);
                 let s = ml_estimator_estimate(e, v.p(), u.p(), o.p());
+                self.env_check("ml_estimator_estimate", env, s);
                 if self.status("ml_estimator_estimate", s, &[&eh, &v, &u, &o]) {
                     let r = o.get(0);
                     self.ensure(estimate_ok(r), || format!("ml_estimator_estimate: {r:?}"));
@@ -119,19 +125,25 @@ impl Harness<'_> {
             } => {
                 let (ei, e, eh) = self.est(*est);
                 let n = ei.map_or(0, |i| self.ests[i].lights);
+                let env = ei.and_then(|i| self.ests[i].env);
                 let mut h = Host::with_uniforms(&uni.value);
                 let hp: *mut Host = &mut h;
                 let u = In::one(uniforms(&uni.value, hp), uni.ptr);
                 let mut o = Out::<ml_step>::one(*out);
+                Harness::env_reset(env);
                 let s = ml_estimator_next(e, u.p(), o.p());
+                self.env_check("ml_estimator_next", env, s);
                 if self.status("ml_estimator_next", s, &[&eh, &u, &o]) {
-                    self.step(&o.get(0), n);
+                    self.step(&o.get(0), n, env);
                 }
             }
             Op::Weigh { est, bsdf_pdf, out } => {
-                let (_, e, eh) = self.est(*est);
+                let (ei, e, eh) = self.est(*est);
+                let env = ei.and_then(|i| self.ests[i].env);
                 let mut o = Out::<ml_weighted>::one(*out);
+                Harness::env_reset(env);
                 let s = ml_estimator_weigh(e, bsdf_pdf.value(), o.p());
+                self.env_check("ml_estimator_weigh", env, s);
                 if self.status("ml_estimator_weigh", s, &[&eh, &o]) {
                     self.weighted("ml_estimator_weigh", &o.get(0));
                 }
@@ -146,6 +158,7 @@ impl Harness<'_> {
             } => {
                 let (ei, e, eh) = self.est(*est);
                 let n = ei.map_or(0, |i| self.ests[i].lights);
+                let env = ei.and_then(|i| self.ests[i].env);
                 self.bsdf_hits(
                     e,
                     &eh,
@@ -153,7 +166,7 @@ impl Harness<'_> {
                     v3(direction),
                     bsdf_pdf.value(),
                     hit_distance.value(),
-                    None,
+                    env,
                     !no_each.set(),
                     *any_hit,
                 );
@@ -170,14 +183,19 @@ impl Harness<'_> {
                 let (ei, e, eh) = self.est(*est);
                 let n = ei.map_or(0, |i| self.ests[i].lights);
                 let env = ei.and_then(|i| self.ests[i].env);
+                let escapes = (0.0..1.0).contains(&environment_pdf.value());
                 self.bsdf_hits(
                     e,
                     &eh,
                     n,
                     v3(direction),
                     bsdf_pdf.value(),
-                    hit_distance.value(),
-                    Some((environment_pdf.value(), env)),
+                    if escapes {
+                        f32::INFINITY
+                    } else {
+                        hit_distance.value()
+                    },
+                    env,
                     !no_each.set(),
                     *any_hit,
                 );
@@ -210,7 +228,7 @@ impl Harness<'_> {
                     *ptrs,
                 );
             }
-            Op::DirectEstimateEnv {
+            Op::EnvBuild {
                 tree,
                 sp,
                 technique,
@@ -220,86 +238,23 @@ impl Harness<'_> {
                 uniforms: uni,
                 out,
             } => {
-                let name = "ml_direct_estimate_env";
-                let (t, _, th) = self.tree(*tree);
-                let has_env = self.tree_at(*tree).and_then(|t| t.environment());
-                let p = In::one(sp.value.ml(), sp.ptr);
-                let tech = technique.value(10);
-                let prm = In::opt(params.as_ref().map(|o| (o.value.ml(), o.ptr)));
-                let mut h = Host::with_uniforms(&uni.value);
-                let hp: *mut Host = &mut h;
-                let v = visibility_arg(hp, vis.as_ref());
-                let en = environment_arg(hp, env.as_ref());
-                let u = In::one(uniforms(&uni.value, hp), uni.ptr);
-                let mut o = Out::<ml_rgb64>::one(*out);
-                let s =
-                    ml_direct_estimate_env(t, p.p(), tech, prm.p(), v.p(), en.p(), u.p(), o.p());
-                let ok = self.status(name, s, &[&th, &p, &prm, &v, &en, &u, &o]);
-                if has_env == Some(None) {
-                    self.ensure(h.env_calls == 0, || {
-                        format!(
-                            "{name}: the environment called {} times on a tree without one",
-                            h.env_calls
-                        )
-                    });
-                }
-                if !ok {
+                let Some(descs) = self.tree_at(*tree).and_then(|t| t.descs.clone()) else {
                     return;
-                }
-                let r = o.get(0);
-                self.ensure(estimate_ok(r), || format!("{name}: {r:?}"));
-                // The same call without the environment, from the same numbers.
-                let Some(has_env) = has_env else { return };
-                let mut h = Host::with_uniforms(&uni.value);
-                let hp: *mut Host = &mut h;
-                let v = visibility_arg(hp, vis.as_ref());
-                let u = In::one(uniforms(&uni.value, hp), uni.ptr);
-                let mut o = Out::<ml_rgb64>::one(Ptr::Valid);
-                let s = ml_direct_estimate(t, p.p(), tech, prm.p(), v.p(), u.p(), o.p());
-                if has_env.is_some() {
-                    self.ensure(s == ML_ERR_STATE, || {
-                        format!("{name} succeeded; ml_direct_estimate of a tree with an environment light gave {s}")
-                    });
-                } else {
-                    self.ensure(s == ML_OK && same_bits(&o.get(0), &r), || {
-                        format!(
-                            "{name}: {r:?} on a tree without an environment light, \
-                             ml_direct_estimate {s} {:?}",
-                            o.get(0)
-                        )
-                    });
-                }
-            }
-            Op::EstimateEnv {
-                est,
-                visibility: vis,
-                environment: env,
-                uniforms: uni,
-                out,
-            } => {
-                let name = "ml_estimator_estimate_env";
-                let (ei, e, eh) = self.est(*est);
-                let has_env = ei.and_then(|i| self.ests[i].env);
-                let mut h = Host::with_uniforms(&uni.value);
-                let hp: *mut Host = &mut h;
-                let v = visibility_arg(hp, vis.as_ref());
-                let en = environment_arg(hp, env.as_ref());
-                let u = In::one(uniforms(&uni.value, hp), uni.ptr);
-                let mut o = Out::<ml_rgb64>::one(*out);
-                let s = ml_estimator_estimate_env(e, v.p(), en.p(), u.p(), o.p());
-                let ok = self.status(name, s, &[&eh, &v, &en, &u, &o]);
-                if has_env == Some(None) {
-                    self.ensure(h.env_calls == 0, || {
-                        format!(
-                            "{name}: the environment called {} times on a tree without one",
-                            h.env_calls
-                        )
-                    });
-                }
-                if ok {
-                    let r = o.get(0);
-                    self.ensure(estimate_ok(r), || format!("{name}: {r:?}"));
-                }
+                };
+                let spec = env.as_ref().map(|e| EnvSpec::from_desc(&e.value));
+                let ptr = env.as_ref().map_or(Ptr::Null, |e| e.ptr);
+                let Some(i) = self.build_env(&descs, spec, ptr) else {
+                    return;
+                };
+                self.direct_estimate(
+                    Handle::Live(i as u8),
+                    sp,
+                    *technique,
+                    params.as_ref(),
+                    vis.as_ref(),
+                    uni,
+                    *out,
+                );
             }
             Op::Run {
                 tree,
@@ -317,7 +272,6 @@ impl Harness<'_> {
                 params.as_ref(),
                 uni,
                 vis.as_ref(),
-                None,
                 distances,
                 *keep,
             ),
@@ -331,22 +285,60 @@ impl Harness<'_> {
                 environment: env,
                 distances,
                 keep,
-            } => self.run_op(
-                *tree,
-                sp,
-                *technique,
-                params.as_ref(),
-                uni,
-                vis.as_ref(),
-                Some(env),
-                distances,
-                *keep,
-            ),
+            } => {
+                let Some(descs) = self.tree_at(*tree).and_then(|t| t.descs.clone()) else {
+                    return;
+                };
+                let spec = EnvSpec::from_desc(env);
+                let Some(i) = self.build_env(&descs, Some(spec), Ptr::Valid) else {
+                    return;
+                };
+                self.run_op(
+                    Handle::Live(i as u8),
+                    sp,
+                    *technique,
+                    params.as_ref(),
+                    uni,
+                    vis.as_ref(),
+                    distances,
+                    *keep,
+                );
+            }
             _ => unreachable!("{op:?} is no estimator operation"),
         }
     }
 
-    /// [`Op::Run`] (`env`: [`Op::RunEnv`]).
+    /// `ml_direct_estimate` ([`Op::DirectEstimate`]).
+    #[allow(clippy::too_many_arguments)]
+    fn direct_estimate(
+        &self,
+        tree: Handle,
+        sp: &Arg<Sp>,
+        technique: Enum,
+        params: Option<&Arg<Params>>,
+        vis: Option<&Arg<Visibility>>,
+        uni: &Arg<Uniforms>,
+        out: Ptr,
+    ) {
+        let (t, _, th) = self.tree(tree);
+        let env = self.tree_at(tree).and_then(|t| t.env);
+        let p = In::one(sp.value.ml(), sp.ptr);
+        let prm = In::opt(params.map(|o| (o.value.ml(), o.ptr)));
+        let mut h = Host::with_uniforms(&uni.value);
+        let hp: *mut Host = &mut h;
+        let v = visibility_arg(hp, vis);
+        let u = In::one(uniforms(&uni.value, hp), uni.ptr);
+        let mut o = Out::<ml_rgb64>::one(out);
+        Harness::env_reset(env);
+        let s = ml_direct_estimate(t, p.p(), technique.value(10), prm.p(), v.p(), u.p(), o.p());
+        self.env_check("ml_direct_estimate", env, s);
+        if self.status("ml_direct_estimate", s, &[&th, &p, &prm, &v, &u, &o]) {
+            let e = o.get(0);
+            self.ensure(estimate_ok(e), || format!("ml_direct_estimate: {e:?}"));
+        }
+    }
+
+    /// [`Op::Run`].
     #[allow(clippy::too_many_arguments)]
     fn run_op(
         &mut self,
@@ -356,12 +348,11 @@ impl Harness<'_> {
         params: Option<&Params>,
         uni: &Uniforms,
         vis: Option<&Visibility>,
-        env: Option<&EnvDesc>,
         distances: &[F],
         keep: bool,
     ) {
         let (t, n, th) = self.tree(tree);
-        let has_env = self.tree_at(tree).and_then(|t| t.environment());
+        let env = self.tree_at(tree).and_then(|t| t.env);
         let mut o = Out::<*mut ml_estimator>::one(Ptr::Valid);
         let s = ml_estimator_create(t, o.p());
         if !self.status("ml_estimator_create", s, &[&th, &o]) {
@@ -381,11 +372,11 @@ impl Harness<'_> {
         self.ests.push(Est {
             p: e,
             lights: n,
-            env: has_env,
+            env,
             sp: ok.then_some(sp),
         });
         if ok {
-            self.run_estimator(e, n, sp, uni, vis, env, has_env, distances);
+            self.run_estimator(e, n, sp, uni, vis, env, distances);
         }
         if !keep {
             let e = self.ests.pop().map(|e| e.p);
@@ -394,8 +385,8 @@ impl Harness<'_> {
         }
     }
 
-    /// One estimate, then a lower-level one, of an estimator set up at `sp` (with the host's
-    /// environment `env`, of a tree whose environment light is `has_env` when known).
+    /// One estimate, then a lower-level one, of an estimator set up at `sp` (of a tree with
+    /// the environment `env`).
     #[allow(clippy::too_many_arguments)]
     fn run_estimator(
         &self,
@@ -404,36 +395,23 @@ impl Harness<'_> {
         sp: ml_shading_point,
         uni: &Uniforms,
         vis: Option<&Visibility>,
-        env: Option<&EnvDesc>,
-        has_env: Option<Option<u32>>,
+        env: Option<Env>,
         distances: &[F],
     ) {
         {
             let mut h = Host::with_uniforms(uni);
             let hp: *mut Host = &mut h;
             let v = vis.map(|v| visibility(v, host(hp.cast())));
-            let en = env.map(|d| environment(d, host(hp.cast())));
             let u = uniforms(uni, hp);
             let vp = v.as_ref().map_or(ptr::null(), |v| v as *const _);
             let mut o = Out::<ml_rgb64>::one(Ptr::Valid);
-            let (name, s) = match &en {
-                Some(en) => (
-                    "ml_estimator_estimate_env",
-                    ml_estimator_estimate_env(e, vp, en, &u, o.p()),
-                ),
-                None => (
-                    "ml_estimator_estimate",
-                    ml_estimator_estimate(e, vp, &u, o.p()),
-                ),
-            };
+            let name = "ml_estimator_estimate";
+            Harness::env_reset(env);
+            let s = ml_estimator_estimate(e, vp, &u, o.p());
+            self.env_check(name, env, s);
             if self.status(name, s, &[&o]) {
                 let r = o.get(0);
                 self.ensure(estimate_ok(r), || format!("{name}: {r:?}"));
-            }
-            if en.is_some() && has_env == Some(None) {
-                self.ensure(h.env_calls == 0, || {
-                    format!("{name}: the environment called on a tree without one")
-                });
             }
         }
         let s = ml_estimator_start(e);
@@ -442,20 +420,19 @@ impl Harness<'_> {
         }
         let mut h = Host::with_uniforms(uni);
         let hp: *mut Host = &mut h;
-        if let Some(d) = env {
-            environment(d, host(hp.cast()));
-        }
         let u = uniforms(uni, hp);
         let spp: *const ml_shading_point = &sp;
         let mut bsdf = 0;
         for _ in 0..MAX_STEPS {
             let mut o = Out::<ml_step>::one(Ptr::Valid);
+            Harness::env_reset(env);
             let s = ml_estimator_next(e, &u, o.p());
+            self.env_check("ml_estimator_next", env, s);
             if !self.status("ml_estimator_next", s, &[&o]) {
                 return;
             }
             let step = o.get(0);
-            self.step(&step, n);
+            self.step(&step, n, env);
             if step.kind == 0 {
                 let mut q = 0.0f32;
                 if step.needs_bsdf_pdf == 1 {
@@ -467,33 +444,9 @@ impl Harness<'_> {
                     q = o.get(0);
                 }
                 let mut o = Out::<ml_weighted>::one(Ptr::Valid);
+                Harness::env_reset(env);
                 let s = ml_estimator_weigh(e, q, o.p());
-                if self.status("ml_estimator_weigh", s, &[&o]) {
-                    self.weighted("ml_estimator_weigh", &o.get(0));
-                }
-            } else if step.kind == 3 {
-                // The host's environment (without one: a direction about the normal,
-                // radiance 1, pdf 1/4π).
-                let (d, l, pdf) = if env.is_some() {
-                    match host(hp.cast()).env_sample(step.u0, step.u1) {
-                        Some(x) => x,
-                        None => continue,
-                    }
-                } else {
-                    (sp.normal, grey(1.0), 0.25 * core::f32::consts::FRAC_1_PI)
-                };
-                let mut o = Out::<ml_step>::one(Ptr::Valid);
-                let s = ml_estimator_environment_point(e, d, l, pdf, o.p());
-                if !self.status("ml_estimator_environment_point", s, &[&o]) {
-                    return;
-                }
-                let step = o.get(0);
-                self.ensure(step.kind == 0, || {
-                    format!("ml_estimator_environment_point: {step:?}")
-                });
-                self.step(&step, n);
-                let mut o = Out::<ml_weighted>::one(Ptr::Valid);
-                let s = ml_estimator_weigh(e, 0.0, o.p());
+                self.env_check("ml_estimator_weigh", env, s);
                 if self.status("ml_estimator_weigh", s, &[&o]) {
                     self.weighted("ml_estimator_weigh", &o.get(0));
                 }
@@ -511,7 +464,6 @@ impl Harness<'_> {
                         distances[bsdf % distances.len()].value()
                     };
                     bsdf += 1;
-                    let env_pdf = env.map(|_| (host(hp.cast()).env_eval().1, has_env));
                     self.bsdf_hits(
                         e,
                         &HandleArg(false),
@@ -519,7 +471,7 @@ impl Harness<'_> {
                         d.wi,
                         d.pdf,
                         t,
-                        env_pdf,
+                        env,
                         true,
                         Ptr::Valid,
                     );
@@ -530,7 +482,9 @@ impl Harness<'_> {
         }
     }
 
-    fn step(&self, s: &ml_step, n: usize) {
+    /// A step of `ml_estimator_next` on a tree of `n` lights (with the environment `env`,
+    /// whose samples come as light steps at distance +∞).
+    fn step(&self, s: &ml_step, n: usize, env: Option<Env>) {
         match s.kind {
             0 => {
                 self.ensure((s.light as usize) < n, || {
@@ -540,26 +494,21 @@ impl Harness<'_> {
                     format!("ml_estimator_next: {s:?}")
                 });
                 self.light_point("ml_estimator_next", &s.point);
+                if let Some(e) = env.filter(|e| e.light == s.light) {
+                    self.env_point("ml_estimator_next", e, &s.point);
+                }
             }
             1 => self.ensure(
                 (0.0..1.0).contains(&s.u0) && (0.0..1.0).contains(&s.u1),
                 || format!("ml_estimator_next: {s:?}"),
             ),
             2 => {}
-            3 => self.ensure(
-                (s.light as usize) < n
-                    && s.pmf > 0.0
-                    && s.pmf <= 1.0
-                    && (0.0..1.0).contains(&s.u0)
-                    && (0.0..1.0).contains(&s.u1),
-                || format!("ml_estimator_next: {s:?}"),
-            ),
             k => self.fail(format_args!("ml_estimator_next: step kind {k}")),
         }
     }
 
-    /// `ml_estimator_bsdf_hits`, or with `env` (the environment's pdf, and the tree's
-    /// environment light when known) `ml_estimator_bsdf_hits_env`.
+    /// `ml_estimator_bsdf_hits` (of an estimator on a tree with the environment `env`: an
+    /// escaping ray's hit of it carries its radiance and pdf; no other ray reaches it).
     #[allow(clippy::too_many_arguments)]
     fn bsdf_hits(
         &self,
@@ -569,42 +518,34 @@ impl Harness<'_> {
         d: ml_vec3,
         pdf: f32,
         t: f32,
-        env: Option<(f32, Option<Option<u32>>)>,
+        env: Option<Env>,
         each: bool,
         any_hit: Ptr,
     ) {
+        let name = "ml_estimator_bsdf_hits";
         let mut h = Host::default();
         let hp: *mut Host = &mut h;
         let mut o = Out::<u32>::one(any_hit);
         let f: ml_hit_fn = if each { Some(each_hit) } else { None };
-        let (name, s) = match env {
-            Some((env_pdf, _)) => (
-                "ml_estimator_bsdf_hits_env",
-                ml_estimator_bsdf_hits_env(e, d, pdf, t, env_pdf, f, hp.cast(), o.p()),
-            ),
-            None => (
-                "ml_estimator_bsdf_hits",
-                ml_estimator_bsdf_hits(e, d, pdf, t, f, hp.cast(), o.p()),
-            ),
-        };
+        Harness::env_reset(env);
+        let s = ml_estimator_bsdf_hits(e, d, pdf, t, f, hp.cast(), o.p());
+        self.env_check(name, env, s);
         if self.status(name, s, &[eh, &o]) {
             let any = o.get(0);
             self.ensure(any == u32::from(!h.hits.is_empty()), || {
                 format!("{name}: any_hit {any} with {} hits", h.hits.len())
             });
-            let env_light = env.and_then(|e| e.1).flatten();
             for hit in &h.hits {
                 self.ensure((hit.light as usize) < n, || {
                     format!("{name}: light {} of {n}", hit.light)
                 });
                 self.light_point(name, &hit.point);
                 self.weighted(name, &hit.weighted);
-                if Some(hit.light) == env_light {
-                    let r = hit.point.radiance;
-                    self.ensure(
-                        r.r == 0.0 && r.g == 0.0 && r.b == 0.0 && t == f32::INFINITY,
-                        || format!("{name}: the environment's hit {hit:?} (hit distance {t})"),
-                    );
+                if let Some(env) = env.filter(|e| e.light == hit.light) {
+                    self.ensure(t == f32::INFINITY, || {
+                        format!("{name}: the environment's hit {hit:?} (hit distance {t})")
+                    });
+                    self.env_point(name, env, &hit.point);
                 }
             }
         }
@@ -628,6 +569,7 @@ impl Harness<'_> {
     ) {
         let name = "ml_direct_estimate_batch";
         let (t, _, th) = self.tree(tree);
+        let env = self.tree_at(tree).and_then(|t| t.env);
         let pts: Vec<ml_shading_point> =
             points.iter().take(MAX_ESTIMATE_BATCH).map(Sp::ml).collect();
         let len = pts.len();
@@ -641,8 +583,10 @@ impl Harness<'_> {
         let v = visibility_arg(hp, vis);
         let u = In::one(uniforms(&uni.value, hp), uni.ptr);
         let mut o = Out::<ml_rgb64>::new(len * per.max(1), ptrs[1], c.saturating_mul(per));
+        Harness::env_reset(env);
         let s =
             ml_direct_estimate_batch(t, arr.p(), c, pp, technique, prm.p(), v.p(), u.p(), o.p());
+        self.env_check(name, env, s);
         let ok = self.status(name, s, &[&th, &arr, &prm, &v, &u, &o]);
         if pp == 0 {
             self.ensure(!ok, || format!("{name}: succeeded with per_point 0"));
@@ -693,6 +637,7 @@ impl Harness<'_> {
             }
             for i in 0..per {
                 let mut one = Out::<ml_rgb64>::one(Ptr::Valid);
+                Harness::env_reset(env);
                 let (single, s) = if per == 1 {
                     let s = ml_direct_estimate(t, sp, technique, prm.p(), v.p(), u.p(), one.p());
                     ("ml_direct_estimate", s)
@@ -700,6 +645,7 @@ impl Harness<'_> {
                     let s = ml_estimator_estimate(est, v.p(), u.p(), one.p());
                     ("ml_estimator_estimate", s)
                 };
+                self.env_check(single, env, s);
                 if s != ML_OK {
                     failed = Some((j, i, single, s));
                     break 'points;
@@ -736,10 +682,4 @@ impl Harness<'_> {
 /// the input has none.
 fn visibility_arg(hp: *mut Host, vis: Option<&Arg<Visibility>>) -> In<ml_visibility> {
     In::opt(vis.map(|v| (visibility(&v.value, host(hp.cast())), v.ptr)))
-}
-
-/// The host's environment callbacks as the ABI takes them (calling back into `hp`), NULL where
-/// the input has none.
-fn environment_arg(hp: *mut Host, env: Option<&Arg<EnvDesc>>) -> In<ml_environment> {
-    In::opt(env.map(|e| (environment(&e.value, host(hp.cast())), e.ptr)))
 }

@@ -19,20 +19,35 @@ impl Harness<'_> {
                 out,
             } => {
                 let (t, n, th) = self.tree(*tree);
+                let env = self.tree_at(*tree).and_then(|t| t.env);
                 let l = light.value(n);
                 let x = v3(x);
                 let mut o = Out::<ml_light_point>::one(*out);
+                Self::env_reset(env);
                 let s = ml_light_sample_point(t, l, x, u0.value(), u1.value(), o.p());
+                self.env_check("ml_light_sample_point", env, s);
                 if self.status("ml_light_sample_point", s, &[&th, &o]) {
                     let lp = o.get(0);
                     self.light_point("ml_light_sample_point", &lp);
+                    let on_env = env.filter(|e| e.light == l);
+                    if let Some(e) = on_env {
+                        self.env_point("ml_light_sample_point", e, &lp);
+                    }
                     let mut q = Out::<f32>::one(Ptr::Valid);
                     let s = ml_light_pdf_point(t, l, x, lp.position, q.p());
+                    self.env_check("ml_light_pdf_point", env, s);
                     if self.status("ml_light_pdf_point", s, &[&q]) {
                         let q = q.get(0);
                         self.ensure(q >= 0.0 && !nan32(q), || {
                             format!("ml_light_pdf_point: {q} of the sampled point")
                         });
+                        // The environment's pdf of its own sample is eval's.
+                        if let Some(e) = on_env.filter(|e| e.state().spec.good() && lp.pdf > 0.0) {
+                            let want = e.state().spec.pdf;
+                            self.ensure(q.to_bits() == want.to_bits(), || {
+                                format!("ml_light_pdf_point: {q} of the environment's sample, eval gives {want}")
+                            });
+                        }
                     }
                 }
             }
@@ -44,8 +59,11 @@ impl Harness<'_> {
                 out,
             } => {
                 let (t, n, th) = self.tree(*tree);
+                let env = self.tree_at(*tree).and_then(|t| t.env);
                 let mut o = Out::<f32>::one(*out);
+                Self::env_reset(env);
                 let s = ml_light_pdf_point(t, light.value(n), v3(x), v3(point), o.p());
+                self.env_check("ml_light_pdf_point", env, s);
                 if self.status("ml_light_pdf_point", s, &[&th, &o]) {
                     let q = o.get(0);
                     self.ensure(q >= 0.0 && !nan32(q), || format!("ml_light_pdf_point: {q}"));
@@ -62,6 +80,7 @@ impl Harness<'_> {
             } => {
                 let name = "ml_light_sample_point_batch";
                 let (t, n, th) = self.tree(*tree);
+                let env = self.tree_at(*tree).and_then(|t| t.env);
                 let x: Vec<ml_vec3> = xs.iter().take(MAX_LEN).map(v3).collect();
                 let len = x.len();
                 let ls = indices(lights, len, n);
@@ -73,11 +92,24 @@ impl Harness<'_> {
                 let u0a = In::new(&u0, ptrs[2], c);
                 let u1a = In::new(&u1, ptrs[3], c);
                 let mut o = Out::<ml_light_point>::new(len, ptrs[4], c);
+                Self::env_reset(env);
                 let s = ml_light_sample_point_batch(t, la.p(), xa.p(), u0a.p(), u1a.p(), c, o.p());
+                // A bad sample of the environment is found on the way: the points before it
+                // are written.
+                let partial = self.env_check(name, env, s);
                 let single = |j: usize, out: *mut ml_light_point| {
-                    ml_light_sample_point(t, ls[j], x[j], u0[j], u1[j], out)
+                    Self::env_reset(env);
+                    let s = ml_light_sample_point(t, ls[j], x[j], u0[j], u1[j], out);
+                    self.env_check("ml_light_sample_point", env, s);
+                    s
                 };
-                if !self.status(name, s, &[&th, &la, &xa, &u0a, &u1a, &o]) {
+                let single = &single;
+                let ok = if partial {
+                    self.status(name, s, &[&th, &la, &xa, &u0a, &u1a])
+                } else {
+                    self.status(name, s, &[&th, &la, &xa, &u0a, &u1a, &o])
+                };
+                if !ok {
                     // Every input checked first: with valid arrays, some single call fails.
                     if c > 0 && ptrs.iter().all(|&p| p == Ptr::Valid) {
                         let fails = (0..c).any(|j| {
@@ -96,9 +128,12 @@ impl Harness<'_> {
                 self.ensure(o.untouched_from(c), || {
                     format!("{name}: wrote past the count")
                 });
-                for j in 0..c {
+                for (j, &l) in ls.iter().enumerate().take(c) {
                     let r = o.get(j);
                     self.light_point(name, &r);
+                    if let Some(e) = env.filter(|e| e.light == l) {
+                        self.env_point(name, e, &r);
+                    }
                     let mut one = Out::<ml_light_point>::one(Ptr::Valid);
                     let s = single(j, one.p());
                     self.ensure(s == ML_OK, || {

@@ -15,28 +15,34 @@ mod tree;
 
 use super::buffers::{Buf, HandleArg, Out};
 use super::grammar::{Handle, Input, Op, Ptr, MAX_OPS};
+use super::host::{EnvSpec, EnvState};
 use manylights_ffi::*;
 use std::ffi::CStr;
 use std::fmt;
 use std::ptr;
 
 /// A live tree: its handle, light count and, when it holds them, the light descriptors it
-/// was built from.
+/// was built from and its environment.
 struct Tree {
     p: *mut ml_tree,
     lights: usize,
     descs: Option<Vec<ml_light>>,
+    env: Option<Env>,
 }
 
-impl Tree {
-    /// Whether it has an environment light, and its index (`None`: not known, a tree
-    /// without its descriptors).
-    fn environment(&self) -> Option<Option<u32>> {
-        self.descs.as_ref().map(|d| {
-            d.iter()
-                .position(|l| l.kind == ml_light_kind::Environment as u32)
-                .map(|i| i as u32)
-        })
+/// The environment a tree holds: its light index (one past the descriptors) and the state
+/// its callbacks get (owned by [`Harness::envs`]).
+#[derive(Clone, Copy)]
+struct Env {
+    light: u32,
+    state: *const EnvState,
+}
+
+impl Env {
+    fn state(&self) -> &EnvState {
+        // SAFETY: the states live in `Harness::envs` until the harness is dropped, after
+        // every handle is freed.
+        unsafe { &*self.state }
     }
 }
 
@@ -48,17 +54,19 @@ struct Cut {
     bl: bool,
 }
 
-/// A live estimator: its handle, its tree's light count and environment light (as
-/// [`Tree::environment`]), and the shading point it was set up at.
+/// A live estimator: its handle, its tree's light count and environment, and the shading
+/// point it was set up at.
 struct Est {
     p: *mut ml_estimator,
     lights: usize,
-    env: Option<Option<u32>>,
+    env: Option<Env>,
     sp: Option<ml_shading_point>,
 }
 
-/// The live handles of one input's run, and the bytes of its last serialized tree (with
-/// that tree's light descriptors when it holds them, and its handle while it is live).
+/// The live handles of one input's run, the environments' states (kept until the end: a
+/// tree's environment is called by its estimators after the tree is freed), and the bytes of
+/// its last serialized tree (with that tree's light descriptors and environment when it
+/// holds them, and its handle while it is live).
 struct Harness<'a> {
     input: &'a Input,
     at: usize,
@@ -67,8 +75,11 @@ struct Harness<'a> {
     ests: Vec<Est>,
     accs: Vec<*mut ml_acceptor>,
     serialized: Option<Vec<u8>>,
-    serialized_lights: Option<Vec<ml_light>>,
+    serialized_lights: Option<(Vec<ml_light>, Option<EnvSpec>)>,
     serialized_tree: Option<*mut ml_tree>,
+    // Boxed: their addresses are the callbacks' user data, and must not move as it grows.
+    #[allow(clippy::vec_box)]
+    envs: Vec<Box<EnvState>>,
 }
 
 fn message() -> String {
@@ -265,6 +276,66 @@ impl Harness<'_> {
         );
     }
 
+    /// A new environment state of `spec`, kept until the end of the run.
+    fn new_env(&mut self, spec: EnvSpec) -> *const EnvState {
+        let b = EnvState::new(spec);
+        let p: *const EnvState = &*b;
+        self.envs.push(b);
+        p
+    }
+
+    /// Forgets what the environment's callbacks did (before a call that may call them).
+    fn env_reset(env: Option<Env>) {
+        if let Some(e) = env {
+            e.state().take();
+        }
+    }
+
+    /// After a call on a tree with the environment `env` (status `s`): a bad value from its
+    /// callbacks made the call `ML_ERR_INVALID_ARGUMENT`, and only one makes its message name
+    /// the environment's values. Whether one was returned.
+    fn env_check(&self, name: &str, env: Option<Env>, s: ml_status) -> bool {
+        let Some(e) = env else { return false };
+        let log = e.state().take();
+        if log.bad {
+            self.ensure(s == ML_ERR_INVALID_ARGUMENT, || {
+                format!(
+                    "{name}: {s} after the environment's callbacks returned a bad value ({:?})",
+                    e.state().spec
+                )
+            });
+        } else if s == ML_ERR_INVALID_ARGUMENT {
+            let m = message();
+            self.ensure(!m.contains("environment->"), || {
+                format!(
+                    "{name}: {m:?} from valid callbacks ({:?}, {} calls)",
+                    e.state().spec,
+                    log.calls
+                )
+            });
+        }
+        log.bad
+    }
+
+    /// A light point of the environment `env` (sampled, or reached by an escaping ray)
+    /// carries its radiance and pdf, at distance +∞.
+    fn env_point(&self, name: &str, env: Env, p: &ml_light_point) {
+        let spec = env.state().spec;
+        if !spec.good() || p.pdf == 0.0 {
+            return;
+        }
+        let r = p.radiance;
+        let l = spec.radiance.to_bits();
+        self.ensure(
+            p.distance == f32::INFINITY
+                && p.pdf.to_bits() == spec.pdf.to_bits()
+                && r.r.to_bits() == l
+                && r.g.to_bits() == l
+                && r.b.to_bits() == l,
+            || format!("{name}: the environment's point {p:?} of {spec:?}"),
+        );
+    }
+
     fn run(&mut self) {
         for at in 0..self.input.ops.len().min(MAX_OPS) {
             self.at = at;
@@ -314,7 +385,7 @@ impl Harness<'_> {
             | Op::BsdfHits { .. }
             | Op::Run { .. }
             | Op::DirectEstimateBatch { .. }
-            | Op::DirectEstimateEnv { .. }
+            | Op::EnvBuild { .. }
             | Op::EstimateEnv { .. }
             | Op::BsdfHitsEnv { .. }
             | Op::RunEnv { .. } => self.estimator_op(op),
@@ -362,6 +433,7 @@ pub fn check(input: &Input) {
         serialized: None,
         serialized_lights: None,
         serialized_tree: None,
+        envs: Vec::new(),
     };
     h.run();
 }

@@ -1,17 +1,20 @@
-//! The tree family (`ml_tree_*`): built from light descriptors (serially, or in parallel and
-//! checked against the serial build byte for byte) or loaded from (edited) serialized bytes,
-//! with or without (edited) lights, serialized, its statistics, freed; TL and BL samples
+//! The tree family (`ml_tree_*`): built from light descriptors, with or without an
+//! environment (serially, or in parallel and checked against the serial build byte for byte)
+//! or loaded from (edited) serialized bytes, with or without (edited) lights and an
+//! environment, serialized, its statistics, freed; TL and BL samples
 //! checked against the queried pmfs, the batches against the single calls, and a tree
 //! loaded with its lights against the one it was saved from.
 
-use super::{message, pick, Harness, Tree};
+use super::{message, pick, Env, Harness, Tree};
 use crate::ffi::buffers::{HandleArg, In, Out};
 use crate::ffi::grammar::{
     indices, numbers, Arg, Bytes, Capacity, Count, Handle, Light, LightsArg, Op, Ptr, Sp, TlPoint,
     MAX_COMPARE, MAX_LEN,
 };
+use crate::ffi::host::{EnvSpec, EnvState};
 use manylights_ffi::*;
 use std::fmt;
+use std::ptr;
 
 impl Harness<'_> {
     /// A tree operation: `Build` to `PmfBlBatch`.
@@ -24,7 +27,7 @@ impl Harness<'_> {
                 options,
                 out,
             } => {
-                let ls: Vec<ml_light> = lights.iter().take(MAX_LEN).map(Light::ml).collect();
+                let (ls, spec) = split_env(lights);
                 let c = count.value(ls.len(), *lp == Ptr::Null);
                 let arr = In::new(&ls, *lp, c);
                 let opts = In::opt(options.as_ref().map(|o| {
@@ -35,10 +38,14 @@ impl Harness<'_> {
                         o.ptr,
                     )
                 }));
+                let env = spec.map(|s| self.new_env(s));
+                let ea = env_arg(env, Ptr::Valid);
                 let mut o = Out::<*mut ml_tree>::one(*out);
-                let s = ml_tree_build(arr.p(), c, opts.p(), o.p());
-                if self.status("ml_tree_build", s, &[&arr, &opts, &o]) {
-                    self.add_tree(o.get(0), Some(ls[..c].to_vec()));
+                let s = ml_tree_build(arr.p(), c, ea.p(), opts.p(), o.p());
+                let ok = self.status("ml_tree_build", s, &[&arr, &ea, &opts, &o]);
+                self.bounds_check("ml_tree_build", spec, ok);
+                if ok {
+                    self.add_tree(o.get(0), Some(ls[..c].to_vec()), env);
                 }
             }
             Op::Load {
@@ -67,7 +74,7 @@ impl Harness<'_> {
                     });
                 }
                 if ok {
-                    self.add_tree(o.get(0), None);
+                    self.add_tree(o.get(0), None, None);
                 }
             }
             Op::Serialize {
@@ -106,7 +113,10 @@ impl Harness<'_> {
                         "ml_tree_serialize: wrote past its bytes".into()
                     });
                     self.serialized = Some((0..n).map(|i| buf.get(i)).collect());
-                    let src = self.tree_at(*tree).map(|t| (t.descs.clone(), t.p));
+                    let src = self.tree_at(*tree).map(|t| {
+                        let spec = t.env.map(|e| e.state().spec);
+                        (t.descs.clone().map(|d| (d, spec)), t.p)
+                    });
                     self.serialized_lights = src.as_ref().and_then(|t| t.0.clone());
                     self.serialized_tree = src.map(|t| t.1);
                 }
@@ -305,8 +315,53 @@ impl Harness<'_> {
         }
     }
 
-    /// A new tree, with the descriptors it holds (`None`: loaded without them).
-    fn add_tree(&mut self, p: *mut ml_tree, descs: Option<Vec<ml_light>>) {
+    /// A build or load that succeeded had valid bounds (each finite, ≥ 0 and at most
+    /// `ML_MAX_LIGHT_ENERGY`).
+    fn bounds_check(&self, name: &str, spec: Option<EnvSpec>, ok: bool) {
+        if let Some(spec) = spec {
+            let valid = spec
+                .bounds
+                .iter()
+                .all(|b| b.is_finite() && *b >= 0.0 && *b <= ML_MAX_LIGHT_ENERGY);
+            self.ensure(valid || !ok, || {
+                format!(
+                    "{name}: succeeded with the environment's bounds {:?}",
+                    spec.bounds
+                )
+            });
+        }
+    }
+
+    /// `ml_tree_build` of `descs` (valid pointers) with the environment `spec` passed as
+    /// `ptr` (`None`: NULL), the tree kept: its index among the live trees.
+    pub(super) fn build_env(
+        &mut self,
+        descs: &[ml_light],
+        spec: Option<EnvSpec>,
+        ptr: Ptr,
+    ) -> Option<usize> {
+        let env = spec.map(|s| self.new_env(s));
+        let ea = env_arg(env, ptr);
+        let mut o = Out::<*mut ml_tree>::one(Ptr::Valid);
+        let s = ml_tree_build(descs.as_ptr(), descs.len(), ea.p(), ptr::null(), o.p());
+        let ok = self.status("ml_tree_build", s, &[&ea, &o]);
+        self.bounds_check("ml_tree_build", spec, ok);
+        if !ok {
+            return None;
+        }
+        let env = if ptr == Ptr::Null { None } else { env };
+        self.add_tree(o.get(0), Some(descs.to_vec()), env);
+        Some(self.trees.len() - 1)
+    }
+
+    /// A new tree, with the descriptors it holds (`None`: loaded without them) and its
+    /// environment.
+    fn add_tree(
+        &mut self,
+        p: *mut ml_tree,
+        descs: Option<Vec<ml_light>>,
+        env: Option<*const EnvState>,
+    ) {
         self.ensure(!p.is_null(), || "a NULL tree".into());
         let mut st = Out::<ml_tree_statistics>::one(Ptr::Valid);
         let s = ml_tree_stats(p, st.p());
@@ -314,7 +369,7 @@ impl Harness<'_> {
         let st = st.get(0);
         let lights = st.lights;
         if let Some(d) = &descs {
-            let c = d.len();
+            let c = d.len() + usize::from(env.is_some());
             self.ensure(lights == c && st.has_lights == 1, || {
                 format!("a tree of {c} lights with them has {st:?}")
             });
@@ -323,7 +378,19 @@ impl Harness<'_> {
                 format!("a tree loaded without lights has {st:?}")
             });
         }
-        self.trees.push(Tree { p, lights, descs });
+        let env = match (&descs, env) {
+            (Some(d), Some(state)) => Some(Env {
+                light: d.len() as u32,
+                state,
+            }),
+            _ => None,
+        };
+        self.trees.push(Tree {
+            p,
+            lights,
+            descs,
+            env,
+        });
     }
 
     /// The serialized bytes of a tree (valid pointers; `None` when that fails).
@@ -359,9 +426,11 @@ impl Harness<'_> {
         threads: u32,
         out: Ptr,
     ) {
-        let ls: Vec<ml_light> = lights.iter().take(MAX_LEN).map(Light::ml).collect();
+        let (ls, spec) = split_env(lights);
         let c = count.value(ls.len(), lp == Ptr::Null);
         let arr = In::new(&ls, lp, c);
+        let env = spec.map(|s| self.new_env(s));
+        let ea = env_arg(env, Ptr::Valid);
         let opts = In::opt(options.map(|o| {
             (
                 ml_build_options {
@@ -371,8 +440,11 @@ impl Harness<'_> {
             )
         }));
         let mut o = Out::<*mut ml_tree>::one(out);
-        let s = ml_tree_build_parallel(arr.p(), c, opts.p(), threads, o.p());
-        let ok = self.status("ml_tree_build_parallel", s, &[&arr, &opts, &o]);
+        let s = ml_tree_build_parallel(arr.p(), c, ea.p(), opts.p(), threads, o.p());
+        let ok = self.status("ml_tree_build_parallel", s, &[&arr, &ea, &opts, &o]);
+        if threads <= 1024 {
+            self.bounds_check("ml_tree_build_parallel", spec, ok);
+        }
         if threads > 1024 {
             self.ensure(s == ML_ERR_INVALID_ARGUMENT || s == ML_ERR_NULL, || {
                 format!("ml_tree_build_parallel: {s} with {threads} threads")
@@ -380,7 +452,7 @@ impl Harness<'_> {
             return;
         }
         let mut o1 = Out::<*mut ml_tree>::one(out);
-        let s1 = ml_tree_build(arr.p(), c, opts.p(), o1.p());
+        let s1 = ml_tree_build(arr.p(), c, ea.p(), opts.p(), o1.p());
         self.ensure(s1 == s, || {
             format!("ml_tree_build_parallel: {s}, ml_tree_build of the same arguments: {s1}")
         });
@@ -388,7 +460,7 @@ impl Harness<'_> {
             return;
         }
         let (tp, ts) = (o.get(0), o1.get(0));
-        self.add_tree(tp, Some(ls[..c].to_vec()));
+        self.add_tree(tp, Some(ls[..c].to_vec()), env);
         let (a, b) = (self.bytes_of(tp), self.bytes_of(ts));
         ml_tree_free(ts);
         self.ensure(a.is_some() && a == b, || {
@@ -411,13 +483,13 @@ impl Harness<'_> {
         let Some((data, pristine)) = self.load_bytes(bytes) else {
             return;
         };
-        let (ls, own): (Vec<ml_light>, bool) = match lights {
+        let (ls, spec, own): (Vec<ml_light>, Option<EnvSpec>, bool) = match lights {
             LightsArg::Own => match &self.serialized_lights {
-                Some(l) => (l.clone(), true),
+                Some((l, e)) => (l.clone(), *e, true),
                 None => return,
             },
             LightsArg::Edited(edits) => {
-                let Some(mut l) = self.serialized_lights.clone() else {
+                let Some((mut l, e)) = self.serialized_lights.clone() else {
                     return;
                 };
                 let mut changed = false;
@@ -428,10 +500,15 @@ impl Harness<'_> {
                         changed = true;
                     }
                 }
-                (l, !changed)
+                (l, e, !changed)
             }
-            LightsArg::Drawn(d) => (d.iter().take(MAX_LEN).map(Light::ml).collect(), false),
+            LightsArg::Drawn(d) => {
+                let (l, e) = split_env(d);
+                (l, e, false)
+            }
         };
+        let env = spec.map(|s| self.new_env(s));
+        let ea = env_arg(env, Ptr::Valid);
         let bp = if ptrs[0] == Ptr::Null {
             Ptr::Null
         } else {
@@ -442,8 +519,9 @@ impl Harness<'_> {
         let c = count.value(ls.len(), ptrs[1] == Ptr::Null);
         let arr = In::new(&ls, ptrs[1], c);
         let mut o = Out::<*mut ml_tree>::one(out);
-        let s = ml_tree_load_with_lights(b.p(), bc, arr.p(), c, o.p());
-        let ok = self.status("ml_tree_load_with_lights", s, &[&b, &arr, &o]);
+        let s = ml_tree_load_with_lights(b.p(), bc, arr.p(), c, ea.p(), o.p());
+        let ok = self.status("ml_tree_load_with_lights", s, &[&b, &arr, &ea, &o]);
+        self.bounds_check("ml_tree_load_with_lights", spec, ok);
         let exact = pristine
             && own
             && bp == Ptr::Valid
@@ -462,7 +540,7 @@ impl Harness<'_> {
             return;
         }
         let t = o.get(0);
-        self.add_tree(t, Some(ls[..c].to_vec()));
+        self.add_tree(t, Some(ls[..c].to_vec()), env);
         if !exact {
             return;
         }
@@ -482,7 +560,14 @@ impl Harness<'_> {
                 (o.get(0), true)
             }
         };
-        self.compare_trees(t, reference, !temporary, c, points, sps);
+        self.compare_trees(
+            t,
+            reference,
+            !temporary,
+            c + usize::from(env.is_some()),
+            points,
+            sps,
+        );
         if temporary {
             ml_tree_free(reference);
         }
@@ -665,4 +750,22 @@ impl BatchOut for f32 {
     fn same(&self, o: &Self) -> bool {
         self.to_bits() == o.to_bits()
     }
+}
+
+/// A build's lights as the harness passes them: the drawn ones (the first [`MAX_LEN`]), the
+/// first of kind 7 taken out as the build's environment ([`EnvSpec::from_light`]).
+fn split_env(lights: &[Light]) -> (Vec<ml_light>, Option<EnvSpec>) {
+    let mut ls: Vec<ml_light> = lights.iter().take(MAX_LEN).map(Light::ml).collect();
+    let env = ls
+        .iter()
+        .position(|l| l.kind == 7)
+        .map(|i| EnvSpec::from_light(&ls.remove(i)));
+    (ls, env)
+}
+
+/// The environment argument of a build or load: `env`'s callbacks passed as `ptr`, NULL
+/// without one.
+fn env_arg(env: Option<*const EnvState>, ptr: Ptr) -> In<ml_environment> {
+    // SAFETY: the states live in `Harness::envs` until the end of the run.
+    In::opt(env.map(|e| (unsafe { &*e }.ml(), ptr)))
 }
