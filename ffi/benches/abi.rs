@@ -23,7 +23,13 @@ fn abi(c: &mut Criterion) {
     let tree = LightTree::build(&lights).unwrap();
     let descs: Vec<ffi::ml_light> = lights.iter().map(ffi::ml_light::from).collect();
     let mut handle: *mut ffi::ml_tree = std::ptr::null_mut();
-    let status = ffi::ml_tree_build(descs.as_ptr(), descs.len(), std::ptr::null(), &mut handle);
+    let status = ffi::ml_tree_build(
+        descs.as_ptr(),
+        descs.len(),
+        std::ptr::null(),
+        std::ptr::null(),
+        &mut handle,
+    );
     assert_eq!(status, ffi::ML_OK, "the bench scene is valid");
 
     let points = random_scene::shading_points(POINTS, 7);
@@ -111,7 +117,13 @@ fn wavefront(c: &mut Criterion) {
     let lights = random_scene::lights(LIGHTS, 7);
     let descs: Vec<ffi::ml_light> = lights.iter().map(ffi::ml_light::from).collect();
     let mut handle: *mut ffi::ml_tree = std::ptr::null_mut();
-    let status = ffi::ml_tree_build(descs.as_ptr(), descs.len(), std::ptr::null(), &mut handle);
+    let status = ffi::ml_tree_build(
+        descs.as_ptr(),
+        descs.len(),
+        std::ptr::null(),
+        std::ptr::null(),
+        &mut handle,
+    );
     assert_eq!(status, ffi::ML_OK, "the bench scene is valid");
     let plastic = manylights::Material::Plastic {
         albedo: manylights::Rgb::grey(0.5),

@@ -238,9 +238,9 @@ enum ml_technique
      */
     ML_TECHNIQUE_UNIFORM = 0,
     /**
-     * One light in proportion to its power (an alias table).
+     * One light in proportion to its energy (an alias table).
      */
-    ML_TECHNIQUE_POWER = 1,
+    ML_TECHNIQUE_ENERGY = 1,
     /**
      * One light by tree descent with the Conty–Kulla importance.
      */
@@ -639,16 +639,6 @@ typedef struct ml_visibility {
      * Passed to both.
      */
     void *user_data;
-    /**
-     * Upper bounds of the irradiance the environment delivers (luminance, W/m²) to a
-     * receiver facing +x, −x, +y, −y, +z and −z: `∫ Y(L(ω)) max(0, a·ω) dω` for each axis
-     * direction a (πY(L) in all six for a uniform radiance L); finite and ≥ 0, each at most
-     * `ML_MAX_LIGHT_ENERGY`. They decide how often the environment is chosen, never its
-     * weight: bounds too large cost variance only; a bound of 0 at a receiver the
-     * environment lights makes the techniques without a BSDF sample there (`power`, `tl`,
-     * `bl`, `tl-split`, and `mis-equal`, `full` where their budget is 0) miss it, biased low.
-     */
-    float irradiance_bounds[6];
 } ml_visibility;
 
 /**
@@ -670,16 +660,6 @@ typedef struct ml_uniforms {
      * Passed to both.
      */
     void *user_data;
-    /**
-     * Upper bounds of the irradiance the environment delivers (luminance, W/m²) to a
-     * receiver facing +x, −x, +y, −y, +z and −z: `∫ Y(L(ω)) max(0, a·ω) dω` for each axis
-     * direction a (πY(L) in all six for a uniform radiance L); finite and ≥ 0, each at most
-     * `ML_MAX_LIGHT_ENERGY`. They decide how often the environment is chosen, never its
-     * weight: bounds too large cost variance only; a bound of 0 at a receiver the
-     * environment lights makes the techniques without a BSDF sample there (`power`, `tl`,
-     * `bl`, `tl-split`, and `mis-equal`, `full` where their budget is 0) miss it, biased low.
-     */
-    float irradiance_bounds[6];
 } ml_uniforms;
 
 /**

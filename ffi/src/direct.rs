@@ -119,14 +119,6 @@ pub struct ml_uniforms {
     pub next_f64: Option<unsafe extern "C" fn(user_data: *mut c_void) -> f64>,
     /// Passed to both.
     pub user_data: *mut c_void,
-    /// Upper bounds of the irradiance the environment delivers (luminance, W/m²) to a
-    /// receiver facing +x, −x, +y, −y, +z and −z: `∫ Y(L(ω)) max(0, a·ω) dω` for each axis
-    /// direction a (πY(L) in all six for a uniform radiance L); finite and ≥ 0, each at most
-    /// `ML_MAX_LIGHT_ENERGY`. They decide how often the environment is chosen, never its
-    /// weight: bounds too large cost variance only; a bound of 0 at a receiver the
-    /// environment lights makes the techniques without a BSDF sample there (`power`, `tl`,
-    /// `bl`, `tl-split`, and `mis-equal`, `full` where their budget is 0) miss it, biased low.
-    pub irradiance_bounds: [f32; 6],
 }
 
 /// The host's visibility, one of two callbacks (both NULL: nothing is occluded):
@@ -145,14 +137,6 @@ pub struct ml_visibility {
         Option<unsafe extern "C" fn(user_data: *mut c_void, x: ml_vec3, d: ml_vec3) -> f32>,
     /// Passed to both.
     pub user_data: *mut c_void,
-    /// Upper bounds of the irradiance the environment delivers (luminance, W/m²) to a
-    /// receiver facing +x, −x, +y, −y, +z and −z: `∫ Y(L(ω)) max(0, a·ω) dω` for each axis
-    /// direction a (πY(L) in all six for a uniform radiance L); finite and ≥ 0, each at most
-    /// `ML_MAX_LIGHT_ENERGY`. They decide how often the environment is chosen, never its
-    /// weight: bounds too large cost variance only; a bound of 0 at a receiver the
-    /// environment lights makes the techniques without a BSDF sample there (`power`, `tl`,
-    /// `bl`, `tl-split`, and `mis-equal`, `full` where their budget is 0) miss it, biased low.
-    pub irradiance_bounds: [f32; 6],
 }
 
 /// The kind of an `ml_step`.

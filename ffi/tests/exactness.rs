@@ -25,14 +25,11 @@ unsafe extern "C" fn next_f64(user: *mut c_void) -> f64 {
     (*(user as *mut Rng)).f64()
 }
 
-#[allow(clippy::needless_update)]
 fn uniforms(r: &mut Rng) -> ml_uniforms {
     ml_uniforms {
         next_f32: Some(next_f32),
         next_f64: Some(next_f64),
         user_data: r as *mut Rng as *mut c_void,
-        // SAFETY: any further field is a number, for which zero bytes are valid.
-        ..unsafe { std::mem::zeroed() }
     }
 }
 

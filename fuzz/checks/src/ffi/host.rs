@@ -106,20 +106,12 @@ pub(super) extern "C" fn each_hit(user: *mut c_void, hit: *const ml_light_hit) {
     }
 }
 
-/// A struct of the ABI with every field zero (NULL callbacks, zero numbers), for the fields
-/// the harness sets one by one.
-fn zeroed<T: Copy>() -> T {
-    // SAFETY: used for the ABI's `repr(C)` structs of callbacks (`Option` of function
-    // pointers: NULL is `None`), pointers and numbers, for which all-zero bytes are valid.
-    unsafe { core::mem::zeroed() }
-}
-
 pub(super) fn uniforms(u: &Uniforms, user: *mut Host) -> ml_uniforms {
-    let mut r: ml_uniforms = zeroed();
-    r.next_f32 = if u.no_f32.set() { None } else { Some(next_f32) };
-    r.next_f64 = if u.f64 { Some(next_f64) } else { None };
-    r.user_data = user.cast();
-    r
+    ml_uniforms {
+        next_f32: if u.no_f32.set() { None } else { Some(next_f32) },
+        next_f64: if u.f64 { Some(next_f64) } else { None },
+        user_data: user.cast(),
+    }
 }
 
 pub(super) fn visibility(v: &Visibility, h: &mut Host) -> ml_visibility {
@@ -129,11 +121,11 @@ pub(super) fn visibility(v: &Visibility, h: &mut Host) -> ml_visibility {
     if let Some(d) = &v.first_hit {
         h.first_hit = d.iter().take(MAX_LEN).map(|f| f.value()).collect();
     }
-    let mut r: ml_visibility = zeroed();
-    r.occluded = v.occluded.as_ref().map(|_| occluded as _);
-    r.first_hit = v.first_hit.as_ref().map(|_| first_hit as _);
-    r.user_data = (h as *mut Host).cast();
-    r
+    ml_visibility {
+        occluded: v.occluded.as_ref().map(|_| occluded as _),
+        first_hit: v.first_hit.as_ref().map(|_| first_hit as _),
+        user_data: (h as *mut Host).cast(),
+    }
 }
 
 /// The VPL visibility `v` describes, its answers in `h`.
@@ -293,16 +285,16 @@ impl EnvState {
 
     /// The environment as the ABI takes it, calling back into `self`.
     pub(super) fn ml(&self) -> ml_environment {
-        let mut e: ml_environment = zeroed();
-        e.sample = if self.spec.sample {
-            Some(env_sample)
-        } else {
-            None
-        };
-        e.eval = if self.spec.eval { Some(env_eval) } else { None };
-        e.user_data = (self as *const EnvState).cast_mut().cast();
-        e.irradiance_bounds = self.spec.bounds;
-        e
+        ml_environment {
+            sample: if self.spec.sample {
+                Some(env_sample)
+            } else {
+                None
+            },
+            eval: if self.spec.eval { Some(env_eval) } else { None },
+            user_data: (self as *const EnvState).cast_mut().cast(),
+            irradiance_bounds: self.spec.bounds,
+        }
     }
 }
 
