@@ -173,6 +173,11 @@ pub extern "C" fn ml_tree_build_parallel(
             )));
         }
         build_tree(lights, count, options, out, |core, opts, descs| {
+            if threads == 1 {
+                // On the caller's thread: no pool, no hand-off (the same tree).
+                return LightSet::build_with(core, opts)
+                    .map_err(|e| build_error(e, descs, "lights"));
+            }
             let pool = rayon::ThreadPoolBuilder::new()
                 .num_threads(threads as usize)
                 .build()
@@ -514,9 +519,14 @@ pub(crate) fn bl_importance(
     BlImportance::new(&s).map_err(|e| crate::types::shading_error(e, path))
 }
 
-/// Shading points per call of the core's batch sampling (the importances of a chunk are built
-/// into one buffer per call).
-const CHUNK: usize = 1024;
+/// TL points per chunk of a batch export: the chunk's importances and results live in two
+/// arrays on the stack (about 9 KiB), so that a batch allocates nothing.
+const TL_CHUNK: usize = 256;
+/// Shading points per chunk of a BL batch export: the BL importance is larger (about 27 KiB
+/// of stack for the chunk); as many as the core's batch descent keeps in flight.
+const BL_CHUNK: usize = 32;
+const _: () = assert!(TL_CHUNK * core::mem::size_of::<TlImportance>() <= 16 * 1024);
+const _: () = assert!(BL_CHUNK * core::mem::size_of::<BlImportance>() <= 32 * 1024);
 
 /// Whether a TL point is finite (the fast path of the check; [`tl_point`] words an error).
 #[inline(always)]
@@ -529,7 +539,7 @@ fn tl_point_ok(p: &ml_tl_point) -> bool {
 /// points (BL).
 trait BatchPoint {
     /// The importance a point gives.
-    type Imp: Importance;
+    type Imp: Importance + Copy;
     /// Whether the point surely passes [`BatchPoint::check`] (a fast test; `false` sends
     /// every point through the full check).
     fn surely_ok(&self) -> bool;
@@ -654,6 +664,10 @@ impl BatchQuery for Pmf {
     }
 
     fn check(l: u32, lights: usize, j: usize) -> Result<()> {
+        // The element's name is written only for the error.
+        if Self::surely_ok(l, lights) {
+            return Ok(());
+        }
         check_light(l, lights, &format!("lights[{j}]"))
     }
 
@@ -675,9 +689,9 @@ impl BatchQuery for Pmf {
 
 /// A batch export: `out[j]` is the query `Q` at `points[j]` with `args[j]`. Checks the
 /// handle, the arrays, then every element (the first bad one is the error, before anything
-/// is written); then queries in chunks of up to [`CHUNK`] points, each chunk's importances
-/// built into one buffer for the core's batch call.
-fn tree_batch<P: BatchPoint, Q: BatchQuery>(
+/// is written); then queries in chunks of up to `K` points, each chunk's importances built
+/// into an array on the stack for the core's batch call (nothing is allocated).
+fn tree_batch<P: BatchPoint, Q: BatchQuery, const K: usize>(
     tree: *const ml_tree,
     points: *const P,
     args: *const Q::Arg,
@@ -699,17 +713,20 @@ fn tree_batch<P: BatchPoint, Q: BatchQuery>(
             Q::check(a, nl, j)?;
         }
     }
-    let mut imps = Vec::with_capacity(n.min(CHUNK));
-    let mut res = vec![Q::EMPTY; n.min(CHUNK)];
-    for start in (0..n).step_by(CHUNK) {
-        let m = CHUNK.min(n - start);
-        imps.clear();
+    let Some(first) = points.first() else {
+        return Ok(());
+    };
+    // Filled with the first point's importance, then overwritten chunk by chunk.
+    let mut imps = [first.importance(0)?; K];
+    let mut res = [Q::EMPTY; K];
+    for start in (0..n).step_by(K) {
+        let m = K.min(n - start);
         for (j, p) in points[start..start + m].iter().enumerate() {
-            imps.push(p.importance(start + j)?);
+            imps[j] = p.importance(start + j)?;
         }
         // The slices are sized alike here: a length mismatch would be a bug, reported as an
         // internal error.
-        Q::call(t, &imps, &args[start..start + m], &mut res[..m])
+        Q::call(t, &imps[..m], &args[start..start + m], &mut res[..m])
             .map_err(|e| Error::internal(format_args!("batch lengths: {e}")))?;
         for (i, &r) in res[..m].iter().enumerate() {
             out.set(start + i, Q::put(r));
@@ -733,7 +750,7 @@ pub extern "C" fn ml_tree_sample_tl_batch(
     out: *mut ml_light_sample,
 ) -> ml_status {
     ffi_fn!("ml_tree_sample_tl_batch", {
-        tree_batch::<_, Sample>(tree, points, us, count, out)
+        tree_batch::<_, Sample, TL_CHUNK>(tree, points, us, count, out)
     })
 }
 
@@ -750,7 +767,7 @@ pub extern "C" fn ml_tree_pmf_tl_batch(
     out: *mut f32,
 ) -> ml_status {
     ffi_fn!("ml_tree_pmf_tl_batch", {
-        tree_batch::<_, Pmf>(tree, points, lights, count, out)
+        tree_batch::<_, Pmf, TL_CHUNK>(tree, points, lights, count, out)
     })
 }
 
@@ -767,7 +784,7 @@ pub extern "C" fn ml_tree_sample_bl_batch(
     out: *mut ml_light_sample,
 ) -> ml_status {
     ffi_fn!("ml_tree_sample_bl_batch", {
-        tree_batch::<_, Sample>(tree, points, us, count, out)
+        tree_batch::<_, Sample, BL_CHUNK>(tree, points, us, count, out)
     })
 }
 
@@ -784,7 +801,7 @@ pub extern "C" fn ml_tree_pmf_bl_batch(
     out: *mut f32,
 ) -> ml_status {
     ffi_fn!("ml_tree_pmf_bl_batch", {
-        tree_batch::<_, Pmf>(tree, points, lights, count, out)
+        tree_batch::<_, Pmf, BL_CHUNK>(tree, points, lights, count, out)
     })
 }
 
