@@ -7,7 +7,7 @@ use crate::ffi_fn;
 use crate::limits::{ML_MAX_BUCKETS, ML_MIN_BUCKETS};
 use crate::types::{
     build_error, finite3, light, ml_light, ml_light_point, ml_light_sample, ml_shading_point,
-    ml_tl_point, ml_vec3, shading_point, tl_point, unit,
+    ml_tl_point, ml_vec3, receiver, shading_point, tl_point, unit,
 };
 use manylights::error::LightMismatch;
 use manylights::light::{pdf_point, sample_point};
@@ -417,9 +417,10 @@ fn mismatch(m: LightMismatch) -> String {
 
 /// Samples a light with TL importance (Conty & Kulla) at `point` with the uniform number `u`
 /// in [0, 1): `*out` gets the light and its pmf, or `ML_NO_LIGHT` when none can contribute.
+/// The point's `receiver` decides which lights can (`ml_receiver`).
 ///
 /// Errors: `ML_ERR_NULL` (`tree`, `point`, `out`); `ML_ERR_INVALID_ARGUMENT` (a non-finite
-/// position or normal, `u` outside [0, 1)).
+/// position or normal, a `receiver` that is no `ml_receiver`, `u` outside [0, 1)).
 #[no_mangle]
 pub extern "C" fn ml_tree_sample_tl(
     tree: *const ml_tree,
@@ -431,9 +432,9 @@ pub extern "C" fn ml_tree_sample_tl(
         let data = tree_arg(tree)?;
         let point = arg::get(point, "point")?;
         let out = arg::out(out, "out")?;
-        let (x, n) = tl_point(point, &|| "point".into())?;
+        let imp = tl_point(point, &|| "point".into())?;
         let u = unit(u, &|| "u".into())?;
-        out.write(data.tree().sample(&TlImportance::new(x, n), u).into());
+        out.write(data.tree().sample(&imp, u).into());
         Ok(())
     })
 }
@@ -443,7 +444,7 @@ pub extern "C" fn ml_tree_sample_tl(
 /// probability would be below `ML_MIN_PMF`: the one way a light that can contribute has pmf 0).
 ///
 /// Errors: `ML_ERR_NULL` (`tree`, `point`, `out`); `ML_ERR_INVALID_ARGUMENT` (a non-finite
-/// point, `light` out of range).
+/// point, a bad `point.receiver`, `light` out of range).
 #[no_mangle]
 pub extern "C" fn ml_tree_pmf_tl(
     tree: *const ml_tree,
@@ -455,10 +456,10 @@ pub extern "C" fn ml_tree_pmf_tl(
         let data = tree_arg(tree)?;
         let point = arg::get(point, "point")?;
         let out = arg::out(out, "out")?;
-        let (x, n) = tl_point(point, &|| "point".into())?;
+        let imp = tl_point(point, &|| "point".into())?;
         let t = data.tree();
         check_light(light, t.light_count() as usize, "light")?;
-        out.write(t.pmf(&TlImportance::new(x, n), light));
+        out.write(t.pmf(&imp, light));
         Ok(())
     })
 }
@@ -528,11 +529,12 @@ const BL_CHUNK: usize = 32;
 const _: () = assert!(TL_CHUNK * core::mem::size_of::<TlImportance>() <= 16 * 1024);
 const _: () = assert!(BL_CHUNK * core::mem::size_of::<BlImportance>() <= 32 * 1024);
 
-/// Whether a TL point is finite (the fast path of the check; [`tl_point`] words an error).
+/// Whether a TL point is finite with a valid receiver (the fast path of the check;
+/// [`tl_point`] words an error).
 #[inline(always)]
 fn tl_point_ok(p: &ml_tl_point) -> bool {
     let (a, b) = (p.position, p.normal);
-    (a.x + a.y + a.z + b.x + b.y + b.z).is_finite()
+    (a.x + a.y + a.z + b.x + b.y + b.z).is_finite() && receiver(p.receiver).is_some()
 }
 
 /// The shading points of a batch export: TL points (position and normal) or full shading
@@ -562,8 +564,15 @@ impl BatchPoint for ml_tl_point {
     }
 
     #[inline]
-    fn importance(&self, _j: usize) -> Result<TlImportance> {
-        Ok(TlImportance::new(self.position.into(), self.normal.into()))
+    fn importance(&self, j: usize) -> Result<TlImportance> {
+        match receiver(self.receiver) {
+            Some(r) => Ok(TlImportance::with_receiver(
+                self.position.into(),
+                self.normal.into(),
+                r,
+            )),
+            None => tl_point(self, &|| format!("points[{j}]")),
+        }
     }
 }
 
@@ -740,7 +749,8 @@ fn tree_batch<P: BatchPoint, Q: BatchQuery, const K: usize>(
 /// anything is written.
 ///
 /// Errors: `ML_ERR_NULL` (`tree`; `points`, `us`, `out` when `count` > 0);
-/// `ML_ERR_INVALID_ARGUMENT` naming the element (`points[j].normal`, `us[j]`).
+/// `ML_ERR_INVALID_ARGUMENT` naming the element (`points[j].normal`, `points[j].receiver`,
+/// `us[j]`).
 #[no_mangle]
 pub extern "C" fn ml_tree_sample_tl_batch(
     tree: *const ml_tree,
@@ -757,7 +767,8 @@ pub extern "C" fn ml_tree_sample_tl_batch(
 /// `count` TL pmfs at once: `out[j]` = `ml_tree_pmf_tl(points[j], lights[j])`, bit for bit.
 ///
 /// Errors: `ML_ERR_NULL` (`tree`; `points`, `lights`, `out` when `count` > 0);
-/// `ML_ERR_INVALID_ARGUMENT` naming the element (`points[j].position`, `lights[j]`).
+/// `ML_ERR_INVALID_ARGUMENT` naming the element (`points[j].position`, `points[j].receiver`,
+/// `lights[j]`).
 #[no_mangle]
 pub extern "C" fn ml_tree_pmf_tl_batch(
     tree: *const ml_tree,
