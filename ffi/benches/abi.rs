@@ -39,6 +39,7 @@ fn abi(c: &mut Criterion) {
         .map(|p| ffi::ml_tl_point {
             position: p.position.into(),
             normal: p.normal.into(),
+            receiver: ffi::ml_receiver::Reflective as u32,
         })
         .collect();
     let lights_of = random_scene::sampled_lights(&tree, &points, &us);

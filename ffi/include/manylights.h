@@ -79,6 +79,21 @@
  * light that can contribute at a point gets pmf 0: its probability there would be below this
  * (at some node on its path, the probability of reaching its slot would fall below it;
  * those lights are never sampled and the others share their probability).
+ *
+ * How far apart neighbours' energies may be: at each node on a light's path the descent
+ * takes the light's slot with probability w / Σw over the node's four slots, w being the
+ * slots' importances (TL or BL: a slot's energy times a factor of how the point sees it —
+ * distance, angles, the BRDF; below a node whose slots all have importance 0, their
+ * energies), and the light's pmf is the product of those ratios along its path (times the
+ * root's choice of the node tree against the lights at infinity). A slot is dropped where
+ * that product, in f32, would fall below 2⁻¹²⁶. So of two neighbours a point sees alike (the
+ * same factor: at one position, or far away against their spread) the weaker keeps pmf > 0
+ * exactly while E_strong / E_weak ≤ 2¹²⁶ ≈ 8.5e37 (up to the 2⁻¹¹ relative rounding of the
+ * energies a node stores); among many lights seen alike the ratios multiply to about
+ * E_light / E_total, so a light keeps pmf > 0 while the tree's total energy is at most 2¹²⁶
+ * times its own: with `ML_MAX_TOTAL_ENERGY`, every light of energy ≥ 1e26 · 2⁻¹²⁶ ≈ 1.2e-12 W
+ * seen alike with the others. A light the point sees k times more weakly than its neighbours
+ * (farther, at a grazing angle) needs k times more energy.
  */
 #define ML_MIN_PMF 1.17549435e-38
 
@@ -222,6 +237,37 @@ enum ml_material_kind
 typedef enum ml_material_kind ml_material_kind;
 #else
 typedef uint32_t ml_material_kind;
+#endif // __STDC_VERSION__ >= 202311L
+#endif // __cplusplus
+
+/**
+ * How a TL point receives light (the value of `ml_tl_point.receiver`): which side of its
+ * normal a light must be on to count, and how its angle weighs it.
+ */
+enum ml_receiver
+#if defined(__cplusplus) || __STDC_VERSION__ >= 202311L
+  : uint32_t
+#endif // defined(__cplusplus) || __STDC_VERSION__ >= 202311L
+ {
+    /**
+     * A reflecting surface: lights on the normal's side only, weighed by max(cos θi, 0).
+     */
+    ML_RECEIVER_REFLECTIVE = 0,
+    /**
+     * A two-sided surface (thin translucent surfaces: leaves, paper, curtains): lights on
+     * both sides, weighed by |cos θi| (pbrt-v4's rule for transmissive BSDFs).
+     */
+    ML_RECEIVER_TRANSMISSIVE = 1,
+    /**
+     * A point with no surface (a medium): lights in every direction, the normal ignored.
+     */
+    ML_RECEIVER_OMNIDIRECTIONAL = 2,
+};
+#ifndef __cplusplus
+#if __STDC_VERSION__ >= 202311L
+typedef enum ml_receiver ml_receiver;
+#else
+typedef uint32_t ml_receiver;
 #endif // __STDC_VERSION__ >= 202311L
 #endif // __cplusplus
 
@@ -496,7 +542,9 @@ typedef struct ml_shading_point {
 
 /**
  * A direction sampled from a BRDF: `pdf = 0` (and `wi`, `value` zero) when the draw gives no
- * direction (the view or the sampled direction is below the surface).
+ * direction (the view or the sampled direction is below the surface). The direction and its
+ * pdf follow the material's luminance (as the estimators' BSDF samples do); `value` is f in
+ * colour.
  */
 typedef struct ml_brdf_draw {
     /**
@@ -508,9 +556,10 @@ typedef struct ml_brdf_draw {
      */
     float pdf;
     /**
-     * The BRDF value f(ωo, ωi) (not multiplied by cos θi).
+     * The BRDF value f(ωo, ωi) per channel of linear RGB (not multiplied by cos θi): for an
+     * RGB albedo, each channel's own f.
      */
-    float value;
+    struct ml_rgb value;
 } ml_brdf_draw;
 
 /**
@@ -550,8 +599,9 @@ typedef struct ml_split_cut_options {
 } ml_split_cut_options;
 
 /**
- * A point for TL (Conty–Kulla) importance: position and normal (finite; the zero normal
- * makes the point receive from every direction).
+ * A point for TL (Conty–Kulla) importance: position, normal (finite) and the kind of receiver.
+ * A zero normal makes the point omnidirectional whatever `receiver` says. Zero-initialised,
+ * it is a reflective point.
  */
 typedef struct ml_tl_point {
     /**
@@ -562,6 +612,10 @@ typedef struct ml_tl_point {
      * Surface normal (any finite length; zero: omnidirectional).
      */
     struct ml_vec3 normal;
+    /**
+     * An `ml_receiver` (0: `ML_RECEIVER_REFLECTIVE`).
+     */
+    uint32_t receiver;
 } ml_tl_point;
 
 /**
@@ -1149,7 +1203,7 @@ ml_status ml_version(uint32_t *major, uint32_t *minor, uint32_t *patch);
  * cosine; plastic by choosing a lobe in proportion to its weight) with `u0`, `u1` in [0, 1).
  * The local frame has `sp->normal` as +z (as the estimators use it). With a BSDF step's `u0`,
  * `u1` the draw is the one-call estimator's BSDF sample: the same direction (here in world
- * space), its pdf and value bit for bit.
+ * space), its pdf and value (in every channel) bit for bit.
  *
  * Errors: `ML_ERR_NULL` (`sp`, `out`); `ML_ERR_INVALID_ARGUMENT` (a bad shading point, `u0`
  * or `u1` outside [0, 1)).
@@ -1175,13 +1229,14 @@ ml_status ml_brdf_pdf(const struct ml_shading_point *sp, struct ml_vec3 wi, floa
 
 /**
  * The BRDF value f(ωo, ωi) of `sp`'s material for the direction `wi` (world space, any
- * non-zero length; 0 below the surface): for a light step's `point.direction`, bit for bit
- * the f of the one-call estimator.
+ * non-zero length; 0 below the surface), per channel of linear RGB: channel c is f with the
+ * albedo's channel c (the specular lobe is the same in every channel). For a light step's
+ * `point.direction`, bit for bit the f of the one-call estimator in each channel.
  *
  * Errors: `ML_ERR_NULL` (`sp`, `out`); `ML_ERR_INVALID_ARGUMENT` (a bad shading point, a zero
  * or non-finite `wi`).
  */
-ml_status ml_brdf_eval(const struct ml_shading_point *sp, struct ml_vec3 wi, float *out);
+ml_status ml_brdf_eval(const struct ml_shading_point *sp, struct ml_vec3 wi, struct ml_rgb *out);
 
 /**
  * Fills `*out` with the default BRDF-oriented cut options (δ = 0.3, 64 clusters, caps with
@@ -1233,7 +1288,7 @@ ml_status ml_cut_build_bl(struct ml_cut *cut,
  * TL pmf > 0, while a cut that opens the slot leaves them out (`ML_NO_CLUSTER`, pmf 0).
  *
  * Errors: `ML_ERR_NULL` (`cut`, `tree`, `point`); `ML_ERR_INVALID_ARGUMENT` (a non-finite
- * point, a bad option).
+ * point, a bad `point.receiver`, a bad option).
  */
 ml_status ml_cut_build_split(struct ml_cut *cut,
                              const struct ml_tree *tree,
@@ -1508,7 +1563,8 @@ ml_status ml_tree_build(const struct ml_light *lights,
 /**
  * `ml_tree_build` with the build's work spread over `threads` threads (0: one per core),
  * made for the call: the same tree, byte for byte (`ml_tree_serialize`), as
- * `ml_tree_build` gives, sooner on a machine with idle cores.
+ * `ml_tree_build` gives, sooner on a machine with idle cores. With `threads` = 1 the build
+ * runs on the calling thread and starts no other.
  *
  * Errors: those of `ml_tree_build`; `ML_ERR_INVALID_ARGUMENT` if `threads` is above 1024;
  * `ML_ERR_INTERNAL` if the threads cannot be started.
@@ -1593,9 +1649,10 @@ ml_status ml_tree_load_with_lights(const uint8_t *bytes,
 /**
  * Samples a light with TL importance (Conty & Kulla) at `point` with the uniform number `u`
  * in [0, 1): `*out` gets the light and its pmf, or `ML_NO_LIGHT` when none can contribute.
+ * The point's `receiver` decides which lights can (`ml_receiver`).
  *
  * Errors: `ML_ERR_NULL` (`tree`, `point`, `out`); `ML_ERR_INVALID_ARGUMENT` (a non-finite
- * position or normal, `u` outside [0, 1)).
+ * position or normal, a `receiver` that is no `ml_receiver`, `u` outside [0, 1)).
  */
 ml_status ml_tree_sample_tl(const struct ml_tree *tree,
                             const struct ml_tl_point *point,
@@ -1608,7 +1665,7 @@ ml_status ml_tree_sample_tl(const struct ml_tree *tree,
  * probability would be below `ML_MIN_PMF`: the one way a light that can contribute has pmf 0).
  *
  * Errors: `ML_ERR_NULL` (`tree`, `point`, `out`); `ML_ERR_INVALID_ARGUMENT` (a non-finite
- * point, `light` out of range).
+ * point, a bad `point.receiver`, `light` out of range).
  */
 ml_status ml_tree_pmf_tl(const struct ml_tree *tree,
                          const struct ml_tl_point *point,
@@ -1644,7 +1701,8 @@ ml_status ml_tree_pmf_bl(const struct ml_tree *tree,
  * anything is written.
  *
  * Errors: `ML_ERR_NULL` (`tree`; `points`, `us`, `out` when `count` > 0);
- * `ML_ERR_INVALID_ARGUMENT` naming the element (`points[j].normal`, `us[j]`).
+ * `ML_ERR_INVALID_ARGUMENT` naming the element (`points[j].normal`, `points[j].receiver`,
+ * `us[j]`).
  */
 ml_status ml_tree_sample_tl_batch(const struct ml_tree *tree,
                                   const struct ml_tl_point *points,
@@ -1656,7 +1714,8 @@ ml_status ml_tree_sample_tl_batch(const struct ml_tree *tree,
  * `count` TL pmfs at once: `out[j]` = `ml_tree_pmf_tl(points[j], lights[j])`, bit for bit.
  *
  * Errors: `ML_ERR_NULL` (`tree`; `points`, `lights`, `out` when `count` > 0);
- * `ML_ERR_INVALID_ARGUMENT` naming the element (`points[j].position`, `lights[j]`).
+ * `ML_ERR_INVALID_ARGUMENT` naming the element (`points[j].position`, `points[j].receiver`,
+ * `lights[j]`).
  */
 ml_status ml_tree_pmf_tl_batch(const struct ml_tree *tree,
                                const struct ml_tl_point *points,

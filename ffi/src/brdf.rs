@@ -4,12 +4,14 @@
 use crate::arg;
 use crate::error::{ml_status, Error, Result};
 use crate::ffi_fn;
-use crate::types::{direction3, ml_shading_point, ml_vec3, shading_point, unit};
+use crate::types::{direction3, ml_rgb, ml_shading_point, ml_vec3, shading_point, unit};
 use glam::Vec3;
 use manylights::{Brdf, Frame, Material};
 
 /// A direction sampled from a BRDF: `pdf = 0` (and `wi`, `value` zero) when the draw gives no
-/// direction (the view or the sampled direction is below the surface).
+/// direction (the view or the sampled direction is below the surface). The direction and its
+/// pdf follow the material's luminance (as the estimators' BSDF samples do); `value` is f in
+/// colour.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct ml_brdf_draw {
@@ -17,8 +19,9 @@ pub struct ml_brdf_draw {
     pub wi: ml_vec3,
     /// Its solid-angle pdf (> 0 and finite; 0: no direction).
     pub pdf: f32,
-    /// The BRDF value f(ωo, ωi) (not multiplied by cos θi).
-    pub value: f32,
+    /// The BRDF value f(ωo, ωi) per channel of linear RGB (not multiplied by cos θi): for an
+    /// RGB albedo, each channel's own f.
+    pub value: ml_rgb,
 }
 
 /// `wi` in the local frame: a direction already of unit length (to f32 rounding, as the
@@ -47,7 +50,7 @@ fn local(sp: *const ml_shading_point) -> Result<(Frame, Vec3, Material)> {
 /// cosine; plastic by choosing a lobe in proportion to its weight) with `u0`, `u1` in [0, 1).
 /// The local frame has `sp->normal` as +z (as the estimators use it). With a BSDF step's `u0`,
 /// `u1` the draw is the one-call estimator's BSDF sample: the same direction (here in world
-/// space), its pdf and value bit for bit.
+/// space), its pdf and value (in every channel) bit for bit.
 ///
 /// Errors: `ML_ERR_NULL` (`sp`, `out`); `ML_ERR_INVALID_ARGUMENT` (a bad shading point, `u0`
 /// or `u1` outside [0, 1)).
@@ -66,7 +69,7 @@ pub extern "C" fn ml_brdf_sample(
             Some((wi, pdf)) => ml_brdf_draw {
                 wi: frame.to_world(wi).normalize().into(),
                 pdf,
-                value: m.eval(wo, wi),
+                value: m.eval_rgb(wo, wi).into(),
             },
             None => ml_brdf_draw::default(),
         };
@@ -101,8 +104,9 @@ pub extern "C" fn ml_brdf_pdf(
 }
 
 /// The BRDF value f(ωo, ωi) of `sp`'s material for the direction `wi` (world space, any
-/// non-zero length; 0 below the surface): for a light step's `point.direction`, bit for bit
-/// the f of the one-call estimator.
+/// non-zero length; 0 below the surface), per channel of linear RGB: channel c is f with the
+/// albedo's channel c (the specular lobe is the same in every channel). For a light step's
+/// `point.direction`, bit for bit the f of the one-call estimator in each channel.
 ///
 /// Errors: `ML_ERR_NULL` (`sp`, `out`); `ML_ERR_INVALID_ARGUMENT` (a bad shading point, a zero
 /// or non-finite `wi`).
@@ -110,13 +114,13 @@ pub extern "C" fn ml_brdf_pdf(
 pub extern "C" fn ml_brdf_eval(
     sp: *const ml_shading_point,
     wi: ml_vec3,
-    out: *mut f32,
+    out: *mut ml_rgb,
 ) -> ml_status {
     ffi_fn!("ml_brdf_eval", {
         let out = arg::out(out, "out")?;
         let (frame, wo, m) = local(sp)?;
         let wi = direction3(wi, &|| "wi".into())?;
-        out.write(m.eval(wo, to_local(&frame, wi)));
+        out.write(m.eval_rgb(wo, to_local(&frame, wi)).into());
         Ok(())
     })
 }

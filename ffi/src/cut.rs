@@ -223,7 +223,7 @@ pub extern "C" fn ml_cut_build_bl(
 /// TL pmf > 0, while a cut that opens the slot leaves them out (`ML_NO_CLUSTER`, pmf 0).
 ///
 /// Errors: `ML_ERR_NULL` (`cut`, `tree`, `point`); `ML_ERR_INVALID_ARGUMENT` (a non-finite
-/// point, a bad option).
+/// point, a bad `point.receiver`, a bad option).
 #[no_mangle]
 pub extern "C" fn ml_cut_build_split(
     cut: *mut ml_cut,
@@ -236,8 +236,7 @@ pub extern "C" fn ml_cut_build_split(
         let data = tree_arg(tree)?;
         let point = arg::get(point, "point")?;
         let opts = split_options(arg::opt(options, "options")?, "options")?;
-        let (x, n) = tl_point(point, &|| "point".into())?;
-        let imp = TlImportance::new(x, n);
+        let imp = tl_point(point, &|| "point".into())?;
         cut.cut = LightCut::build_split(data.tree(), &imp, &opts);
         cut.imp = CutImportance::Tl(imp);
         if !cut.tree.as_ref().is_some_and(|t| Arc::ptr_eq(t, data)) {

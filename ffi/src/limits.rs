@@ -25,6 +25,21 @@ const _: () = assert!(ML_MAX_TOTAL_ENERGY.to_bits() == manylights::MAX_TOTAL_ENE
 /// light that can contribute at a point gets pmf 0: its probability there would be below this
 /// (at some node on its path, the probability of reaching its slot would fall below it;
 /// those lights are never sampled and the others share their probability).
+///
+/// How far apart neighbours' energies may be: at each node on a light's path the descent
+/// takes the light's slot with probability w / Σw over the node's four slots, w being the
+/// slots' importances (TL or BL: a slot's energy times a factor of how the point sees it —
+/// distance, angles, the BRDF; below a node whose slots all have importance 0, their
+/// energies), and the light's pmf is the product of those ratios along its path (times the
+/// root's choice of the node tree against the lights at infinity). A slot is dropped where
+/// that product, in f32, would fall below 2⁻¹²⁶. So of two neighbours a point sees alike (the
+/// same factor: at one position, or far away against their spread) the weaker keeps pmf > 0
+/// exactly while E_strong / E_weak ≤ 2¹²⁶ ≈ 8.5e37 (up to the 2⁻¹¹ relative rounding of the
+/// energies a node stores); among many lights seen alike the ratios multiply to about
+/// E_light / E_total, so a light keeps pmf > 0 while the tree's total energy is at most 2¹²⁶
+/// times its own: with `ML_MAX_TOTAL_ENERGY`, every light of energy ≥ 1e26 · 2⁻¹²⁶ ≈ 1.2e-12 W
+/// seen alike with the others. A light the point sees k times more weakly than its neighbours
+/// (farther, at a grazing angle) needs k times more energy.
 // Written as C's FLT_MIN is, so that the header's macro reads as the C constant.
 #[allow(clippy::excessive_precision)]
 pub const ML_MIN_PMF: f32 = 1.17549435e-38;

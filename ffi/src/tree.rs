@@ -8,7 +8,7 @@ use crate::ffi_fn;
 use crate::limits::{ML_MAX_BUCKETS, ML_MIN_BUCKETS};
 use crate::types::{
     build_error, finite3, light, ml_light, ml_light_point, ml_light_sample, ml_shading_point,
-    ml_tl_point, ml_vec3, shading_point, tl_point, unit,
+    ml_tl_point, ml_vec3, receiver, shading_point, tl_point, unit,
 };
 use manylights::error::LightMismatch;
 use manylights::{
@@ -157,9 +157,11 @@ pub extern "C" fn ml_tree_build(
             environment,
             options,
             out,
-            |core, env, opts| match env {
-                Some(env) => LightSet::build_with_environment(core, env, opts, &Serial),
-                None => LightSet::build_with(core, opts),
+            |core, env, opts| {
+                Ok(match env {
+                    Some(env) => LightSet::build_with_environment(core, env, opts, &Serial),
+                    None => LightSet::build_with(core, opts),
+                })
             },
         )
     })
@@ -167,7 +169,8 @@ pub extern "C" fn ml_tree_build(
 
 /// `ml_tree_build` with the build's work spread over `threads` threads (0: one per core),
 /// made for the call: the same tree, byte for byte (`ml_tree_serialize`), as
-/// `ml_tree_build` gives, sooner on a machine with idle cores.
+/// `ml_tree_build` gives, sooner on a machine with idle cores. With `threads` = 1 the build
+/// runs on the calling thread and starts no other.
 ///
 /// Errors: those of `ml_tree_build`; `ML_ERR_INVALID_ARGUMENT` if `threads` is above 1024;
 /// `ML_ERR_INTERNAL` if the threads cannot be started.
@@ -186,10 +189,6 @@ pub extern "C" fn ml_tree_build_parallel(
                 "threads must be at most 1024 (got {threads})"
             )));
         }
-        let pool = rayon::ThreadPoolBuilder::new()
-            .num_threads(threads as usize)
-            .build()
-            .map_err(|e| Error::internal(format_args!("threads: cannot start them ({e})")))?;
         build_tree(
             lights,
             count,
@@ -197,10 +196,23 @@ pub extern "C" fn ml_tree_build_parallel(
             options,
             out,
             |core, env, opts| {
-                pool.install(|| match env {
+                if threads == 1 {
+                    // On the caller's thread: no pool, no hand-off (the same tree).
+                    return Ok(match env {
+                        Some(env) => LightSet::build_with_environment(core, env, opts, &Serial),
+                        None => LightSet::build_with(core, opts),
+                    });
+                }
+                let pool = rayon::ThreadPoolBuilder::new()
+                    .num_threads(threads as usize)
+                    .build()
+                    .map_err(|e| {
+                        Error::internal(format_args!("threads: cannot start them ({e})"))
+                    })?;
+                Ok(pool.install(|| match env {
                     Some(env) => LightSet::build_with_environment(core, env, opts, &RayonJoin),
                     None => LightSet::build_parallel(core, opts, &RayonJoin),
-                })
+                }))
             },
         )
     })
@@ -235,7 +247,7 @@ fn build_tree(
         Vec<Light>,
         Option<HostEnvironment>,
         &BuildOptions,
-    ) -> std::result::Result<LightSet, BuildError>,
+    ) -> Result<std::result::Result<LightSet, BuildError>>,
 ) -> Result<()> {
     let descs = arg::slice(lights, count, "lights")?;
     let env = environment_arg(environment)?;
@@ -263,7 +275,7 @@ fn build_tree(
     for (i, l) in descs.iter().enumerate() {
         core.push(light(l, i, "lights")?);
     }
-    let set = build(core, env, &opts).map_err(|e| build_error(e, descs, "lights"))?;
+    let set = build(core, env, &opts)?.map_err(|e| build_error(e, descs, "lights"))?;
     out.write(arg::into_handle(ml_tree {
         data: Arc::new(TreeData::Set(set)),
     }));
@@ -457,9 +469,10 @@ fn mismatch(m: LightMismatch) -> String {
 
 /// Samples a light with TL importance (Conty & Kulla) at `point` with the uniform number `u`
 /// in [0, 1): `*out` gets the light and its pmf, or `ML_NO_LIGHT` when none can contribute.
+/// The point's `receiver` decides which lights can (`ml_receiver`).
 ///
 /// Errors: `ML_ERR_NULL` (`tree`, `point`, `out`); `ML_ERR_INVALID_ARGUMENT` (a non-finite
-/// position or normal, `u` outside [0, 1)).
+/// position or normal, a `receiver` that is no `ml_receiver`, `u` outside [0, 1)).
 #[no_mangle]
 pub extern "C" fn ml_tree_sample_tl(
     tree: *const ml_tree,
@@ -471,9 +484,9 @@ pub extern "C" fn ml_tree_sample_tl(
         let data = tree_arg(tree)?;
         let point = arg::get(point, "point")?;
         let out = arg::out(out, "out")?;
-        let (x, n) = tl_point(point, &|| "point".into())?;
+        let imp = tl_point(point, &|| "point".into())?;
         let u = unit(u, &|| "u".into())?;
-        out.write(data.tree().sample(&TlImportance::new(x, n), u).into());
+        out.write(data.tree().sample(&imp, u).into());
         Ok(())
     })
 }
@@ -483,7 +496,7 @@ pub extern "C" fn ml_tree_sample_tl(
 /// probability would be below `ML_MIN_PMF`: the one way a light that can contribute has pmf 0).
 ///
 /// Errors: `ML_ERR_NULL` (`tree`, `point`, `out`); `ML_ERR_INVALID_ARGUMENT` (a non-finite
-/// point, `light` out of range).
+/// point, a bad `point.receiver`, `light` out of range).
 #[no_mangle]
 pub extern "C" fn ml_tree_pmf_tl(
     tree: *const ml_tree,
@@ -495,10 +508,10 @@ pub extern "C" fn ml_tree_pmf_tl(
         let data = tree_arg(tree)?;
         let point = arg::get(point, "point")?;
         let out = arg::out(out, "out")?;
-        let (x, n) = tl_point(point, &|| "point".into())?;
+        let imp = tl_point(point, &|| "point".into())?;
         let t = data.tree();
         check_light(light, t.light_count() as usize, "light")?;
-        out.write(t.pmf(&TlImportance::new(x, n), light));
+        out.write(t.pmf(&imp, light));
         Ok(())
     })
 }
@@ -559,22 +572,28 @@ pub(crate) fn bl_importance(
     BlImportance::new(&s).map_err(|e| crate::types::shading_error(e, path))
 }
 
-/// Shading points per call of the core's batch sampling (the importances of a chunk are built
-/// into one buffer per call).
-const CHUNK: usize = 1024;
+/// TL points per chunk of a batch export: the chunk's importances and results live in two
+/// arrays on the stack (about 9 KiB), so that a batch allocates nothing.
+const TL_CHUNK: usize = 256;
+/// Shading points per chunk of a BL batch export: the BL importance is larger (about 27 KiB
+/// of stack for the chunk); as many as the core's batch descent keeps in flight.
+const BL_CHUNK: usize = 32;
+const _: () = assert!(TL_CHUNK * core::mem::size_of::<TlImportance>() <= 16 * 1024);
+const _: () = assert!(BL_CHUNK * core::mem::size_of::<BlImportance>() <= 32 * 1024);
 
-/// Whether a TL point is finite (the fast path of the check; [`tl_point`] words an error).
+/// Whether a TL point is finite with a valid receiver (the fast path of the check;
+/// [`tl_point`] words an error).
 #[inline(always)]
 fn tl_point_ok(p: &ml_tl_point) -> bool {
     let (a, b) = (p.position, p.normal);
-    (a.x + a.y + a.z + b.x + b.y + b.z).is_finite()
+    (a.x + a.y + a.z + b.x + b.y + b.z).is_finite() && receiver(p.receiver).is_some()
 }
 
 /// The shading points of a batch export: TL points (position and normal) or full shading
 /// points (BL).
 trait BatchPoint {
     /// The importance a point gives.
-    type Imp: Importance;
+    type Imp: Importance + Copy;
     /// Whether the point surely passes [`BatchPoint::check`] (a fast test; `false` sends
     /// every point through the full check).
     fn surely_ok(&self) -> bool;
@@ -597,8 +616,15 @@ impl BatchPoint for ml_tl_point {
     }
 
     #[inline]
-    fn importance(&self, _j: usize) -> Result<TlImportance> {
-        Ok(TlImportance::new(self.position.into(), self.normal.into()))
+    fn importance(&self, j: usize) -> Result<TlImportance> {
+        match receiver(self.receiver) {
+            Some(r) => Ok(TlImportance::with_receiver(
+                self.position.into(),
+                self.normal.into(),
+                r,
+            )),
+            None => tl_point(self, &|| format!("points[{j}]")),
+        }
     }
 }
 
@@ -699,6 +725,10 @@ impl BatchQuery for Pmf {
     }
 
     fn check(l: u32, lights: usize, j: usize) -> Result<()> {
+        // The element's name is written only for the error.
+        if Self::surely_ok(l, lights) {
+            return Ok(());
+        }
         check_light(l, lights, &format!("lights[{j}]"))
     }
 
@@ -720,9 +750,9 @@ impl BatchQuery for Pmf {
 
 /// A batch export: `out[j]` is the query `Q` at `points[j]` with `args[j]`. Checks the
 /// handle, the arrays, then every element (the first bad one is the error, before anything
-/// is written); then queries in chunks of up to [`CHUNK`] points, each chunk's importances
-/// built into one buffer for the core's batch call.
-fn tree_batch<P: BatchPoint, Q: BatchQuery>(
+/// is written); then queries in chunks of up to `K` points, each chunk's importances built
+/// into an array on the stack for the core's batch call (nothing is allocated).
+fn tree_batch<P: BatchPoint, Q: BatchQuery, const K: usize>(
     tree: *const ml_tree,
     points: *const P,
     args: *const Q::Arg,
@@ -744,17 +774,20 @@ fn tree_batch<P: BatchPoint, Q: BatchQuery>(
             Q::check(a, nl, j)?;
         }
     }
-    let mut imps = Vec::with_capacity(n.min(CHUNK));
-    let mut res = vec![Q::EMPTY; n.min(CHUNK)];
-    for start in (0..n).step_by(CHUNK) {
-        let m = CHUNK.min(n - start);
-        imps.clear();
+    let Some(first) = points.first() else {
+        return Ok(());
+    };
+    // Filled with the first point's importance, then overwritten chunk by chunk.
+    let mut imps = [first.importance(0)?; K];
+    let mut res = [Q::EMPTY; K];
+    for start in (0..n).step_by(K) {
+        let m = K.min(n - start);
         for (j, p) in points[start..start + m].iter().enumerate() {
-            imps.push(p.importance(start + j)?);
+            imps[j] = p.importance(start + j)?;
         }
         // The slices are sized alike here: a length mismatch would be a bug, reported as an
         // internal error.
-        Q::call(t, &imps, &args[start..start + m], &mut res[..m])
+        Q::call(t, &imps[..m], &args[start..start + m], &mut res[..m])
             .map_err(|e| Error::internal(format_args!("batch lengths: {e}")))?;
         for (i, &r) in res[..m].iter().enumerate() {
             out.set(start + i, Q::put(r));
@@ -768,7 +801,8 @@ fn tree_batch<P: BatchPoint, Q: BatchQuery>(
 /// anything is written.
 ///
 /// Errors: `ML_ERR_NULL` (`tree`; `points`, `us`, `out` when `count` > 0);
-/// `ML_ERR_INVALID_ARGUMENT` naming the element (`points[j].normal`, `us[j]`).
+/// `ML_ERR_INVALID_ARGUMENT` naming the element (`points[j].normal`, `points[j].receiver`,
+/// `us[j]`).
 #[no_mangle]
 pub extern "C" fn ml_tree_sample_tl_batch(
     tree: *const ml_tree,
@@ -778,14 +812,15 @@ pub extern "C" fn ml_tree_sample_tl_batch(
     out: *mut ml_light_sample,
 ) -> ml_status {
     ffi_fn!("ml_tree_sample_tl_batch", {
-        tree_batch::<_, Sample>(tree, points, us, count, out)
+        tree_batch::<_, Sample, TL_CHUNK>(tree, points, us, count, out)
     })
 }
 
 /// `count` TL pmfs at once: `out[j]` = `ml_tree_pmf_tl(points[j], lights[j])`, bit for bit.
 ///
 /// Errors: `ML_ERR_NULL` (`tree`; `points`, `lights`, `out` when `count` > 0);
-/// `ML_ERR_INVALID_ARGUMENT` naming the element (`points[j].position`, `lights[j]`).
+/// `ML_ERR_INVALID_ARGUMENT` naming the element (`points[j].position`, `points[j].receiver`,
+/// `lights[j]`).
 #[no_mangle]
 pub extern "C" fn ml_tree_pmf_tl_batch(
     tree: *const ml_tree,
@@ -795,7 +830,7 @@ pub extern "C" fn ml_tree_pmf_tl_batch(
     out: *mut f32,
 ) -> ml_status {
     ffi_fn!("ml_tree_pmf_tl_batch", {
-        tree_batch::<_, Pmf>(tree, points, lights, count, out)
+        tree_batch::<_, Pmf, TL_CHUNK>(tree, points, lights, count, out)
     })
 }
 
@@ -812,7 +847,7 @@ pub extern "C" fn ml_tree_sample_bl_batch(
     out: *mut ml_light_sample,
 ) -> ml_status {
     ffi_fn!("ml_tree_sample_bl_batch", {
-        tree_batch::<_, Sample>(tree, points, us, count, out)
+        tree_batch::<_, Sample, BL_CHUNK>(tree, points, us, count, out)
     })
 }
 
@@ -829,7 +864,7 @@ pub extern "C" fn ml_tree_pmf_bl_batch(
     out: *mut f32,
 ) -> ml_status {
     ffi_fn!("ml_tree_pmf_bl_batch", {
-        tree_batch::<_, Pmf>(tree, points, lights, count, out)
+        tree_batch::<_, Pmf, BL_CHUNK>(tree, points, lights, count, out)
     })
 }
 

@@ -5,8 +5,10 @@ use crate::error::{Error, Result};
 use glam::Vec3;
 use manylights::error::ShadingField;
 use manylights::error::{LightField, Num, Problem};
+use manylights::importance::Receiver;
 use manylights::{
     BuildError, Light, LightPoint, LightSample, Material, Rgb, ShadingError, ShadingPoint,
+    TlImportance,
 };
 
 /// A 3-vector (positions, directions, normals).
@@ -297,8 +299,23 @@ pub struct ml_shading_point {
     pub material: ml_material,
 }
 
-/// A point for TL (Conty–Kulla) importance: position and normal (finite; the zero normal
-/// makes the point receive from every direction).
+/// How a TL point receives light (the value of `ml_tl_point.receiver`): which side of its
+/// normal a light must be on to count, and how its angle weighs it.
+#[repr(u32)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum ml_receiver {
+    /// A reflecting surface: lights on the normal's side only, weighed by max(cos θi, 0).
+    Reflective = 0,
+    /// A two-sided surface (thin translucent surfaces: leaves, paper, curtains): lights on
+    /// both sides, weighed by |cos θi| (pbrt-v4's rule for transmissive BSDFs).
+    Transmissive = 1,
+    /// A point with no surface (a medium): lights in every direction, the normal ignored.
+    Omnidirectional = 2,
+}
+
+/// A point for TL (Conty–Kulla) importance: position, normal (finite) and the kind of receiver.
+/// A zero normal makes the point omnidirectional whatever `receiver` says. Zero-initialised,
+/// it is a reflective point.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct ml_tl_point {
@@ -306,6 +323,8 @@ pub struct ml_tl_point {
     pub position: ml_vec3,
     /// Surface normal (any finite length; zero: omnidirectional).
     pub normal: ml_vec3,
+    /// An `ml_receiver` (0: `ML_RECEIVER_REFLECTIVE`).
+    pub receiver: u32,
 }
 
 /// `light` of an `ml_light_sample` when no light was sampled (no light can contribute).
@@ -675,12 +694,31 @@ pub(crate) fn direction3(v: ml_vec3, path: &dyn Fn() -> String) -> Result<Vec3> 
     Ok(d)
 }
 
-/// The TL point's position and normal, checked finite.
+/// The core's receiver of an `ml_receiver` value (`None`: not one).
+#[inline(always)]
+pub(crate) fn receiver(r: u32) -> Option<Receiver> {
+    match r {
+        0 => Some(Receiver::Reflective),
+        1 => Some(Receiver::Transmissive),
+        2 => Some(Receiver::Omnidirectional),
+        _ => None,
+    }
+}
+
+/// The TL importance of a point, its position and normal checked finite and its receiver
+/// checked.
 #[inline]
-pub(crate) fn tl_point(p: &ml_tl_point, path: &dyn Fn() -> String) -> Result<(Vec3, Vec3)> {
+pub(crate) fn tl_point(p: &ml_tl_point, path: &dyn Fn() -> String) -> Result<TlImportance> {
     let x = finite3(p.position, &|| format!("{}.position", path()))?;
     let n = finite3(p.normal, &|| format!("{}.normal", path()))?;
-    Ok((x, n))
+    let r = receiver(p.receiver).ok_or_else(|| {
+        Error::invalid(format_args!(
+            "{}.receiver: {} is not an ml_receiver (0 to 2)",
+            path(),
+            p.receiver
+        ))
+    })?;
+    Ok(TlImportance::with_receiver(x, n, r))
 }
 
 /// A uniform number, checked in [0, 1).

@@ -4,15 +4,19 @@
 //! --errors-for-leak-kinds=definite,indirect` when `ML_FFI_VALGRIND=1`), and then
 //!
 //! - replays their dump with the Rust core: the same lights built into a tree, the same
-//!   samples and pmfs, bit for bit;
+//!   samples and pmfs (TL points of every `ml_receiver`), bit for bit, and the BRDF values
+//!   of RGB albedos (`ml_brdf_eval`, `ml_brdf_sample`'s draw) those of `Material::eval_rgb`;
 //! - checks that every function the header declares got a bad-input check with NULL and one
 //!   with an invalid value (the `cover` lines they print).
 //!
 //! The compilers are `$CC` / `$CXX` (default `cc` / `c++`).
 
 use glam::Vec3;
+use manylights::importance::Receiver;
 use manylights::Rgb;
-use manylights::{BlImportance, Light, LightTree, Material, ShadingPoint, TlImportance};
+use manylights::{
+    BlImportance, Brdf, Frame, Light, LightTree, Material, ShadingPoint, TlImportance,
+};
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 use std::process::Command;
@@ -195,13 +199,23 @@ fn replay(dump: &Path) -> usize {
     let none = u32::MAX;
     let mut compared = 0;
     for t in &records {
+        if matches!(t[0], "F" | "G") {
+            brdf_record(t);
+            compared += 1;
+            continue;
+        }
         let (light, pmf): (u32, u32) = (
             t[t.len() - 2].parse().unwrap(),
             u32::from_str_radix(t[t.len() - 1], 16).unwrap(),
         );
         match t[0] {
             "S" | "Q" => {
-                let imp = TlImportance::new(v(&t[1..4]), v(&t[4..7]));
+                let receiver = match t[8] {
+                    "0" => Receiver::Reflective,
+                    "1" => Receiver::Transmissive,
+                    _ => Receiver::Omnidirectional,
+                };
+                let imp = TlImportance::with_receiver(v(&t[1..4]), v(&t[4..7]), receiver);
                 if t[0] == "S" {
                     let s = tree.sample(&imp, f(t[7]));
                     let (l, p) = s.map_or((none, 0), |s| (s.light, s.pmf.to_bits()));
@@ -225,6 +239,39 @@ fn replay(dump: &Path) -> usize {
         compared += 1;
     }
     compared
+}
+
+/// A BRDF record: `F` (the `ml_brdf_eval` of a direction) or `G` (the `ml_brdf_sample` draw
+/// of two uniform numbers: its pdf and value), checked bit for bit against the core's
+/// material in the shading frame the library uses (`Material::eval_rgb` per channel).
+fn brdf_record(t: &[&str]) {
+    let sp = shading_point(&t[1..16]);
+    let (wi, pdf) = (v(&t[16..19]), f(t[19]));
+    let value = Rgb::new(f(t[20]), f(t[21]), f(t[22]));
+    let frame = Frame::from_normal(sp.normal).expect("a valid normal");
+    let wo = frame.to_local(sp.wo.normalize());
+    let m = sp.material;
+    let bits = |c: Rgb| [c.r.to_bits(), c.g.to_bits(), c.b.to_bits()];
+    if t[0] == "F" {
+        // A direction of unit length (to f32 rounding) is taken as it is (ml_brdf_eval's rule).
+        let w = if (wi.length_squared() - 1.0).abs() <= 4.0 * f32::EPSILON {
+            wi
+        } else {
+            wi.normalize()
+        };
+        let want = m.eval_rgb(wo, frame.to_local(w));
+        assert_eq!(bits(value), bits(want), "ml_brdf_eval: {t:?}");
+    } else {
+        let (want_pdf, want) = match m.sample(wo, [wi.x, wi.y]) {
+            Some((w, p)) => (p, m.eval_rgb(wo, w)),
+            None => (0.0, Rgb::grey(0.0)),
+        };
+        assert_eq!(
+            (pdf.to_bits(), bits(value)),
+            (want_pdf.to_bits(), bits(want)),
+            "ml_brdf_sample: {t:?}"
+        );
+    }
 }
 
 /// The functions the header declares.
@@ -280,7 +327,7 @@ fn program(source: &str, cpp: bool) {
     compile(source, cpp, &exe);
     let stdout = run(&exe, &dump);
     let compared = replay(&dump);
-    assert_eq!(compared, 2000);
+    assert_eq!(compared, 3000);
     let (functions, checks) = check_coverage(&stdout);
     eprintln!("{source}: {compared} samples and pmfs equal to the core's; {checks} bad-input checks over {functions} functions");
 }

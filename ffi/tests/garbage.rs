@@ -209,6 +209,7 @@ fn arbitrary_lights_points_and_numbers() {
             let p = ml_tl_point {
                 position: v3(&mut b),
                 normal: v3(&mut b),
+                receiver: b.small(4),
             };
             let sp = ml_shading_point {
                 position: v3(&mut b),
@@ -265,7 +266,9 @@ fn arbitrary_lights_points_and_numbers() {
                 ml_brdf_sample(&sp, u, b.val(0.0, 1.0, w), &mut d),
                 "ml_brdf_sample",
             ) {
-                assert!(d.pdf.is_finite() && d.pdf >= 0.0 && d.value.is_finite());
+                let v = manylights::Rgb::from(d.value);
+                assert!(d.pdf.is_finite() && d.pdf >= 0.0 && v.is_finite());
+                assert!(v.r >= 0.0 && v.g >= 0.0 && v.b >= 0.0);
             }
             let mut cut: *mut ml_cut = ptr::null_mut();
             assert_eq!(ml_cut_create(&mut cut), ML_OK);

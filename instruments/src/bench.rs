@@ -530,6 +530,7 @@ impl FfiBench {
             .map(|p| ffi::ml_tl_point {
                 position: p.position.into(),
                 normal: p.normal.into(),
+                receiver: ffi::ml_receiver::Reflective as u32,
             })
             .collect();
         let out = vec![ffi::ml_light_sample::default(); points.len()];

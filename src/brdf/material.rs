@@ -56,6 +56,9 @@ impl Material {
 }
 
 impl Brdf for Material {
+    /// f with the albedo's luminance in place of the albedo: one scalar, what the importances
+    /// and the lobe choice use (for a grey albedo, f in every channel). f in colour, what the
+    /// estimators multiply by, is [`Material::eval_rgb`].
     fn eval(&self, wo: Vec3, wi: Vec3) -> f32 {
         let (albedo, specular, ggx) = lobes(self);
         let mut f = 0.0;

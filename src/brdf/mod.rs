@@ -12,7 +12,10 @@
 //! - [`Frame`]: the local shading frame in which both are written (normal = +z);
 //! - [`Material`](crate::Material) implements [`Brdf`] too: its lobes weighted as the material
 //!   says, sampled by choosing a lobe in proportion to its weight (one-sample MIS of the lobes,
-//!   Veach 1997, section 9.2.4), with the mixture's pdf.
+//!   Veach 1997, section 9.2.4), with the mixture's pdf. Its [`Brdf::eval`] is one scalar, f
+//!   with the albedo's luminance (what the importances and the lobe choice use; for a grey
+//!   albedo it is f in every channel); f in colour, what the estimators multiply by, is
+//!   [`Material::eval_rgb`](crate::Material::eval_rgb).
 //!
 //! Conventions: directions point away from the surface and are unit vectors of the local frame;
 //! `eval` returns the BRDF value f (not f·cos θ); pdfs are solid-angle densities of `wi`. A view

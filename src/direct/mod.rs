@@ -122,8 +122,9 @@
 //! From the same uniform numbers the lower level yields the one call's steps: the same lights,
 //! points, pmfs, weights and BSDF uniform numbers. The one call evaluates its material in the
 //! shading frame of [`Frame::from_normal`](crate::Frame::from_normal): `wi =
-//! frame.to_local(point.direction)` for a light step (f, the BSDF pdf and cos θi = `wi.z`), and
-//! for a BSDF step the local direction of `Material::sample`, its pdf and value, sent as
+//! frame.to_local(point.direction)` for a light step (f in colour by `Material::eval_rgb`, the
+//! BSDF pdf and cos θi = `wi.z`), and for a BSDF step the local direction of
+//! `Material::sample`, its pdf and value (`Material::eval_rgb` of it), sent as
 //! `frame.to_world(wi).normalize()`. A host that evaluates the core's material the same way
 //! gets the one call's terms bit for bit, and the C ABI's `ml_brdf_eval` / `ml_brdf_pdf` of a
 //! light step's direction and `ml_brdf_sample`'s draw are exactly those. What is not exact: the

@@ -145,6 +145,7 @@ static ml_light *make_lights(size_t n, uint64_t seed) {
 
 static ml_tl_point make_tl_point(rng *r) {
     ml_tl_point p;
+    p.receiver = ML_RECEIVER_REFLECTIVE;
     p.position = v3(rng_range(r, -11, 11), rng_range(r, -11, 11), rng_range(r, -0.5f, 0.5f));
     p.normal = v3(rng_range(r, -0.4f, 0.4f), rng_range(r, -0.4f, 0.4f), 1.0f);
     return p;
@@ -286,6 +287,7 @@ static void sample_job_run(sample_job *job) {
     while (done < job->points) {
         for (i = 0; i < BATCH; i++) {
             pts[i] = make_tl_point(&r);
+            pts[i].receiver = (uint32_t)(i % 3); /* every ml_receiver */
             sps[i] = make_sp(&r);
             us[i] = rng_f32(&r);
         }
@@ -352,26 +354,38 @@ static void dump_light(FILE *f, const ml_light *l) {
 }
 
 static void dump_tl(FILE *f, char tag, const ml_tl_point *p, uint32_t x, uint32_t light, float pmf) {
-    fprintf(f, "%c %08x %08x %08x %08x %08x %08x %08x %u %08x\n", tag, bits(p->position.x),
+    fprintf(f, "%c %08x %08x %08x %08x %08x %08x %08x %u %u %08x\n", tag, bits(p->position.x),
             bits(p->position.y), bits(p->position.z), bits(p->normal.x), bits(p->normal.y),
-            bits(p->normal.z), (unsigned)x, (unsigned)light, bits(pmf));
+            bits(p->normal.z), (unsigned)x, (unsigned)p->receiver, (unsigned)light, bits(pmf));
 }
 
-static void dump_bl(FILE *f, char tag, const ml_shading_point *p, uint32_t x, uint32_t light,
-                    float pmf) {
-    fprintf(f,
-            "%c %08x %08x %08x %08x %08x %08x %08x %08x %08x %u %08x %08x %08x %08x %08x %08x "
-            "%u %08x\n",
+static void dump_sp(FILE *f, char tag, const ml_shading_point *p) {
+    fprintf(f, "%c %08x %08x %08x %08x %08x %08x %08x %08x %08x %u %08x %08x %08x %08x %08x",
             tag, bits(p->position.x), bits(p->position.y), bits(p->position.z),
             bits(p->normal.x), bits(p->normal.y), bits(p->normal.z), bits(p->wo.x),
             bits(p->wo.y), bits(p->wo.z), (unsigned)p->material.kind,
             bits(p->material.albedo.r), bits(p->material.albedo.g), bits(p->material.albedo.b),
-            bits(p->material.specular), bits(p->material.alpha), (unsigned)x, (unsigned)light,
-            bits(pmf));
+            bits(p->material.specular), bits(p->material.alpha));
 }
 
-/* Writes the lights, then TL and BL samples (S, B: the u's bits, the light, the pmf) and
- * pmf queries (Q, P: the light asked, the pmf) the Rust harness recomputes with the core. */
+static void dump_bl(FILE *f, char tag, const ml_shading_point *p, uint32_t x, uint32_t light,
+                    float pmf) {
+    dump_sp(f, tag, p);
+    fprintf(f, " %08x %u %08x\n", (unsigned)x, (unsigned)light, bits(pmf));
+}
+
+/* A BRDF value in colour: F (ml_brdf_eval of the direction `wi`) or G (ml_brdf_sample with
+ * the uniform numbers `wi.x`, `wi.y`: the draw's pdf and value). */
+static void dump_brdf(FILE *f, char tag, const ml_shading_point *p, ml_vec3 wi, float pdf,
+                      ml_rgb value) {
+    dump_sp(f, tag, p);
+    fprintf(f, " %08x %08x %08x %08x %08x %08x %08x\n", bits(wi.x), bits(wi.y), bits(wi.z),
+            bits(pdf), bits(value.r), bits(value.g), bits(value.b));
+}
+
+/* Writes the lights, then TL and BL samples (S, B: the u's bits, the light, the pmf), pmf
+ * queries (Q, P: the light asked, the pmf; the TL points of every ml_receiver) and BRDF values
+ * of RGB albedos (F, G) the Rust harness recomputes with the core. */
 static void dump_consistency(const char *path, const ml_tree *tree, const ml_light *lights,
                              size_t n) {
     FILE *f = fopen(path, "w");
@@ -386,10 +400,14 @@ static void dump_consistency(const char *path, const ml_tree *tree, const ml_lig
     for (i = 0; i < n; i++) dump_light(f, &lights[i]);
     for (i = 0; i < 500; i++) {
         ml_tl_point p = make_tl_point(&r);
-        ml_shading_point sp = make_sp(&r);
+        ml_shading_point sp = make_sp(&r), rgb_sp = sp;
         float u = rng_f32(&r), q = 0;
         uint32_t l = (uint32_t)(rng_next(&r) % n);
         ml_light_sample s;
+        ml_brdf_draw d;
+        ml_rgb value;
+        ml_vec3 u2;
+        p.receiver = (uint32_t)(i % 3); /* every ml_receiver */
         OK(ml_tree_sample_tl(tree, &p, u, &s));
         dump_tl(f, 'S', &p, bits(u), s.light, s.pmf);
         OK(ml_tree_pmf_tl(tree, &p, l, &q));
@@ -398,6 +416,20 @@ static void dump_consistency(const char *path, const ml_tree *tree, const ml_lig
         dump_bl(f, 'B', &sp, bits(u), s.light, s.pmf);
         OK(ml_tree_pmf_bl(tree, &sp, l, &q));
         dump_bl(f, 'P', &sp, 0, l, q);
+        /* The same point with an RGB albedo (numbers of their own: the others stay as they
+         * were): its draw and the value of the drawn direction, per channel. */
+        rgb_sp.material.albedo = rgb(0.9f, 0.45f * (float)(i % 3), 0.05f);
+        rgb_sp.material.kind = (uint32_t)(i % 2 == 0 ? ML_MATERIAL_KIND_LAMBERT : ML_MATERIAL_KIND_PLASTIC);
+        u2 = v3(((float)i + 0.5f) / 500.0f, (float)((i * 37) % 500) / 500.0f, 0);
+        OK(ml_brdf_sample(&rgb_sp, u2.x, u2.y, &d));
+        dump_brdf(f, 'G', &rgb_sp, u2, d.pdf, d.value);
+        if (d.pdf > 0) {
+            OK(ml_brdf_eval(&rgb_sp, d.wi, &value));
+            dump_brdf(f, 'F', &rgb_sp, d.wi, 0, value);
+        } else {
+            OK(ml_brdf_eval(&rgb_sp, rgb_sp.normal, &value));
+            dump_brdf(f, 'F', &rgb_sp, rgb_sp.normal, 0, value);
+        }
     }
     fclose(f);
 }
@@ -597,6 +629,7 @@ static void scenario_cut(const ml_tree *tree, size_t n) {
         }
         tp.position = sp.position;
         tp.normal = sp.normal;
+        tp.receiver = ML_RECEIVER_REFLECTIVE;
         OK(ml_cut_build_split(cut, tree, &tp, NULL));
         OK(ml_cut_size(cut, &size));
         CHECK(size >= 1 && size <= 32);
@@ -645,13 +678,83 @@ static void scenario_points(const ml_tree *tree, const ml_light *lights, size_t 
         ml_brdf_draw d;
         OK(ml_brdf_sample(&sp, rng_f32(&r), rng_f32(&r), &d));
         if (d.pdf > 0) {
-            float q = -1, f = -1;
+            float q = -1;
+            ml_rgb f = rgb(-1, -1, -1);
             OK(ml_brdf_pdf(&sp, d.wi, &q));
             OK(ml_brdf_eval(&sp, d.wi, &f));
             CHECK(fabs(q - d.pdf) <= 1e-3 * d.pdf);
-            CHECK(fabs(f - d.value) <= 1e-3 * d.value + 1e-6);
+            CHECK(fabs(f.r - d.value.r) <= 1e-3 * d.value.r + 1e-6);
+            CHECK(fabs(f.g - d.value.g) <= 1e-3 * d.value.g + 1e-6);
+            CHECK(fabs(f.b - d.value.b) <= 1e-3 * d.value.b + 1e-6);
+            /* A grey albedo: the same f in every channel. */
+            CHECK(f.r == f.g && f.g == f.b && d.value.r == d.value.g && d.value.g == d.value.b);
         }
     }
+    /* An RGB albedo: a Lambert surface's f is each channel's albedo / π (the dump's F and G
+     * records check every bit against the core's Material::eval_rgb). */
+    {
+        ml_shading_point sp;
+        ml_rgb f = rgb(-1, -1, -1);
+        ml_brdf_draw d;
+        memset(&sp, 0, sizeof sp);
+        sp.normal = v3(0, 0, 1);
+        sp.wo = v3(0.3f, 0, 1);
+        sp.material.kind = ML_MATERIAL_KIND_LAMBERT;
+        sp.material.albedo = rgb(0.8f, 0.4f, 0.1f);
+        OK(ml_brdf_eval(&sp, v3(-0.2f, 0.1f, 1), &f));
+        CHECK(fabs(f.r - 0.8 / ML_PI) <= 1e-6 && fabs(f.g - 0.4 / ML_PI) <= 1e-6 &&
+              fabs(f.b - 0.1 / ML_PI) <= 1e-6);
+        OK(ml_brdf_sample(&sp, 0.3f, 0.6f, &d));
+        CHECK(d.pdf > 0 && d.value.r == f.r && d.value.g == f.g && d.value.b == f.b);
+    }
+}
+
+/* ---- the receiver of a TL point --------------------------------------------------------- */
+
+/* A point light below a surface facing up: a reflective point gets no light, a transmissive
+ * (two-sided) or omnidirectional one gets it with pmf 1, in the single calls, the batches and
+ * the split cut (the dump's Q and S records check the pmfs of every receiver against the
+ * core's TlImportance bit for bit). */
+static void scenario_receiver(void) {
+    ml_light l;
+    ml_tree *tree = NULL;
+    ml_cut *cut = NULL;
+    ml_tl_point pts[3];
+    ml_light_sample s, outs[3];
+    float us[3] = {0.5f, 0.5f, 0.5f}, pmfs[3] = {-1, -1, -1}, q = -1;
+    uint32_t zero[3] = {0, 0, 0};
+    size_t size = 99;
+    int i;
+    memset(&l, 0, sizeof l);
+    l.kind = ML_LIGHT_KIND_POINT;
+    l.position = v3(0.2f, 0.1f, -1);
+    l.power = grey(1);
+    OK(ml_tree_build(&l, 1, NULL, NULL, &tree));
+    OK(ml_cut_create(&cut));
+    for (i = 0; i < 3; i++) {
+        memset(&pts[i], 0, sizeof pts[i]);
+        pts[i].normal = v3(0, 0, 1);
+    }
+    pts[0].receiver = ML_RECEIVER_REFLECTIVE;
+    pts[1].receiver = ML_RECEIVER_TRANSMISSIVE;
+    pts[2].receiver = ML_RECEIVER_OMNIDIRECTIONAL;
+    OK(ml_tree_sample_tl_batch(tree, pts, us, 3, outs));
+    OK(ml_tree_pmf_tl_batch(tree, pts, zero, 3, pmfs));
+    for (i = 0; i < 3; i++) {
+        OK(ml_tree_sample_tl(tree, &pts[i], 0.5f, &s));
+        OK(ml_tree_pmf_tl(tree, &pts[i], 0, &q));
+        OK(ml_cut_build_split(cut, tree, &pts[i], NULL));
+        OK(ml_cut_size(cut, &size));
+        if (i == 0) {
+            CHECK(s.light == ML_NO_LIGHT && q == 0 && size == 0);
+        } else {
+            CHECK(s.light == 0 && s.pmf == 1 && q == 1 && size == 1);
+        }
+        CHECK(outs[i].light == s.light && bits(outs[i].pmf) == bits(s.pmf));
+        CHECK(bits(pmfs[i]) == bits(q));
+    }
+    OK(ml_cut_free(cut));
+    OK(ml_tree_free(tree));
 }
 
 /* ---- direct lighting against a closed form --------------------------------------------- */
@@ -1517,6 +1620,7 @@ static void scenario_vpl(void) {
         float q = -1;
         p.position = v3(0, 0, 0);
         p.normal = v3(0, 0, 1);
+        p.receiver = ML_RECEIVER_REFLECTIVE;
         OK(ml_tree_sample_tl(tree, &p, 0.5f, &s));
         CHECK(s.light != ML_NO_LIGHT);
         if (s.light != ML_NO_LIGHT) {
@@ -1560,24 +1664,29 @@ static uint8_t *tree_bytes(const ml_tree *tree, size_t *size) {
 static void scenario_parallel_build(void) {
     const size_t n = 20000;
     ml_light *lights = make_lights(n, 77);
-    ml_tree *serial = NULL, *two = NULL, *all = NULL;
-    size_t ns = 0, n2 = 0, na = 0;
-    uint8_t *bs, *b2, *ba;
+    ml_tree *serial = NULL, *one = NULL, *two = NULL, *all = NULL;
+    size_t ns = 0, n1 = 0, n2 = 0, na = 0;
+    uint8_t *bs, *b1, *b2, *ba;
     OK(ml_tree_build(lights, n, NULL, NULL, &serial));
+    OK(ml_tree_build_parallel(lights, n, NULL, NULL, 1, &one));
     OK(ml_tree_build_parallel(lights, n, NULL, NULL, 2, &two));
     OK(ml_tree_build_parallel(lights, n, NULL, NULL, 0, &all));
-    if (serial != NULL && two != NULL && all != NULL) {
+    if (serial != NULL && one != NULL && two != NULL && all != NULL) {
         bs = tree_bytes(serial, &ns);
+        b1 = tree_bytes(one, &n1);
         b2 = tree_bytes(two, &n2);
         ba = tree_bytes(all, &na);
-        CHECK(ns > 0 && ns == n2 && ns == na);
+        CHECK(ns > 0 && ns == n1 && ns == n2 && ns == na);
+        CHECK(ns == n1 && memcmp(bs, b1, ns) == 0);
         CHECK(ns == n2 && memcmp(bs, b2, ns) == 0);
         CHECK(ns == na && memcmp(bs, ba, ns) == 0);
         free(bs);
+        free(b1);
         free(b2);
         free(ba);
     }
     OK(ml_tree_free(serial));
+    OK(ml_tree_free(one));
     OK(ml_tree_free(two));
     OK(ml_tree_free(all));
     free(lights);
@@ -1590,6 +1699,7 @@ static void scenario_bad_input(const ml_tree *tree, size_t n) {
     ml_shading_point sp, sps[8];
     ml_light_sample s, outs[8];
     float us[8], f = 0, q = 0;
+    ml_rgb fc = {0, 0, 0};
     uint32_t lights[8], u32s[4];
     size_t sz = 0, written = 0;
     uint8_t buf[64], *bytes;
@@ -1779,6 +1889,7 @@ static void scenario_bad_input(const ml_tree *tree, size_t n) {
     /* sampling and pmfs */
     p.position = v3(0, 0, 0);
     p.normal = v3(0, 0, 1);
+    p.receiver = ML_RECEIVER_REFLECTIVE;
     r.s = 3;
     sp = make_sp(&r);
     s.light = 777;
@@ -1791,6 +1902,12 @@ static void scenario_bad_input(const ml_tree *tree, size_t n) {
     BAD_VALUE(ml_tree_sample_tl, ml_tree_sample_tl(tree, &p, 0.5f, &s), ML_ERR_INVALID_ARGUMENT,
               "point.normal is NaN or infinite (got inf)");
     p.normal.x = 0;
+    p.receiver = 3;
+    BAD_VALUE(ml_tree_sample_tl, ml_tree_sample_tl(tree, &p, 0.5f, &s), ML_ERR_INVALID_ARGUMENT,
+              "point.receiver: 3 is not an ml_receiver (0 to 2)");
+    BAD_VALUE(ml_tree_pmf_tl, ml_tree_pmf_tl(tree, &p, 0, &f), ML_ERR_INVALID_ARGUMENT,
+              "point.receiver: 3 is not an ml_receiver");
+    p.receiver = ML_RECEIVER_TRANSMISSIVE;
     CHECK(s.light == 777);
     BAD_NULL(ml_tree_pmf_tl, ml_tree_pmf_tl(tree, &p, 0, NULL), "`out` is NULL");
     BAD_VALUE(ml_tree_pmf_tl, ml_tree_pmf_tl(tree, &p, (uint32_t)n, &f), ML_ERR_INVALID_ARGUMENT,
@@ -1835,6 +1952,13 @@ static void scenario_bad_input(const ml_tree *tree, size_t n) {
               ML_ERR_INVALID_ARGUMENT, "points[5].position is NaN or infinite");
     BAD_VALUE(ml_tree_sample_tl_batch, ml_tree_sample_tl_batch(tree, pts, us, (size_t)-1, outs),
               ML_ERR_INVALID_ARGUMENT, "overflow");
+    pts[5].position.z = 0;
+    pts[6].receiver = 7;
+    BAD_VALUE(ml_tree_sample_tl_batch, ml_tree_sample_tl_batch(tree, pts, us, 8, outs),
+              ML_ERR_INVALID_ARGUMENT, "points[6].receiver: 7 is not an ml_receiver");
+    BAD_VALUE(ml_tree_pmf_tl_batch, ml_tree_pmf_tl_batch(tree, pts, lights, 8, us),
+              ML_ERR_INVALID_ARGUMENT, "points[6].receiver: 7 is not an ml_receiver");
+    pts[6].receiver = ML_RECEIVER_OMNIDIRECTIONAL;
     CHECK(outs[0].light == 555);
     BAD_NULL(ml_tree_pmf_tl_batch, ml_tree_pmf_tl_batch(tree, pts, lights, 8, NULL), "`out` is NULL");
     pts[5].position.z = 0;
@@ -1926,6 +2050,10 @@ static void scenario_bad_input(const ml_tree *tree, size_t n) {
     BAD_NULL(ml_cut_build_split, ml_cut_build_split(cut, NULL, &p, NULL), "`tree` is NULL");
     BAD_VALUE(ml_cut_build_split, ml_cut_build_split(cut, tree, &p, &so), ML_ERR_INVALID_ARGUMENT,
               "options.threshold must be finite and non-negative (got -1)");
+    p.receiver = 3;
+    BAD_VALUE(ml_cut_build_split, ml_cut_build_split(cut, tree, &p, NULL), ML_ERR_INVALID_ARGUMENT,
+              "point.receiver: 3 is not an ml_receiver (0 to 2)");
+    p.receiver = ML_RECEIVER_REFLECTIVE;
     BAD_NULL(ml_cut_size, ml_cut_size(cut, NULL), "`out` is NULL");
     BAD_VALUE(ml_cut_size, ml_cut_size(fresh, &sz), ML_ERR_STATE, "cut: not built yet");
     BAD_NULL(ml_cut_ib, ml_cut_ib(NULL, &f), "`cut` is NULL");
@@ -1955,8 +2083,8 @@ static void scenario_bad_input(const ml_tree *tree, size_t n) {
     BAD_NULL(ml_brdf_pdf, ml_brdf_pdf(&sp, v3(0, 0, 1), NULL), "`out` is NULL");
     BAD_VALUE(ml_brdf_pdf, ml_brdf_pdf(&sp, v3(0, 0, 0), &f), ML_ERR_INVALID_ARGUMENT,
               "wi has zero length");
-    BAD_NULL(ml_brdf_eval, ml_brdf_eval(NULL, v3(0, 0, 1), &f), "`sp` is NULL");
-    BAD_VALUE(ml_brdf_eval, ml_brdf_eval(&sp, v3((float)NAN, 0, 1), &f), ML_ERR_INVALID_ARGUMENT,
+    BAD_NULL(ml_brdf_eval, ml_brdf_eval(NULL, v3(0, 0, 1), &fc), "`sp` is NULL");
+    BAD_VALUE(ml_brdf_eval, ml_brdf_eval(&sp, v3((float)NAN, 0, 1), &fc), ML_ERR_INVALID_ARGUMENT,
               "wi is NaN or infinite");
 
     /* direct estimators */

@@ -50,6 +50,7 @@ int main(int argc, char **argv) {
     scenario_cache(tree, lights, n);
     scenario_cut(tree, n);
     scenario_points(tree, lights, n);
+    scenario_receiver();
     scenario_direct();
     scenario_lower_level();
     scenario_wavefront();

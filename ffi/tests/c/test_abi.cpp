@@ -66,6 +66,7 @@ int main(int argc, char **argv) {
     scenario_cache(tree.get(), lights.get(), n);
     scenario_cut(tree.get(), n);
     scenario_points(tree.get(), lights.get(), n);
+    scenario_receiver();
     scenario_direct();
     scenario_lower_level();
     scenario_wavefront();

@@ -340,6 +340,8 @@ pub struct TlPoint {
     pub position: V3,
     /// Normal.
     pub normal: V3,
+    /// The `ml_receiver` (3 kinds, or out of range).
+    pub receiver: Enum,
 }
 
 impl TlPoint {
@@ -347,6 +349,7 @@ impl TlPoint {
         ml_tl_point {
             position: v3(&self.position),
             normal: v3(&self.normal),
+            receiver: self.receiver.value(3),
         }
     }
 }

@@ -106,6 +106,7 @@ mod tests {
         let tl = TlPoint {
             position: sp.position,
             normal: sp.normal,
+            receiver: Enum(0),
         };
         let uni = Uniforms {
             no_f32: Rare(0),

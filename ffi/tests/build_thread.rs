@@ -1,0 +1,119 @@
+//! `ml_tree_build_parallel` with `threads = 1` builds on the calling thread: no other thread
+//! allocates during the call (the build allocates its tree, so a build handed to a worker
+//! thread shows as allocations made off the calling thread), and the tree is `ml_tree_build`'s
+//! byte for byte. The counting allocator of this test binary (one test, so that no other test
+//! thread allocates meanwhile) counts the allocations made off the thread that watches.
+
+use manylights_ffi::*;
+use manylights_testkit::SplitMix64 as Rng;
+use std::alloc::{GlobalAlloc, Layout, System};
+use std::cell::Cell;
+use std::ptr;
+use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
+
+struct Counting;
+
+/// Whether allocations off the watching thread are counted.
+static WATCHING: AtomicBool = AtomicBool::new(false);
+/// The allocations made off the watching thread while watching.
+static ELSEWHERE: AtomicU64 = AtomicU64::new(0);
+
+thread_local! {
+    static WATCHER: Cell<bool> = const { Cell::new(false) };
+}
+
+fn count() {
+    if WATCHING.load(Ordering::SeqCst) && !WATCHER.try_with(Cell::get).unwrap_or(false) {
+        ELSEWHERE.fetch_add(1, Ordering::SeqCst);
+    }
+}
+
+// SAFETY: every call is forwarded to the system allocator unchanged.
+unsafe impl GlobalAlloc for Counting {
+    unsafe fn alloc(&self, layout: Layout) -> *mut u8 {
+        count();
+        System.alloc(layout)
+    }
+
+    unsafe fn alloc_zeroed(&self, layout: Layout) -> *mut u8 {
+        count();
+        System.alloc_zeroed(layout)
+    }
+
+    unsafe fn realloc(&self, p: *mut u8, layout: Layout, size: usize) -> *mut u8 {
+        count();
+        System.realloc(p, layout, size)
+    }
+
+    unsafe fn dealloc(&self, p: *mut u8, layout: Layout) {
+        System.dealloc(p, layout)
+    }
+}
+
+#[global_allocator]
+static COUNTING: Counting = Counting;
+
+fn ok(s: ml_status) {
+    assert_eq!(s, ML_OK, "{:?}", unsafe {
+        std::ffi::CStr::from_ptr(ml_last_error_message())
+    });
+}
+
+fn bytes(t: *const ml_tree) -> Vec<u8> {
+    let mut n = 0;
+    ok(ml_tree_serialized_size(t, &mut n));
+    let mut b = vec![0u8; n];
+    let mut written = 0;
+    ok(ml_tree_serialize(t, b.as_mut_ptr(), n, &mut written));
+    b
+}
+
+#[test]
+fn one_thread_builds_on_the_calling_thread() {
+    let mut r = Rng(7);
+    let lights: Vec<ml_light> = (0..3000)
+        .map(|_| ml_light {
+            kind: ml_light_kind::Point as u32,
+            position: ml_vec3 {
+                x: r.range(-10.0, 10.0),
+                y: r.range(-10.0, 10.0),
+                z: r.range(-10.0, 10.0),
+            },
+            power: ml_rgb {
+                r: r.range(0.1, 2.0),
+                g: 1.0,
+                b: 1.0,
+            },
+            ..ml_light::default()
+        })
+        .collect();
+    let mut serial = ptr::null_mut();
+    ok(ml_tree_build(
+        lights.as_ptr(),
+        lights.len(),
+        ptr::null(),
+        ptr::null(),
+        &mut serial,
+    ));
+    let mut one = ptr::null_mut();
+    WATCHER.with(|w| w.set(true));
+    WATCHING.store(true, Ordering::SeqCst);
+    let status = ml_tree_build_parallel(
+        lights.as_ptr(),
+        lights.len(),
+        ptr::null(),
+        ptr::null(),
+        1,
+        &mut one,
+    );
+    WATCHING.store(false, Ordering::SeqCst);
+    ok(status);
+    let elsewhere = ELSEWHERE.load(Ordering::SeqCst);
+    assert_eq!(
+        elsewhere, 0,
+        "threads = 1: {elsewhere} allocations off the calling thread during the build"
+    );
+    assert!(bytes(one) == bytes(serial), "not ml_tree_build's tree");
+    ok(ml_tree_free(one));
+    ok(ml_tree_free(serial));
+}
