@@ -377,7 +377,8 @@ pub struct ml_light_point {
     /// (W/m²), already divided by the squared distance: do not divide again (the contribution
     /// is `f · radiance · cos θi / pdf`, `pdf` = 1).
     pub radiance: ml_rgb,
-    /// 1 for point, spot and VPL lights (`pdf` is a Dirac delta reported as 1), else 0.
+    /// 1 for point, spot and VPL lights, and for a distant light of angular radius 0 or of a
+    /// cone too narrow for f32 (`pdf` is a Dirac delta reported as 1), else 0.
     pub delta: u32,
 }
 

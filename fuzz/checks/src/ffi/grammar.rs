@@ -244,7 +244,7 @@ impl Index {
 /// A light descriptor (`ml_light`), every field drawn.
 #[derive(Arbitrary, Debug, Clone, Copy)]
 pub struct Light {
-    /// An `ml_light_kind` (six values).
+    /// An `ml_light_kind` (eight values: distant and environment lights among them).
     pub kind: Enum,
     /// 0 or 1, or out of range.
     pub two_sided: Enum,
