@@ -41,7 +41,7 @@ use common::{
     styled_scene, u_values, Rng, SceneSpec, Where, Z_999,
 };
 use glam::{DVec3, Vec3};
-use manylights::cut::CUT_CAPACITY;
+use manylights::cut::MAX_CUT_SIZE;
 use manylights::cut::MIN_CUT_SIZE;
 use manylights::error::ShadingField;
 use manylights::importance::{f32x4, Receiver};
@@ -551,8 +551,8 @@ fn random_cut_options(rng: &mut Rng) -> BlCutOptions {
         delta: DELTAS[rng.below(DELTAS.len())],
         max_size: match rng.below(5) {
             0 => rng.below(MIN_CUT_SIZE + 1),
-            1 => CUT_CAPACITY,
-            _ => MIN_CUT_SIZE + rng.below(CUT_CAPACITY - MIN_CUT_SIZE + 1),
+            1 => MAX_CUT_SIZE,
+            _ => MIN_CUT_SIZE + rng.below(MAX_CUT_SIZE - MIN_CUT_SIZE + 1),
         },
     }
 }
@@ -575,7 +575,7 @@ fn contributing_lights_have_positive_bl_pmf() {
                 BlCutOptions::default(),
                 BlCutOptions {
                     delta: 0.0,
-                    max_size: CUT_CAPACITY,
+                    max_size: MAX_CUT_SIZE,
                     split_sin: 1.0,
                 },
             ];
@@ -986,7 +986,7 @@ fn check_bl_cut(
     };
 
     // Size.
-    let cap = opts.max_size.clamp(MIN_CUT_SIZE, CUT_CAPACITY);
+    let cap = opts.max_size.clamp(MIN_CUT_SIZE, MAX_CUT_SIZE);
     ensure!(cut.len() == clusters.len(), "len ≠ clusters().len()");
     ensure!(
         cut.len() <= cap,
@@ -1229,7 +1229,7 @@ fn bl_cut_invariants_on_random_scenes() {
                 .iter()
                 .map(|&delta| BlCutOptions {
                     delta,
-                    max_size: MIN_CUT_SIZE + rng.below(CUT_CAPACITY - MIN_CUT_SIZE + 1),
+                    max_size: MIN_CUT_SIZE + rng.below(MAX_CUT_SIZE - MIN_CUT_SIZE + 1),
                     split_sin: SPLIT_SINS[rng.below(SPLIT_SINS.len())],
                 })
                 .collect();
@@ -1304,7 +1304,7 @@ fn bl_cut_delta_zero_and_infinite() {
             for delta in [f32::INFINITY, f32::NAN] {
                 let opts = BlCutOptions {
                     delta,
-                    max_size: rng.below(CUT_CAPACITY + 1),
+                    max_size: rng.below(MAX_CUT_SIZE + 1),
                     split_sin: SPLIT_SINS[rng.below(SPLIT_SINS.len())],
                 };
                 let (cut, _) = check_bl_cut(&tree, &lights, &imp, None, &opts, &us)
@@ -1415,7 +1415,7 @@ fn bl_cut_edges() {
                 };
                 let cut = LightCut::build_bl(&tree, &imp, &opts);
                 assert!(
-                    cut.len() <= max_size.clamp(MIN_CUT_SIZE, CUT_CAPACITY),
+                    cut.len() <= max_size.clamp(MIN_CUT_SIZE, MAX_CUT_SIZE),
                     "scene {scene}: {} clusters for max_size {max_size}",
                     cut.len()
                 );

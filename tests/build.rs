@@ -1431,3 +1431,39 @@ fn nearly_opposite_cones_stay_in_their_union() {
     let tree = LightTree::build(&lights).expect("valid lights");
     assert_eq!(tree.validate(), Ok(()));
 }
+
+/// `sampled_lights` counts every light the tree can sample: those of the node tree, and the
+/// distant and environment lights (not a black sun, nor a light of zero energy).
+#[test]
+fn sampled_lights_counts_the_lights_at_infinity() {
+    let point = |z: f32, i: f32| Light::Point {
+        position: Vec3::new(0.0, 0.0, z),
+        intensity: i.into(),
+    };
+    let sun = |e: f32| Light::Distant {
+        direction: Vec3::new(0.2, 0.1, 1.0),
+        angular_radius: 0.0047,
+        irradiance: e.into(),
+    };
+    let lights = vec![
+        point(1.0, 1.0),
+        sun(2.0),
+        point(2.0, 0.0),
+        Light::Environment {
+            irradiance: [0.5, 0.5, 0.5, 0.5, 1.0, 0.0],
+        },
+        sun(0.0),
+        point(3.0, 2.0),
+    ];
+    let tree = LightTree::build(&lights).unwrap();
+    let st = tree.stats();
+    assert_eq!(st.lights, 6);
+    assert_eq!(
+        st.sampled_lights, 4,
+        "two points, the sun and the sky: {st:?}"
+    );
+    // Lights at infinity alone.
+    let tree = LightTree::build(&[sun(1.0)]).unwrap();
+    assert_eq!(tree.stats().sampled_lights, 1);
+    assert_eq!(tree.stats().nodes, 0);
+}

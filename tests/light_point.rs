@@ -973,3 +973,73 @@ fn narrow_spot_profile_keeps_its_falloff() {
     let off = sample_point(&hard, Vec3::new(4e-9, 0.0, 0.0), [0.0, 0.0]).unwrap();
     assert_eq!(off.radiance, 0.0.into(), "{off:?}");
 }
+
+/// A sun whose cone is too narrow for f32 (its pdf or its radiance would overflow) is the delta
+/// direction it tends to: `sample_point` gives its direction with pdf 1, `delta` set and
+/// radiance E; `pdf_point` there is 1; a BSDF ray never hits it (`intersect` `None`,
+/// `pdf_direction` 0). Every technique's estimate on a Lambert plane of albedo 0.8 facing it at
+/// θ is 0.8·E·cos θ / π, within 5 standard errors of the estimates' mean (and the f32
+/// rounding, 1e-5 relative), as it is for a sun of 1e-15 rad that f32 can still sample.
+#[test]
+fn a_sun_too_narrow_for_f32_is_a_delta_direction() {
+    use manylights::direct::{Estimator, Params, Technique, Unoccluded};
+    use manylights::{LightSet, Material, ShadingPoint};
+    use manylights_testkit::TestUniforms;
+    let axis = Vec3::new(0.3, -0.2, 1.0);
+    let x = Vec3::new(0.5, 0.25, 0.0);
+    for (gamma, e) in [
+        (1e-20f32, 2.0f32),
+        (1e-10, 1e20),
+        (1e-30, 1.0),
+        (1e-45, 3.0),
+    ] {
+        let sun = Light::Distant {
+            direction: axis,
+            angular_radius: gamma,
+            irradiance: Rgb::grey(e),
+        };
+        let ctx = format!("γ {gamma}, E {e}");
+        let p = sample_point(&sun, x, [0.3, 0.7]).unwrap_or_else(|| panic!("no point, {ctx}"));
+        assert!(p.delta && p.pdf == 1.0, "{p:?}, {ctx}");
+        assert_eq!(p.radiance, Rgb::grey(e), "{ctx}");
+        assert!(
+            (p.direction - axis.normalize()).length() < 1e-6,
+            "{p:?}, {ctx}"
+        );
+        assert_eq!(pdf_point(&sun, x, p.position), 1.0, "{ctx}");
+        assert!(intersect(&sun, x, p.direction).is_none(), "{ctx}");
+        assert_eq!(pdf_direction(&sun, x, p.direction), 0.0, "{ctx}");
+    }
+    let cos = f64::from(axis.normalize().z);
+    for (gamma, e) in [(1e-20f32, 2.0f32), (1e-10, 1e20), (1e-15, 2.0)] {
+        let exact = 0.8 * f64::from(e) * cos / PI;
+        let set = LightSet::build(vec![Light::Distant {
+            direction: axis,
+            angular_radius: gamma,
+            irradiance: Rgb::grey(e),
+        }])
+        .unwrap();
+        let sp = ShadingPoint {
+            position: Vec3::ZERO,
+            normal: Vec3::Z,
+            wo: Vec3::new(0.1, 0.2, 1.0),
+            material: Material::Lambert {
+                albedo: Rgb::grey(0.8),
+            },
+        };
+        for (i, &t) in Technique::ALL.iter().enumerate() {
+            let mut est = Estimator::new(&set, &sp, t, &Params::default()).unwrap();
+            let mut u = TestUniforms::new(500 + i as u64);
+            let mut st = Stats::default();
+            for _ in 0..2000 {
+                st.add(est.estimate(&Unoccluded, &mut u).unwrap()[0]);
+            }
+            let tol = 5.0 * st.se() + 1e-5 * exact;
+            assert!(
+                (st.mean() - exact).abs() <= tol,
+                "{t}, γ {gamma}, E {e}: mean {} exact {exact} (tolerance {tol})",
+                st.mean()
+            );
+        }
+    }
+}

@@ -42,9 +42,11 @@
 #define ML_VERSION_PATCH 0
 
 /**
- * The largest cut: clusters a cut may hold.
+ * The largest cut: clusters a cut may hold, `ML_MAX_CUT_SIZE` of the node tree and one for
+ * each light at infinity (a tree has at most 16); what a host sizes the arrays of
+ * `ml_cut_sample_clusters` by.
  */
-#define ML_CUT_CAPACITY 64
+#define ML_CUT_CAPACITY 80
 
 /**
  * `*cluster` of `ml_cut_pmf_in` for a light in no cluster of the cut.
@@ -114,9 +116,15 @@
 
 /**
  * Fewest clusters a cut's `max_size` may ask for (the root's four slots); the most is
- * `ML_CUT_CAPACITY`.
+ * `ML_MAX_CUT_SIZE`.
  */
 #define ML_MIN_CUT_SIZE 4
+
+/**
+ * Most clusters of the node tree a cut's `max_size` may ask for (the lights at infinity add
+ * one cluster each: a cut holds at most `ML_CUT_CAPACITY`).
+ */
+#define ML_MAX_CUT_SIZE 64
 
 /**
  * Largest `ml_direct_params.n_max`, the BRDF-aware budget's Nmax (the smallest is 1).
@@ -571,7 +579,8 @@ typedef struct ml_bl_cut_options {
      */
     float delta;
     /**
-     * Most clusters, in [`ML_MIN_CUT_SIZE`, `ML_CUT_CAPACITY`] = [4, 64] (default 64).
+     * Most clusters of the node tree, in [`ML_MIN_CUT_SIZE`, `ML_MAX_CUT_SIZE`] = [4, 64]
+     * (default 64); each light at infinity that can contribute adds one.
      */
     size_t max_size;
     /**
@@ -593,7 +602,8 @@ typedef struct ml_split_cut_options {
      */
     float threshold;
     /**
-     * Most clusters, in [`ML_MIN_CUT_SIZE`, `ML_CUT_CAPACITY`] = [4, 64] (default 32).
+     * Most clusters of the node tree, in [`ML_MIN_CUT_SIZE`, `ML_MAX_CUT_SIZE`] = [4, 64]
+     * (default 32); each light at infinity that can contribute adds one.
      */
     size_t max_size;
 } ml_split_cut_options;
@@ -777,8 +787,9 @@ typedef struct ml_light_point {
      */
     struct ml_rgb radiance;
     /**
-     * 1 for point, spot and VPL lights and distant lights of angular radius 0 (`pdf` is a
-     * Dirac delta reported as 1; no BSDF ray reaches them), else 0.
+     * 1 for point, spot and VPL lights, and for a distant light of angular radius 0 or of a
+     * cone too narrow for f32 (`pdf` is a Dirac delta reported as 1; no BSDF ray reaches
+     * them), else 0.
      */
     uint32_t delta;
 } ml_light_point;
@@ -974,7 +985,9 @@ typedef struct ml_tree_statistics {
      */
     size_t lights;
     /**
-     * Lights in the tree (those with positive energy).
+     * Lights that can be sampled: those in the node tree (of positive energy), and the
+     * distant and environment lights of positive irradiance (for the environment, a positive
+     * bound), which `ml_tree_sample_tl` chooses at the root.
      */
     size_t sampled_lights;
     /**
@@ -1268,7 +1281,9 @@ ml_status ml_cut_free(struct ml_cut *cut);
 /**
  * Builds the BRDF-oriented light cut of `tree` at `sp` (Liu et al. 2019, section 4.1: a
  * cluster is split while x is inside its bounding sphere or its BRDF integral exceeds δ), with
- * `options` (NULL: defaults). The cut is unchanged on error.
+ * `options` (NULL: defaults). The cut is unchanged on error. Each distant or environment
+ * light that can contribute at `sp` is a cluster of its own, after the node tree's clusters
+ * (at most `options.max_size` of them), so the cut holds every light that can contribute.
  *
  * Errors: `ML_ERR_NULL` (`cut`, `tree`, `sp`); `ML_ERR_INVALID_ARGUMENT` (a bad shading point
  * or option).
@@ -1281,7 +1296,9 @@ ml_status ml_cut_build_bl(struct ml_cut *cut,
 /**
  * Builds the split-sampling cut of `tree` at `point` (Conty & Kulla: a cluster is split while
  * its share of the variance is large, and always when the point is inside it), with
- * `options` (NULL: defaults). The cut is unchanged on error. Its clusters hold every light
+ * `options` (NULL: defaults). The cut is unchanged on error. Each distant or environment
+ * light that can contribute at `point` is a cluster of its own (pmf 1 in it), after the node
+ * tree's clusters (at most `options.max_size` of them). Its clusters hold every light
  * that can contribute at `point`, not every light with `ml_tree_pmf_tl` > 0: below a slot
  * whose child's slots all have importance 0, the tree's descent falls back to energies and
  * gives those lights (which cannot contribute: behind the surface, outside their cones) a
@@ -1296,7 +1313,8 @@ ml_status ml_cut_build_split(struct ml_cut *cut,
                              const struct ml_split_cut_options *options);
 
 /**
- * The number of clusters of the cut (0 when no light can contribute).
+ * The number of clusters of the cut, the lights at infinity's among them (0 when no light can
+ * contribute; at most `ML_CUT_CAPACITY`).
  *
  * Errors: `ML_ERR_NULL` (`cut`, `out`); `ML_ERR_STATE` (never built).
  */
@@ -1323,7 +1341,12 @@ ml_status ml_cut_max_variance(const struct ml_cut *cut, float *out);
 
 /**
  * Samples one light of the whole cut with `u` in [0, 1): a cluster in proportion to its
- * weight, then a light in it; the pmf is the product (`ML_NO_LIGHT` for an empty cut).
+ * weight, then a light in it; the pmf is the product (`ML_NO_LIGHT` for an empty cut). With
+ * distant or environment lights the choice is first made between the node tree's clusters
+ * (their weights' sum) and each light at infinity (its weight), as the estimators make it;
+ * a light at infinity has that choice's probability as its pmf (for the environment the host
+ * then samples its own environment), and a light of the node tree whose product would be
+ * below `ML_MIN_PMF` is never returned (`ML_NO_LIGHT`, pmf 0).
  *
  * Errors: `ML_ERR_NULL` (`cut`, `out`); `ML_ERR_INVALID_ARGUMENT` (`u` outside [0, 1));
  * `ML_ERR_STATE` (never built).
@@ -1341,7 +1364,8 @@ ml_status ml_cut_pmf(const struct ml_cut *cut, uint32_t light, float *out);
 /**
  * Split sampling: one light in each cluster, `out[i]` for cluster i with `us[i]` in [0, 1),
  * its pmf relative to the cluster (the estimate sums each cluster's contribution divided by
- * it). `count` must be the cut's size. The descents run four at a time, interleaved.
+ * it). `count` must be the cut's size (at most `ML_CUT_CAPACITY`). A distant or environment
+ * light's cluster gives that light with pmf 1. The descents run four at a time, interleaved.
  *
  * Errors: `ML_ERR_NULL` (`cut`; `us`, `out` when `count` > 0); `ML_ERR_INVALID_ARGUMENT`
  * (`count` not the cut's size, `us[i]` outside [0, 1)); `ML_ERR_STATE` (never built).

@@ -1,5 +1,6 @@
 //! Light cuts: the BRDF-oriented cut (Liu et al. 2019, section 4.1) and the split-sampling cut
-//! (Conty & Kulla), their sampling, pmfs, size, IB(x) and one sample per cluster.
+//! (Conty & Kulla), their sampling, pmfs, size, IB(x) and one sample per cluster. A cut holds
+//! the tree's distant and environment lights that can contribute as clusters of their own.
 
 use crate::arg;
 use crate::error::{ml_status, Error, Result};
@@ -10,8 +11,10 @@ use manylights::cut::CUT_CAPACITY;
 use manylights::{BlCutOptions, BlImportance, LightCut, SplitCutOptions, TlImportance};
 use std::sync::Arc;
 
-/// The largest cut: clusters a cut may hold.
-pub const ML_CUT_CAPACITY: usize = 64;
+/// The largest cut: clusters a cut may hold, `ML_MAX_CUT_SIZE` of the node tree and one for
+/// each light at infinity (a tree has at most 16); what a host sizes the arrays of
+/// `ml_cut_sample_clusters` by.
+pub const ML_CUT_CAPACITY: usize = 80;
 const _: () = assert!(ML_CUT_CAPACITY == CUT_CAPACITY);
 
 /// `*cluster` of `ml_cut_pmf_in` for a light in no cluster of the cut.
@@ -23,7 +26,8 @@ pub const ML_NO_CLUSTER: u32 = u32::MAX;
 pub struct ml_bl_cut_options {
     /// Split a cluster whose BRDF integral over its cap exceeds δ (finite, ≥ 0; default 0.3).
     pub delta: f32,
-    /// Most clusters, in [`ML_MIN_CUT_SIZE`, `ML_CUT_CAPACITY`] = [4, 64] (default 64).
+    /// Most clusters of the node tree, in [`ML_MIN_CUT_SIZE`, `ML_MAX_CUT_SIZE`] = [4, 64]
+    /// (default 64); each light at infinity that can contribute adds one.
     pub max_size: usize,
     /// Split a cluster whose cap is wide: its bounding sphere's radius r at least `split_sin`
     /// times its distance d from the shading point (the sine of the cap's half-angle). In
@@ -39,7 +43,8 @@ pub struct ml_split_cut_options {
     /// Split while the cluster's share of the variance exceeds this (finite, ≥ 0; default
     /// 1e-3).
     pub threshold: f32,
-    /// Most clusters, in [`ML_MIN_CUT_SIZE`, `ML_CUT_CAPACITY`] = [4, 64] (default 32).
+    /// Most clusters of the node tree, in [`ML_MIN_CUT_SIZE`, `ML_MAX_CUT_SIZE`] = [4, 64]
+    /// (default 32); each light at infinity that can contribute adds one.
     pub max_size: usize,
 }
 
@@ -77,11 +82,11 @@ impl ml_cut {
 // checked at every call that takes them (`ml_direct_estimate` among them).
 
 fn max_size(v: usize, name: &str, field: &str) -> Result<usize> {
-    if (crate::limits::ML_MIN_CUT_SIZE..=ML_CUT_CAPACITY).contains(&v) {
+    if (crate::limits::ML_MIN_CUT_SIZE..=crate::limits::ML_MAX_CUT_SIZE).contains(&v) {
         Ok(v)
     } else {
         Err(Error::invalid(format_args!(
-            "{name}.{field} must be in [4, 64], ML_MIN_CUT_SIZE to ML_CUT_CAPACITY (got {v})"
+            "{name}.{field} must be in [4, 64], ML_MIN_CUT_SIZE to ML_MAX_CUT_SIZE (got {v})"
         )))
     }
 }
@@ -188,7 +193,9 @@ pub extern "C" fn ml_cut_free(cut: *mut ml_cut) -> ml_status {
 
 /// Builds the BRDF-oriented light cut of `tree` at `sp` (Liu et al. 2019, section 4.1: a
 /// cluster is split while x is inside its bounding sphere or its BRDF integral exceeds δ), with
-/// `options` (NULL: defaults). The cut is unchanged on error.
+/// `options` (NULL: defaults). The cut is unchanged on error. Each distant or environment
+/// light that can contribute at `sp` is a cluster of its own, after the node tree's clusters
+/// (at most `options.max_size` of them), so the cut holds every light that can contribute.
 ///
 /// Errors: `ML_ERR_NULL` (`cut`, `tree`, `sp`); `ML_ERR_INVALID_ARGUMENT` (a bad shading point
 /// or option).
@@ -216,7 +223,9 @@ pub extern "C" fn ml_cut_build_bl(
 
 /// Builds the split-sampling cut of `tree` at `point` (Conty & Kulla: a cluster is split while
 /// its share of the variance is large, and always when the point is inside it), with
-/// `options` (NULL: defaults). The cut is unchanged on error. Its clusters hold every light
+/// `options` (NULL: defaults). The cut is unchanged on error. Each distant or environment
+/// light that can contribute at `point` is a cluster of its own (pmf 1 in it), after the node
+/// tree's clusters (at most `options.max_size` of them). Its clusters hold every light
 /// that can contribute at `point`, not every light with `ml_tree_pmf_tl` > 0: below a slot
 /// whose child's slots all have importance 0, the tree's descent falls back to energies and
 /// gives those lights (which cannot contribute: behind the surface, outside their cones) a
@@ -246,7 +255,8 @@ pub extern "C" fn ml_cut_build_split(
     })
 }
 
-/// The number of clusters of the cut (0 when no light can contribute).
+/// The number of clusters of the cut, the lights at infinity's among them (0 when no light can
+/// contribute; at most `ML_CUT_CAPACITY`).
 ///
 /// Errors: `ML_ERR_NULL` (`cut`, `out`); `ML_ERR_STATE` (never built).
 #[no_mangle]
@@ -301,7 +311,12 @@ pub extern "C" fn ml_cut_max_variance(cut: *const ml_cut, out: *mut f32) -> ml_s
 }
 
 /// Samples one light of the whole cut with `u` in [0, 1): a cluster in proportion to its
-/// weight, then a light in it; the pmf is the product (`ML_NO_LIGHT` for an empty cut).
+/// weight, then a light in it; the pmf is the product (`ML_NO_LIGHT` for an empty cut). With
+/// distant or environment lights the choice is first made between the node tree's clusters
+/// (their weights' sum) and each light at infinity (its weight), as the estimators make it;
+/// a light at infinity has that choice's probability as its pmf (for the environment the host
+/// then samples its own environment), and a light of the node tree whose product would be
+/// below `ML_MIN_PMF` is never returned (`ML_NO_LIGHT`, pmf 0).
 ///
 /// Errors: `ML_ERR_NULL` (`cut`, `out`); `ML_ERR_INVALID_ARGUMENT` (`u` outside [0, 1));
 /// `ML_ERR_STATE` (never built).
@@ -349,7 +364,8 @@ pub extern "C" fn ml_cut_pmf(cut: *const ml_cut, light: u32, out: *mut f32) -> m
 
 /// Split sampling: one light in each cluster, `out[i]` for cluster i with `us[i]` in [0, 1),
 /// its pmf relative to the cluster (the estimate sums each cluster's contribution divided by
-/// it). `count` must be the cut's size. The descents run four at a time, interleaved.
+/// it). `count` must be the cut's size (at most `ML_CUT_CAPACITY`). A distant or environment
+/// light's cluster gives that light with pmf 1. The descents run four at a time, interleaved.
 ///
 /// Errors: `ML_ERR_NULL` (`cut`; `us`, `out` when `count` > 0); `ML_ERR_INVALID_ARGUMENT`
 /// (`count` not the cut's size, `us[i]` outside [0, 1)); `ML_ERR_STATE` (never built).

@@ -4,7 +4,7 @@
 //! `lights[3].power (the point light's intensity) gives an energy of 5e25 W, above
 //! ML_MAX_LIGHT_ENERGY (1e24) (got 3.9788735e24)`.
 
-use manylights::cut::MIN_CUT_SIZE;
+use manylights::cut::{MAX_CUT_SIZE, MIN_CUT_SIZE};
 
 /// Largest magnitude of a light's coordinates (positions, centres, vertices) and radii, and of
 /// a VPL candidate's position.
@@ -55,9 +55,14 @@ pub const ML_MIN_BUCKETS: u32 = 12;
 pub const ML_MAX_BUCKETS: u32 = 64;
 
 /// Fewest clusters a cut's `max_size` may ask for (the root's four slots); the most is
-/// `ML_CUT_CAPACITY`.
+/// `ML_MAX_CUT_SIZE`.
 pub const ML_MIN_CUT_SIZE: usize = 4;
 const _: () = assert!(ML_MIN_CUT_SIZE == MIN_CUT_SIZE);
+
+/// Most clusters of the node tree a cut's `max_size` may ask for (the lights at infinity add
+/// one cluster each: a cut holds at most `ML_CUT_CAPACITY`).
+pub const ML_MAX_CUT_SIZE: usize = 64;
+const _: () = assert!(ML_MAX_CUT_SIZE == MAX_CUT_SIZE);
 
 /// Largest `ml_direct_params.n_max`, the BRDF-aware budget's Nmax (the smallest is 1).
 pub const ML_MAX_BUDGET: u32 = 64;

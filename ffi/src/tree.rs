@@ -82,7 +82,9 @@ pub struct ml_build_options {
 pub struct ml_tree_statistics {
     /// Lights the tree was built from.
     pub lights: usize,
-    /// Lights in the tree (those with positive energy).
+    /// Lights that can be sampled: those in the node tree (of positive energy), and the
+    /// distant and environment lights of positive irradiance (for the environment, a positive
+    /// bound), which `ml_tree_sample_tl` chooses at the root.
     pub sampled_lights: usize,
     /// Tree nodes.
     pub nodes: usize,

@@ -394,8 +394,9 @@ pub struct ml_light_point {
     /// do not divide again (the contribution is `f · radiance · cos θi / pdf`, `pdf` = 1); for
     /// a distant light of angular radius 0 its irradiance (W/m², `pdf` = 1).
     pub radiance: ml_rgb,
-    /// 1 for point, spot and VPL lights and distant lights of angular radius 0 (`pdf` is a
-    /// Dirac delta reported as 1; no BSDF ray reaches them), else 0.
+    /// 1 for point, spot and VPL lights, and for a distant light of angular radius 0 or of a
+    /// cone too narrow for f32 (`pdf` is a Dirac delta reported as 1; no BSDF ray reaches
+    /// them), else 0.
     pub delta: u32,
 }
 

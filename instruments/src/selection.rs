@@ -248,7 +248,8 @@ pub fn run(scene: &RenderScene, cfg: &SelectionConfig) -> SelectionReport {
                 variance(&cs, |l| tree.pmf(&near, l)),
             ];
             let n = bl.cut().len();
-            let full = n >= cfg.cut.max_size.clamp(4, manylights::cut::CUT_CAPACITY);
+            let full = bl.cut().tree_clusters().len()
+                >= cfg.cut.max_size.clamp(4, manylights::cut::MAX_CUT_SIZE);
             Some((total, v, n, full))
         })
         .collect();

@@ -1,6 +1,7 @@
-//! Light cuts: a set of disjoint clusters (tree slots) that together hold every light that can
-//! contribute at a shading point. Fixed capacity ([`CUT_CAPACITY`]), no allocation: a cut is
-//! caller-owned per-thread state, rebuilt per shading point.
+//! Light cuts: a set of disjoint clusters (tree slots, and the lights at infinity) that
+//! together hold every light that can contribute at a shading point. Fixed capacity
+//! ([`CUT_CAPACITY`]), no allocation: a cut is caller-owned per-thread state, rebuilt per
+//! shading point.
 //!
 //! Of [`LightTree`]'s API this file holds [`LightTree::sample_cluster`]: a light sampled under
 //! one cluster, with its pmf relative to the cluster (what the cuts' sampling is built on); the
@@ -23,6 +24,17 @@
 //! sampling needs), [`LightCut::pmf_in_each`] and [`LightCut::pmf_each`] return exactly what
 //! the one-at-a-time calls return, with the tree walks interleaved four at a time so that
 //! their dependent steps overlap.
+//!
+//! **Lights at infinity.** The distant and environment lights of the tree
+//! ([`LightTree::infinite_lights`]) are not in the node tree; a cut holds each that can
+//! contribute at its point (importance > 0) as a cluster of its own, after the node tree's
+//! clusters ([`LightCut::tree_clusters`]; [`Cluster::infinite_entry`] names its entry), so a
+//! cut is self-contained: [`LightCut::sample_in`] and [`LightCut::sample_each`] give a light at
+//! infinity with pmf 1 in its cluster (what the estimators' split sampling takes), and
+//! [`LightCut::sample`] first makes the estimators' root choice ([`LightCut::root_choice`])
+//! between the node tree's clusters and the lights at infinity. `max_size` bounds the node
+//! tree's clusters only: a cut holds at most `max_size` plus the number of lights at infinity,
+//! at most [`CUT_CAPACITY`].
 //!
 //! A cut is built breadth-first from the root: a slot that wants splitting is opened unless
 //! that would overflow `max_size`, in which case it stays a cluster. Clusters whose weight is 0
@@ -55,11 +67,26 @@
 //! squared, scales its relative variance into a share of the total's.
 
 use crate::importance::{BlImportance, Importance, TlImportance};
+use crate::limits::MAX_INFINITE_LIGHTS;
 use crate::math;
-use crate::sample::{sanitize, LightSample, Start, WalkStart, MIN_PMF, ONE_MINUS_EPSILON};
+use crate::sample::{
+    sanitize, LightSample, RootChoice, Start, WalkStart, MIN_PMF, ONE_MINUS_EPSILON,
+};
 use crate::tree::{count4, path_len, Child, LightTree, Node4, Slot};
 use core::cell::Cell;
 use wide::f32x4;
+
+/// `p · pmf` if it is at least [`MIN_PMF`], else 0: the pmf of a light of the node tree chosen
+/// at the root with probability `p`.
+#[inline]
+fn product(p: f32, pmf: f32) -> f32 {
+    let q = p * pmf;
+    if q >= MIN_PMF {
+        q
+    } else {
+        0.0
+    }
+}
 
 /// `x > 0` (false for NaN).
 #[inline(always)]
@@ -70,28 +97,49 @@ fn positive(x: f32) -> bool {
 /// Fewest clusters a cut may be limited to: the root node's four slots.
 pub const MIN_CUT_SIZE: usize = 4;
 
-/// Most clusters a cut holds.
-pub const CUT_CAPACITY: usize = 64;
+/// Most clusters of the node tree a cut may be limited to: the largest `max_size`.
+pub const MAX_CUT_SIZE: usize = 64;
+
+/// Most clusters a cut holds: [`MAX_CUT_SIZE`] of the node tree and one for each light at
+/// infinity (at most [`MAX_INFINITE_LIGHTS`]).
+pub const CUT_CAPACITY: usize = MAX_CUT_SIZE + MAX_INFINITE_LIGHTS;
 
 /// Descents [`LightCut::sample_each`] and the pmf walks of a cut keep in flight.
 const CUT_LANES: usize = 4;
 
-/// One cluster of a cut: a slot of a node, with its path from the root and its weight.
+/// One cluster of a cut: a slot of a node, with its path from the root and its weight; or a
+/// light at infinity, a cluster of its own (`node` is [`Cluster::AT_INFINITY`], `slot` its
+/// entry in [`LightTree::infinite_lights`], `path` 0).
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct Cluster {
-    /// The node holding the slot.
+    /// The node holding the slot ([`Cluster::AT_INFINITY`] for a light at infinity).
     pub node: u32,
-    /// The slot (0..4).
+    /// The slot (0..4), or the entry of a light at infinity.
     pub slot: u8,
-    /// Path of the slot from the root, encoded as in [`LightTree::path`].
+    /// Path of the slot from the root, encoded as in [`LightTree::path`] (0 for a light at
+    /// infinity).
     pub path: u64,
     /// Weight at the shading point (the importance the cut was built with; > 0).
     pub weight: f32,
-    /// The split criterion's value for this cluster (BRDF integral or normalised variance).
+    /// The split criterion's value for this cluster (BRDF integral or normalised variance; 0
+    /// for a light at infinity).
     pub score: f32,
     /// For BRDF-oriented cuts, the glossy lobe's part of the BRDF integral over the cluster's
-    /// cap (`ks ∫ f_GGX cos`); 0 for split cuts and Lambert materials.
+    /// cap (`ks ∫ f_GGX cos`); 0 for split cuts, Lambert materials and lights at infinity.
     pub glossy_score: f32,
+}
+
+impl Cluster {
+    /// The `node` of a cluster that is a light at infinity.
+    pub const AT_INFINITY: u32 = u32::MAX;
+
+    /// The entry in [`LightTree::infinite_lights`] of a cluster that is a light at infinity
+    /// (`None` for a slot of the node tree).
+    #[inline]
+    #[must_use]
+    pub fn infinite_entry(&self) -> Option<usize> {
+        (self.node == Cluster::AT_INFINITY).then_some(usize::from(self.slot))
+    }
 }
 
 /// Options of the split-sampling cut.
@@ -99,7 +147,8 @@ pub struct Cluster {
 pub struct SplitCutOptions {
     /// Split while `ρ · (I_C / I_total)² > threshold`.
     pub threshold: f32,
-    /// Most clusters (clamped to [`MIN_CUT_SIZE`]..=[`CUT_CAPACITY`]).
+    /// Most clusters of the node tree (clamped to [`MIN_CUT_SIZE`]..=[`MAX_CUT_SIZE`]); each
+    /// light at infinity that can contribute adds one.
     pub max_size: usize,
 }
 
@@ -119,7 +168,8 @@ impl Default for SplitCutOptions {
 pub struct BlCutOptions {
     /// Split a cluster whose BRDF cap integral SC exceeds δ.
     pub delta: f32,
-    /// Most clusters (clamped to [`MIN_CUT_SIZE`]..=[`CUT_CAPACITY`]).
+    /// Most clusters of the node tree (clamped to [`MIN_CUT_SIZE`]..=[`MAX_CUT_SIZE`]); each
+    /// light at infinity that can contribute adds one.
     pub max_size: usize,
     /// Split a cluster whose cap is wide: `r ≥ split_sin · d` for a bounding sphere of radius
     /// r at distance d from the shading point (the sine of the cap's half-angle is at least
@@ -162,8 +212,14 @@ pub(crate) struct SlotDecisions {
 /// A light cut (see the module documentation).
 #[derive(Clone, Copy, Debug)]
 pub struct LightCut {
+    /// The node tree's clusters (`0..len`), then the lights at infinity's
+    /// (`len..len + infinite`).
     clusters: [Cluster; CUT_CAPACITY],
     len: usize,
+    infinite: usize,
+    /// The choice between the node tree's clusters and the lights at infinity, for a tree
+    /// with lights at infinity.
+    root: Option<RootChoice>,
     total: f32,
     max_score: f32,
     max_glossy_score: f32,
@@ -173,9 +229,10 @@ pub struct LightCut {
     scale: f32,
     skipped: u64,
     sample_total: f32,
-    /// `ends[i]`: the sum of the weights [`LightCut::sample`] gives clusters `0..=i`, added in
-    /// their order (clusters left out add nothing), so `ends[len − 1]` is `sample_total`.
-    ends: [f32; CUT_CAPACITY],
+    /// `ends[i]`: the sum of the weights [`LightCut::sample`] gives clusters `0..=i` of the
+    /// node tree, added in their order (clusters left out add nothing), so `ends[len − 1]` is
+    /// `sample_total`.
+    ends: [f32; MAX_CUT_SIZE],
     /// The last cluster [`LightCut::sample`] can choose.
     last: usize,
 }
@@ -200,44 +257,68 @@ impl LightCut {
                 glossy_score: 0.0,
             }; CUT_CAPACITY],
             len: 0,
+            infinite: 0,
+            root: None,
             total: 0.0,
             max_score: 0.0,
             max_glossy_score: 0.0,
             scale: 1.0,
             skipped: 0,
             sample_total: 0.0,
-            ends: [0.0; CUT_CAPACITY],
+            ends: [0.0; MAX_CUT_SIZE],
             last: 0,
         }
     }
 
-    /// The clusters.
+    /// The clusters: those of the node tree ([`LightCut::tree_clusters`]), then one for each
+    /// light at infinity that can contribute.
     #[must_use]
     pub fn clusters(&self) -> &[Cluster] {
+        &self.clusters[..self.len + self.infinite]
+    }
+
+    /// The clusters of the node tree: the first [`LightCut::clusters`], at most the
+    /// `max_size` the cut was built with.
+    #[must_use]
+    pub fn tree_clusters(&self) -> &[Cluster] {
         &self.clusters[..self.len]
     }
 
-    /// Number of clusters.
+    /// Number of clusters (of the node tree and lights at infinity).
     #[must_use]
     pub fn len(&self) -> usize {
-        self.len
+        self.len + self.infinite
     }
 
     /// Whether no cluster can contribute.
     #[must_use]
     pub fn is_empty(&self) -> bool {
-        self.len == 0
+        self.len() == 0
     }
 
-    /// Sum of the clusters' weights.
+    /// Sum of the clusters' weights (the node tree's, in their order, then the lights at
+    /// infinity's).
     #[must_use]
     pub fn total_weight(&self) -> f32 {
-        self.total
+        self.clusters[self.len..self.len + self.infinite]
+            .iter()
+            .fold(self.total, |t, c| t + c.weight)
     }
 
-    /// Largest score over the cut: for BRDF-oriented cuts IB(x) (Liu et al. 2019, section
-    /// 4.2), for split cuts the largest normalised variance `ρ · (I_C / I_total)²` (+∞ where
-    /// the shading point is inside a cluster that could not be split).
+    /// The choice [`LightCut::sample`] makes first between the node tree's clusters (choice
+    /// 0, of weight the sum of their weights) and each light at infinity (choice `1 + i` for
+    /// entry `i` of [`LightTree::infinite_lights`], of its importance at the point); `None`
+    /// for a tree without lights at infinity.
+    #[inline]
+    #[must_use]
+    pub fn root_choice(&self) -> Option<&RootChoice> {
+        self.root.as_ref()
+    }
+
+    /// Largest score over the node tree's clusters: for BRDF-oriented cuts IB(x) (Liu et al.
+    /// 2019, section 4.2), for split cuts the largest normalised variance
+    /// `ρ · (I_C / I_total)²` (+∞ where the shading point is inside a cluster that could not
+    /// be split).
     #[must_use]
     pub fn max_score(&self) -> f32 {
         self.max_score
@@ -253,7 +334,7 @@ impl LightCut {
     /// Builds the cut breadth-first. `decide(node, total)` evaluates the four slots of a node;
     /// `total` is `root_total(root)`, the importance of the whole tree at the shading point,
     /// for criteria that normalise by it. At most `max_size` clusters (at least the root's
-    /// slots: `max_size` is clamped to [`MIN_CUT_SIZE`]..=[`CUT_CAPACITY`]).
+    /// slots: `max_size` is clamped to [`MIN_CUT_SIZE`]..=[`MAX_CUT_SIZE`]).
     ///
     /// The cut is built in `cut`, whatever it held before (what a cut rebuilt in place per
     /// shading point needs: no copy of its arrays).
@@ -272,7 +353,7 @@ impl LightCut {
     ) {
         cut.clear();
         // The root's (up to four) slots are the coarsest cut there is.
-        let max_size = max_size.clamp(MIN_CUT_SIZE, CUT_CAPACITY);
+        let max_size = max_size.clamp(MIN_CUT_SIZE, MAX_CUT_SIZE);
         let Some(root) = tree.nodes.first() else {
             return;
         };
@@ -282,7 +363,7 @@ impl LightCut {
         }
         // Clusters waiting to be opened, with the node each holds: a ring buffer; accepted +
         // queued ≤ max_size always.
-        let mut queue = [(Cluster::default(), 0u32); CUT_CAPACITY];
+        let mut queue = [(Cluster::default(), 0u32); MAX_CUT_SIZE];
         let (mut head, mut queued) = (0usize, 0usize);
         // What `push` keeps, in locals until the end.
         let mut acc = Accepted::default();
@@ -328,7 +409,7 @@ impl LightCut {
                         };
                         match node.child(k) {
                             Child::Node(child) if open & (1 << k) != 0 => {
-                                queue[(head + queued) % CUT_CAPACITY] = (c, child);
+                                queue[(head + queued) % MAX_CUT_SIZE] = (c, child);
                                 queued += 1;
                             }
                             _ => acc.push(&mut cut.clusters, c),
@@ -340,7 +421,7 @@ impl LightCut {
                 break;
             }
             let (c, child) = queue[head];
-            head = (head + 1) % CUT_CAPACITY;
+            head = (head + 1) % MAX_CUT_SIZE;
             queued -= 1;
             (index, path, parent) = (child, c.path, Some(c));
         }
@@ -355,6 +436,8 @@ impl LightCut {
     /// the (zero) length, which nothing reads.
     fn clear(&mut self) {
         self.len = 0;
+        self.infinite = 0;
+        self.root = None;
         self.total = 0.0;
         self.max_score = 0.0;
         self.max_glossy_score = 0.0;
@@ -377,7 +460,7 @@ impl LightCut {
         let scale = self.scale;
         // One pass: the scaled weights' sum `all`, added in the clusters' order, its running
         // sums (what `ends` holds when no cluster is left out) and the smallest scaled weight.
-        let n = self.len.min(CUT_CAPACITY);
+        let n = self.len.min(MAX_CUT_SIZE);
         let mut all = 0.0f32;
         let mut least = f32::INFINITY;
         for (c, end) in self.clusters[..n].iter().zip(&mut self.ends[..n]) {
@@ -402,7 +485,7 @@ impl LightCut {
         }
         let mut skipped = 0u64;
         let mut kept = 0.0f32;
-        for (i, c) in self.clusters().iter().enumerate() {
+        for (i, c) in self.tree_clusters().iter().enumerate() {
             if (c.weight * scale) / all >= 2.0 * MIN_PMF {
                 kept += c.weight * scale;
             } else {
@@ -425,7 +508,7 @@ impl LightCut {
     /// cluster it never chooses.
     #[inline]
     fn sample_weight(&self, i: usize) -> Option<f32> {
-        let c = self.clusters().get(i)?;
+        let c = self.tree_clusters().get(i)?;
         (self.skipped & (1 << i) == 0).then_some(c.weight * self.scale)
     }
 
@@ -492,7 +575,7 @@ struct Accepted {
 impl Accepted {
     #[inline(always)]
     fn push(&mut self, clusters: &mut [Cluster; CUT_CAPACITY], c: Cluster) {
-        if self.len < CUT_CAPACITY {
+        if self.len < MAX_CUT_SIZE {
             clusters[self.len] = c;
             self.len += 1;
             self.total += c.weight;
@@ -532,6 +615,7 @@ impl LightCut {
         let total = |_: &Node4| root_eval.map_or(0.0, |e| e.0.to_array().iter().sum());
         let surely_kept = |node: &Node4| imp.surely_positive4(node);
         LightCut::build_with(self, tree, opts.max_size, decide, surely_kept, total);
+        self.add_infinite(tree, imp);
     }
 
     /// The split-sampling cut of Conty & Kulla at the shading point of `imp` (see the module
@@ -590,6 +674,42 @@ impl LightCut {
             |_| 0,
             |root| imp.eval4(root).to_array().iter().sum(),
         );
+        self.add_infinite(tree, imp);
+    }
+
+    /// Adds the lights at infinity to a cut of the node tree just built: a cluster for each
+    /// whose importance at the point is positive, and the root choice (for a tree with
+    /// lights at infinity, whatever their importances).
+    fn add_infinite<I: Importance + ?Sized>(&mut self, tree: &LightTree, imp: &I) {
+        if tree.infinite.is_empty() {
+            return;
+        }
+        let mut weights = [0f32; MAX_INFINITE_LIGHTS];
+        let m = tree.infinite.len().min(MAX_INFINITE_LIGHTS);
+        let start = self.len;
+        let mut n = 0;
+        for (i, e) in tree.infinite[..m].iter().enumerate() {
+            let weight = imp.eval_infinite(e);
+            weights[i] = weight;
+            if weight > 0.0 {
+                self.clusters[start + n] = Cluster {
+                    node: Cluster::AT_INFINITY,
+                    slot: i as u8,
+                    path: 0,
+                    weight,
+                    score: 0.0,
+                    glossy_score: 0.0,
+                };
+                n += 1;
+            }
+        }
+        self.infinite = n;
+        let w: f64 = self
+            .tree_clusters()
+            .iter()
+            .map(|c| f64::from(c.weight))
+            .sum();
+        self.root = Some(RootChoice::new(w, weights[..m].iter().copied()));
     }
 
     /// Samples a light in cluster `i` with `u`: its pmf is relative to the cluster (the
@@ -645,7 +765,7 @@ impl LightCut {
         u: &[f32],
         out: &mut [Option<LightSample>],
     ) {
-        let n = self.len.min(u.len()).min(out.len());
+        let n = self.len().min(u.len()).min(out.len());
         tree.descend_many::<&I, CUT_LANES>(
             n,
             |_| &imp,
@@ -749,6 +869,12 @@ impl LightCut {
         lights: &[u32],
         out: &mut [f32],
     ) {
+        if self.root.is_some() {
+            for (o, &l) in out.iter_mut().zip(lights) {
+                *o = self.pmf(tree, imp, l);
+            }
+            return;
+        }
         let mut within = [None; CUT_CAPACITY];
         for (ls, os) in lights
             .chunks(CUT_CAPACITY)
@@ -773,11 +899,17 @@ impl LightCut {
     fn cluster_of(&self, tree: &LightTree, light: u32) -> Option<(usize, &Cluster, u64)> {
         let path = tree.path(light);
         if path == 0 {
-            return None;
+            // Not in the node tree: a light at infinity, a cluster of its own, or none.
+            let entry = tree.infinite_entry(light)?;
+            let i = self.len
+                + self.clusters[self.len..self.len + self.infinite]
+                    .iter()
+                    .position(|c| usize::from(c.slot) == entry)?;
+            return Some((i, &self.clusters[i], 0));
         }
         let lz = path.leading_zeros();
         let mut found = usize::MAX;
-        for (i, c) in self.clusters().iter().enumerate() {
+        for (i, c) in self.tree_clusters().iter().enumerate() {
             let shift = c.path.leading_zeros().wrapping_sub(lz);
             let hit = c.path != 0 && shift < 64 && path >> (shift & 63) == c.path;
             found = if hit { i } else { found };
@@ -800,7 +932,38 @@ impl LightCut {
     /// Samples one light of the whole cut: a cluster with probability weight / total, then a
     /// light in it. The pmf is the product (at least [`MIN_PMF`]: clusters and lights whose
     /// share would be smaller are never chosen; see the module documentation).
+    ///
+    /// With lights at infinity, the choice is first made at the root
+    /// ([`LightCut::root_choice`]): between the node tree's clusters, of weight the sum of
+    /// their weights, and each light at infinity, of its weight (its cluster's), as the
+    /// estimators' [`crate::direct::CutSampler`] chooses (`u` rescaled into the chosen
+    /// interval). A light at infinity then has the pmf of its choice; a light of the node
+    /// tree has that of the node tree times what the cut's clusters give it, and a product
+    /// below [`MIN_PMF`] counts as no light (`None`, and [`LightCut::pmf`] 0).
     pub fn sample<I: Importance + ?Sized>(
+        &self,
+        tree: &LightTree,
+        imp: &I,
+        u: f32,
+    ) -> Option<LightSample> {
+        let Some(root) = &self.root else {
+            return self.sample_tree(tree, imp, u);
+        };
+        let (k, p, rest) = root.pick(u)?;
+        if k > 0 {
+            let light = tree.infinite.get(k - 1)?.light;
+            return Some(LightSample { light, pmf: p });
+        }
+        let s = self.sample_tree(tree, imp, rest)?;
+        let pmf = product(p, s.pmf);
+        (pmf > 0.0).then_some(LightSample {
+            light: s.light,
+            pmf,
+        })
+    }
+
+    /// [`LightCut::sample`] among the node tree's clusters alone.
+    fn sample_tree<I: Importance + ?Sized>(
         &self,
         tree: &LightTree,
         imp: &I,
@@ -829,6 +992,21 @@ impl LightCut {
 
     /// The probability that [`LightCut::sample`] returns `light`: exactly the pmf it reports.
     pub fn pmf<I: Importance + ?Sized>(&self, tree: &LightTree, imp: &I, light: u32) -> f32 {
+        let Some(root) = &self.root else {
+            return self.pmf_tree(tree, imp, light);
+        };
+        if let Some(i) = tree.infinite_entry(light) {
+            return root.probability(1 + i);
+        }
+        let p = root.probability(0);
+        if p <= 0.0 {
+            return 0.0;
+        }
+        product(p, self.pmf_tree(tree, imp, light))
+    }
+
+    /// [`LightCut::pmf`] among the node tree's clusters alone (0 for a light at infinity).
+    fn pmf_tree<I: Importance + ?Sized>(&self, tree: &LightTree, imp: &I, light: u32) -> f32 {
         let Some((i, c, path)) = self.cluster_of(tree, light) else {
             return 0.0;
         };
@@ -843,6 +1021,12 @@ impl LightTree {
     /// What `cluster`'s slot holds ([`Slot::Empty`] for a cluster naming no node of this tree).
     #[inline]
     fn slot_of(&self, cluster: &Cluster) -> Slot {
+        if let Some(entry) = cluster.infinite_entry() {
+            return self
+                .infinite
+                .get(entry)
+                .map_or(Slot::Empty, |e| Slot::Light(e.light));
+        }
         self.nodes
             .get(cluster.node as usize)
             .map_or(Slot::Empty, |n| self.slot(n, usize::from(cluster.slot) & 3))

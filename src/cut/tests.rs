@@ -4,7 +4,7 @@ use super::*;
 
 /// `finish` as the per-cluster test defines it: a division per cluster, the running sums
 /// of the clusters kept.
-fn reference(cut: &LightCut) -> (u64, f32, [f32; CUT_CAPACITY], usize) {
+fn reference(cut: &LightCut) -> (u64, f32, [f32; MAX_CUT_SIZE], usize) {
     let scale = cut.scale;
     let all = cut
         .clusters()
@@ -18,7 +18,7 @@ fn reference(cut: &LightCut) -> (u64, f32, [f32; CUT_CAPACITY], usize) {
             skipped |= 1 << i;
         }
     }
-    let (mut ends, mut acc, mut last) = ([0.0f32; CUT_CAPACITY], 0.0f32, 0);
+    let (mut ends, mut acc, mut last) = ([0.0f32; MAX_CUT_SIZE], 0.0f32, 0);
     for (i, c) in cut.clusters().iter().enumerate() {
         if skipped & (1 << i) == 0 {
             acc += c.weight * scale;
@@ -43,7 +43,7 @@ fn finish_equals_the_per_cluster_test() {
     };
     let threshold = 2.0 * MIN_PMF;
     for round in 0..20_000 {
-        let n = 1 + next() as usize % CUT_CAPACITY;
+        let n = 1 + next() as usize % MAX_CUT_SIZE;
         let mut cut = LightCut::new();
         let mut acc = Accepted::default();
         let base = f32::from_bits(1 + next() % 0x7F00_0000);

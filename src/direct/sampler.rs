@@ -77,17 +77,18 @@ impl LightSampler for TreeSampler<'_> {
 /// BRDF-oriented importance, then a descent in it. The sampler owns its tree, importance and
 /// cut, so the cut is always queried with the importance it was built with.
 ///
-/// With distant and environment lights, a sample first chooses at the root among the cut (of
-/// weight the sum of its clusters' weights) and each light at infinity (of its BL importance,
-/// [`BlImportance::eval_infinite_with_integral`]), as [`crate::infinite::RootChoice`] does,
-/// then samples the cut if it was chosen: `pmf = P(cut) · cut.pmf`, exact. A product below
-/// [`MIN_PMF`] counts as no light (sample gives `None`, pmf 0).
+/// With distant and environment lights, a sample first chooses at the root among the node
+/// tree's clusters of the cut (of weight the sum of their weights) and each light at infinity
+/// (of its BL importance, [`BlImportance::eval_infinite_with_integral`]), as
+/// [`crate::infinite::RootChoice`] does, then samples the node tree's clusters if they were
+/// chosen: `pmf = P(tree) · pmf in the clusters`, exact. A product below [`MIN_PMF`] counts as
+/// no light (sample gives `None`, pmf 0). This is [`LightCut::sample`] and [`LightCut::pmf`]
+/// of its cut, which holds the lights at infinity as clusters of their own.
 #[derive(Clone, Debug)]
 pub struct CutSampler<'a> {
     tree: &'a LightTree,
     importance: BlImportance,
     cut: LightCut,
-    root: Option<RootChoice>,
 }
 
 impl<'a> CutSampler<'a> {
@@ -109,12 +110,10 @@ impl<'a> CutSampler<'a> {
         options: &BlCutOptions,
     ) -> CutSampler<'a> {
         let cut = LightCut::build_bl(tree, &importance, options);
-        let root = CutSampler::root_of(tree, &importance, &cut);
         CutSampler {
             tree,
             importance,
             cut,
-            root,
         }
     }
 
@@ -123,7 +122,6 @@ impl<'a> CutSampler<'a> {
     /// copy of its cut.
     pub fn reset(&mut self, importance: BlImportance, options: &BlCutOptions) {
         self.cut.rebuild_bl(self.tree, &importance, options);
-        self.root = CutSampler::root_of(self.tree, &importance, &self.cut);
         self.importance = importance;
     }
 
@@ -139,22 +137,14 @@ impl<'a> CutSampler<'a> {
     ) {
         self.importance = BlImportance::with_directions(sp, n, wo);
         self.cut.rebuild_bl(self.tree, &self.importance, options);
-        self.root = CutSampler::root_of(self.tree, &self.importance, &self.cut);
     }
 
-    /// The root choice between `cut` and the tree's lights at infinity (`None` without any).
-    fn root_of(tree: &LightTree, importance: &BlImportance, cut: &LightCut) -> Option<RootChoice> {
-        (!tree.infinite_lights().is_empty()).then(|| {
-            let w: f64 = cut.clusters().iter().map(|c| f64::from(c.weight)).sum();
-            tree.root_choice(importance, w)
-        })
-    }
-
-    /// The root choice between the cut and the lights at infinity (`None` without any).
+    /// The root choice between the node tree's clusters of the cut and the lights at
+    /// infinity (`None` without any): [`LightCut::root_choice`].
     #[inline]
     #[must_use]
     pub fn root_choice(&self) -> Option<&RootChoice> {
-        self.root.as_ref()
+        self.cut.root_choice()
     }
 
     /// The cut.
@@ -182,12 +172,6 @@ impl<'a> CutSampler<'a> {
     /// gives them; the tree walks interleaved).
     #[inline]
     pub fn pmf_each(&self, lights: &[u32], out: &mut [f32]) {
-        if self.root.is_some() {
-            for (o, &l) in out.iter_mut().zip(lights) {
-                *o = self.pmf(l);
-            }
-            return;
-        }
         self.cut.pmf_each(self.tree, &self.importance, lights, out);
     }
 }
@@ -206,35 +190,12 @@ fn product(p: f32, pmf: f32) -> f32 {
 impl LightSampler for CutSampler<'_> {
     #[inline]
     fn sample(&self, u: f32) -> Option<LightSample> {
-        let Some(root) = &self.root else {
-            return self.cut.sample(self.tree, &self.importance, u);
-        };
-        let (k, p, rest) = root.pick(u)?;
-        if k > 0 {
-            let light = self.tree.infinite_lights()[k - 1].light;
-            return Some(LightSample { light, pmf: p });
-        }
-        let s = self.cut.sample(self.tree, &self.importance, rest)?;
-        let pmf = product(p, s.pmf);
-        (pmf > 0.0).then_some(LightSample {
-            light: s.light,
-            pmf,
-        })
+        self.cut.sample(self.tree, &self.importance, u)
     }
 
     #[inline]
     fn pmf(&self, light: u32) -> f32 {
-        let Some(root) = &self.root else {
-            return self.cut.pmf(self.tree, &self.importance, light);
-        };
-        if let Some(i) = self.tree.infinite_entry(light) {
-            return root.probability(1 + i);
-        }
-        let p = root.probability(0);
-        if p <= 0.0 {
-            return 0.0;
-        }
-        product(p, self.cut.pmf(self.tree, &self.importance, light))
+        self.cut.pmf(self.tree, &self.importance, light)
     }
 }
 

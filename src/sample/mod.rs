@@ -37,6 +37,10 @@ use crate::importance::Importance;
 use crate::tree::{path_len, Child, LightTree, Node4};
 use wide::f32x4;
 
+mod root;
+pub(crate) use root::tree_floor;
+pub use root::RootChoice;
+
 /// A sampled light and the probability of having chosen it.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct LightSample {

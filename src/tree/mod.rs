@@ -289,7 +289,9 @@ impl Node4 {
 pub struct TreeStats {
     /// Lights passed to the build.
     pub lights: u32,
-    /// Lights in the tree (those with positive energy).
+    /// Lights that can be sampled: those in the node tree (of positive energy), and the
+    /// distant and environment lights of positive irradiance (for the environment, a positive
+    /// bound), which [`LightTree::sample`] chooses at the root.
     pub sampled_lights: u32,
     /// Number of [`Node4`].
     pub nodes: u32,
@@ -469,6 +471,15 @@ impl LightTree {
         }
     }
 
+    /// The lights at infinity that can be sampled somewhere: of a positive irradiance (a
+    /// distant light's luminance, an environment's largest bound).
+    fn sampled_infinite(&self) -> usize {
+        self.infinite
+            .iter()
+            .filter(|e| e.irradiance.iter().any(|&x| x > 0.0))
+            .count()
+    }
+
     /// Bytes of the nodes, the node variances, the leaf array, the paths, the lights'
     /// checksums and the entries of the lights at infinity.
     fn array_bytes(&self) -> usize {
@@ -492,7 +503,7 @@ impl LightTree {
             .sum();
         TreeStats {
             lights,
-            sampled_lights: self.leaves.len() as u32,
+            sampled_lights: (self.leaves.len() + self.sampled_infinite()) as u32,
             nodes: self.nodes.len() as u32,
             depth: self.depth,
             bytes,

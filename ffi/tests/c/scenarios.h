@@ -650,6 +650,189 @@ static void scenario_cut(const ml_tree *tree, size_t n) {
     OK(ml_cut_free(cut));
 }
 
+/* f·L·cos θ / pdf (red) at the origin (normal +z, Lambert of albedo rho) of light `light` that
+ * a cut gave: a point on it, or for the environment (index `sky`, radiance `sky_l`) a
+ * direction the host samples uniformly over the sphere. */
+static double cut_host_contribution(const ml_tree *tree, uint32_t light, uint32_t sky,
+                                    float sky_l, float rho, float u0, float u1) {
+    double f = rho / ML_PI;
+    ml_light_point p;
+    if (light == sky) {
+        double z = 1 - 2 * (double)u0;
+        return z > 0 ? f * sky_l * z * (4 * ML_PI) : 0;
+    }
+    OK(ml_light_sample_point(tree, light, v3(0, 0, 0), u0, u1, &p));
+    if (!(p.pdf > 0) || p.direction.z <= 0) return 0;
+    return f * p.radiance.r * p.direction.z / p.pdf;
+}
+
+/* Mean within 5 standard errors (plus 1e-4 relative) of `exact`. */
+static void cut_check_mean(double sum, double sum2, long n, double exact, const char *what) {
+    double mean = sum / (double)n;
+    double var = (sum2 / (double)n - mean * mean) * (double)n / (double)(n - 1);
+    double se = sqrt(var > 0 ? var : 0) / sqrt((double)n);
+    if (fabs(mean - exact) > 5 * se + 1e-4 * exact) {
+        fprintf(stderr, "%s: mean %.6g, exact %.6g, 1 se %.3g (n = %ld)\n", what, mean, exact, se,
+                n);
+        g_failures++;
+    }
+}
+
+/* A host's own sampling of the cuts of a tree with a sun, a sky and a sphere light on a
+ * Lambert plane of albedo 0.8: the cuts hold the sun and the sky as clusters of their own,
+ * and one light of the whole cut (ml_cut_sample) or one per cluster (ml_cut_sample_clusters)
+ * is unbiased against the closed form; a sun below the horizon alone leaves the cut empty. */
+static void scenario_cut_infinite(void) {
+    const float rho = 0.8f, sky_l = 0.3f, sun_e = 2.0f, sph_l = 4.0f, sph_r = 0.3f;
+    const ml_vec3 sun_dir = {0.3f, -0.2f, 1.0f}, c = {0.5f, -0.3f, 2.0f};
+    ml_light ls[3];
+    ml_tree *tree;
+    ml_cut *cut = NULL;
+    ml_shading_point sp;
+    ml_tl_point tp;
+    double exact, d, sum, sum2;
+    size_t size = 0, i, j;
+    int pass;
+    long k;
+    rng r;
+    r.s = 4242;
+    memset(ls, 0, sizeof ls);
+    ls[0].kind = ML_LIGHT_KIND_DISTANT;
+    ls[0].direction = sun_dir;
+    ls[0].half_angle = 0.0047f;
+    ls[0].power = grey(sun_e);
+    ls[1].kind = ML_LIGHT_KIND_SPHERE;
+    ls[1].position = c;
+    ls[1].radius = sph_r;
+    ls[1].power = grey(sph_l);
+    ls[2].kind = ML_LIGHT_KIND_ENVIRONMENT;
+    for (i = 0; i < 6; i++) ls[2].irradiance_bounds[i] = (float)(ML_PI * sky_l * 1.0001);
+    d = sqrt(0.25 + 0.09 + 4.0);
+    exact = rho / ML_PI * sun_e / sqrt(0.09 + 0.04 + 1.0) + rho * sky_l +
+            rho * sph_l * sph_r * sph_r / (d * d) * 2.0 / d;
+    tree = build_tree(ls, 3);
+    {
+        /* The sun and the sky are sampled lights too. */
+        ml_tree_statistics st;
+        OK(ml_tree_stats(tree, &st));
+        CHECK(st.lights == 3 && st.sampled_lights == 3);
+    }
+    sp.position = v3(0, 0, 0);
+    sp.normal = v3(0, 0, 1);
+    sp.wo = v3(0.2f, 0.1f, 1);
+    sp.material = lambert(rho);
+    tp.position = v3(0, 0, 0);
+    tp.normal = v3(0, 0, 1);
+    OK(ml_cut_create(&cut));
+    for (pass = 0; pass < 2; pass++) {
+        float us[ML_CUT_CAPACITY];
+        ml_light_sample out[ML_CUT_CAPACITY];
+        if (pass == 0) {
+            OK(ml_cut_build_bl(cut, tree, &sp, NULL));
+        } else {
+            OK(ml_cut_build_split(cut, tree, &tp, NULL));
+        }
+        OK(ml_cut_size(cut, &size));
+        CHECK(size == 3);
+        if (size != 3) continue;
+        /* One light of the whole cut. */
+        sum = sum2 = 0;
+        for (k = 0; k < 40000; k++) {
+            ml_light_sample s;
+            float q = -1;
+            double v = 0;
+            OK(ml_cut_sample(cut, rng_f32(&r), &s));
+            if (s.light != ML_NO_LIGHT) {
+                OK(ml_cut_pmf(cut, s.light, &q));
+                CHECK(bits(q) == bits(s.pmf) && q > 0);
+                v = cut_host_contribution(tree, s.light, 2, sky_l, rho, rng_f32(&r), rng_f32(&r)) /
+                    s.pmf;
+            }
+            sum += v;
+            sum2 += v * v;
+        }
+        cut_check_mean(sum, sum2, 40000, exact, pass ? "ml_cut_sample (split cut)"
+                                                     : "ml_cut_sample (BL cut)");
+        /* One light in each cluster. */
+        sum = sum2 = 0;
+        for (k = 0; k < 10000; k++) {
+            double v = 0;
+            for (j = 0; j < size; j++) us[j] = rng_f32(&r);
+            OK(ml_cut_sample_clusters(cut, us, size, out));
+            for (j = 0; j < size; j++) {
+                uint32_t cluster = 99;
+                float q = -1;
+                CHECK(out[j].light != ML_NO_LIGHT);
+                if (out[j].light == ML_NO_LIGHT) continue;
+                OK(ml_cut_pmf_in(cut, out[j].light, &cluster, &q));
+                CHECK(cluster == (uint32_t)j && bits(q) == bits(out[j].pmf) && q > 0);
+                v += cut_host_contribution(tree, out[j].light, 2, sky_l, rho, rng_f32(&r),
+                                           rng_f32(&r)) /
+                     out[j].pmf;
+            }
+            sum += v;
+            sum2 += v * v;
+        }
+        cut_check_mean(sum, sum2, 10000, exact, pass ? "ml_cut_sample_clusters (split cut)"
+                                                     : "ml_cut_sample_clusters (BL cut)");
+    }
+    OK(ml_tree_free(tree));
+    /* A sun below the horizon alone. */
+    ls[0].direction = v3(0.2f, 0, -1);
+    tree = build_tree(ls, 1);
+    OK(ml_cut_build_split(cut, tree, &tp, NULL));
+    OK(ml_cut_size(cut, &size));
+    CHECK(size == 0);
+    OK(ml_cut_build_bl(cut, tree, &sp, NULL));
+    OK(ml_cut_size(cut, &size));
+    CHECK(size == 0);
+    OK(ml_tree_free(tree));
+    OK(ml_cut_free(cut));
+}
+
+/* A sun whose cone is too narrow for f32 (1e-20 rad with E = 2, 1e-10 rad with E = 1e20) is
+ * a delta direction: its point has pdf 1 and radiance E, and every technique's estimate on a
+ * Lambert plane of albedo 0.8 facing it is 0.8·E·cos θ / π. */
+static void scenario_narrow_sun(void) {
+    const float gammas[2] = {1e-20f, 1e-10f}, es[2] = {2.0f, 1e20f};
+    int g;
+    for (g = 0; g < 2; g++) {
+        ml_light sun;
+        ml_tree *tree;
+        ml_light_point p;
+        ml_shading_point sp;
+        double exact = 0.8 / ML_PI * es[g] / sqrt(0.09 + 0.04 + 1.0);
+        uint32_t t;
+        rng r;
+        ml_uniforms u = uniforms_of(&r);
+        r.s = 777;
+        memset(&sun, 0, sizeof sun);
+        sun.kind = ML_LIGHT_KIND_DISTANT;
+        sun.direction = v3(0.3f, -0.2f, 1.0f);
+        sun.half_angle = gammas[g];
+        sun.power = grey(es[g]);
+        tree = build_tree(&sun, 1);
+        OK(ml_light_sample_point(tree, 0, v3(0, 0, 0), 0.3f, 0.7f, &p));
+        CHECK(p.pdf == 1 && p.delta == 1 && p.radiance.r == es[g]);
+        sp.position = v3(0, 0, 0);
+        sp.normal = v3(0, 0, 1);
+        sp.wo = v3(0.1f, 0.2f, 1);
+        sp.material = lambert(0.8f);
+        for (t = 0; t < 10; t++) {
+            double sum = 0, sum2 = 0;
+            long k;
+            for (k = 0; k < 500; k++) {
+                ml_rgb64 e = {-1, -1, -1};
+                OK(ml_direct_estimate(tree, &sp, t, NULL, NULL, &u, &e));
+                sum += e.r;
+                sum2 += e.r * e.r;
+            }
+            cut_check_mean(sum, sum2, 500, exact, "a sun too narrow for f32");
+        }
+        OK(ml_tree_free(tree));
+    }
+}
+
 /* ---- points on lights, BRDFs ---------------------------------------------------------- */
 
 static void scenario_points(const ml_tree *tree, const ml_light *lights, size_t n) {
@@ -2034,7 +2217,7 @@ static void scenario_bad_input(const ml_tree *tree, size_t n) {
     OK(ml_bl_cut_options_default(&co));
     co.max_size = 100;
     BAD_VALUE(ml_cut_build_bl, ml_cut_build_bl(cut, tree, &sp, &co), ML_ERR_INVALID_ARGUMENT,
-              "options.max_size must be in [4, 64], ML_MIN_CUT_SIZE to ML_CUT_CAPACITY (got 100)");
+              "options.max_size must be in [4, 64], ML_MIN_CUT_SIZE to ML_MAX_CUT_SIZE (got 100)");
     co.max_size = 16;
     co.delta = (float)NAN;
     BAD_VALUE(ml_cut_build_bl, ml_cut_build_bl(cut, tree, &sp, &co), ML_ERR_INVALID_ARGUMENT,

@@ -49,6 +49,8 @@ int main(int argc, char **argv) {
     scenario_tree(tree, n);
     scenario_cache(tree, lights, n);
     scenario_cut(tree, n);
+    scenario_cut_infinite();
+    scenario_narrow_sun();
     scenario_points(tree, lights, n);
     scenario_receiver();
     scenario_direct();

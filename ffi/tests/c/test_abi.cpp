@@ -65,6 +65,8 @@ int main(int argc, char **argv) {
     scenario_tree(tree.get(), n);
     scenario_cache(tree.get(), lights.get(), n);
     scenario_cut(tree.get(), n);
+    scenario_cut_infinite();
+    scenario_narrow_sun();
     scenario_points(tree.get(), lights.get(), n);
     scenario_receiver();
     scenario_direct();

@@ -14,7 +14,7 @@
 //! share, since they all gather through this one function).
 
 use glam::Vec3;
-use manylights::cut::CUT_CAPACITY;
+use manylights::cut::{CUT_CAPACITY, MAX_CUT_SIZE};
 use manylights::Occluder;
 use manylights::{Light, LightCut, LightSample, LightTree, SplitCutOptions, TlImportance, Vpl};
 use manylights_render::render::primary;
@@ -204,7 +204,7 @@ impl VplTree {
             }
             TreeSampling::Split => {
                 let opts = SplitCutOptions {
-                    max_size: spp.clamp(1, CUT_CAPACITY),
+                    max_size: spp.clamp(1, MAX_CUT_SIZE),
                     ..SplitCutOptions::default()
                 };
                 let cut = LightCut::build_split(tree, &imp, &opts);

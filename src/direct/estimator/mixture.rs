@@ -244,7 +244,8 @@ impl Estimator<'_> {
         &mut self,
         u: &mut (impl Uniforms + ?Sized),
     ) -> Result<(), DirectError> {
-        let m = self.split.len();
+        // The node tree's clusters here; the lights at infinity below.
+        let m = self.split.tree_clusters().len();
         let mut us = [0f32; CUT_CAPACITY];
         let mut uvs = [[0f32; 2]; CUT_CAPACITY];
         for i in 0..m {

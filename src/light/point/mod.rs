@@ -13,7 +13,7 @@
 //! | triangle, Ω ≥ [`MIN_SPHERICAL_SOLID_ANGLE`] | uniform in solid angle (Arvo 1995) | `1 / Ω` |
 //! | triangle, smaller | uniform by area | `d² / (A · abs(cos θy))` |
 //! | distant, γ > 0 | uniform in its cone of directions | `1 / (2π(1 − cos γ))` |
-//! | distant, γ = 0 | its direction | delta: reported as `pdf = 1`, `delta = true` |
+//! | distant, γ = 0, or a cone whose pdf or radiance overflows f32 | its direction | delta: reported as `pdf = 1`, `delta = true` |
 //! | environment | the host's (see [`crate::light::Environment`]; [`crate::LightSet::sample_point`] samples it) | the host's |
 //!
 //! # The estimator
@@ -36,7 +36,7 @@
 //! direction reaches it with probability 0), and MIS must give its light samples the full
 //! weight (the estimators do: a BSDF density of 0). A distant light's point is at infinity
 //! (`distance` = +∞, `position` its unit direction) with radiance `E / (π sin²γ)`, or `E` for
-//! γ = 0 (a delta); an environment's points are the host's: [`sample_point`] and [`intersect`]
+//! γ = 0 and for a cone too narrow for f32 (a delta); an environment's points are the host's: [`sample_point`] and [`intersect`]
 //! return `None` for it and [`pdf_point`] 0.
 //!
 //! # Conventions

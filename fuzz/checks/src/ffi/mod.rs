@@ -443,4 +443,116 @@ mod tests {
             assert!(crate::run::<super::Input>(&b), "seed {seed}: not decoded");
         }
     }
+
+    /// The cut calls on trees with lights at infinity (a sun alone; a sun and an environment
+    /// beside local lights), BRDF-oriented and split, with valid arguments: the checks pass (a
+    /// light at infinity sampled in its own cluster, found there by `ml_cut_pmf_in`).
+    #[test]
+    fn cuts_with_lights_at_infinity_pass() {
+        use super::grammar::*;
+        let s = |k: i16| F::Small(k);
+        let light = |kind: u8, z: i16| Light {
+            kind: Enum(kind),
+            two_sided: Enum(0),
+            position: [s(64), s(-32), s(z)],
+            direction: [s(40), s(-20), s(256)],
+            vertex2: [s(256), s(0), s(z)],
+            power: s(256),
+            radius: s(32),
+            half_angle: s(2),
+            falloff_start: F::Unit(32768),
+        };
+        let sp = Sp {
+            position: [s(0), s(0), s(0)],
+            normal: [s(0), s(0), s(256)],
+            wo: [s(40), s(0), s(256)],
+            material: MaterialDesc {
+                kind: Enum(2),
+                albedo: F::Unit(32768),
+                specular: F::Unit(32768),
+                alpha: F::Unit(20000),
+            },
+        };
+        let tl = TlPoint {
+            position: sp.position,
+            normal: sp.normal,
+            receiver: Enum(0),
+        };
+        fn arg<T>(value: T) -> Arg<T> {
+            Arg {
+                ptr: Ptr::Valid,
+                value,
+            }
+        }
+        let scenes: [Vec<Light>; 2] = [
+            vec![light(6, 0)],
+            (0..6)
+                .map(|i| light(i, 256 + 64 * i as i16))
+                .chain([light(6, 0), light(7, 0)])
+                .collect(),
+        ];
+        for lights in scenes {
+            let n = lights.len() as u16;
+            let mut ops = vec![
+                Op::Build {
+                    lights,
+                    count: Count::All,
+                    ptr: Ptr::Valid,
+                    options: None,
+                    out: Ptr::Valid,
+                },
+                Op::CutCreate { out: Ptr::Valid },
+            ];
+            for bl in [true, false] {
+                ops.push(if bl {
+                    Op::CutBuild {
+                        cut: Handle::Live(0),
+                        tree: Handle::Live(0),
+                        sp: arg(sp),
+                        options: None,
+                    }
+                } else {
+                    Op::CutBuildSplit {
+                        cut: Handle::Live(0),
+                        tree: Handle::Live(0),
+                        point: arg(tl),
+                        options: None,
+                    }
+                });
+                ops.push(Op::CutSize {
+                    cut: Handle::Live(0),
+                    out: Ptr::Valid,
+                });
+                for k in [0u16, 20000, 40000, 65535] {
+                    ops.push(Op::CutSample {
+                        cut: Handle::Live(0),
+                        u: F::Unit(k),
+                        out: Ptr::Valid,
+                    });
+                }
+                for l in 0..n {
+                    ops.push(Op::CutPmf {
+                        cut: Handle::Live(0),
+                        light: Index::In(l),
+                        out: Ptr::Valid,
+                    });
+                    ops.push(Op::CutPmfIn {
+                        cut: Handle::Live(0),
+                        light: Index::In(l),
+                        ptrs: [Ptr::Valid; 2],
+                    });
+                }
+                ops.push(Op::CutSampleClusters {
+                    cut: Handle::Live(0),
+                    us: vec![F::Unit(12345), F::Unit(54321), F::Unit(3)],
+                    count: Count::All,
+                    ptrs: [Ptr::Valid; 2],
+                });
+            }
+            ops.push(Op::CutFree(Handle::Live(0)));
+            ops.push(Op::FreeTree(Handle::Live(0)));
+            assert!(ops.len() <= super::grammar::MAX_OPS);
+            super::check(&super::Input { ops });
+        }
+    }
 }

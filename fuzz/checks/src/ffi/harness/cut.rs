@@ -146,7 +146,24 @@ impl Harness<'_> {
                 let s = ml_cut_sample_clusters(c, u.p(), k, o.p());
                 if self.status("ml_cut_sample_clusters", s, &[&ch, &u, &o]) {
                     for i in 0..k {
-                        self.sample("ml_cut_sample_clusters", o.get(i), n);
+                        let r = o.get(i);
+                        self.sample("ml_cut_sample_clusters", r, n);
+                        if r.light == ML_NO_LIGHT {
+                            continue;
+                        }
+                        // The light's cluster is the one that gave it, with the same pmf (a
+                        // light at infinity: its own cluster, pmf 1).
+                        let (mut kc, mut p) = (ML_NO_CLUSTER, f32::NAN);
+                        let s = ml_cut_pmf_in(c, r.light, &mut kc, &mut p);
+                        self.ensure(
+                            s == ML_OK && kc as usize == i && p.to_bits() == r.pmf.to_bits(),
+                            || {
+                                format!(
+                                    "ml_cut_sample_clusters: cluster {i} gave {r:?}, \
+                                     ml_cut_pmf_in: {s}, cluster {kc}, pmf {p}"
+                                )
+                            },
+                        );
                     }
                     self.ensure(o.untouched_from(k), || {
                         "ml_cut_sample_clusters: wrote past the count".into()
