@@ -15,8 +15,8 @@ use manylights::cut::CUT_CAPACITY;
 use manylights::importance::MemoTable;
 use manylights::Rgb;
 use manylights::{
-    BlCutOptions, BlImportance, BuildOptions, Join, LightCut, LightSample, LightTree, Material,
-    Memo, SplitCutOptions, TlImportance,
+    BlCutOptions, BlImportance, BuildOptions, Join, LightCut, LightTree, Material, Memo,
+    SampledLight, SplitCutOptions, TlImportance,
 };
 use manylights_testkit as random_scene;
 use std::hint::black_box;
@@ -71,7 +71,7 @@ fn sampling(c: &mut Criterion) {
         // The batch call, BATCH points at a time (a wavefront's worth).
         group.bench_with_input(BenchmarkId::new("4-wide batch", n), &n, |b, _| {
             let mut imps = Vec::with_capacity(BATCH);
-            let mut out: Vec<Option<LightSample>> = vec![None; BATCH];
+            let mut out: Vec<Option<SampledLight>> = vec![None; BATCH];
             b.iter(|| random_scene::sample_batches(&tree, &points, &us, &mut imps, &mut out))
         });
         // BL through the BRDF-oriented cut: the importance and the cut built at every point

@@ -13,7 +13,7 @@ use crate::error::BuildError;
 use crate::importance::TlImportance;
 use crate::light::Light;
 use crate::math;
-use crate::sample::{admit, sanitize, LightSample, MIN_PMF, ONE_MINUS_EPSILON};
+use crate::sample::{admit, sanitize, SampledLight, MIN_PMF, ONE_MINUS_EPSILON};
 use crate::tree::SlotBounds;
 
 /// Bit set in a node's `child` when it is a leaf (the rest of the bits: the light).
@@ -170,12 +170,12 @@ impl BinaryLightTree {
 
     /// Samples a light by binary descent with one warped uniform number.
     #[must_use]
-    pub fn sample(&self, imp: &TlImportance, u: f32) -> Option<LightSample> {
+    pub fn sample(&self, imp: &TlImportance, u: f32) -> Option<SampledLight> {
         let mut u = sanitize(u);
         let mut i = 0usize;
         let root = self.nodes.first()?;
         if root.child & LEAF_BIT != 0 {
-            return (imp.eval(&root.bounds()) > 0.0).then_some(LightSample {
+            return (imp.eval(&root.bounds()) > 0.0).then_some(SampledLight {
                 light: root.child & !LEAF_BIT,
                 pmf: 1.0,
             });
@@ -198,7 +198,7 @@ impl BinaryLightTree {
             }
             let child = self.nodes.get(i)?.child;
             if child & LEAF_BIT != 0 {
-                return Some(LightSample {
+                return Some(SampledLight {
                     light: child & !LEAF_BIT,
                     pmf,
                 });

@@ -29,7 +29,7 @@
 use crate::error::ValidationError;
 use crate::importance::Importance;
 use crate::light::Light;
-use crate::sample::{tree_floor, LightSample, WalkStart, MIN_PMF};
+use crate::sample::{tree_floor, SampledLight, WalkStart, MIN_PMF};
 use crate::tree::LightTree;
 
 pub(crate) use crate::infinite_light::{InfiniteKind, InfiniteLight};
@@ -90,17 +90,17 @@ impl LightTree {
         &self,
         imp: &I,
         u: f32,
-    ) -> Option<LightSample> {
+    ) -> Option<SampledLight> {
         let choice = self.root_choice(imp, self.root_weight(imp));
         let (k, p, rest) = choice.pick(u)?;
         if k == 0 {
             let s = self.descend_from(imp, 0, true, rest, tree_floor(p))?;
-            Some(LightSample {
+            Some(SampledLight {
                 light: s.light,
                 pmf: p * s.pmf,
             })
         } else {
-            Some(LightSample {
+            Some(SampledLight {
                 light: self.infinite[k - 1].light,
                 pmf: p,
             })
@@ -131,7 +131,7 @@ impl LightTree {
     /// A light of the node tree alone, ignoring the lights at infinity: what
     /// [`LightTree::sample`] gives for a tree without them (pbrt-v4's descent of its BVH).
     #[inline]
-    pub fn sample_local<I: Importance + ?Sized>(&self, imp: &I, u: f32) -> Option<LightSample> {
+    pub fn sample_local<I: Importance + ?Sized>(&self, imp: &I, u: f32) -> Option<SampledLight> {
         self.descend_from(imp, 0, true, u, MIN_PMF)
     }
 

@@ -145,7 +145,7 @@ pub use light::{Light, LightPoint, MAX_COORDINATE, MAX_LIGHT_ENERGY, MAX_TOTAL_E
 pub use light_set::LightSet;
 pub use material::{Material, ShadingPoint};
 pub use mis::{Heuristic, MAX_BUDGET};
-pub use sample::{LightSample, MIN_PMF};
+pub use sample::{SampledLight, MIN_PMF};
 pub use tree::LightTree;
 pub use vpl::{Importons, Vpl, VplAcceptor};
 

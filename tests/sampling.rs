@@ -15,20 +15,20 @@ use manylights::importance::Receiver;
 use manylights::tree::{Slot, SlotBounds};
 use manylights::Rgb;
 use manylights::MIN_PMF;
-use manylights::{Importance, Light, LightSample, LightTree, TlImportance};
+use manylights::{Importance, Light, LightTree, SampledLight, TlImportance};
 use proptest::prelude::{any, prop_assert, prop_assert_eq, prop_oneof, Strategy};
 use proptest::test_runner::TestCaseError;
 
 /// Both trees behind one interface, so every check runs on both.
 trait Sampler {
     const NAME: &'static str;
-    fn sample(&self, imp: &TlImportance, u: f32) -> Option<LightSample>;
+    fn sample(&self, imp: &TlImportance, u: f32) -> Option<SampledLight>;
     fn pmf(&self, imp: &TlImportance, light: u32) -> f32;
 }
 
 impl Sampler for LightTree {
     const NAME: &'static str = "LightTree";
-    fn sample(&self, imp: &TlImportance, u: f32) -> Option<LightSample> {
+    fn sample(&self, imp: &TlImportance, u: f32) -> Option<SampledLight> {
         LightTree::sample(self, imp, u)
     }
     fn pmf(&self, imp: &TlImportance, light: u32) -> f32 {
@@ -38,7 +38,7 @@ impl Sampler for LightTree {
 
 impl Sampler for BinaryLightTree {
     const NAME: &'static str = "BinaryLightTree";
-    fn sample(&self, imp: &TlImportance, u: f32) -> Option<LightSample> {
+    fn sample(&self, imp: &TlImportance, u: f32) -> Option<SampledLight> {
         BinaryLightTree::sample(self, imp, u)
     }
     fn pmf(&self, imp: &TlImportance, light: u32) -> f32 {

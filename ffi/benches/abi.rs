@@ -8,7 +8,7 @@
 //! Scene: the random scene of `mlmeasure bench` (fixed seed, 10⁵ lights).
 
 use criterion::{criterion_group, criterion_main, Criterion, Throughput};
-use manylights::{LightSample, LightTree};
+use manylights::{LightTree, SampledLight};
 use manylights_ffi as ffi;
 use manylights_testkit as random_scene;
 use std::hint::black_box;
@@ -48,11 +48,11 @@ fn abi(c: &mut Criterion) {
     group.throughput(Throughput::Elements(POINTS as u64));
     group.bench_function("Rust sample_batch, N=100000", |b| {
         let mut imps = Vec::with_capacity(BATCH);
-        let mut out: Vec<Option<LightSample>> = vec![None; BATCH];
+        let mut out: Vec<Option<SampledLight>> = vec![None; BATCH];
         b.iter(|| random_scene::sample_batches(&tree, &points, &us, &mut imps, &mut out))
     });
     group.bench_function("C ml_tree_sample_tl_batch, N=100000", |b| {
-        let mut out = vec![ffi::ml_light_sample::default(); BATCH];
+        let mut out = vec![ffi::ml_sampled_light::default(); BATCH];
         b.iter(|| {
             let mut acc = 0.0f32;
             for (pc, uc) in c_points.chunks(BATCH).zip(us.chunks(BATCH)) {

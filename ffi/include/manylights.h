@@ -20,11 +20,11 @@
 #include <stdint.h>
 
 /**
- * The `ml_light_sample` of no light, as an initializer valid in C99 and C++:
- * `ml_light_sample s = ML_LIGHT_SAMPLE_NONE;` gives `light = ML_NO_LIGHT`, `pmf = 0` (what the
+ * The `ml_sampled_light` of no light, as an initializer valid in C99 and C++:
+ * `ml_sampled_light s = ML_SAMPLED_LIGHT_NONE;` gives `light = ML_NO_LIGHT`, `pmf = 0` (what the
  * sampling functions write when no light can contribute).
  */
-#define ML_LIGHT_SAMPLE_NONE { ML_NO_LIGHT, 0.0f }
+#define ML_SAMPLED_LIGHT_NONE { ML_NO_LIGHT, 0.0f }
 
 /**
  * Major version of the library (the `version` of `ffi/Cargo.toml`).
@@ -149,7 +149,7 @@
 #define ML_MAX_LIGHTS 2147483646
 
 /**
- * `light` of an `ml_light_sample` when no light was sampled (no light can contribute).
+ * `light` of an `ml_sampled_light` when no light was sampled (no light can contribute).
  */
 #define ML_NO_LIGHT UINT32_MAX
 
@@ -631,9 +631,9 @@ typedef struct ml_tl_point {
 /**
  * A sampled light: its index in the array the tree was built from and the probability of
  * the choice (finite, in [`ML_MIN_PMF`, 1]); `light = ML_NO_LIGHT` and `pmf = 0`
- * (`ML_LIGHT_SAMPLE_NONE`) when no light can contribute.
+ * (`ML_SAMPLED_LIGHT_NONE`) when no light can contribute.
  */
-typedef struct ml_light_sample {
+typedef struct ml_sampled_light {
     /**
      * The light's index, or `ML_NO_LIGHT`.
      */
@@ -642,7 +642,7 @@ typedef struct ml_light_sample {
      * Its probability (0 with `ML_NO_LIGHT`).
      */
     float pmf;
-} ml_light_sample;
+} ml_sampled_light;
 
 /**
  * The estimators' parameters (`ml_direct_params_default` fills the defaults).
@@ -1351,7 +1351,7 @@ ml_status ml_cut_max_variance(const struct ml_cut *cut, float *out);
  * Errors: `ML_ERR_NULL` (`cut`, `out`); `ML_ERR_INVALID_ARGUMENT` (`u` outside [0, 1));
  * `ML_ERR_STATE` (never built).
  */
-ml_status ml_cut_sample(const struct ml_cut *cut, float u, struct ml_light_sample *out);
+ml_status ml_cut_sample(const struct ml_cut *cut, float u, struct ml_sampled_light *out);
 
 /**
  * The probability that `ml_cut_sample` returns `light`: exactly the pmf it reports.
@@ -1373,7 +1373,7 @@ ml_status ml_cut_pmf(const struct ml_cut *cut, uint32_t light, float *out);
 ml_status ml_cut_sample_clusters(const struct ml_cut *cut,
                                  const float *us,
                                  size_t count,
-                                 struct ml_light_sample *out);
+                                 struct ml_sampled_light *out);
 
 /**
  * The cluster of the cut holding `light` (`ML_NO_CLUSTER` if none) and the light's pmf
@@ -1681,7 +1681,7 @@ ml_status ml_tree_load_with_lights(const uint8_t *bytes,
 ml_status ml_tree_sample_tl(const struct ml_tree *tree,
                             const struct ml_tl_point *point,
                             float u,
-                            struct ml_light_sample *out);
+                            struct ml_sampled_light *out);
 
 /**
  * The probability that `ml_tree_sample_tl` returns `light` at `point`: exactly the pmf it
@@ -1706,7 +1706,7 @@ ml_status ml_tree_pmf_tl(const struct ml_tree *tree,
 ml_status ml_tree_sample_bl(const struct ml_tree *tree,
                             const struct ml_shading_point *sp,
                             float u,
-                            struct ml_light_sample *out);
+                            struct ml_sampled_light *out);
 
 /**
  * The probability that `ml_tree_sample_bl` returns `light` at `sp`.
@@ -1732,7 +1732,7 @@ ml_status ml_tree_sample_tl_batch(const struct ml_tree *tree,
                                   const struct ml_tl_point *points,
                                   const float *us,
                                   size_t count,
-                                  struct ml_light_sample *out);
+                                  struct ml_sampled_light *out);
 
 /**
  * `count` TL pmfs at once: `out[j]` = `ml_tree_pmf_tl(points[j], lights[j])`, bit for bit.
@@ -1757,7 +1757,7 @@ ml_status ml_tree_sample_bl_batch(const struct ml_tree *tree,
                                   const struct ml_shading_point *points,
                                   const float *us,
                                   size_t count,
-                                  struct ml_light_sample *out);
+                                  struct ml_sampled_light *out);
 
 /**
  * `count` BL pmfs at once: `out[j]` = `ml_tree_pmf_bl(points[j], lights[j])`, bit for bit.

@@ -6,7 +6,7 @@ use crate::arg;
 use crate::error::{ml_status, Error, Result};
 use crate::ffi_fn;
 use crate::tree::{bl_importance, check_light, ml_tree, tree_arg, TreeData};
-use crate::types::{ml_light_sample, ml_shading_point, ml_tl_point, tl_point, unit};
+use crate::types::{ml_sampled_light, ml_shading_point, ml_tl_point, tl_point, unit};
 use manylights::cut::CUT_CAPACITY;
 use manylights::{BlCutOptions, BlImportance, LightCut, SplitCutOptions, TlImportance};
 use std::sync::Arc;
@@ -324,7 +324,7 @@ pub extern "C" fn ml_cut_max_variance(cut: *const ml_cut, out: *mut f32) -> ml_s
 pub extern "C" fn ml_cut_sample(
     cut: *const ml_cut,
     u: f32,
-    out: *mut ml_light_sample,
+    out: *mut ml_sampled_light,
 ) -> ml_status {
     ffi_fn!("ml_cut_sample", {
         let cut = arg::get(cut, "cut")?;
@@ -374,7 +374,7 @@ pub extern "C" fn ml_cut_sample_clusters(
     cut: *const ml_cut,
     us: *const f32,
     count: usize,
-    out: *mut ml_light_sample,
+    out: *mut ml_sampled_light,
 ) -> ml_status {
     ffi_fn!("ml_cut_sample_clusters", {
         let cut = arg::get(cut, "cut")?;

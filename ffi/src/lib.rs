@@ -125,7 +125,7 @@ mod tests {
             ("ML_MAX_BUDGET", "64"),
             ("ML_MAX_LIGHT_SAMPLES", "64"),
             ("ML_MIN_ALPHA", "5e-3"),
-            ("ML_LIGHT_SAMPLE_NONE", "{ ML_NO_LIGHT, 0.0f }"),
+            ("ML_SAMPLED_LIGHT_NONE", "{ ML_NO_LIGHT, 0.0f }"),
         ] {
             let line = format!("#define {name} {value}");
             assert!(header.contains(&line), "the header lacks `{line}`");

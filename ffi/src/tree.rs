@@ -7,13 +7,13 @@ use crate::error::{ml_status, Error, Result};
 use crate::ffi_fn;
 use crate::limits::{ML_MAX_BUCKETS, ML_MIN_BUCKETS};
 use crate::types::{
-    build_error, finite3, light, ml_light, ml_light_point, ml_light_sample, ml_shading_point,
+    build_error, finite3, light, ml_light, ml_light_point, ml_sampled_light, ml_shading_point,
     ml_tl_point, ml_vec3, receiver, shading_point, tl_point, unit,
 };
 use manylights::error::LightMismatch;
 use manylights::{
-    BlImportance, BuildError, BuildOptions, FormatError, Importance, Light, LightSample, LightSet,
-    LightTree, Serial, TlImportance,
+    BlImportance, BuildError, BuildOptions, FormatError, Importance, Light, LightSet, LightTree,
+    SampledLight, Serial, TlImportance,
 };
 use std::sync::Arc;
 
@@ -480,7 +480,7 @@ pub extern "C" fn ml_tree_sample_tl(
     tree: *const ml_tree,
     point: *const ml_tl_point,
     u: f32,
-    out: *mut ml_light_sample,
+    out: *mut ml_sampled_light,
 ) -> ml_status {
     ffi_fn!("ml_tree_sample_tl", {
         let data = tree_arg(tree)?;
@@ -528,7 +528,7 @@ pub extern "C" fn ml_tree_sample_bl(
     tree: *const ml_tree,
     sp: *const ml_shading_point,
     u: f32,
-    out: *mut ml_light_sample,
+    out: *mut ml_sampled_light,
 ) -> ml_status {
     ffi_fn!("ml_tree_sample_bl", {
         let data = tree_arg(tree)?;
@@ -681,10 +681,10 @@ struct Sample;
 
 impl BatchQuery for Sample {
     type Arg = f32;
-    type Res = Option<LightSample>;
-    type Out = ml_light_sample;
+    type Res = Option<SampledLight>;
+    type Out = ml_sampled_light;
     const ARGS: &'static str = "us";
-    const EMPTY: Option<LightSample> = None;
+    const EMPTY: Option<SampledLight> = None;
 
     #[inline(always)]
     fn surely_ok(u: f32, _lights: usize) -> bool {
@@ -700,13 +700,13 @@ impl BatchQuery for Sample {
         t: &LightTree,
         imps: &[I],
         us: &[f32],
-        res: &mut [Option<LightSample>],
+        res: &mut [Option<SampledLight>],
     ) -> core::result::Result<(), manylights::LengthMismatch> {
         t.sample_batch(imps, us, res)
     }
 
     #[inline]
-    fn put(r: Option<LightSample>) -> ml_light_sample {
+    fn put(r: Option<SampledLight>) -> ml_sampled_light {
         r.into()
     }
 }
@@ -811,7 +811,7 @@ pub extern "C" fn ml_tree_sample_tl_batch(
     points: *const ml_tl_point,
     us: *const f32,
     count: usize,
-    out: *mut ml_light_sample,
+    out: *mut ml_sampled_light,
 ) -> ml_status {
     ffi_fn!("ml_tree_sample_tl_batch", {
         tree_batch::<_, Sample, TL_CHUNK>(tree, points, us, count, out)
@@ -846,7 +846,7 @@ pub extern "C" fn ml_tree_sample_bl_batch(
     points: *const ml_shading_point,
     us: *const f32,
     count: usize,
-    out: *mut ml_light_sample,
+    out: *mut ml_sampled_light,
 ) -> ml_status {
     ffi_fn!("ml_tree_sample_bl_batch", {
         tree_batch::<_, Sample, BL_CHUNK>(tree, points, us, count, out)

@@ -7,7 +7,7 @@ use manylights::error::ShadingField;
 use manylights::error::{LightField, Num, Problem};
 use manylights::importance::Receiver;
 use manylights::{
-    BuildError, Light, LightPoint, LightSample, Material, Rgb, ShadingError, ShadingPoint,
+    BuildError, Light, LightPoint, Material, Rgb, SampledLight, ShadingError, ShadingPoint,
     TlImportance,
 };
 
@@ -327,39 +327,39 @@ pub struct ml_tl_point {
     pub receiver: u32,
 }
 
-/// `light` of an `ml_light_sample` when no light was sampled (no light can contribute).
+/// `light` of an `ml_sampled_light` when no light was sampled (no light can contribute).
 pub const ML_NO_LIGHT: u32 = u32::MAX;
 
 /// A sampled light: its index in the array the tree was built from and the probability of
 /// the choice (finite, in [`ML_MIN_PMF`, 1]); `light = ML_NO_LIGHT` and `pmf = 0`
-/// (`ML_LIGHT_SAMPLE_NONE`) when no light can contribute.
+/// (`ML_SAMPLED_LIGHT_NONE`) when no light can contribute.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
-pub struct ml_light_sample {
+pub struct ml_sampled_light {
     /// The light's index, or `ML_NO_LIGHT`.
     pub light: u32,
     /// Its probability (0 with `ML_NO_LIGHT`).
     pub pmf: f32,
 }
 
-impl ml_light_sample {
-    /// No light (`ML_LIGHT_SAMPLE_NONE` in the header, an initializer written in
+impl ml_sampled_light {
+    /// No light (`ML_SAMPLED_LIGHT_NONE` in the header, an initializer written in
     /// `cbindgen.toml`: a struct constant would be a C99 compound literal, not C++).
-    pub(crate) const NONE: ml_light_sample = ml_light_sample {
+    pub(crate) const NONE: ml_sampled_light = ml_sampled_light {
         light: ML_NO_LIGHT,
         pmf: 0.0,
     };
 }
 
-impl From<Option<LightSample>> for ml_light_sample {
+impl From<Option<SampledLight>> for ml_sampled_light {
     #[inline]
-    fn from(s: Option<LightSample>) -> ml_light_sample {
+    fn from(s: Option<SampledLight>) -> ml_sampled_light {
         match s {
-            Some(s) => ml_light_sample {
+            Some(s) => ml_sampled_light {
                 light: s.light,
                 pmf: s.pmf,
             },
-            None => ml_light_sample::NONE,
+            None => ml_sampled_light::NONE,
         }
     }
 }

@@ -170,7 +170,7 @@ fn tl_batches_allocate_nothing() {
     no_allocations("ml_tree_sample_tl_batch", |t, r| {
         let pts = tl_points(r);
         let us: Vec<f32> = (0..N).map(|_| r.f32()).collect();
-        let mut out = vec![ml_light_sample::default(); N];
+        let mut out = vec![ml_sampled_light::default(); N];
         allocations(|| {
             ok(ml_tree_sample_tl_batch(
                 t,
@@ -202,7 +202,7 @@ fn bl_batches_allocate_nothing() {
     no_allocations("ml_tree_sample_bl_batch", |t, r| {
         let pts = shading_points(r);
         let us: Vec<f32> = (0..N).map(|_| r.f32()).collect();
-        let mut out = vec![ml_light_sample::default(); N];
+        let mut out = vec![ml_sampled_light::default(); N];
         allocations(|| {
             ok(ml_tree_sample_bl_batch(
                 t,

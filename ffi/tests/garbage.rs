@@ -125,7 +125,7 @@ extern "C" fn env_eval(_: *mut core::ffi::c_void, _: ml_vec3, r: *mut ml_rgb, pd
     }
 }
 
-fn sample_ok(s: &ml_light_sample, n: usize) {
+fn sample_ok(s: &ml_sampled_light, n: usize) {
     if s.light == ML_NO_LIGHT {
         assert_eq!(s.pmf, 0.0);
     } else {
@@ -224,7 +224,7 @@ fn arbitrary_lights_points_and_numbers() {
             };
             let u = b.val(0.0, 1.0, w);
             let light = b.small(n as u64 + 1);
-            let mut out = ml_light_sample {
+            let mut out = ml_sampled_light {
                 light: 77,
                 pmf: -1.0,
             };

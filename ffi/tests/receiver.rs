@@ -59,7 +59,7 @@ fn a_transmissive_point_gets_the_light_below_it_and_a_reflective_one_does_not() 
         normal: v3(0.0, 0.0, 1.0),
         receiver: ml_receiver::Reflective as u32,
     };
-    let mut s = ml_light_sample::default();
+    let mut s = ml_sampled_light::default();
     ok(ml_tree_sample_tl(tree, &p, 0.5, &mut s));
     assert_eq!(s.light, ML_NO_LIGHT, "a reflective point facing away");
     let mut q = -1.0;
@@ -124,7 +124,7 @@ fn tl_samples_pmfs_and_cuts_are_the_cores_with_the_same_receiver_bit_for_bit() {
         us.push(r.f32());
         which.push((r.next_u64() % 400) as u32);
     }
-    let mut samples = vec![ml_light_sample::default(); n];
+    let mut samples = vec![ml_sampled_light::default(); n];
     ok(ml_tree_sample_tl_batch(
         tree,
         points.as_ptr(),
@@ -149,7 +149,7 @@ fn tl_samples_pmfs_and_cuts_are_the_cores_with_the_same_receiver_bit_for_bit() {
         let (l, pmf) = core
             .sample(&imp, us[j])
             .map_or((ML_NO_LIGHT, 0), |s| (s.light, s.pmf.to_bits()));
-        let mut s = ml_light_sample::default();
+        let mut s = ml_sampled_light::default();
         ok(ml_tree_sample_tl(tree, p, us[j], &mut s));
         assert_eq!(
             (s.light, s.pmf.to_bits()),
@@ -195,7 +195,7 @@ fn a_value_that_is_no_receiver_is_an_invalid_argument_naming_it() {
         normal: v3(0.0, 0.0, 1.0),
         receiver: 3,
     };
-    let mut s = ml_light_sample::default();
+    let mut s = ml_sampled_light::default();
     assert_eq!(
         ml_tree_sample_tl(tree, &p, 0.5, &mut s),
         ML_ERR_INVALID_ARGUMENT
@@ -208,7 +208,7 @@ fn a_value_that_is_no_receiver_is_an_invalid_argument_naming_it() {
     assert_eq!(ml_tree_pmf_tl(tree, &p, 0, &mut q), ML_ERR_INVALID_ARGUMENT);
     assert!(message().contains("point.receiver"), "{}", message());
     let pts = [ml_tl_point::default(), p];
-    let mut out = [ml_light_sample::default(); 2];
+    let mut out = [ml_sampled_light::default(); 2];
     assert_eq!(
         ml_tree_sample_tl_batch(
             tree,

@@ -476,7 +476,7 @@ fn measure_sampling(
     ffi_bench.free();
 
     // The samples once more, kept for the pmf queries.
-    let samples: Vec<Option<manylights::LightSample>> = points
+    let samples: Vec<Option<manylights::SampledLight>> = points
         .iter()
         .zip(&us)
         .map(|(p, &u)| tree.sample(&TlImportance::new(p.position, p.normal), u))
@@ -509,7 +509,7 @@ fn measure_sampling(
 struct FfiBench {
     tree: *mut ffi::ml_tree,
     points: Vec<ffi::ml_tl_point>,
-    out: Vec<ffi::ml_light_sample>,
+    out: Vec<ffi::ml_sampled_light>,
 }
 
 impl FfiBench {
@@ -533,7 +533,7 @@ impl FfiBench {
                 receiver: ffi::ml_receiver::Reflective as u32,
             })
             .collect();
-        let out = vec![ffi::ml_light_sample::default(); points.len()];
+        let out = vec![ffi::ml_sampled_light::default(); points.len()];
         FfiBench { tree, points, out }
     }
 
@@ -570,7 +570,7 @@ impl FfiBench {
             .zip(&self.out)
             .all(|((p, &u), o)| {
                 let s = tree.sample(&TlImportance::new(p.position.into(), p.normal.into()), u);
-                ffi::ml_light_sample::from(s) == *o
+                ffi::ml_sampled_light::from(s) == *o
             })
     }
 
@@ -596,7 +596,7 @@ fn alternating_passes(
     let mut tl_batch = 0.0f64;
     let mut checksum = 0.0;
     let mut imps: Vec<TlImportance> = Vec::with_capacity(BATCH);
-    let mut batch_out: Vec<Option<manylights::LightSample>> = vec![None; BATCH];
+    let mut batch_out: Vec<Option<manylights::SampledLight>> = vec![None; BATCH];
     for _ in 0..repeats {
         // The C ABI's batch call over the same chunks.
         let (r, c) = ffi_bench.pass(us);
@@ -644,7 +644,7 @@ fn alternating_passes(
 fn pmf_passes(
     tree: &LightTree,
     points: &[BenchPoint],
-    samples: &[Option<manylights::LightSample>],
+    samples: &[Option<manylights::SampledLight>],
     repeats: usize,
 ) -> (PmfThroughput, f64) {
     let mut pmf_rate = 0.0f64;

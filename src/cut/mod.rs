@@ -70,7 +70,7 @@ use crate::importance::{BlImportance, Importance, TlImportance};
 use crate::limits::MAX_INFINITE_LIGHTS;
 use crate::math;
 use crate::sample::{
-    sanitize, LightSample, RootChoice, Start, WalkStart, MIN_PMF, ONE_MINUS_EPSILON,
+    sanitize, RootChoice, SampledLight, Start, WalkStart, MIN_PMF, ONE_MINUS_EPSILON,
 };
 use crate::tree::{count4, path_len, Child, LightTree, Node4, Slot};
 use core::cell::Cell;
@@ -721,7 +721,7 @@ impl LightCut {
         imp: &I,
         i: usize,
         u: f32,
-    ) -> Option<LightSample> {
+    ) -> Option<SampledLight> {
         let c = self.clusters().get(i)?;
         tree.sample_cluster(imp, c, u)
     }
@@ -763,14 +763,14 @@ impl LightCut {
         tree: &LightTree,
         imp: &I,
         u: &[f32],
-        out: &mut [Option<LightSample>],
+        out: &mut [Option<SampledLight>],
     ) {
         let n = self.len().min(u.len()).min(out.len());
         tree.descend_many::<&I, CUT_LANES>(
             n,
             |_| &imp,
             |i| match tree.slot_of(&self.clusters[i]) {
-                Slot::Light(light) => Err(Some(LightSample { light, pmf: 1.0 })),
+                Slot::Light(light) => Err(Some(SampledLight { light, pmf: 1.0 })),
                 Slot::Node(child) => Ok(Start {
                     node: child,
                     root: false,
@@ -945,18 +945,18 @@ impl LightCut {
         tree: &LightTree,
         imp: &I,
         u: f32,
-    ) -> Option<LightSample> {
+    ) -> Option<SampledLight> {
         let Some(root) = &self.root else {
             return self.sample_tree(tree, imp, u);
         };
         let (k, p, rest) = root.pick(u)?;
         if k > 0 {
             let light = tree.infinite.get(k - 1)?.light;
-            return Some(LightSample { light, pmf: p });
+            return Some(SampledLight { light, pmf: p });
         }
         let s = self.sample_tree(tree, imp, rest)?;
         let pmf = product(p, s.pmf);
-        (pmf > 0.0).then_some(LightSample {
+        (pmf > 0.0).then_some(SampledLight {
             light: s.light,
             pmf,
         })
@@ -968,7 +968,7 @@ impl LightCut {
         tree: &LightTree,
         imp: &I,
         u: f32,
-    ) -> Option<LightSample> {
+    ) -> Option<SampledLight> {
         if self.len == 0 {
             return None;
         }
@@ -984,7 +984,7 @@ impl LightCut {
         let u2 = ((t - before) / w).clamp(0.0, ONE_MINUS_EPSILON);
         let (q, floor) = self.sample_share(i)?;
         let s = tree.sample_cluster_from(imp, &self.clusters[i], u2, floor)?;
-        Some(LightSample {
+        Some(SampledLight {
             light: s.light,
             pmf: q * s.pmf,
         })
@@ -1038,7 +1038,7 @@ impl LightTree {
         imp: &I,
         cluster: &Cluster,
         u: f32,
-    ) -> Option<LightSample> {
+    ) -> Option<SampledLight> {
         self.sample_cluster_from(imp, cluster, u, MIN_PMF)
     }
 
@@ -1050,9 +1050,9 @@ impl LightTree {
         cluster: &Cluster,
         u: f32,
         floor: f32,
-    ) -> Option<LightSample> {
+    ) -> Option<SampledLight> {
         match self.slot_of(cluster) {
-            Slot::Light(light) => Some(LightSample { light, pmf: 1.0 }),
+            Slot::Light(light) => Some(SampledLight { light, pmf: 1.0 }),
             // Below the cluster's slot, whose weight was positive: a node whose four children
             // all have importance 0 falls back to its energies, so a non-empty cut always
             // returns a light and its pmfs sum to 1.

@@ -6,7 +6,7 @@ use crate::importance::{BlImportance, TlImportance};
 use crate::infinite::RootChoice;
 use crate::light_set::{AliasTable, LightSet};
 use crate::material::{ShadingError, ShadingPoint};
-use crate::sample::{LightSample, MIN_PMF, ONE_MINUS_EPSILON};
+use crate::sample::{SampledLight, MIN_PMF, ONE_MINUS_EPSILON};
 use crate::tree::LightTree;
 use glam::Vec3;
 
@@ -17,7 +17,7 @@ use glam::Vec3;
 /// a light. `u` is uniform in [0, 1) (values outside are clamped into it, NaN counts as 0).
 pub trait LightSampler {
     /// A light for the uniform number `u`, with its probability.
-    fn sample(&self, u: f32) -> Option<LightSample>;
+    fn sample(&self, u: f32) -> Option<SampledLight>;
     /// The probability that [`LightSampler::sample`] returns `light` (0 for an index out of
     /// range).
     fn pmf(&self, light: u32) -> f32;
@@ -63,7 +63,7 @@ impl<'a> TreeSampler<'a> {
 
 impl LightSampler for TreeSampler<'_> {
     #[inline]
-    fn sample(&self, u: f32) -> Option<LightSample> {
+    fn sample(&self, u: f32) -> Option<SampledLight> {
         self.tree.sample(&self.importance, u)
     }
 
@@ -189,7 +189,7 @@ fn product(p: f32, pmf: f32) -> f32 {
 
 impl LightSampler for CutSampler<'_> {
     #[inline]
-    fn sample(&self, u: f32) -> Option<LightSample> {
+    fn sample(&self, u: f32) -> Option<SampledLight> {
         self.cut.sample(self.tree, &self.importance, u)
     }
 
@@ -241,7 +241,7 @@ impl<'a> PinfSampler<'a> {
 }
 
 impl LightSampler for PinfSampler<'_> {
-    fn sample(&self, u: f32) -> Option<LightSample> {
+    fn sample(&self, u: f32) -> Option<SampledLight> {
         let u = if u >= 0.0 {
             u.min(ONE_MINUS_EPSILON)
         } else {
@@ -250,7 +250,7 @@ impl LightSampler for PinfSampler<'_> {
         let inf = self.tree.infinite_lights();
         if u < self.p_infinite {
             let k = ((u / self.p_infinite * inf.len() as f32) as usize).min(inf.len() - 1);
-            return Some(LightSample {
+            return Some(SampledLight {
                 light: inf[k].light,
                 pmf: self.p_infinite / inf.len() as f32,
             });
@@ -258,7 +258,7 @@ impl LightSampler for PinfSampler<'_> {
         let rest = ((u - self.p_infinite) / (1.0 - self.p_infinite)).min(ONE_MINUS_EPSILON);
         let s = self.tree.sample_local(&self.importance, rest)?;
         let pmf = product(1.0 - self.p_infinite, s.pmf);
-        (pmf > 0.0).then_some(LightSample {
+        (pmf > 0.0).then_some(SampledLight {
             light: s.light,
             pmf,
         })
@@ -296,13 +296,13 @@ impl UniformSampler {
     /// f32 can tell apart); clamped, NaN counts as 0.
     #[inline]
     #[must_use]
-    pub fn sample_f64(&self, u: f64) -> Option<LightSample> {
+    pub fn sample_f64(&self, u: f64) -> Option<SampledLight> {
         if self.n == 0 {
             return None;
         }
         let u = if u > 0.0 { u } else { 0.0 };
         let light = ((u * f64::from(self.n)) as u32).min(self.n - 1);
-        Some(LightSample {
+        Some(SampledLight {
             light,
             pmf: 1.0 / self.n as f32,
         })
@@ -311,7 +311,7 @@ impl UniformSampler {
 
 impl LightSampler for UniformSampler {
     #[inline]
-    fn sample(&self, u: f32) -> Option<LightSample> {
+    fn sample(&self, u: f32) -> Option<SampledLight> {
         self.sample_f64(f64::from(u))
     }
 
@@ -344,16 +344,16 @@ impl<'a> EnergySampler<'a> {
     /// A light for the uniform number `u` in [0, 1) with 53 bits; clamped, NaN counts as 0.
     #[inline]
     #[must_use]
-    pub fn sample_f64(&self, u: f64) -> Option<LightSample> {
+    pub fn sample_f64(&self, u: f64) -> Option<SampledLight> {
         self.table
             .sample(u)
-            .map(|(light, pmf)| LightSample { light, pmf })
+            .map(|(light, pmf)| SampledLight { light, pmf })
     }
 }
 
 impl LightSampler for EnergySampler<'_> {
     #[inline]
-    fn sample(&self, u: f32) -> Option<LightSample> {
+    fn sample(&self, u: f32) -> Option<SampledLight> {
         self.sample_f64(f64::from(u))
     }
 

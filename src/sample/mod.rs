@@ -43,7 +43,7 @@ pub use root::RootChoice;
 
 /// A sampled light and the probability of having chosen it.
 #[derive(Clone, Copy, Debug, PartialEq)]
-pub struct LightSample {
+pub struct SampledLight {
     /// Index of the light in the slice the tree was built from.
     pub light: u32,
     /// Probability of this choice: finite, at most 1 and at least [`MIN_PMF`].
@@ -401,7 +401,7 @@ impl LightTree {
     /// Samples a light at the shading point of `imp` with the uniform number `u` in [0, 1)
     /// (clamped into it). `None` when no light can contribute (the root's importance is 0).
     #[inline]
-    pub fn sample<I: Importance + ?Sized>(&self, imp: &I, u: f32) -> Option<LightSample> {
+    pub fn sample<I: Importance + ?Sized>(&self, imp: &I, u: f32) -> Option<SampledLight> {
         if !self.infinite.is_empty() {
             // The root choice among the nodes and the lights at infinity first.
             return self.sample_with_infinite(imp, u);
@@ -421,7 +421,7 @@ impl LightTree {
         is_root: bool,
         u: f32,
         floor: f32,
-    ) -> Option<LightSample> {
+    ) -> Option<SampledLight> {
         let mut u = sanitize(u);
         let mut node = self.nodes.get(start)?;
         let mut touched = ahead(self, node);
@@ -435,7 +435,7 @@ impl LightTree {
                 Child::Leaf(i) => {
                     core::hint::black_box(touched);
                     let light = self.leaf_light(i)?;
-                    return Some(LightSample { light, pmf });
+                    return Some(SampledLight { light, pmf });
                 }
                 Child::Node(c) => {
                     node = self.nodes.get(c as usize)?;
@@ -486,7 +486,7 @@ impl LightTree {
         &self,
         imps: &[I],
         us: &[f32],
-        out: &mut [Option<LightSample>],
+        out: &mut [Option<SampledLight>],
     ) -> Result<(), LengthMismatch> {
         LengthMismatch::check("us", imps.len(), us.len())?;
         LengthMismatch::check("out", imps.len(), out.len())?;
@@ -582,8 +582,8 @@ impl LightTree {
         &self,
         n: usize,
         imp_of: impl Fn(usize) -> &'a I,
-        mut start_of: impl FnMut(usize) -> Result<Start, Option<LightSample>>,
-        mut emit: impl FnMut(usize, Option<LightSample>),
+        mut start_of: impl FnMut(usize) -> Result<Start, Option<SampledLight>>,
+        mut emit: impl FnMut(usize, Option<SampledLight>),
     ) where
         I: Importance + 'a,
     {
@@ -670,7 +670,7 @@ impl LightTree {
                     },
                     Some(Child::Leaf(i)) => self
                         .leaf_light(i)
-                        .map(|light| LightSample { light, pmf: l.pmf }),
+                        .map(|light| SampledLight { light, pmf: l.pmf }),
                     _ => None,
                 };
                 emit(l.item, answer);

@@ -41,7 +41,7 @@ impl manylights::Join for RayonJoin {
 
 use glam::Vec3;
 use manylights::Rgb;
-use manylights::{Light, LightSample, LightTree, Material, TlImportance};
+use manylights::{Light, LightTree, Material, SampledLight, TlImportance};
 use rand::{Rng, SeedableRng};
 use rand_pcg::Pcg64Mcg;
 use std::f32::consts::PI;
@@ -199,7 +199,7 @@ pub fn sample_batches(
     points: &[BenchPoint],
     us: &[f32],
     imps: &mut Vec<TlImportance>,
-    out: &mut [Option<LightSample>],
+    out: &mut [Option<SampledLight>],
 ) -> f32 {
     let chunk = out.len().max(1);
     let mut acc = 0.0f32;

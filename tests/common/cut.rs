@@ -6,7 +6,7 @@ use super::Rng;
 use manylights::cut::Cluster;
 use manylights::importance::MemoTable;
 use manylights::tree::{Child, Node4, Slot};
-use manylights::{Importance, LightCut, LightSample, LightTree, Memo};
+use manylights::{Importance, LightCut, LightTree, Memo, SampledLight};
 use std::collections::HashSet;
 
 macro_rules! ensure {
@@ -348,7 +348,7 @@ pub fn check_batched<I: Importance + Copy>(
                     }
                 })
                 .collect();
-            let mut out = vec![Some(LightSample { light: 7, pmf: 7.0 }); len + 2];
+            let mut out = vec![Some(SampledLight { light: 7, pmf: 7.0 }); len + 2];
             cut.sample_each(tree, imp_b, &u_all, &mut out);
             for i in 0..len {
                 let want = cut.sample_in(tree, &imp, i, u_all[i]);
@@ -363,7 +363,7 @@ pub fn check_batched<I: Importance + Copy>(
             ensure!(
                 out[len..]
                     .iter()
-                    .all(|s| *s == Some(LightSample { light: 7, pmf: 7.0 })),
+                    .all(|s| *s == Some(SampledLight { light: 7, pmf: 7.0 })),
                 "sample_each wrote past len {ctx}"
             );
             if len > 1 {

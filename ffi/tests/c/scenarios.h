@@ -280,7 +280,7 @@ static void sample_job_run(sample_job *job) {
     ml_shading_point sps[BATCH];
     float us[BATCH], pmfs[BATCH];
     uint32_t lights[BATCH];
-    ml_light_sample out[BATCH];
+    ml_sampled_light out[BATCH];
     size_t done = 0, i;
     char expect[64];
     r.s = job->seed;
@@ -293,7 +293,7 @@ static void sample_job_run(sample_job *job) {
         }
         JOB_CHECK(job, ml_tree_sample_tl_batch(job->tree, pts, us, BATCH, out) == ML_OK);
         for (i = 0; i < BATCH; i++) {
-            ml_light_sample s;
+            ml_sampled_light s;
             float q = -1;
             JOB_CHECK(job, ml_tree_sample_tl(job->tree, &pts[i], us[i], &s) == ML_OK);
             JOB_CHECK(job, s.light == out[i].light && bits(s.pmf) == bits(out[i].pmf));
@@ -315,7 +315,7 @@ static void sample_job_run(sample_job *job) {
         }
         JOB_CHECK(job, ml_tree_sample_bl_batch(job->tree, sps, us, BATCH, out) == ML_OK);
         for (i = 0; i < BATCH; i++) {
-            ml_light_sample s;
+            ml_sampled_light s;
             float q = -1;
             JOB_CHECK(job, ml_tree_sample_bl(job->tree, &sps[i], us[i], &s) == ML_OK);
             JOB_CHECK(job, s.light == out[i].light && bits(s.pmf) == bits(out[i].pmf));
@@ -403,7 +403,7 @@ static void dump_consistency(const char *path, const ml_tree *tree, const ml_lig
         ml_shading_point sp = make_sp(&r), rgb_sp = sp;
         float u = rng_f32(&r), q = 0;
         uint32_t l = (uint32_t)(rng_next(&r) % n);
-        ml_light_sample s;
+        ml_sampled_light s;
         ml_brdf_draw d;
         ml_rgb value;
         ml_vec3 u2;
@@ -462,7 +462,7 @@ static void scenario_tree(const ml_tree *tree, size_t n) {
         for (i = 0; i < 200; i++) {
             ml_tl_point p = make_tl_point(&r);
             float u = rng_f32(&r);
-            ml_light_sample a, b;
+            ml_sampled_light a, b;
             OK(ml_tree_sample_tl(tree, &p, u, &a));
             OK(ml_tree_sample_tl(loaded, &p, u, &b));
             CHECK(a.light == b.light && bits(a.pmf) == bits(b.pmf));
@@ -506,7 +506,7 @@ static void scenario_cache(const ml_tree *tree, const ml_light *lights, size_t n
     ml_tree *loaded = NULL, *bad = NULL;
     ml_tree_statistics st;
     ml_light *wrong = (ml_light *)malloc(n * sizeof(ml_light));
-    ml_light_sample none = ML_LIGHT_SAMPLE_NONE;
+    ml_sampled_light none = ML_SAMPLED_LIGHT_NONE;
     rng r;
     int k;
     uint32_t t;
@@ -527,7 +527,7 @@ static void scenario_cache(const ml_tree *tree, const ml_light *lights, size_t n
             float u = rng_f32(&r), u0 = rng_f32(&r), u1 = rng_f32(&r);
             uint32_t l = (uint32_t)(rng_next(&r) % n);
             uint64_t seed = rng_next(&r);
-            ml_light_sample a, b;
+            ml_sampled_light a, b;
             ml_light_point pa, pb;
             OK(ml_tree_sample_bl(tree, &sp, u, &a));
             OK(ml_tree_sample_bl(loaded, &sp, u, &b));
@@ -610,7 +610,7 @@ static void scenario_cut(const ml_tree *tree, size_t n) {
         size_t size = 0, i;
         float ib = -1;
         float us[ML_CUT_CAPACITY];
-        ml_light_sample out[ML_CUT_CAPACITY];
+        ml_sampled_light out[ML_CUT_CAPACITY];
         OK(ml_cut_build_bl(cut, tree, &sp, NULL));
         OK(ml_cut_size(cut, &size));
         CHECK(size <= ML_CUT_CAPACITY);
@@ -618,7 +618,7 @@ static void scenario_cut(const ml_tree *tree, size_t n) {
         CHECK(ib >= 0 && ib == ib);
         CHECK(ml_cut_max_variance(cut, &ib) == ML_ERR_STATE);
         for (i = 0; i < 20; i++) {
-            ml_light_sample s;
+            ml_sampled_light s;
             float q = -1;
             OK(ml_cut_sample(cut, rng_f32(&r), &s));
             if (s.light != ML_NO_LIGHT) {
@@ -726,7 +726,7 @@ static void scenario_cut_infinite(void) {
     OK(ml_cut_create(&cut));
     for (pass = 0; pass < 2; pass++) {
         float us[ML_CUT_CAPACITY];
-        ml_light_sample out[ML_CUT_CAPACITY];
+        ml_sampled_light out[ML_CUT_CAPACITY];
         if (pass == 0) {
             OK(ml_cut_build_bl(cut, tree, &sp, NULL));
         } else {
@@ -738,7 +738,7 @@ static void scenario_cut_infinite(void) {
         /* One light of the whole cut. */
         sum = sum2 = 0;
         for (k = 0; k < 40000; k++) {
-            ml_light_sample s;
+            ml_sampled_light s;
             float q = -1;
             double v = 0;
             OK(ml_cut_sample(cut, rng_f32(&r), &s));
@@ -903,7 +903,7 @@ static void scenario_receiver(void) {
     ml_tree *tree = NULL;
     ml_cut *cut = NULL;
     ml_tl_point pts[3];
-    ml_light_sample s, outs[3];
+    ml_sampled_light s, outs[3];
     float us[3] = {0.5f, 0.5f, 0.5f}, pmfs[3] = {-1, -1, -1}, q = -1;
     uint32_t zero[3] = {0, 0, 0};
     size_t size = 99;
@@ -1799,7 +1799,7 @@ static void scenario_vpl(void) {
     {
         ml_tree *tree = build_tree(accepted, n_acc);
         ml_tl_point p;
-        ml_light_sample s;
+        ml_sampled_light s;
         float q = -1;
         p.position = v3(0, 0, 0);
         p.normal = v3(0, 0, 1);
@@ -1880,7 +1880,7 @@ static void scenario_bad_input(const ml_tree *tree, size_t n) {
     ml_tree *t = NULL, *loaded = NULL, *t2 = NULL;
     ml_tl_point p, pts[8];
     ml_shading_point sp, sps[8];
-    ml_light_sample s, outs[8];
+    ml_sampled_light s, outs[8];
     float us[8], f = 0, q = 0;
     ml_rgb fc = {0, 0, 0};
     uint32_t lights[8], u32s[4];

@@ -27,10 +27,10 @@ void vector_batches(const ml_tree *tree) {
         points[i] = make_tl_point(&r);
         us[i] = rng_f32(&r);
     }
-    std::vector<ml_light_sample> out(points.size());
+    std::vector<ml_sampled_light> out(points.size());
     OK(ml_tree_sample_tl_batch(tree, points.data(), us.data(), points.size(), out.data()));
     for (std::size_t i = 0; i < points.size(); i++) {
-        ml_light_sample s{};
+        ml_sampled_light s{};
         OK(ml_tree_sample_tl(tree, &points[i], us[i], &s));
         CHECK(s.light == out[i].light && bits(s.pmf) == bits(out[i].pmf));
     }

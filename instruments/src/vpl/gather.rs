@@ -16,7 +16,7 @@
 use glam::Vec3;
 use manylights::cut::{CUT_CAPACITY, MAX_CUT_SIZE};
 use manylights::Occluder;
-use manylights::{Light, LightCut, LightSample, LightTree, SplitCutOptions, TlImportance, Vpl};
+use manylights::{Light, LightCut, LightTree, SampledLight, SplitCutOptions, TlImportance, Vpl};
 use manylights_render::render::primary;
 use manylights_render::scene::{Geometry, RenderScene};
 use rand::{Rng, SeedableRng};
@@ -170,7 +170,7 @@ impl VplTree {
         }
     }
 
-    fn estimate(&self, geometry: &Geometry, hit: &PixelHit, s: LightSample, g_max: f32) -> f32 {
+    fn estimate(&self, geometry: &Geometry, hit: &PixelHit, s: SampledLight, g_max: f32) -> f32 {
         let v = &self.vpls[s.light as usize];
         contribution(geometry, hit, v, g_max) / s.pmf
     }

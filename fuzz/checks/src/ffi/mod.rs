@@ -54,18 +54,10 @@ impl crate::Checked for Input {
 
 #[cfg(test)]
 mod tests {
-    /// splitmix64 bytes.
+    /// splitmix64 bytes (the low byte of each output, from the state `seed`).
     fn bytes(seed: u64, len: usize) -> Vec<u8> {
-        let mut s = seed;
-        (0..len)
-            .map(|_| {
-                s = s.wrapping_add(0x9E37_79B9_7F4A_7C15);
-                let mut z = s;
-                z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-                z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-                (z ^ (z >> 31)) as u8
-            })
-            .collect()
+        let mut rng = manylights_testkit::SplitMix64(seed);
+        (0..len).map(|_| rng.next_u64() as u8).collect()
     }
 
     /// Twelve lights of every kind, then the same with an environment (a thirteenth light of

@@ -107,7 +107,7 @@ impl Harness<'_> {
             Op::CutSample { cut, u, out } => {
                 let (ci, c, ch) = self.cut(*cut);
                 let n = ci.and_then(|i| self.cuts[i].built).map_or(0, |b| b.0);
-                let mut o = Out::<ml_light_sample>::one(*out);
+                let mut o = Out::<ml_sampled_light>::one(*out);
                 let s = ml_cut_sample(c, u.value(), o.p());
                 if self.status("ml_cut_sample", s, &[&ch, &o]) {
                     let r = o.get(0);
@@ -142,7 +142,7 @@ impl Harness<'_> {
                     _ => count.value(len, all_null),
                 };
                 let u = In::new(&us, ptrs[0], k);
-                let mut o = Out::<ml_light_sample>::new(len, ptrs[1], k);
+                let mut o = Out::<ml_sampled_light>::new(len, ptrs[1], k);
                 let s = ml_cut_sample_clusters(c, u.p(), k, o.p());
                 if self.status("ml_cut_sample_clusters", s, &[&ch, &u, &o]) {
                     for i in 0..k {

@@ -200,7 +200,7 @@ impl Harness<'_> {
         (i, p, HandleArg(mis))
     }
 
-    fn sample(&self, name: &str, s: ml_light_sample, n: usize) {
+    fn sample(&self, name: &str, s: ml_sampled_light, n: usize) {
         if s.light == ML_NO_LIGHT {
             self.ensure(s.pmf == 0.0, || {
                 format!("{name}: no light with pmf {}", s.pmf)
@@ -216,7 +216,7 @@ impl Harness<'_> {
     }
 
     /// The pmf `query` gives a sampled light: what the sample reported (1e-5 relative).
-    fn queried(&self, name: &str, r: ml_light_sample, query: impl Fn(u32, *mut f32) -> ml_status) {
+    fn queried(&self, name: &str, r: ml_sampled_light, query: impl Fn(u32, *mut f32) -> ml_status) {
         if r.light == ML_NO_LIGHT {
             return;
         }

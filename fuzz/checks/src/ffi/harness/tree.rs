@@ -158,7 +158,7 @@ impl Harness<'_> {
             } => {
                 let (t, n, th) = self.tree(*tree);
                 let pt = In::one(point.value.ml(), point.ptr);
-                let mut o = Out::<ml_light_sample>::one(*out);
+                let mut o = Out::<ml_sampled_light>::one(*out);
                 let s = ml_tree_sample_tl(t, pt.p(), u.value(), o.p());
                 if self.status("ml_tree_sample_tl", s, &[&th, &pt, &o]) {
                     let r = o.get(0);
@@ -183,7 +183,7 @@ impl Harness<'_> {
             Op::SampleBl { tree, sp, u, out } => {
                 let (t, n, th) = self.tree(*tree);
                 let p = In::one(sp.value.ml(), sp.ptr);
-                let mut o = Out::<ml_light_sample>::one(*out);
+                let mut o = Out::<ml_sampled_light>::one(*out);
                 let s = ml_tree_sample_bl(t, p.p(), u.value(), o.p());
                 if self.status("ml_tree_sample_bl", s, &[&th, &p, &o]) {
                     let r = o.get(0);
@@ -734,7 +734,7 @@ trait BatchOut: Sized {
     fn same(&self, other: &Self) -> bool;
 }
 
-impl BatchOut for ml_light_sample {
+impl BatchOut for ml_sampled_light {
     fn check(&self, h: &Harness<'_>, name: &str, n: usize) {
         h.sample(name, *self, n);
     }
