@@ -38,6 +38,7 @@
 
 mod cap;
 mod ggx;
+mod ggx_table;
 mod lambert;
 mod pivot;
 pub mod trig;
@@ -51,9 +52,9 @@ pub use lambert::{lambert_visible, lambert_visible4};
 #[cfg(any(test, feature = "internals"))]
 pub use cap::{intersection_area, intersection_area4, Cap, Cap4};
 #[cfg(any(test, feature = "internals"))]
-pub use ggx::{
-    ggx_params, table_node, CapIntegrals, CapIntegrals4, GgxParams, TABLE_SIZE, THETA_O_MAX,
-};
+pub use ggx::{CapIntegrals, CapIntegrals4};
+#[cfg(any(test, feature = "internals"))]
+pub use ggx_table::{ggx_params, table_node, GgxParams, TABLE_SIZE, THETA_O_MAX};
 #[cfg(any(test, feature = "internals"))]
 pub use lambert::{lambert_cap, lambert_cap4};
 #[cfg(any(test, feature = "internals"))]
