@@ -83,6 +83,47 @@ impl LightSet {
     /// along BSDF rays that escape) and for [`LightSet::sample_point`]. Errors: those of the
     /// build (the bounds validated as the light's fields, naming index `lights.len()`), and
     /// [`BuildError::EnvironmentLight`] for an environment light in `lights`.
+    ///
+    /// ```
+    /// use glam::Vec3;
+    /// use manylights::direct::{Estimator, Params, Technique, Unoccluded};
+    /// use manylights::light::UniformSky;
+    /// use manylights::{BuildOptions, LightSet, Material, Rgb, Serial, ShadingPoint, Uniforms};
+    ///
+    /// # struct Lcg(u64);
+    /// # impl Uniforms for Lcg {
+    /// #     fn next_f64(&mut self) -> f64 {
+    /// #         self.0 = self.0.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+    /// #         (self.0 >> 11) as f64 / (1u64 << 53) as f64
+    /// #     }
+    /// #     fn next_f32(&mut self) -> f32 {
+    /// #         (self.next_f64() as f32).min(1.0 - f32::EPSILON / 2.0)
+    /// #     }
+    /// # }
+    /// // A uniform sky of radiance 0.5 and no other light: the sky is light 0.
+    /// let sky = UniformSky { radiance: Rgb::grey(0.5) };
+    /// let set = LightSet::build_with_environment(Vec::new(), sky, &BuildOptions::default(), &Serial)?;
+    /// assert_eq!(set.environment_light(), Some(0));
+    /// // A Lambert plane of albedo 0.8 under it reflects 0.8 · 0.5 = 0.4.
+    /// let sp = ShadingPoint {
+    ///     position: Vec3::ZERO,
+    ///     normal: Vec3::Z,
+    ///     wo: Vec3::Z,
+    ///     material: Material::Lambert { albedo: Rgb::grey(0.8) },
+    /// };
+    /// let mut est = Estimator::new(&set, &sp, Technique::DEFAULT, &Params::default())?;
+    /// let (mut u, n) = (Lcg(1), 20_000);
+    /// let (mut sum, mut sum2) = (0.0, 0.0);
+    /// for _ in 0..n {
+    ///     let v = est.estimate(&Unoccluded, &mut u)?[0];
+    ///     sum += v;
+    ///     sum2 += v * v;
+    /// }
+    /// let mean = sum / n as f64;
+    /// let se = ((sum2 / n as f64 - mean * mean) / n as f64).sqrt();
+    /// assert!((mean - 0.4).abs() <= 5.0 * se + 1e-6, "{mean} ± {se}");
+    /// # Ok::<(), Box<dyn std::error::Error>>(())
+    /// ```
     pub fn build_with_environment<J: crate::Join>(
         mut lights: Vec<Light>,
         environment: impl Environment + Send + Sync + 'static,
