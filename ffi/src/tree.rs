@@ -159,12 +159,7 @@ pub extern "C" fn ml_tree_build(
             environment,
             options,
             out,
-            |core, env, opts| {
-                Ok(match env {
-                    Some(env) => LightSet::build_with_environment(core, env, opts, &Serial),
-                    None => LightSet::build_with(core, opts),
-                })
-            },
+            |core, env, opts| Ok(build_serial(core, env, opts)),
         )
     })
 }
@@ -200,10 +195,7 @@ pub extern "C" fn ml_tree_build_parallel(
             |core, env, opts| {
                 if threads == 1 {
                     // On the caller's thread: no pool, no hand-off (the same tree).
-                    return Ok(match env {
-                        Some(env) => LightSet::build_with_environment(core, env, opts, &Serial),
-                        None => LightSet::build_with(core, opts),
-                    });
+                    return Ok(build_serial(core, env, opts));
                 }
                 let pool = rayon::ThreadPoolBuilder::new()
                     .num_threads(threads as usize)
@@ -234,6 +226,18 @@ impl manylights::Join for RayonJoin {
         RB: Send,
     {
         rayon::join(a, b)
+    }
+}
+
+/// The light set of `ml_tree_build`, on the calling thread.
+fn build_serial(
+    core: Vec<Light>,
+    env: Option<HostEnvironment>,
+    opts: &BuildOptions,
+) -> std::result::Result<LightSet, BuildError> {
+    match env {
+        Some(env) => LightSet::build_with_environment(core, env, opts, &Serial),
+        None => LightSet::build_with(core, opts),
     }
 }
 

@@ -4,48 +4,26 @@
 //! calling thread (a host calls them millions of times). The counting allocator of this test
 //! binary counts the allocations of each thread; the batches run on the calling thread.
 
+#[path = "common/counting.rs"]
+mod counting;
+
 use manylights_ffi::*;
 use manylights_testkit::SplitMix64 as Rng;
-use std::alloc::{GlobalAlloc, Layout, System};
 use std::cell::Cell;
 use std::ptr;
-
-/// The system allocator, counting the allocations (and reallocations) of each thread.
-struct Counting;
 
 thread_local! {
     static ALLOCATIONS: Cell<u64> = const { Cell::new(0) };
 }
 
+/// Counts an allocation (or reallocation) of this thread.
 fn count() {
     // A thread being torn down has no counter: its allocations are not this test's.
     let _ = ALLOCATIONS.try_with(|c| c.set(c.get() + 1));
 }
 
-// SAFETY: every call is forwarded to the system allocator unchanged.
-unsafe impl GlobalAlloc for Counting {
-    unsafe fn alloc(&self, layout: Layout) -> *mut u8 {
-        count();
-        System.alloc(layout)
-    }
-
-    unsafe fn alloc_zeroed(&self, layout: Layout) -> *mut u8 {
-        count();
-        System.alloc_zeroed(layout)
-    }
-
-    unsafe fn realloc(&self, p: *mut u8, layout: Layout, size: usize) -> *mut u8 {
-        count();
-        System.realloc(p, layout, size)
-    }
-
-    unsafe fn dealloc(&self, p: *mut u8, layout: Layout) {
-        System.dealloc(p, layout)
-    }
-}
-
 #[global_allocator]
-static COUNTING: Counting = Counting;
+static COUNTING: counting::Counting = counting::Counting(count);
 
 /// The allocations this thread makes in `f`.
 fn allocations(f: impl FnOnce()) -> u64 {

@@ -4,14 +4,14 @@
 //! byte for byte. The counting allocator of this test binary (one test, so that no other test
 //! thread allocates meanwhile) counts the allocations made off the thread that watches.
 
+#[path = "common/counting.rs"]
+mod counting;
+
 use manylights_ffi::*;
 use manylights_testkit::SplitMix64 as Rng;
-use std::alloc::{GlobalAlloc, Layout, System};
 use std::cell::Cell;
 use std::ptr;
 use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
-
-struct Counting;
 
 /// Whether allocations off the watching thread are counted.
 static WATCHING: AtomicBool = AtomicBool::new(false);
@@ -28,30 +28,8 @@ fn count() {
     }
 }
 
-// SAFETY: every call is forwarded to the system allocator unchanged.
-unsafe impl GlobalAlloc for Counting {
-    unsafe fn alloc(&self, layout: Layout) -> *mut u8 {
-        count();
-        System.alloc(layout)
-    }
-
-    unsafe fn alloc_zeroed(&self, layout: Layout) -> *mut u8 {
-        count();
-        System.alloc_zeroed(layout)
-    }
-
-    unsafe fn realloc(&self, p: *mut u8, layout: Layout, size: usize) -> *mut u8 {
-        count();
-        System.realloc(p, layout, size)
-    }
-
-    unsafe fn dealloc(&self, p: *mut u8, layout: Layout) {
-        System.dealloc(p, layout)
-    }
-}
-
 #[global_allocator]
-static COUNTING: Counting = Counting;
+static COUNTING: counting::Counting = counting::Counting(count);
 
 fn ok(s: ml_status) {
     assert_eq!(s, ML_OK, "{:?}", unsafe {

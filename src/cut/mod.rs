@@ -73,18 +73,6 @@ use crate::sample::{RootChoice, MIN_PMF};
 use crate::tree::{count4, Child, LightTree, Node4};
 use wide::f32x4;
 
-/// `p · pmf` if it is at least [`MIN_PMF`], else 0: the pmf of a light of the node tree chosen
-/// at the root with probability `p`.
-#[inline]
-fn product(p: f32, pmf: f32) -> f32 {
-    let q = p * pmf;
-    if q >= MIN_PMF {
-        q
-    } else {
-        0.0
-    }
-}
-
 /// `x > 0` (false for NaN).
 #[inline(always)]
 fn positive(x: f32) -> bool {

@@ -2,9 +2,11 @@
 //! node tree's clusters and the lights at infinity, then a cluster and a light in it), one
 //! light per cluster, and the exact pmf of any light, per cluster and over the cut.
 
-use super::{product, Cluster, LightCut, CUT_CAPACITY, CUT_LANES};
+use super::{Cluster, LightCut, CUT_CAPACITY, CUT_LANES};
 use crate::importance::Importance;
-use crate::sample::{sanitize, SampledLight, Start, WalkStart, MIN_PMF, ONE_MINUS_EPSILON};
+use crate::sample::{
+    root_product, sanitize, SampledLight, Start, WalkStart, MIN_PMF, ONE_MINUS_EPSILON,
+};
 use crate::tree::{path_len, LightTree, Slot};
 use core::cell::Cell;
 
@@ -252,7 +254,7 @@ impl LightCut {
             return Some(SampledLight { light, pmf: p });
         }
         let s = self.sample_tree(tree, imp, rest)?;
-        let pmf = product(p, s.pmf);
+        let pmf = root_product(p, s.pmf);
         (pmf > 0.0).then_some(SampledLight {
             light: s.light,
             pmf,
@@ -299,7 +301,7 @@ impl LightCut {
         if p <= 0.0 {
             return 0.0;
         }
-        product(p, self.pmf_tree(tree, imp, light))
+        root_product(p, self.pmf_tree(tree, imp, light))
     }
 
     /// [`LightCut::pmf`] among the node tree's clusters alone (0 for a light at infinity).

@@ -6,7 +6,7 @@ use crate::importance::{BlImportance, TlImportance};
 use crate::infinite::RootChoice;
 use crate::light_set::{AliasTable, LightSet};
 use crate::material::{ShadingError, ShadingPoint};
-use crate::sample::{SampledLight, MIN_PMF, ONE_MINUS_EPSILON};
+use crate::sample::{root_product, SampledLight, ONE_MINUS_EPSILON};
 use crate::tree::LightTree;
 use glam::Vec3;
 
@@ -81,7 +81,7 @@ impl LightSampler for TreeSampler<'_> {
 /// tree's clusters of the cut (of weight the sum of their weights) and each light at infinity
 /// (of its BL importance, [`BlImportance::eval_infinite_with_integral`]), as
 /// [`crate::infinite::RootChoice`] does, then samples the node tree's clusters if they were
-/// chosen: `pmf = P(tree) · pmf in the clusters`, exact. A product below [`MIN_PMF`] counts as
+/// chosen: `pmf = P(tree) · pmf in the clusters`, exact. A product below [`MIN_PMF`](crate::MIN_PMF) counts as
 /// no light (sample gives `None`, pmf 0). This is [`LightCut::sample`] and [`LightCut::pmf`]
 /// of its cut, which holds the lights at infinity as clusters of their own.
 #[derive(Clone, Debug)]
@@ -176,17 +176,6 @@ impl<'a> CutSampler<'a> {
     }
 }
 
-/// `p · pmf` if it is at least [`MIN_PMF`], else 0.
-#[inline]
-fn product(p: f32, pmf: f32) -> f32 {
-    let q = p * pmf;
-    if q >= MIN_PMF {
-        q
-    } else {
-        0.0
-    }
-}
-
 impl LightSampler for CutSampler<'_> {
     #[inline]
     fn sample(&self, u: f32) -> Option<SampledLight> {
@@ -202,7 +191,7 @@ impl LightSampler for CutSampler<'_> {
 /// pbrt-v4's handling of lights at infinity (`BVHLightSampler`): each distant or environment
 /// light with the fixed probability `1 / (n + 1)` (n of them; `1 / n` without local lights),
 /// whatever the shading point, and the node tree by TL descent otherwise. The yardstick of the
-/// root choice per shading point (technique `tl-mis-pinf`). A product below [`MIN_PMF`]
+/// root choice per shading point (technique `tl-mis-pinf`). A product below [`MIN_PMF`](crate::MIN_PMF)
 /// counts as no light. As pbrt-v4's, it returns no light when the tree is chosen at a point
 /// where its root importance is 0, so there (only) the pmfs sum to `pInfinite` rather than 1:
 /// still unbiased, as no light that contributes has pmf 0.
@@ -257,7 +246,7 @@ impl LightSampler for PinfSampler<'_> {
         }
         let rest = ((u - self.p_infinite) / (1.0 - self.p_infinite)).min(ONE_MINUS_EPSILON);
         let s = self.tree.sample_local(&self.importance, rest)?;
-        let pmf = product(1.0 - self.p_infinite, s.pmf);
+        let pmf = root_product(1.0 - self.p_infinite, s.pmf);
         (pmf > 0.0).then_some(SampledLight {
             light: s.light,
             pmf,
@@ -272,7 +261,7 @@ impl LightSampler for PinfSampler<'_> {
         if self.p_infinite >= 1.0 {
             return 0.0;
         }
-        product(
+        root_product(
             1.0 - self.p_infinite,
             self.tree.pmf_local(&self.importance, light),
         )

@@ -53,58 +53,36 @@ pub trait Environment {
     fn irradiance_bounds(&self) -> [f32; 6];
 }
 
-impl<E: Environment + ?Sized> Environment for &E {
-    #[inline]
-    fn sample(&self, u: [f32; 2]) -> Option<EnvironmentSample> {
-        (**self).sample(u)
-    }
+/// An environment behind a reference or a pointer is the environment: `&E`, `Box<E>`, and
+/// (where the target has atomics) `Arc<E>` — a host that keeps its map elsewhere as well gives
+/// the light set an `Arc` of it.
+macro_rules! forward_environment {
+    ($($(#[$attr:meta])* $ty:ty;)*) => {$(
+        $(#[$attr])*
+        impl<E: Environment + ?Sized> Environment for $ty {
+            #[inline]
+            fn sample(&self, u: [f32; 2]) -> Option<EnvironmentSample> {
+                (**self).sample(u)
+            }
 
-    #[inline]
-    fn eval(&self, direction: Vec3) -> (Rgb, f32) {
-        (**self).eval(direction)
-    }
+            #[inline]
+            fn eval(&self, direction: Vec3) -> (Rgb, f32) {
+                (**self).eval(direction)
+            }
 
-    #[inline]
-    fn irradiance_bounds(&self) -> [f32; 6] {
-        (**self).irradiance_bounds()
-    }
+            #[inline]
+            fn irradiance_bounds(&self) -> [f32; 6] {
+                (**self).irradiance_bounds()
+            }
+        }
+    )*};
 }
 
-impl<E: Environment + ?Sized> Environment for alloc::boxed::Box<E> {
-    #[inline]
-    fn sample(&self, u: [f32; 2]) -> Option<EnvironmentSample> {
-        (**self).sample(u)
-    }
-
-    #[inline]
-    fn eval(&self, direction: Vec3) -> (Rgb, f32) {
-        (**self).eval(direction)
-    }
-
-    #[inline]
-    fn irradiance_bounds(&self) -> [f32; 6] {
-        (**self).irradiance_bounds()
-    }
-}
-
-/// A shared environment: a host that keeps its map elsewhere as well gives the light set an
-/// `Arc` of it.
-#[cfg(target_has_atomic = "ptr")]
-impl<E: Environment + ?Sized> Environment for alloc::sync::Arc<E> {
-    #[inline]
-    fn sample(&self, u: [f32; 2]) -> Option<EnvironmentSample> {
-        (**self).sample(u)
-    }
-
-    #[inline]
-    fn eval(&self, direction: Vec3) -> (Rgb, f32) {
-        (**self).eval(direction)
-    }
-
-    #[inline]
-    fn irradiance_bounds(&self) -> [f32; 6] {
-        (**self).irradiance_bounds()
-    }
+forward_environment! {
+    &E;
+    alloc::boxed::Box<E>;
+    #[cfg(target_has_atomic = "ptr")]
+    alloc::sync::Arc<E>;
 }
 
 /// A uniform environment of radiance `radiance`, sampled uniformly over the sphere (pdf

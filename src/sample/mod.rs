@@ -38,8 +38,8 @@ use crate::tree::{path_len, Child, LightTree, Node4};
 use wide::f32x4;
 
 mod root;
-pub(crate) use root::tree_floor;
 pub use root::RootChoice;
+pub(crate) use root::{root_product, tree_floor};
 
 /// A sampled light and the probability of having chosen it.
 #[derive(Clone, Copy, Debug, PartialEq)]

@@ -154,3 +154,15 @@ mod tests {
         }
     }
 }
+
+/// `p · pmf` if it is at least [`MIN_PMF`](super::MIN_PMF), else 0: the pmf of a light of the
+/// node tree chosen at the root with probability `p` (a cut's or a sampler's root choice).
+#[inline]
+pub(crate) fn root_product(p: f32, pmf: f32) -> f32 {
+    let q = p * pmf;
+    if q >= super::MIN_PMF {
+        q
+    } else {
+        0.0
+    }
+}
