@@ -67,31 +67,32 @@ static ml_light *make_lights(size_t *count) {
     for (i = 0; i < 2000; i++) {
         float a = (float)(next_f64(&g) * 6.283185307179586);
         float r = 1.2f + 2.8f * (float)sqrt(next_f64(&g));
-        ls[i].kind = ML_LIGHT_KIND_SPHERE;
-        ls[i].position.x = r * cosf(a);
-        ls[i].position.y = r * sinf(a);
-        ls[i].position.z = 0.15f + 1.5f * (float)next_f64(&g);
-        ls[i].radius = 0.02f;
+        ls[i].sphere.kind = ML_LIGHT_KIND_SPHERE;
+        ls[i].sphere.center.x = r * cosf(a);
+        ls[i].sphere.center.y = r * sinf(a);
+        ls[i].sphere.center.z = 0.15f + 1.5f * (float)next_f64(&g);
+        ls[i].sphere.radius = 0.02f;
         {
             /* Radiance 20 × (0.2 to 1.2), alternately warm and cool white (linear RGB). */
             float p = 20.0f * (0.2f + (float)next_f64(&g));
-            ls[i].power.r = p * (i % 2 ? 0.8f : 1.2f);
-            ls[i].power.g = p;
-            ls[i].power.b = p * (i % 2 ? 1.25f : 0.7f);
+            ls[i].sphere.radiance.r = p * (i % 2 ? 0.8f : 1.2f);
+            ls[i].sphere.radiance.g = p;
+            ls[i].sphere.radiance.b = p * (i % 2 ? 1.25f : 0.7f);
         }
     }
     for (; i < n; i++) {
         float a = (float)(i - 2000) * 1.0471976f;
-        ls[i].kind = ML_LIGHT_KIND_SPOT;
-        ls[i].position.x = 2.5f * cosf(a);
-        ls[i].position.y = 2.5f * sinf(a);
-        ls[i].position.z = 3.0f;
-        ls[i].direction.x = -ls[i].position.x;
-        ls[i].direction.y = -ls[i].position.y;
-        ls[i].direction.z = -ls[i].position.z;
-        ls[i].power.r = ls[i].power.g = ls[i].power.b = 4.0f;
-        ls[i].half_angle = 0.35f;
-        ls[i].falloff_start = 0.25f;
+        ml_spot_light *s = &ls[i].spot;
+        s->kind = ML_LIGHT_KIND_SPOT;
+        s->position.x = 2.5f * cosf(a);
+        s->position.y = 2.5f * sinf(a);
+        s->position.z = 3.0f;
+        s->axis.x = -s->position.x;
+        s->axis.y = -s->position.y;
+        s->axis.z = -s->position.z;
+        s->intensity.r = s->intensity.g = s->intensity.b = 4.0f;
+        s->half_angle = 0.35f;
+        s->falloff_start = 0.25f;
     }
     *count = n;
     return ls;

@@ -34,7 +34,7 @@
 /**
  * Minor version of the library.
  */
-#define ML_VERSION_MINOR 3
+#define ML_VERSION_MINOR 4
 
 /**
  * Patch version of the library.
@@ -65,9 +65,9 @@
 #define ML_MAX_COORDINATE 1e15
 
 /**
- * Largest energy (flux, W) of one light: 4π·power for a point light, 2π(1 − cos θs)·power for
- * a spot, π·power for a VPL, power·π·area per emitting side for an area light (see the
- * README's units table). A VPL acceptor keeps accepted VPLs within it.
+ * Largest energy (flux, W) of one light: 4π·I for a point light of intensity I,
+ * 2π(1 − cos θs)·I for a spot, π·I for a VPL, L·π·area per emitting side for an area light of
+ * radiance L (see the README's units table). A VPL acceptor keeps accepted VPLs within it.
  */
 #define ML_MAX_LIGHT_ENERGY 1e24
 
@@ -154,12 +154,13 @@
 #define ML_NO_LIGHT UINT32_MAX
 
 /**
- * The kind of an `ml_light` (the value of its `kind` field). Units: positions in any length
- * unit m (the same as the scene's), intensity in W/sr, radiance in W/(m²·sr), irradiance in
- * W/m², each per channel of linear RGB; a light's energy (its flux, W, of the luminance:
- * what the tree's importance and `ml_tree_statistics.total_energy` add up) is given at each
- * kind and is at most `ML_MAX_LIGHT_ENERGY` (0 for distant lights). The environment is not a
- * light kind: it is given to the tree as an `ml_environment`.
+ * The kind of an `ml_light` (the value of its `kind` field, which names the union's member
+ * that holds the light). Units: positions in any length unit m (the same as the scene's),
+ * intensity in W/sr, radiance in W/(m²·sr), irradiance in W/m², each per channel of linear
+ * RGB; a light's energy (its flux, W, of the luminance: what the tree's importance and
+ * `ml_tree_statistics.total_energy` add up) is given at each kind's struct and is at most
+ * `ML_MAX_LIGHT_ENERGY` (0 for distant lights). The environment is not a light kind: it is
+ * given to the tree as an `ml_environment`.
  */
 enum ml_light_kind
 #if defined(__cplusplus) || __STDC_VERSION__ >= 202311L
@@ -167,47 +168,31 @@ enum ml_light_kind
 #endif // defined(__cplusplus) || __STDC_VERSION__ >= 202311L
  {
     /**
-     * Isotropic point light: `position`, `power` = intensity I (W/sr). Energy 4πI.
+     * Isotropic point light: the member `point` (`ml_point_light`).
      */
     ML_LIGHT_KIND_POINT = 0,
     /**
-     * Spot light: `position`, `direction` (axis, any non-zero length), `power` = intensity I
-     * on the axis (W/sr), `half_angle` θs in (0, π], `falloff_start` θf in [0, θs] (radians).
-     * Intensity towards angle θ from the axis: I for θ ≤ θf, 0 for θ ≥ θs, and between them
-     * I · smoothstep(cos θs, cos θf, cos θ) (t = (cos θ − cos θs)/(cos θf − cos θs), 3t² − 2t³;
-     * pbrt-v4's spot light). Energy 2π(1 − cos θs)·I (an upper bound of the flux with the
-     * falloff).
+     * Spot light: the member `spot` (`ml_spot_light`).
      */
     ML_LIGHT_KIND_SPOT = 1,
     /**
-     * Sphere light: `position` = centre, `radius` > 0, `power` = radiance L (W/(m²·sr)),
-     * emitted outwards from every point. Energy L·π·4πr².
+     * Sphere light: the member `sphere` (`ml_sphere_light`).
      */
     ML_LIGHT_KIND_SPHERE = 2,
     /**
-     * Disk light: `position` = centre, `direction` = normal (the emitting side when
-     * one-sided), `radius` > 0, `power` = radiance L, `two_sided` 0 or 1. Energy L·π·πr² per
-     * emitting side.
+     * Disk light: the member `disk` (`ml_disk_light`).
      */
     ML_LIGHT_KIND_DISK = 3,
     /**
-     * Triangle light: vertices `position`, `direction`, `vertex2` (one-sided lights emit on
-     * the side of (v1 − v0) × (v2 − v0)), `power` = radiance L, `two_sided` 0 or 1. Energy
-     * L·π·area per emitting side.
+     * Triangle light: the member `triangle` (`ml_triangle_light`).
      */
     ML_LIGHT_KIND_TRIANGLE = 4,
     /**
-     * Virtual point light (Keller 1997): `position`, `direction` = normal, `power` =
-     * intensity I along the normal (a one-sided Lambertian point emitter, intensity
-     * `I · max(0, cos θ)`; what a diffuse point that received flux Φ with albedo ρ re-emits
-     * is I = ρΦ/π). Energy πI.
+     * Virtual point light: the member `vpl` (`ml_vpl_light`).
      */
     ML_LIGHT_KIND_VPL = 5,
     /**
-     * Distant light (a sun): `direction` towards the light (any non-zero length),
-     * `half_angle` its angular radius γ in [0, π/2] radians (0: a delta direction), `power`
-     * its irradiance at normal incidence (W/m²); the radiance of its cone is
-     * `power / (π sin²γ)`.
+     * Distant light (a sun): the member `distant` (`ml_distant_light`).
      */
     ML_LIGHT_KIND_DISTANT = 6,
 };
@@ -886,50 +871,229 @@ typedef struct ml_build_options {
 } ml_build_options;
 
 /**
- * One light, as given to `ml_tree_build`. Which fields a kind reads is listed at each
- * `ml_light_kind`; the others are ignored (zero them). Coordinates finite with magnitude at
- * most `ML_MAX_COORDINATE`; every channel of `power` finite and ≥ 0 (black: accepted and
- * never sampled), the light's energy at most `ML_MAX_LIGHT_ENERGY` and all of them together
- * at most `ML_MAX_TOTAL_ENERGY`.
+ * An isotropic point light (`ML_LIGHT_KIND_POINT`). Energy 4πI.
  */
-typedef struct ml_light {
+typedef struct ml_point_light {
     /**
-     * An `ml_light_kind`.
+     * `ML_LIGHT_KIND_POINT`.
      */
     uint32_t kind;
     /**
-     * Disk and triangle lights: 1 to emit on both sides, 0 for one side.
-     */
-    uint32_t two_sided;
-    /**
-     * Position (point, spot, VPL), centre (sphere, disk) or vertex 0 (triangle).
+     * Position.
      */
     struct ml_vec3 position;
     /**
-     * Axis (spot), normal (disk, VPL) or vertex 1 (triangle).
+     * Intensity I (W/sr), linear RGB.
      */
-    struct ml_vec3 direction;
+    struct ml_rgb intensity;
+} ml_point_light;
+
+/**
+ * A spot light (`ML_LIGHT_KIND_SPOT`). Intensity towards angle θ from the axis: I for θ ≤ θf,
+ * 0 for θ ≥ θs, and between them I · smoothstep(cos θs, cos θf, cos θ)
+ * (t = (cos θ − cos θs)/(cos θf − cos θs), 3t² − 2t³; pbrt-v4's spot light). Energy
+ * 2π(1 − cos θs)·I (an upper bound of the flux with the falloff).
+ */
+typedef struct ml_spot_light {
     /**
-     * Vertex 2 (triangle).
+     * `ML_LIGHT_KIND_SPOT`.
      */
-    struct ml_vec3 vertex2;
+    uint32_t kind;
     /**
-     * Intensity in W/sr (point, spot, VPL) or radiance in W/(m²·sr) (sphere, disk,
-     * triangle), linear RGB; the tree ranks lights by its luminance.
+     * Position.
      */
-    struct ml_rgb power;
+    struct ml_vec3 position;
     /**
-     * Radius (sphere, disk).
+     * Axis (any non-zero length).
      */
-    float radius;
+    struct ml_vec3 axis;
     /**
-     * Spot half-angle θs in radians, in (0, π].
+     * Intensity I on the axis (W/sr), linear RGB.
+     */
+    struct ml_rgb intensity;
+    /**
+     * Half-angle θs in radians, in (0, π].
      */
     float half_angle;
     /**
-     * Spot falloff start θf in radians, in [0, θs].
+     * Falloff start θf in radians, in [0, θs].
      */
     float falloff_start;
+} ml_spot_light;
+
+/**
+ * A sphere light (`ML_LIGHT_KIND_SPHERE`), emitting outwards from every point. Energy
+ * L·π·4πr².
+ */
+typedef struct ml_sphere_light {
+    /**
+     * `ML_LIGHT_KIND_SPHERE`.
+     */
+    uint32_t kind;
+    /**
+     * Centre.
+     */
+    struct ml_vec3 center;
+    /**
+     * Radius, > 0.
+     */
+    float radius;
+    /**
+     * Radiance L (W/(m²·sr)), linear RGB.
+     */
+    struct ml_rgb radiance;
+} ml_sphere_light;
+
+/**
+ * A disk light (`ML_LIGHT_KIND_DISK`). Energy L·π·πr² per emitting side.
+ */
+typedef struct ml_disk_light {
+    /**
+     * `ML_LIGHT_KIND_DISK`.
+     */
+    uint32_t kind;
+    /**
+     * Centre.
+     */
+    struct ml_vec3 center;
+    /**
+     * Normal (the emitting side when one-sided; any non-zero length).
+     */
+    struct ml_vec3 normal;
+    /**
+     * Radius, > 0.
+     */
+    float radius;
+    /**
+     * Radiance L (W/(m²·sr)), linear RGB.
+     */
+    struct ml_rgb radiance;
+    /**
+     * 1 to emit on both sides, 0 for the normal's side only.
+     */
+    uint32_t two_sided;
+} ml_disk_light;
+
+/**
+ * A triangle light (`ML_LIGHT_KIND_TRIANGLE`); one-sided lights emit on the side of
+ * (v1 − v0) × (v2 − v0). Energy L·π·area per emitting side.
+ */
+typedef struct ml_triangle_light {
+    /**
+     * `ML_LIGHT_KIND_TRIANGLE`.
+     */
+    uint32_t kind;
+    /**
+     * Vertex 0.
+     */
+    struct ml_vec3 v0;
+    /**
+     * Vertex 1.
+     */
+    struct ml_vec3 v1;
+    /**
+     * Vertex 2.
+     */
+    struct ml_vec3 v2;
+    /**
+     * Radiance L (W/(m²·sr)), linear RGB.
+     */
+    struct ml_rgb radiance;
+    /**
+     * 1 to emit on both sides, 0 for one side.
+     */
+    uint32_t two_sided;
+} ml_triangle_light;
+
+/**
+ * A virtual point light (`ML_LIGHT_KIND_VPL`, Keller 1997): a one-sided Lambertian point
+ * emitter of intensity `I · max(0, cos θ)` from the normal; what a diffuse point that
+ * received flux Φ with albedo ρ re-emits is I = ρΦ/π. Energy πI.
+ */
+typedef struct ml_vpl_light {
+    /**
+     * `ML_LIGHT_KIND_VPL`.
+     */
+    uint32_t kind;
+    /**
+     * Position.
+     */
+    struct ml_vec3 position;
+    /**
+     * Normal (any non-zero length).
+     */
+    struct ml_vec3 normal;
+    /**
+     * Intensity I along the normal (W/sr), linear RGB.
+     */
+    struct ml_rgb intensity;
+} ml_vpl_light;
+
+/**
+ * A distant light, a sun (`ML_LIGHT_KIND_DISTANT`); the radiance of its cone is
+ * `irradiance / (π sin²γ)`. Energy 0 (it is at infinity).
+ */
+typedef struct ml_distant_light {
+    /**
+     * `ML_LIGHT_KIND_DISTANT`.
+     */
+    uint32_t kind;
+    /**
+     * Direction towards the light (any non-zero length).
+     */
+    struct ml_vec3 direction;
+    /**
+     * Angular radius γ in radians, in [0, π/2] (0: a delta direction).
+     */
+    float angular_radius;
+    /**
+     * Irradiance at normal incidence (W/m²), linear RGB.
+     */
+    struct ml_rgb irradiance;
+} ml_distant_light;
+
+/**
+ * One light, as given to `ml_tree_build`: a union of one struct per kind, each starting with
+ * the `kind` (`l.kind` reads it whichever member was written). Zero it, then fill the
+ * member of its kind: `ml_light l = {0}; l.sphere.kind = ML_LIGHT_KIND_SPHERE;
+ * l.sphere.center = ...`. Coordinates finite with magnitude at most `ML_MAX_COORDINATE`;
+ * every channel of the intensity, radiance or irradiance finite and ≥ 0 (black: accepted and
+ * never sampled), the light's energy at most `ML_MAX_LIGHT_ENERGY` and all of them together
+ * at most `ML_MAX_TOTAL_ENERGY`.
+ */
+typedef union ml_light {
+    /**
+     * An `ml_light_kind`: which member holds the light.
+     */
+    uint32_t kind;
+    /**
+     * `ML_LIGHT_KIND_POINT`.
+     */
+    struct ml_point_light point;
+    /**
+     * `ML_LIGHT_KIND_SPOT`.
+     */
+    struct ml_spot_light spot;
+    /**
+     * `ML_LIGHT_KIND_SPHERE`.
+     */
+    struct ml_sphere_light sphere;
+    /**
+     * `ML_LIGHT_KIND_DISK`.
+     */
+    struct ml_disk_light disk;
+    /**
+     * `ML_LIGHT_KIND_TRIANGLE`.
+     */
+    struct ml_triangle_light triangle;
+    /**
+     * `ML_LIGHT_KIND_VPL`.
+     */
+    struct ml_vpl_light vpl;
+    /**
+     * `ML_LIGHT_KIND_DISTANT`.
+     */
+    struct ml_distant_light distant;
 } ml_light;
 
 /**
@@ -1172,7 +1336,7 @@ typedef struct ml_accept_stats {
 #define ML_ERR_NULL 1
 
 /**
- * An argument's value is invalid: NaN or infinite, negative power or radius, roughness out
+ * An argument's value is invalid: NaN or infinite, negative intensity or radius, roughness out
  * of range, a uniform number outside [0, 1), a light index out of range, a count that would
  * overflow, a misaligned pointer (the message names the argument, light index and field).
  */
@@ -1539,7 +1703,7 @@ ml_status ml_estimator_bsdf_hits(struct ml_estimator *est,
 /**
  * The message of the last call on this thread that failed (`""` if none failed): the
  * function, the argument, and where it applies the element index, light index and field, with
- * the offending value, e.g. `ml_tree_build: lights[17].radius must be positive (got -1)`.
+ * the offending value, e.g. `ml_tree_build: lights[17].sphere.radius must be positive (got -1)`.
  *
  * The one function that does not return an `ml_status`. Never NULL; the string belongs to the
  * library and stays valid on this thread until its next failing call.
@@ -1567,8 +1731,8 @@ ml_status ml_build_options_default(struct ml_build_options *out);
  * `ml_environment`: the tree copies the struct and keeps calling its callbacks) with
  * `options` (NULL: the defaults). Light indices everywhere else are positions in this
  * array; the environment, when given, is light `count`, one past the array. Every light is
- * validated: the error names its index and field, e.g. `lights[17].radius must be positive
- * (got -1)`. Lights of zero power or area are accepted and never sampled. Free the tree with
+ * validated: the error names its index and field, e.g. `lights[17].sphere.radius must be
+ * positive (got -1)`. Lights of zero intensity, radiance or area are accepted and never sampled. Free the tree with
  * `ml_tree_free`.
  *
  * Errors: `ML_ERR_NULL` (`lights` with `count` > 0, `out`, `environment->sample`,
@@ -1578,7 +1742,7 @@ ml_status ml_build_options_default(struct ml_build_options *out);
  * `ML_MAX_DEPTH`, bad `environment->irradiance_bounds`: the message names the macro, the
  * light, the field and its value).
  */
-ml_status ml_tree_build(const struct ml_light *lights,
+ml_status ml_tree_build(const union ml_light *lights,
                         size_t count,
                         const struct ml_environment *environment,
                         const struct ml_build_options *options,
@@ -1593,7 +1757,7 @@ ml_status ml_tree_build(const struct ml_light *lights,
  * Errors: those of `ml_tree_build`; `ML_ERR_INVALID_ARGUMENT` if `threads` is above 1024;
  * `ML_ERR_INTERNAL` if the threads cannot be started.
  */
-ml_status ml_tree_build_parallel(const struct ml_light *lights,
+ml_status ml_tree_build_parallel(const union ml_light *lights,
                                  size_t count,
                                  const struct ml_environment *environment,
                                  const struct ml_build_options *options,
@@ -1665,7 +1829,7 @@ ml_status ml_tree_load(const uint8_t *bytes, size_t len, struct ml_tree **out);
  */
 ml_status ml_tree_load_with_lights(const uint8_t *bytes,
                                    size_t len,
-                                   const struct ml_light *lights,
+                                   const union ml_light *lights,
                                    size_t count,
                                    const struct ml_environment *environment,
                                    struct ml_tree **out);

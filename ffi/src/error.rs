@@ -12,7 +12,7 @@ pub type ml_status = i32;
 pub const ML_OK: ml_status = 0;
 /// A pointer argument that must not be NULL was NULL (the message names it).
 pub const ML_ERR_NULL: ml_status = 1;
-/// An argument's value is invalid: NaN or infinite, negative power or radius, roughness out
+/// An argument's value is invalid: NaN or infinite, negative intensity or radius, roughness out
 /// of range, a uniform number outside [0, 1), a light index out of range, a count that would
 /// overflow, a misaligned pointer (the message names the argument, light index and field).
 pub const ML_ERR_INVALID_ARGUMENT: ml_status = 2;
@@ -127,7 +127,7 @@ thread_local! {
 
 /// The message of the last call on this thread that failed (`""` if none failed): the
 /// function, the argument, and where it applies the element index, light index and field, with
-/// the offending value, e.g. `ml_tree_build: lights[17].radius must be positive (got -1)`.
+/// the offending value, e.g. `ml_tree_build: lights[17].sphere.radius must be positive (got -1)`.
 ///
 /// The one function that does not return an `ml_status`. Never NULL; the string belongs to the
 /// library and stays valid on this thread until its next failing call.

@@ -39,7 +39,7 @@ pub use vpl::*;
 /// Major version of the library (the `version` of `ffi/Cargo.toml`).
 pub const ML_VERSION_MAJOR: u32 = 0;
 /// Minor version of the library.
-pub const ML_VERSION_MINOR: u32 = 3;
+pub const ML_VERSION_MINOR: u32 = 4;
 /// Patch version of the library.
 pub const ML_VERSION_PATCH: u32 = 0;
 

@@ -1,8 +1,8 @@
 //! The limits the library enforces, as the header's `ML_` macros (each checked against the
 //! core's constant at compile time). An input beyond one is `ML_ERR_INVALID_ARGUMENT` with a
 //! message naming the macro, its value and the field's own value, e.g.
-//! `lights[3].power (the point light's intensity) gives an energy of 5e25 W, above
-//! ML_MAX_LIGHT_ENERGY (1e24) (got 3.9788735e24)`.
+//! `lights[3].point.intensity gives an energy of 5e25 W, above ML_MAX_LIGHT_ENERGY (1e24)
+//! (got 3.9788735e24)`.
 
 use manylights::cut::{MAX_CUT_SIZE, MIN_CUT_SIZE};
 
@@ -11,9 +11,9 @@ use manylights::cut::{MAX_CUT_SIZE, MIN_CUT_SIZE};
 pub const ML_MAX_COORDINATE: f32 = 1e15;
 const _: () = assert!(ML_MAX_COORDINATE.to_bits() == manylights::MAX_COORDINATE.to_bits());
 
-/// Largest energy (flux, W) of one light: 4π·power for a point light, 2π(1 − cos θs)·power for
-/// a spot, π·power for a VPL, power·π·area per emitting side for an area light (see the
-/// README's units table). A VPL acceptor keeps accepted VPLs within it.
+/// Largest energy (flux, W) of one light: 4π·I for a point light of intensity I,
+/// 2π(1 − cos θs)·I for a spot, π·I for a VPL, L·π·area per emitting side for an area light of
+/// radiance L (see the README's units table). A VPL acceptor keeps accepted VPLs within it.
 pub const ML_MAX_LIGHT_ENERGY: f32 = 1e24;
 const _: () = assert!(ML_MAX_LIGHT_ENERGY.to_bits() == manylights::MAX_LIGHT_ENERGY.to_bits());
 

@@ -134,8 +134,8 @@ pub extern "C" fn ml_build_options_default(out: *mut ml_build_options) -> ml_sta
 /// `ml_environment`: the tree copies the struct and keeps calling its callbacks) with
 /// `options` (NULL: the defaults). Light indices everywhere else are positions in this
 /// array; the environment, when given, is light `count`, one past the array. Every light is
-/// validated: the error names its index and field, e.g. `lights[17].radius must be positive
-/// (got -1)`. Lights of zero power or area are accepted and never sampled. Free the tree with
+/// validated: the error names its index and field, e.g. `lights[17].sphere.radius must be
+/// positive (got -1)`. Lights of zero intensity, radiance or area are accepted and never sampled. Free the tree with
 /// `ml_tree_free`.
 ///
 /// Errors: `ML_ERR_NULL` (`lights` with `count` > 0, `out`, `environment->sample`,

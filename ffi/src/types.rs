@@ -94,165 +94,382 @@ impl From<[f64; 3]> for ml_rgb64 {
     }
 }
 
-/// The kind of an `ml_light` (the value of its `kind` field). Units: positions in any length
-/// unit m (the same as the scene's), intensity in W/sr, radiance in W/(m²·sr), irradiance in
-/// W/m², each per channel of linear RGB; a light's energy (its flux, W, of the luminance:
-/// what the tree's importance and `ml_tree_statistics.total_energy` add up) is given at each
-/// kind and is at most `ML_MAX_LIGHT_ENERGY` (0 for distant lights). The environment is not a
-/// light kind: it is given to the tree as an `ml_environment`.
+/// The kind of an `ml_light` (the value of its `kind` field, which names the union's member
+/// that holds the light). Units: positions in any length unit m (the same as the scene's),
+/// intensity in W/sr, radiance in W/(m²·sr), irradiance in W/m², each per channel of linear
+/// RGB; a light's energy (its flux, W, of the luminance: what the tree's importance and
+/// `ml_tree_statistics.total_energy` add up) is given at each kind's struct and is at most
+/// `ML_MAX_LIGHT_ENERGY` (0 for distant lights). The environment is not a light kind: it is
+/// given to the tree as an `ml_environment`.
 #[repr(u32)]
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum ml_light_kind {
-    /// Isotropic point light: `position`, `power` = intensity I (W/sr). Energy 4πI.
+    /// Isotropic point light: the member `point` (`ml_point_light`).
     Point = 0,
-    /// Spot light: `position`, `direction` (axis, any non-zero length), `power` = intensity I
-    /// on the axis (W/sr), `half_angle` θs in (0, π], `falloff_start` θf in [0, θs] (radians).
-    /// Intensity towards angle θ from the axis: I for θ ≤ θf, 0 for θ ≥ θs, and between them
-    /// I · smoothstep(cos θs, cos θf, cos θ) (t = (cos θ − cos θs)/(cos θf − cos θs), 3t² − 2t³;
-    /// pbrt-v4's spot light). Energy 2π(1 − cos θs)·I (an upper bound of the flux with the
-    /// falloff).
+    /// Spot light: the member `spot` (`ml_spot_light`).
     Spot = 1,
-    /// Sphere light: `position` = centre, `radius` > 0, `power` = radiance L (W/(m²·sr)),
-    /// emitted outwards from every point. Energy L·π·4πr².
+    /// Sphere light: the member `sphere` (`ml_sphere_light`).
     Sphere = 2,
-    /// Disk light: `position` = centre, `direction` = normal (the emitting side when
-    /// one-sided), `radius` > 0, `power` = radiance L, `two_sided` 0 or 1. Energy L·π·πr² per
-    /// emitting side.
+    /// Disk light: the member `disk` (`ml_disk_light`).
     Disk = 3,
-    /// Triangle light: vertices `position`, `direction`, `vertex2` (one-sided lights emit on
-    /// the side of (v1 − v0) × (v2 − v0)), `power` = radiance L, `two_sided` 0 or 1. Energy
-    /// L·π·area per emitting side.
+    /// Triangle light: the member `triangle` (`ml_triangle_light`).
     Triangle = 4,
-    /// Virtual point light (Keller 1997): `position`, `direction` = normal, `power` =
-    /// intensity I along the normal (a one-sided Lambertian point emitter, intensity
-    /// `I · max(0, cos θ)`; what a diffuse point that received flux Φ with albedo ρ re-emits
-    /// is I = ρΦ/π). Energy πI.
+    /// Virtual point light: the member `vpl` (`ml_vpl_light`).
     Vpl = 5,
-    /// Distant light (a sun): `direction` towards the light (any non-zero length),
-    /// `half_angle` its angular radius γ in [0, π/2] radians (0: a delta direction), `power`
-    /// its irradiance at normal incidence (W/m²); the radiance of its cone is
-    /// `power / (π sin²γ)`.
+    /// Distant light (a sun): the member `distant` (`ml_distant_light`).
     Distant = 6,
 }
 
-/// One light, as given to `ml_tree_build`. Which fields a kind reads is listed at each
-/// `ml_light_kind`; the others are ignored (zero them). Coordinates finite with magnitude at
-/// most `ML_MAX_COORDINATE`; every channel of `power` finite and ≥ 0 (black: accepted and
+/// An isotropic point light (`ML_LIGHT_KIND_POINT`). Energy 4πI.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct ml_point_light {
+    /// `ML_LIGHT_KIND_POINT`.
+    pub kind: u32,
+    /// Position.
+    pub position: ml_vec3,
+    /// Intensity I (W/sr), linear RGB.
+    pub intensity: ml_rgb,
+}
+
+/// A spot light (`ML_LIGHT_KIND_SPOT`). Intensity towards angle θ from the axis: I for θ ≤ θf,
+/// 0 for θ ≥ θs, and between them I · smoothstep(cos θs, cos θf, cos θ)
+/// (t = (cos θ − cos θs)/(cos θf − cos θs), 3t² − 2t³; pbrt-v4's spot light). Energy
+/// 2π(1 − cos θs)·I (an upper bound of the flux with the falloff).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct ml_spot_light {
+    /// `ML_LIGHT_KIND_SPOT`.
+    pub kind: u32,
+    /// Position.
+    pub position: ml_vec3,
+    /// Axis (any non-zero length).
+    pub axis: ml_vec3,
+    /// Intensity I on the axis (W/sr), linear RGB.
+    pub intensity: ml_rgb,
+    /// Half-angle θs in radians, in (0, π].
+    pub half_angle: f32,
+    /// Falloff start θf in radians, in [0, θs].
+    pub falloff_start: f32,
+}
+
+/// A sphere light (`ML_LIGHT_KIND_SPHERE`), emitting outwards from every point. Energy
+/// L·π·4πr².
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct ml_sphere_light {
+    /// `ML_LIGHT_KIND_SPHERE`.
+    pub kind: u32,
+    /// Centre.
+    pub center: ml_vec3,
+    /// Radius, > 0.
+    pub radius: f32,
+    /// Radiance L (W/(m²·sr)), linear RGB.
+    pub radiance: ml_rgb,
+}
+
+/// A disk light (`ML_LIGHT_KIND_DISK`). Energy L·π·πr² per emitting side.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct ml_disk_light {
+    /// `ML_LIGHT_KIND_DISK`.
+    pub kind: u32,
+    /// Centre.
+    pub center: ml_vec3,
+    /// Normal (the emitting side when one-sided; any non-zero length).
+    pub normal: ml_vec3,
+    /// Radius, > 0.
+    pub radius: f32,
+    /// Radiance L (W/(m²·sr)), linear RGB.
+    pub radiance: ml_rgb,
+    /// 1 to emit on both sides, 0 for the normal's side only.
+    pub two_sided: u32,
+}
+
+/// A triangle light (`ML_LIGHT_KIND_TRIANGLE`); one-sided lights emit on the side of
+/// (v1 − v0) × (v2 − v0). Energy L·π·area per emitting side.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct ml_triangle_light {
+    /// `ML_LIGHT_KIND_TRIANGLE`.
+    pub kind: u32,
+    /// Vertex 0.
+    pub v0: ml_vec3,
+    /// Vertex 1.
+    pub v1: ml_vec3,
+    /// Vertex 2.
+    pub v2: ml_vec3,
+    /// Radiance L (W/(m²·sr)), linear RGB.
+    pub radiance: ml_rgb,
+    /// 1 to emit on both sides, 0 for one side.
+    pub two_sided: u32,
+}
+
+/// A virtual point light (`ML_LIGHT_KIND_VPL`, Keller 1997): a one-sided Lambertian point
+/// emitter of intensity `I · max(0, cos θ)` from the normal; what a diffuse point that
+/// received flux Φ with albedo ρ re-emits is I = ρΦ/π. Energy πI.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct ml_vpl_light {
+    /// `ML_LIGHT_KIND_VPL`.
+    pub kind: u32,
+    /// Position.
+    pub position: ml_vec3,
+    /// Normal (any non-zero length).
+    pub normal: ml_vec3,
+    /// Intensity I along the normal (W/sr), linear RGB.
+    pub intensity: ml_rgb,
+}
+
+/// A distant light, a sun (`ML_LIGHT_KIND_DISTANT`); the radiance of its cone is
+/// `irradiance / (π sin²γ)`. Energy 0 (it is at infinity).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct ml_distant_light {
+    /// `ML_LIGHT_KIND_DISTANT`.
+    pub kind: u32,
+    /// Direction towards the light (any non-zero length).
+    pub direction: ml_vec3,
+    /// Angular radius γ in radians, in [0, π/2] (0: a delta direction).
+    pub angular_radius: f32,
+    /// Irradiance at normal incidence (W/m²), linear RGB.
+    pub irradiance: ml_rgb,
+}
+
+/// One light, as given to `ml_tree_build`: a union of one struct per kind, each starting with
+/// the `kind` (`l.kind` reads it whichever member was written). Zero it, then fill the
+/// member of its kind: `ml_light l = {0}; l.sphere.kind = ML_LIGHT_KIND_SPHERE;
+/// l.sphere.center = ...`. Coordinates finite with magnitude at most `ML_MAX_COORDINATE`;
+/// every channel of the intensity, radiance or irradiance finite and ≥ 0 (black: accepted and
 /// never sampled), the light's energy at most `ML_MAX_LIGHT_ENERGY` and all of them together
 /// at most `ML_MAX_TOTAL_ENERGY`.
 #[repr(C)]
-#[derive(Clone, Copy, Debug, Default, PartialEq)]
-pub struct ml_light {
-    /// An `ml_light_kind`.
+#[derive(Clone, Copy)]
+pub union ml_light {
+    /// An `ml_light_kind`: which member holds the light.
     pub kind: u32,
-    /// Disk and triangle lights: 1 to emit on both sides, 0 for one side.
-    pub two_sided: u32,
-    /// Position (point, spot, VPL), centre (sphere, disk) or vertex 0 (triangle).
-    pub position: ml_vec3,
-    /// Axis (spot), normal (disk, VPL) or vertex 1 (triangle).
-    pub direction: ml_vec3,
-    /// Vertex 2 (triangle).
-    pub vertex2: ml_vec3,
-    /// Intensity in W/sr (point, spot, VPL) or radiance in W/(m²·sr) (sphere, disk,
-    /// triangle), linear RGB; the tree ranks lights by its luminance.
-    pub power: ml_rgb,
-    /// Radius (sphere, disk).
-    pub radius: f32,
-    /// Spot half-angle θs in radians, in (0, π].
-    pub half_angle: f32,
-    /// Spot falloff start θf in radians, in [0, θs].
-    pub falloff_start: f32,
+    /// `ML_LIGHT_KIND_POINT`.
+    pub point: ml_point_light,
+    /// `ML_LIGHT_KIND_SPOT`.
+    pub spot: ml_spot_light,
+    /// `ML_LIGHT_KIND_SPHERE`.
+    pub sphere: ml_sphere_light,
+    /// `ML_LIGHT_KIND_DISK`.
+    pub disk: ml_disk_light,
+    /// `ML_LIGHT_KIND_TRIANGLE`.
+    pub triangle: ml_triangle_light,
+    /// `ML_LIGHT_KIND_VPL`.
+    pub vpl: ml_vpl_light,
+    /// `ML_LIGHT_KIND_DISTANT`.
+    pub distant: ml_distant_light,
 }
+
+/// The member of an `ml_light` its kind names (the Rust view of the union).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum LightDesc {
+    /// `point`.
+    Point(ml_point_light),
+    /// `spot`.
+    Spot(ml_spot_light),
+    /// `sphere`.
+    Sphere(ml_sphere_light),
+    /// `disk`.
+    Disk(ml_disk_light),
+    /// `triangle`.
+    Triangle(ml_triangle_light),
+    /// `vpl`.
+    Vpl(ml_vpl_light),
+    /// `distant`.
+    Distant(ml_distant_light),
+    /// A kind that is not an `ml_light_kind`.
+    Unknown(u32),
+}
+
+impl ml_light {
+    /// The kind (whichever member was written: every member starts with it).
+    #[inline]
+    pub fn kind(&self) -> u32 {
+        // SAFETY: every member is plain old data starting with the `u32` kind, and every bit
+        // pattern is a valid `u32`.
+        unsafe { self.kind }
+    }
+
+    /// The member the kind names, copied out.
+    #[inline]
+    pub fn desc(&self) -> LightDesc {
+        // SAFETY: every member is `repr(C)` plain old data of `u32` and `f32` fields (any bit
+        // pattern valid) starting with the kind; the member read is the one the kind names,
+        // and a union is at least as large as its largest member, so the read stays inside.
+        unsafe {
+            match self.kind {
+                0 => LightDesc::Point(self.point),
+                1 => LightDesc::Spot(self.spot),
+                2 => LightDesc::Sphere(self.sphere),
+                3 => LightDesc::Disk(self.disk),
+                4 => LightDesc::Triangle(self.triangle),
+                5 => LightDesc::Vpl(self.vpl),
+                6 => LightDesc::Distant(self.distant),
+                k => LightDesc::Unknown(k),
+            }
+        }
+    }
+}
+
+impl Default for ml_light {
+    /// All zero (a point light at the origin of zero intensity).
+    #[inline]
+    fn default() -> ml_light {
+        // The largest member, zeroed: every byte of the union is zero.
+        ml_light {
+            triangle: ml_triangle_light::default(),
+        }
+    }
+}
+
+impl core::fmt::Debug for ml_light {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        match self.desc() {
+            LightDesc::Point(l) => l.fmt(f),
+            LightDesc::Spot(l) => l.fmt(f),
+            LightDesc::Sphere(l) => l.fmt(f),
+            LightDesc::Disk(l) => l.fmt(f),
+            LightDesc::Triangle(l) => l.fmt(f),
+            LightDesc::Vpl(l) => l.fmt(f),
+            LightDesc::Distant(l) => l.fmt(f),
+            LightDesc::Unknown(k) => f.debug_struct("ml_light").field("kind", &k).finish(),
+        }
+    }
+}
+
+impl PartialEq for ml_light {
+    /// Equal kinds and equal members of that kind (unknown kinds: the kind alone).
+    fn eq(&self, other: &ml_light) -> bool {
+        self.desc() == other.desc()
+    }
+}
+
+macro_rules! light_member {
+    ($($ty:ident => $member:ident),* $(,)?) => {$(
+        impl From<$ty> for ml_light {
+            /// The light of that member, the rest of the union zeroed.
+            #[inline]
+            fn from(m: $ty) -> ml_light {
+                let mut d = ml_light::default();
+                d.$member = m;
+                d
+            }
+        }
+    )*};
+}
+
+light_member!(
+    ml_point_light => point,
+    ml_spot_light => spot,
+    ml_sphere_light => sphere,
+    ml_disk_light => disk,
+    ml_triangle_light => triangle,
+    ml_vpl_light => vpl,
+    ml_distant_light => distant,
+);
 
 /// The descriptor of a core light, field for field (what a Rust host that also calls the
 /// ABI, such as a bench, passes to `ml_tree_build`).
 impl From<&Light> for ml_light {
     fn from(l: &Light) -> ml_light {
-        let mut d = ml_light::default();
         match *l {
             Light::Point {
                 position,
                 intensity,
-            } => {
-                d.kind = ml_light_kind::Point as u32;
-                d.position = position.into();
-                d.power = intensity.into();
+            } => ml_point_light {
+                kind: ml_light_kind::Point as u32,
+                position: position.into(),
+                intensity: intensity.into(),
             }
+            .into(),
             Light::Spot {
                 position,
                 direction,
                 intensity,
                 half_angle,
                 falloff_start,
-            } => {
-                d.kind = ml_light_kind::Spot as u32;
-                d.position = position.into();
-                d.direction = direction.into();
-                d.power = intensity.into();
-                d.half_angle = half_angle;
-                d.falloff_start = falloff_start;
+            } => ml_spot_light {
+                kind: ml_light_kind::Spot as u32,
+                position: position.into(),
+                axis: direction.into(),
+                intensity: intensity.into(),
+                half_angle,
+                falloff_start,
             }
+            .into(),
             Light::Sphere {
                 center,
                 radius,
                 radiance,
-            } => {
-                d.kind = ml_light_kind::Sphere as u32;
-                d.position = center.into();
-                d.radius = radius;
-                d.power = radiance.into();
+            } => ml_sphere_light {
+                kind: ml_light_kind::Sphere as u32,
+                center: center.into(),
+                radius,
+                radiance: radiance.into(),
             }
+            .into(),
             Light::Disk {
                 center,
                 normal,
                 radius,
                 radiance,
                 two_sided,
-            } => {
-                d.kind = ml_light_kind::Disk as u32;
-                d.position = center.into();
-                d.direction = normal.into();
-                d.radius = radius;
-                d.power = radiance.into();
-                d.two_sided = u32::from(two_sided);
+            } => ml_disk_light {
+                kind: ml_light_kind::Disk as u32,
+                center: center.into(),
+                normal: normal.into(),
+                radius,
+                radiance: radiance.into(),
+                two_sided: u32::from(two_sided),
             }
+            .into(),
             Light::Triangle {
                 vertices,
                 radiance,
                 two_sided,
-            } => {
-                d.kind = ml_light_kind::Triangle as u32;
-                d.position = vertices[0].into();
-                d.direction = vertices[1].into();
-                d.vertex2 = vertices[2].into();
-                d.power = radiance.into();
-                d.two_sided = u32::from(two_sided);
+            } => ml_triangle_light {
+                kind: ml_light_kind::Triangle as u32,
+                v0: vertices[0].into(),
+                v1: vertices[1].into(),
+                v2: vertices[2].into(),
+                radiance: radiance.into(),
+                two_sided: u32::from(two_sided),
             }
+            .into(),
             Light::Vpl {
                 position,
                 normal,
                 intensity,
-            } => {
-                d.kind = ml_light_kind::Vpl as u32;
-                d.position = position.into();
-                d.direction = normal.into();
-                d.power = intensity.into();
+            } => ml_vpl_light {
+                kind: ml_light_kind::Vpl as u32,
+                position: position.into(),
+                normal: normal.into(),
+                intensity: intensity.into(),
             }
+            .into(),
             Light::Distant {
                 direction,
                 angular_radius,
                 irradiance,
-            } => {
-                d.kind = ml_light_kind::Distant as u32;
-                d.direction = direction.into();
-                d.half_angle = angular_radius;
-                d.power = irradiance.into();
+            } => ml_distant_light {
+                kind: ml_light_kind::Distant as u32,
+                direction: direction.into(),
+                angular_radius,
+                irradiance: irradiance.into(),
             }
+            .into(),
             // A kind the C ABI has no descriptor for: a kind value `ml_tree_build` rejects
             // (ML_ERR_INVALID_ARGUMENT), never a different light.
-            _ => d.kind = u32::MAX,
+            _ => {
+                let mut d = ml_light::default();
+                d.kind = u32::MAX;
+                d
+            }
         }
-        d
     }
 }
 
@@ -431,102 +648,100 @@ pub(crate) fn describe(p: Problem) -> &'static str {
     }
 }
 
-fn kind_name(kind: u32) -> &'static str {
+/// The `ml_light` member of a kind.
+fn member(kind: u32) -> &'static str {
     match kind {
         0 => "point",
         1 => "spot",
         2 => "sphere",
         3 => "disk",
         4 => "triangle",
+        5 => "vpl",
         6 => "distant",
-        _ => "VPL",
+        _ => "kind",
     }
 }
 
-/// The C field of a light's core field, with the core's name where they differ.
+/// The C field of a light's core field: the kind's member and its field
+/// (`sphere.radius`, `spot.axis`, `triangle.v2`).
 fn light_field(kind: u32, f: LightField) -> String {
-    let (c, core) = match f {
-        LightField::Position => ("position", None),
-        LightField::Center => ("position", Some("centre")),
-        LightField::Direction => ("direction", Some("axis")),
-        LightField::Normal => ("direction", Some("normal")),
-        LightField::Radius => ("radius", None),
-        LightField::Vertex(0) => ("position", Some("vertex 0")),
-        LightField::Vertex(1) => ("direction", Some("vertex 1")),
-        LightField::Vertex(_) => ("vertex2", None),
-        LightField::Intensity => ("power", Some("intensity")),
-        LightField::Radiance => ("power", Some("radiance")),
-        LightField::HalfAngle => ("half_angle", None),
-        LightField::FalloffStart => ("falloff_start", None),
-        LightField::AngularRadius => ("half_angle", Some("angular radius")),
-        LightField::Irradiance => ("power", Some("irradiance")),
-        _ => ("a field", Some(f.name())),
+    let c = match f {
+        LightField::Position => "position",
+        LightField::Center => "center",
+        LightField::Direction if kind == ml_light_kind::Spot as u32 => "axis",
+        LightField::Direction => "direction",
+        LightField::Normal => "normal",
+        LightField::Radius => "radius",
+        LightField::Vertex(0) => "v0",
+        LightField::Vertex(1) => "v1",
+        LightField::Vertex(_) => "v2",
+        LightField::Intensity => "intensity",
+        LightField::Radiance => "radiance",
+        LightField::HalfAngle => "half_angle",
+        LightField::FalloffStart => "falloff_start",
+        LightField::AngularRadius => "angular_radius",
+        LightField::Irradiance => "irradiance",
+        _ => f.name(),
     };
-    match core {
-        Some(core) => format!("{c} (the {} light's {core})", kind_name(kind)),
-        None => c.to_string(),
-    }
+    format!("{}.{c}", member(kind))
 }
 
 /// The core light of an `ml_light` (the kind and `two_sided` checked; the rest is checked by
 /// the build, [`build_error`] words its errors).
 pub(crate) fn light(l: &ml_light, index: usize, name: &str) -> Result<Light> {
-    let two_sided = match l.two_sided {
-        0 => false,
-        1 => true,
-        v => {
-            return Err(Error::invalid(format_args!(
-                "{name}[{index}].two_sided must be 0 or 1 (got {v})"
-            )))
-        }
+    let two_sided = |v: u32, m: &str| match v {
+        0 => Ok(false),
+        1 => Ok(true),
+        v => Err(Error::invalid(format_args!(
+            "{name}[{index}].{m}.two_sided must be 0 or 1 (got {v})"
+        ))),
     };
-    let (p, d, v2) = (l.position.into(), l.direction.into(), l.vertex2.into());
-    Ok(match l.kind {
-        0 => Light::Point {
-            position: p,
-            intensity: l.power.into(),
+    Ok(match l.desc() {
+        LightDesc::Point(l) => Light::Point {
+            position: l.position.into(),
+            intensity: l.intensity.into(),
         },
-        1 => Light::Spot {
-            position: p,
-            direction: d,
-            intensity: l.power.into(),
+        LightDesc::Spot(l) => Light::Spot {
+            position: l.position.into(),
+            direction: l.axis.into(),
+            intensity: l.intensity.into(),
             half_angle: l.half_angle,
             falloff_start: l.falloff_start,
         },
-        2 => Light::Sphere {
-            center: p,
+        LightDesc::Sphere(l) => Light::Sphere {
+            center: l.center.into(),
             radius: l.radius,
-            radiance: l.power.into(),
+            radiance: l.radiance.into(),
         },
-        3 => Light::Disk {
-            center: p,
-            normal: d,
+        LightDesc::Disk(l) => Light::Disk {
+            center: l.center.into(),
+            normal: l.normal.into(),
             radius: l.radius,
-            radiance: l.power.into(),
-            two_sided,
+            radiance: l.radiance.into(),
+            two_sided: two_sided(l.two_sided, "disk")?,
         },
-        4 => Light::Triangle {
-            vertices: [p, d, v2],
-            radiance: l.power.into(),
-            two_sided,
+        LightDesc::Triangle(l) => Light::Triangle {
+            vertices: [l.v0.into(), l.v1.into(), l.v2.into()],
+            radiance: l.radiance.into(),
+            two_sided: two_sided(l.two_sided, "triangle")?,
         },
-        5 => Light::Vpl {
-            position: p,
-            normal: d,
-            intensity: l.power.into(),
+        LightDesc::Vpl(l) => Light::Vpl {
+            position: l.position.into(),
+            normal: l.normal.into(),
+            intensity: l.intensity.into(),
         },
-        6 => Light::Distant {
-            direction: d,
-            angular_radius: l.half_angle,
-            irradiance: l.power.into(),
+        LightDesc::Distant(l) => Light::Distant {
+            direction: l.direction.into(),
+            angular_radius: l.angular_radius,
+            irradiance: l.irradiance.into(),
         },
-        7 => {
+        LightDesc::Unknown(7) => {
             return Err(Error::invalid(format_args!(
                 "{name}[{index}].kind: 7 is not an ml_light_kind (0 to 6): the environment is \
                  given to the tree as an ml_environment (ml_tree_build's `environment`)"
             )))
         }
-        k => {
+        LightDesc::Unknown(k) => {
             return Err(Error::invalid(format_args!(
                 "{name}[{index}].kind: {k} is not an ml_light_kind (0 to 6)"
             )))
@@ -560,7 +775,7 @@ pub(crate) fn build_error(e: BuildError, lights: &[ml_light], name: &str) -> Err
             value,
         } => {
             let desc = lights.get(index);
-            let kind = desc.map_or(0, |l| l.kind);
+            let kind = desc.map_or(0, ml_light::kind);
             let what = match (field, problem) {
                 (_, Problem::EnergyTooLarge) => {
                     // The energy the field's value gives, with the macro it exceeds.
@@ -581,7 +796,10 @@ pub(crate) fn build_error(e: BuildError, lights: &[ml_light], name: &str) -> Err
                 ) => "exceeds ML_MAX_COORDINATE (1e15) in magnitude".to_string(),
                 (LightField::HalfAngle, Problem::OutOfRange) => "must be in (0, pi]".to_string(),
                 (LightField::FalloffStart, Problem::OutOfRange) => {
-                    "must be in [0, half_angle]".to_string()
+                    "must be in [0, spot.half_angle]".to_string()
+                }
+                (LightField::AngularRadius, Problem::OutOfRange) => {
+                    "must be in [0, pi/2]".to_string()
                 }
                 _ => describe(problem).to_string(),
             };

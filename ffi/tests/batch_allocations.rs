@@ -49,41 +49,52 @@ const N: usize = 2500;
 fn tree(r: &mut Rng, sky: bool) -> *mut ml_tree {
     let mut ls: Vec<ml_light> = (0..500)
         .map(|i| {
-            let mut l = ml_light {
-                position: v3(r.range(-4.0, 4.0), r.range(-4.0, 4.0), r.range(0.5, 4.0)),
-                power: ml_rgb {
-                    r: r.range(0.5, 3.0),
-                    g: r.range(0.5, 3.0),
-                    b: r.range(0.5, 3.0),
-                },
-                ..ml_light::default()
+            let p = v3(r.range(-4.0, 4.0), r.range(-4.0, 4.0), r.range(0.5, 4.0));
+            let e = ml_rgb {
+                r: r.range(0.5, 3.0),
+                g: r.range(0.5, 3.0),
+                b: r.range(0.5, 3.0),
             };
             match i % 3 {
-                0 => l.kind = ml_light_kind::Point as u32,
-                1 => {
-                    l.kind = ml_light_kind::Sphere as u32;
-                    l.radius = r.range(0.05, 0.4);
+                0 => ml_point_light {
+                    kind: ml_light_kind::Point as u32,
+                    position: p,
+                    intensity: e,
                 }
-                _ => {
-                    l.kind = ml_light_kind::Disk as u32;
-                    l.direction = v3(0.0, 0.0, -1.0);
-                    l.radius = r.range(0.1, 0.5);
+                .into(),
+                1 => ml_sphere_light {
+                    kind: ml_light_kind::Sphere as u32,
+                    center: p,
+                    radius: r.range(0.05, 0.4),
+                    radiance: e,
                 }
+                .into(),
+                _ => ml_disk_light {
+                    kind: ml_light_kind::Disk as u32,
+                    center: p,
+                    normal: v3(0.0, 0.0, -1.0),
+                    radius: r.range(0.1, 0.5),
+                    radiance: e,
+                    two_sided: 0,
+                }
+                .into(),
             }
-            l
         })
         .collect();
     if sky {
-        ls.push(ml_light {
-            kind: ml_light_kind::Distant as u32,
-            direction: v3(0.2, 0.1, 1.0),
-            power: ml_rgb {
-                r: 2.0,
-                g: 2.0,
-                b: 2.0,
-            },
-            ..ml_light::default()
-        });
+        ls.push(
+            ml_distant_light {
+                kind: ml_light_kind::Distant as u32,
+                direction: v3(0.2, 0.1, 1.0),
+                angular_radius: 0.0,
+                irradiance: ml_rgb {
+                    r: 2.0,
+                    g: 2.0,
+                    b: 2.0,
+                },
+            }
+            .into(),
+        );
     }
     let mut t = ptr::null_mut();
     ok(ml_tree_build(

@@ -50,19 +50,21 @@ fn bytes(t: *const ml_tree) -> Vec<u8> {
 fn one_thread_builds_on_the_calling_thread() {
     let mut r = Rng(7);
     let lights: Vec<ml_light> = (0..3000)
-        .map(|_| ml_light {
-            kind: ml_light_kind::Point as u32,
-            position: ml_vec3 {
-                x: r.range(-10.0, 10.0),
-                y: r.range(-10.0, 10.0),
-                z: r.range(-10.0, 10.0),
-            },
-            power: ml_rgb {
-                r: r.range(0.1, 2.0),
-                g: 1.0,
-                b: 1.0,
-            },
-            ..ml_light::default()
+        .map(|_| {
+            ml_point_light {
+                kind: ml_light_kind::Point as u32,
+                position: ml_vec3 {
+                    x: r.range(-10.0, 10.0),
+                    y: r.range(-10.0, 10.0),
+                    z: r.range(-10.0, 10.0),
+                },
+                intensity: ml_rgb {
+                    r: r.range(0.1, 2.0),
+                    g: 1.0,
+                    b: 1.0,
+                },
+            }
+            .into()
         })
         .collect();
     let mut serial = ptr::null_mut();

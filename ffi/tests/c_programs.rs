@@ -117,8 +117,9 @@ fn v(t: &[&str]) -> Vec3 {
     Vec3::new(f(t[0]), f(t[1]), f(t[2]))
 }
 
-/// The Rust light of a dumped `ml_light` (kind, two_sided, 15 numbers: the power's three
-/// channels among them), written out here independently of the ABI's own conversion.
+/// The Rust light of a dumped `ml_light` (kind, two_sided, 15 numbers: the intensity,
+/// radiance or irradiance's three channels among them, `dump_light` in `scenarios.h`),
+/// written out here independently of the ABI's own conversion.
 fn light(t: &[&str]) -> Light {
     let kind: u32 = t[0].parse().unwrap();
     let two_sided = t[1] == "1";

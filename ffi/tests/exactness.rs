@@ -49,24 +49,32 @@ fn dot(a: ml_vec3, b: ml_vec3) -> f32 {
 fn lights(r: &mut Rng) -> Vec<ml_light> {
     (0..300)
         .map(|i| {
-            let mut l = ml_light {
-                position: v3(r.range(-4.0, 4.0), r.range(-4.0, 4.0), r.range(0.5, 4.0)),
-                power: grey(r.range(0.5, 3.0)),
-                ..ml_light::default()
-            };
+            let p = v3(r.range(-4.0, 4.0), r.range(-4.0, 4.0), r.range(0.5, 4.0));
+            let e = grey(r.range(0.5, 3.0));
             match i % 3 {
-                0 => l.kind = ml_light_kind::Point as u32,
-                1 => {
-                    l.kind = ml_light_kind::Sphere as u32;
-                    l.radius = r.range(0.05, 0.4);
+                0 => ml_point_light {
+                    kind: ml_light_kind::Point as u32,
+                    position: p,
+                    intensity: e,
                 }
-                _ => {
-                    l.kind = ml_light_kind::Disk as u32;
-                    l.direction = v3(0.0, 0.0, -1.0);
-                    l.radius = r.range(0.1, 0.5);
+                .into(),
+                1 => ml_sphere_light {
+                    kind: ml_light_kind::Sphere as u32,
+                    center: p,
+                    radius: r.range(0.05, 0.4),
+                    radiance: e,
                 }
+                .into(),
+                _ => ml_disk_light {
+                    kind: ml_light_kind::Disk as u32,
+                    center: p,
+                    normal: v3(0.0, 0.0, -1.0),
+                    radius: r.range(0.1, 0.5),
+                    radiance: e,
+                    two_sided: 0,
+                }
+                .into(),
             }
-            l
         })
         .collect()
 }

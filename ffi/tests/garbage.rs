@@ -150,28 +150,84 @@ fn arbitrary_lights_points_and_numbers() {
                     z: b.val(-4.0, 4.0, wild),
                 };
                 let half = b.val(0.1, 3.0, wild);
-                ml_light {
-                    // Distant lights one in 128 (a set holds at most 16 lights at infinity).
-                    // In the wild rounds one kind in ten is any number.
-                    kind: if wild > 0 && b.next() % 10 == 0 {
-                        b.next() as u32
-                    } else {
-                        match (b.next() % 128) as u32 {
-                            126 => 6,
-                            k => k % 6,
-                        }
-                    },
-                    two_sided: (b.next() % 2) as u32,
-                    position: v3(&mut b),
-                    direction: v3(&mut b),
-                    vertex2: v3(&mut b),
-                    power: {
-                        let v = b.val(0.0, 2.0, wild);
-                        ml_rgb { r: v, g: v, b: v }
-                    },
-                    radius: b.val(0.01, 1.0, wild),
-                    half_angle: half,
-                    falloff_start: half * b.val(0.0, 1.0, wild),
+                // Distant lights one in 128 (a set holds at most 16 lights at infinity).
+                // In the wild rounds one kind in ten is any number.
+                let kind = if wild > 0 && b.next() % 10 == 0 {
+                    b.next() as u32
+                } else {
+                    match (b.next() % 128) as u32 {
+                        126 => 6,
+                        k => k % 6,
+                    }
+                };
+                let two_sided = (b.next() % 2) as u32;
+                let (p, d, v2) = (v3(&mut b), v3(&mut b), v3(&mut b));
+                let e = {
+                    let v = b.val(0.0, 2.0, wild);
+                    ml_rgb { r: v, g: v, b: v }
+                };
+                let radius = b.val(0.01, 1.0, wild);
+                let falloff_start = half * b.val(0.0, 1.0, wild);
+                match kind {
+                    0 => ml_point_light {
+                        kind,
+                        position: p,
+                        intensity: e,
+                    }
+                    .into(),
+                    1 => ml_spot_light {
+                        kind,
+                        position: p,
+                        axis: d,
+                        intensity: e,
+                        half_angle: half,
+                        falloff_start,
+                    }
+                    .into(),
+                    2 => ml_sphere_light {
+                        kind,
+                        center: p,
+                        radius,
+                        radiance: e,
+                    }
+                    .into(),
+                    3 => ml_disk_light {
+                        kind,
+                        center: p,
+                        normal: d,
+                        radius,
+                        radiance: e,
+                        two_sided,
+                    }
+                    .into(),
+                    4 => ml_triangle_light {
+                        kind,
+                        v0: p,
+                        v1: d,
+                        v2,
+                        radiance: e,
+                        two_sided,
+                    }
+                    .into(),
+                    5 => ml_vpl_light {
+                        kind,
+                        position: p,
+                        normal: d,
+                        intensity: e,
+                    }
+                    .into(),
+                    6 => ml_distant_light {
+                        kind,
+                        direction: d,
+                        angular_radius: half,
+                        irradiance: e,
+                    }
+                    .into(),
+                    _ => {
+                        let mut l = ml_light::default();
+                        l.kind = kind;
+                        l
+                    }
                 }
             })
             .collect();

@@ -18,12 +18,12 @@ fn v3(x: f32, y: f32, z: f32) -> ml_vec3 {
 /// A point light at (0, 0, 1) of energy `energy` (W; 4π times its intensity).
 fn point(energy: f64) -> ml_light {
     let i = (energy / (4.0 * std::f64::consts::PI)) as f32;
-    ml_light {
+    ml_point_light {
         kind: ml_light_kind::Point as u32,
         position: v3(0.0, 0.0, 1.0),
-        power: ml_rgb { r: i, g: i, b: i },
-        ..ml_light::default()
+        intensity: ml_rgb { r: i, g: i, b: i },
     }
+    .into()
 }
 
 /// The TL and BL pmfs of the weak light (index 1) of a tree of two point lights at one

@@ -101,37 +101,66 @@ static uint32_t bits(float f) {
 /* Light i of a seeded set: every kind in turn, above the plane z = 0 region. */
 static ml_light make_light(rng *r, size_t i) {
     ml_light l;
+    ml_vec3 p;
+    ml_rgb e;
     memset(&l, 0, sizeof l);
     l.kind = (uint32_t)(i % 6);
-    l.position = v3(rng_range(r, -10, 10), rng_range(r, -10, 10), rng_range(r, 1, 6));
-    l.power = rgb(rng_range(r, 0.1f, 2.0f), rng_range(r, 0.1f, 2.0f), rng_range(r, 0.1f, 2.0f));
+    p = v3(rng_range(r, -10, 10), rng_range(r, -10, 10), rng_range(r, 1, 6));
+    e = rgb(rng_range(r, 0.1f, 2.0f), rng_range(r, 0.1f, 2.0f), rng_range(r, 0.1f, 2.0f));
     switch (l.kind) {
+    case ML_LIGHT_KIND_POINT:
+        l.point.position = p;
+        l.point.intensity = e;
+        break;
     case ML_LIGHT_KIND_SPOT:
-        l.direction = v3(rng_range(r, -0.5f, 0.5f), rng_range(r, -0.5f, 0.5f), -1.0f);
-        l.half_angle = rng_range(r, 0.2f, 1.2f);
-        l.falloff_start = l.half_angle * 0.5f;
+        l.spot.position = p;
+        l.spot.intensity = e;
+        l.spot.axis = v3(rng_range(r, -0.5f, 0.5f), rng_range(r, -0.5f, 0.5f), -1.0f);
+        l.spot.half_angle = rng_range(r, 0.2f, 1.2f);
+        l.spot.falloff_start = l.spot.half_angle * 0.5f;
         break;
     case ML_LIGHT_KIND_SPHERE:
-        l.radius = rng_range(r, 0.02f, 0.2f);
+        l.sphere.center = p;
+        l.sphere.radiance = e;
+        l.sphere.radius = rng_range(r, 0.02f, 0.2f);
         break;
     case ML_LIGHT_KIND_DISK:
-        l.direction = v3(rng_range(r, -0.3f, 0.3f), rng_range(r, -0.3f, 0.3f), -1.0f);
-        l.radius = rng_range(r, 0.05f, 0.3f);
-        l.two_sided = (uint32_t)(i / 6 % 2);
+        l.disk.center = p;
+        l.disk.radiance = e;
+        l.disk.normal = v3(rng_range(r, -0.3f, 0.3f), rng_range(r, -0.3f, 0.3f), -1.0f);
+        l.disk.radius = rng_range(r, 0.05f, 0.3f);
+        l.disk.two_sided = (uint32_t)(i / 6 % 2);
         break;
     case ML_LIGHT_KIND_TRIANGLE:
-        l.direction = v3(l.position.x + rng_range(r, 0.1f, 0.4f), l.position.y,
-                         l.position.z + rng_range(r, -0.1f, 0.1f));
-        l.vertex2 = v3(l.position.x, l.position.y + rng_range(r, 0.1f, 0.4f), l.position.z);
-        l.two_sided = (uint32_t)(i / 6 % 2);
+        l.triangle.v0 = p;
+        l.triangle.radiance = e;
+        l.triangle.v1 = v3(p.x + rng_range(r, 0.1f, 0.4f), p.y, p.z + rng_range(r, -0.1f, 0.1f));
+        l.triangle.v2 = v3(p.x, p.y + rng_range(r, 0.1f, 0.4f), p.z);
+        l.triangle.two_sided = (uint32_t)(i / 6 % 2);
         break;
     case ML_LIGHT_KIND_VPL:
-        l.direction = v3(rng_range(r, -0.5f, 0.5f), rng_range(r, -0.5f, 0.5f), -1.0f);
+        l.vpl.position = p;
+        l.vpl.intensity = e;
+        l.vpl.normal = v3(rng_range(r, -0.5f, 0.5f), rng_range(r, -0.5f, 0.5f), -1.0f);
         break;
     default:
         break;
     }
     return l;
+}
+
+/* The first point of a light (position, centre or vertex 0; a distant light's direction),
+ * for scenarios that move a light. */
+static ml_vec3 *light_origin(ml_light *l) {
+    switch (l->kind) {
+    case ML_LIGHT_KIND_SPOT: return &l->spot.position;
+    case ML_LIGHT_KIND_SPHERE: return &l->sphere.center;
+    case ML_LIGHT_KIND_DISK: return &l->disk.center;
+    case ML_LIGHT_KIND_TRIANGLE: return &l->triangle.v0;
+    case ML_LIGHT_KIND_VPL: return &l->vpl.position;
+    case ML_LIGHT_KIND_DISTANT: return &l->distant.direction;
+    default: return &l->point.position;
+    }
 }
 
 static ml_light *make_lights(size_t n, uint64_t seed) {
@@ -342,15 +371,64 @@ static void sample_job_run(sample_job *job) {
 
 /* ---- pmf consistency with the Rust core: a dump the Rust harness replays -------------- */
 
+/* A light as kind, two_sided, then 15 numbers: a point (position, centre or vertex 0), a
+ * direction (axis, normal or vertex 1), vertex 2, the intensity, radiance or irradiance, the
+ * radius, the half-angle (or angular radius) and the falloff start. */
 static void dump_light(FILE *f, const ml_light *l) {
+    ml_vec3 z = {0, 0, 0}, p = z, d = z, v2 = z;
+    ml_rgb e = {0, 0, 0};
+    float radius = 0, half = 0, falloff = 0;
+    uint32_t two = 0;
+    switch (l->kind) {
+    case ML_LIGHT_KIND_POINT:
+        p = l->point.position;
+        e = l->point.intensity;
+        break;
+    case ML_LIGHT_KIND_SPOT:
+        p = l->spot.position;
+        d = l->spot.axis;
+        e = l->spot.intensity;
+        half = l->spot.half_angle;
+        falloff = l->spot.falloff_start;
+        break;
+    case ML_LIGHT_KIND_SPHERE:
+        p = l->sphere.center;
+        e = l->sphere.radiance;
+        radius = l->sphere.radius;
+        break;
+    case ML_LIGHT_KIND_DISK:
+        p = l->disk.center;
+        d = l->disk.normal;
+        e = l->disk.radiance;
+        radius = l->disk.radius;
+        two = l->disk.two_sided;
+        break;
+    case ML_LIGHT_KIND_TRIANGLE:
+        p = l->triangle.v0;
+        d = l->triangle.v1;
+        v2 = l->triangle.v2;
+        e = l->triangle.radiance;
+        two = l->triangle.two_sided;
+        break;
+    case ML_LIGHT_KIND_VPL:
+        p = l->vpl.position;
+        d = l->vpl.normal;
+        e = l->vpl.intensity;
+        break;
+    case ML_LIGHT_KIND_DISTANT:
+        d = l->distant.direction;
+        e = l->distant.irradiance;
+        half = l->distant.angular_radius;
+        break;
+    default:
+        break;
+    }
     fprintf(f,
             "L %u %u %08x %08x %08x %08x %08x %08x %08x %08x %08x %08x %08x %08x %08x %08x "
             "%08x\n",
-            (unsigned)l->kind, (unsigned)l->two_sided, bits(l->position.x), bits(l->position.y),
-            bits(l->position.z), bits(l->direction.x), bits(l->direction.y), bits(l->direction.z),
-            bits(l->vertex2.x), bits(l->vertex2.y), bits(l->vertex2.z), bits(l->power.r),
-            bits(l->power.g), bits(l->power.b), bits(l->radius), bits(l->half_angle),
-            bits(l->falloff_start));
+            (unsigned)l->kind, (unsigned)two, bits(p.x), bits(p.y), bits(p.z), bits(d.x),
+            bits(d.y), bits(d.z), bits(v2.x), bits(v2.y), bits(v2.z), bits(e.r), bits(e.g),
+            bits(e.b), bits(radius), bits(half), bits(falloff));
 }
 
 static void dump_tl(FILE *f, char tag, const ml_tl_point *p, uint32_t x, uint32_t light, float pmf) {
@@ -548,13 +626,13 @@ static void scenario_cache(const ml_tree *tree, const ml_light *lights, size_t n
     }
     /* The wrong lights: the first mismatch is named. */
     memcpy(wrong, lights, n * sizeof(ml_light));
-    wrong[123].position.z += 1000;
+    light_origin(&wrong[123])->z += 1000;
     CHECK(ml_tree_load_with_lights(buf, size, wrong, n, NULL, &bad) == ML_ERR_FORMAT && bad == NULL);
     CHECK(message_has("lights[123] lies outside its slot's bounds"));
     wrong[123] = lights[123];
     CHECK(ml_tree_load_with_lights(buf, size, lights, n - 1, NULL, &bad) == ML_ERR_FORMAT);
     CHECK(message_has("count is 9999, the tree was built from 10000 lights"));
-    wrong[100].position.x = nextafterf(wrong[100].position.x, (float)INFINITY);
+    light_origin(&wrong[100])->x = nextafterf(light_origin(&wrong[100])->x, (float)INFINITY);
     CHECK(ml_tree_load_with_lights(buf, size, wrong, n, NULL, &bad) == ML_ERR_FORMAT);
     CHECK(message_has("lights[100]") || message_has("lights[64..128] differ"));
     wrong[100] = lights[100];
@@ -678,6 +756,23 @@ static void cut_check_mean(double sum, double sum2, long n, double exact, const 
     }
 }
 
+/* The uniform grey sky of scenario_cut_infinite (radiance in *user), sampled uniformly over
+ * the sphere. */
+static int32_t grey_sky_sample(void *user, float u0, float u1, ml_vec3 *d, ml_rgb *radiance,
+                               float *pdf) {
+    float z = 1 - 2 * u0, r = sqrtf(1 - z * z > 0 ? 1 - z * z : 0), phi = 2 * (float)ML_PI * u1;
+    *d = v3(r * cosf(phi), r * sinf(phi), z);
+    *radiance = grey(*(const float *)user);
+    *pdf = 1 / (4 * (float)ML_PI);
+    return 1;
+}
+
+static void grey_sky_eval(void *user, ml_vec3 d, ml_rgb *radiance, float *pdf) {
+    (void)d;
+    *radiance = grey(*(const float *)user);
+    *pdf = 1 / (4 * (float)ML_PI);
+}
+
 /* A host's own sampling of the cuts of a tree with a sun, a sky and a sphere light on a
  * Lambert plane of albedo 0.8: the cuts hold the sun and the sky as clusters of their own,
  * and one light of the whole cut (ml_cut_sample) or one per cluster (ml_cut_sample_clusters)
@@ -685,8 +780,9 @@ static void cut_check_mean(double sum, double sum2, long n, double exact, const 
 static void scenario_cut_infinite(void) {
     const float rho = 0.8f, sky_l = 0.3f, sun_e = 2.0f, sph_l = 4.0f, sph_r = 0.3f;
     const ml_vec3 sun_dir = {0.3f, -0.2f, 1.0f}, c = {0.5f, -0.3f, 2.0f};
-    ml_light ls[3];
-    ml_tree *tree;
+    ml_light ls[2];
+    ml_environment env;
+    ml_tree *tree = NULL;
     ml_cut *cut = NULL;
     ml_shading_point sp;
     ml_tl_point tp;
@@ -697,20 +793,24 @@ static void scenario_cut_infinite(void) {
     rng r;
     r.s = 4242;
     memset(ls, 0, sizeof ls);
-    ls[0].kind = ML_LIGHT_KIND_DISTANT;
-    ls[0].direction = sun_dir;
-    ls[0].half_angle = 0.0047f;
-    ls[0].power = grey(sun_e);
-    ls[1].kind = ML_LIGHT_KIND_SPHERE;
-    ls[1].position = c;
-    ls[1].radius = sph_r;
-    ls[1].power = grey(sph_l);
-    ls[2].kind = ML_LIGHT_KIND_ENVIRONMENT;
-    for (i = 0; i < 6; i++) ls[2].irradiance_bounds[i] = (float)(ML_PI * sky_l * 1.0001);
+    ls[0].distant.kind = ML_LIGHT_KIND_DISTANT;
+    ls[0].distant.direction = sun_dir;
+    ls[0].distant.angular_radius = 0.0047f;
+    ls[0].distant.irradiance = grey(sun_e);
+    ls[1].sphere.kind = ML_LIGHT_KIND_SPHERE;
+    ls[1].sphere.center = c;
+    ls[1].sphere.radius = sph_r;
+    ls[1].sphere.radiance = grey(sph_l);
+    /* The sky, light 2: one past the array. */
+    memset(&env, 0, sizeof env);
+    env.sample = grey_sky_sample;
+    env.eval = grey_sky_eval;
+    env.user_data = (void *)&sky_l;
+    for (i = 0; i < 6; i++) env.irradiance_bounds[i] = (float)(ML_PI * sky_l * 1.0001);
     d = sqrt(0.25 + 0.09 + 4.0);
     exact = rho / ML_PI * sun_e / sqrt(0.09 + 0.04 + 1.0) + rho * sky_l +
             rho * sph_l * sph_r * sph_r / (d * d) * 2.0 / d;
-    tree = build_tree(ls, 3);
+    OK(ml_tree_build(ls, 2, &env, NULL, &tree));
     {
         /* The sun and the sky are sampled lights too. */
         ml_tree_statistics st;
@@ -723,6 +823,7 @@ static void scenario_cut_infinite(void) {
     sp.material = lambert(rho);
     tp.position = v3(0, 0, 0);
     tp.normal = v3(0, 0, 1);
+    tp.receiver = ML_RECEIVER_REFLECTIVE;
     OK(ml_cut_create(&cut));
     for (pass = 0; pass < 2; pass++) {
         float us[ML_CUT_CAPACITY];
@@ -778,7 +879,7 @@ static void scenario_cut_infinite(void) {
     }
     OK(ml_tree_free(tree));
     /* A sun below the horizon alone. */
-    ls[0].direction = v3(0.2f, 0, -1);
+    ls[0].distant.direction = v3(0.2f, 0, -1);
     tree = build_tree(ls, 1);
     OK(ml_cut_build_split(cut, tree, &tp, NULL));
     OK(ml_cut_size(cut, &size));
@@ -807,10 +908,10 @@ static void scenario_narrow_sun(void) {
         ml_uniforms u = uniforms_of(&r);
         r.s = 777;
         memset(&sun, 0, sizeof sun);
-        sun.kind = ML_LIGHT_KIND_DISTANT;
-        sun.direction = v3(0.3f, -0.2f, 1.0f);
-        sun.half_angle = gammas[g];
-        sun.power = grey(es[g]);
+        sun.distant.kind = ML_LIGHT_KIND_DISTANT;
+        sun.distant.direction = v3(0.3f, -0.2f, 1.0f);
+        sun.distant.angular_radius = gammas[g];
+        sun.distant.irradiance = grey(es[g]);
         tree = build_tree(&sun, 1);
         OK(ml_light_sample_point(tree, 0, v3(0, 0, 0), 0.3f, 0.7f, &p));
         CHECK(p.pdf == 1 && p.delta == 1 && p.radiance.r == es[g]);
@@ -909,9 +1010,9 @@ static void scenario_receiver(void) {
     size_t size = 99;
     int i;
     memset(&l, 0, sizeof l);
-    l.kind = ML_LIGHT_KIND_POINT;
-    l.position = v3(0.2f, 0.1f, -1);
-    l.power = grey(1);
+    l.point.kind = ML_LIGHT_KIND_POINT;
+    l.point.position = v3(0.2f, 0.1f, -1);
+    l.point.intensity = grey(1);
     OK(ml_tree_build(&l, 1, NULL, NULL, &tree));
     OK(ml_cut_create(&cut));
     for (i = 0; i < 3; i++) {
@@ -956,28 +1057,35 @@ static void direct_scene(ml_light *ls, float rho, double exact[3]) {
     exact[0] = exact[1] = exact[2] = 0;
     for (i = 0; i < DIRECT_LIGHTS; i++) {
         ml_light l;
+        ml_vec3 p;
+        ml_rgb e;
+        float radius = 0;
         double d, cos_t, power[3];
         memset(&l, 0, sizeof l);
-        l.position = v3(rng_range(&r, -3, 3), rng_range(&r, -3, 3), rng_range(&r, 1.5f, 4));
-        d = sqrt((double)l.position.x * l.position.x + (double)l.position.y * l.position.y +
-                 (double)l.position.z * l.position.z);
-        cos_t = l.position.z / d;
+        p = v3(rng_range(&r, -3, 3), rng_range(&r, -3, 3), rng_range(&r, 1.5f, 4));
+        d = sqrt((double)p.x * p.x + (double)p.y * p.y + (double)p.z * p.z);
+        cos_t = p.z / d;
         if (i % 5 == 4) {
-            l.kind = ML_LIGHT_KIND_POINT;
-            l.power = rgb(rng_range(&r, 0.5f, 2), rng_range(&r, 0.5f, 2), rng_range(&r, 0.5f, 2));
+            e = rgb(rng_range(&r, 0.5f, 2), rng_range(&r, 0.5f, 2), rng_range(&r, 0.5f, 2));
+            l.point.kind = ML_LIGHT_KIND_POINT;
+            l.point.position = p;
+            l.point.intensity = e;
         } else {
-            l.kind = ML_LIGHT_KIND_SPHERE;
-            l.radius = rng_range(&r, 0.05f, 0.2f);
-            l.power = rgb(rng_range(&r, 0.5f, 3), rng_range(&r, 0.5f, 3), rng_range(&r, 0.5f, 3));
+            radius = rng_range(&r, 0.05f, 0.2f);
+            e = rgb(rng_range(&r, 0.5f, 3), rng_range(&r, 0.5f, 3), rng_range(&r, 0.5f, 3));
+            l.sphere.kind = ML_LIGHT_KIND_SPHERE;
+            l.sphere.center = p;
+            l.sphere.radius = radius;
+            l.sphere.radiance = e;
         }
-        power[0] = l.power.r;
-        power[1] = l.power.g;
-        power[2] = l.power.b;
+        power[0] = e.r;
+        power[1] = e.g;
+        power[2] = e.b;
         for (c = 0; c < 3; c++) {
             if (l.kind == ML_LIGHT_KIND_POINT)
                 exact[c] += rho / ML_PI * power[c] * cos_t / (d * d);
             else
-                exact[c] += rho * power[c] * ((double)l.radius * l.radius) / (d * d) * cos_t;
+                exact[c] += rho * power[c] * ((double)radius * radius) / (d * d) * cos_t;
         }
         ls[i] = l;
     }
@@ -1363,10 +1471,10 @@ static void infinite_scene(ml_light *ls, float rho, double exact[3]) {
     int c;
     direct_scene(ls, rho, exact);
     memset(&sun, 0, sizeof sun);
-    sun.kind = ML_LIGHT_KIND_DISTANT;
-    sun.direction = v3(0.4f, -0.3f, 1);
-    sun.half_angle = 0.05f;
-    sun.power = rgb(e[0], e[1], e[2]);
+    sun.distant.kind = ML_LIGHT_KIND_DISTANT;
+    sun.distant.direction = v3(0.4f, -0.3f, 1);
+    sun.distant.angular_radius = 0.05f;
+    sun.distant.irradiance = rgb(e[0], e[1], e[2]);
     len = sqrt(0.16 + 0.09 + 1.0);
     cos_t = 1.0 / len;
     for (c = 0; c < 3; c++) exact[c] += rho / ML_PI * e[c] * cos_t + rho * SKY_L[c];
@@ -1774,15 +1882,11 @@ static void scenario_vpl(void) {
         if (d.accepted) {
             CHECK(d.probability > 0 && d.probability <= 1);
             CHECK(fabs(d.vpl.intensity.g - c.intensity.g / d.probability) <= 1e-5 * d.vpl.intensity.g);
-            accepted[n_acc].kind = ML_LIGHT_KIND_VPL;
-            accepted[n_acc].two_sided = 0;
-            accepted[n_acc].position = d.vpl.position;
-            accepted[n_acc].direction = d.vpl.normal;
-            accepted[n_acc].vertex2 = v3(0, 0, 0);
-            accepted[n_acc].power = d.vpl.intensity;
-            accepted[n_acc].radius = 0;
-            accepted[n_acc].half_angle = 0;
-            accepted[n_acc].falloff_start = 0;
+            memset(&accepted[n_acc], 0, sizeof accepted[n_acc]);
+            accepted[n_acc].vpl.kind = ML_LIGHT_KIND_VPL;
+            accepted[n_acc].vpl.position = d.vpl.position;
+            accepted[n_acc].vpl.normal = d.vpl.normal;
+            accepted[n_acc].vpl.intensity = d.vpl.intensity;
             n_acc++;
         }
     }
@@ -1950,43 +2054,50 @@ static void scenario_bad_input(const ml_tree *tree, size_t n) {
     /* tree build: every kind of bad light */
     memset(ls, 0, sizeof ls);
     for (i = 0; i < 4; i++) {
-        ls[i].kind = ML_LIGHT_KIND_SPHERE;
-        ls[i].position = v3((float)i, 0, 2);
-        ls[i].radius = 0.1f;
-        ls[i].power = grey(1);
+        ls[i].sphere.kind = ML_LIGHT_KIND_SPHERE;
+        ls[i].sphere.center = v3((float)i, 0, 2);
+        ls[i].sphere.radius = 0.1f;
+        ls[i].sphere.radiance = grey(1);
     }
     BAD_NULL(ml_tree_build, ml_tree_build(NULL, 3, NULL, NULL, &t), "`lights` is NULL");
     BAD_NULL(ml_tree_build, ml_tree_build(ls, 4, NULL, NULL, NULL), "`out` is NULL");
-    ls[1].position.y = (float)NAN;
+    ls[1].sphere.center.y = (float)NAN;
     BAD_VALUE(ml_tree_build, ml_tree_build(ls, 4, NULL, NULL, &t), ML_ERR_INVALID_ARGUMENT,
-              "lights[1].position (the sphere light's centre) is NaN or infinite");
-    ls[1].position.y = 0;
-    ls[2].power = rgb(1, -1, 1);
+              "lights[1].sphere.center is NaN or infinite");
+    ls[1].sphere.center.y = 0;
+    ls[2].sphere.radiance = rgb(1, -1, 1);
     BAD_VALUE(ml_tree_build, ml_tree_build(ls, 4, NULL, NULL, &t), ML_ERR_INVALID_ARGUMENT,
-              "lights[2].power (the sphere light's radiance) is negative (got -1)");
-    ls[2].power = grey(1);
-    ls[3].radius = -1;
+              "lights[2].sphere.radiance is negative (got -1)");
+    ls[2].sphere.radiance = grey(1);
+    ls[3].sphere.radius = -1;
     BAD_VALUE(ml_tree_build, ml_tree_build(ls, 4, NULL, NULL, &t), ML_ERR_INVALID_ARGUMENT,
-              "lights[3].radius must be positive (got -1)");
-    ls[3].radius = 0.1f;
+              "lights[3].sphere.radius must be positive (got -1)");
+    ls[3].sphere.radius = 0.1f;
     ls[0].kind = 9;
     BAD_VALUE(ml_tree_build, ml_tree_build(ls, 4, NULL, NULL, &t), ML_ERR_INVALID_ARGUMENT,
               "lights[0].kind: 9 is not an ml_light_kind");
-    ls[0].kind = ML_LIGHT_KIND_DISK;
-    ls[0].direction = v3(0, 0, -1);
-    ls[0].two_sided = 2;
+    memset(&ls[0], 0, sizeof ls[0]);
+    ls[0].disk.kind = ML_LIGHT_KIND_DISK;
+    ls[0].disk.center = v3(0, 0, 2);
+    ls[0].disk.normal = v3(0, 0, -1);
+    ls[0].disk.radius = 0.1f;
+    ls[0].disk.radiance = grey(1);
+    ls[0].disk.two_sided = 2;
     BAD_VALUE(ml_tree_build, ml_tree_build(ls, 4, NULL, NULL, &t), ML_ERR_INVALID_ARGUMENT,
-              "lights[0].two_sided must be 0 or 1");
-    ls[0].two_sided = 0;
-    ls[0].direction = v3(0, 0, 0);
+              "lights[0].disk.two_sided must be 0 or 1");
+    ls[0].disk.two_sided = 0;
+    ls[0].disk.normal = v3(0, 0, 0);
     BAD_VALUE(ml_tree_build, ml_tree_build(ls, 4, NULL, NULL, &t), ML_ERR_INVALID_ARGUMENT,
-              "lights[0].direction (the disk light's normal) has zero length");
-    ls[0].kind = ML_LIGHT_KIND_SPOT;
-    ls[0].direction = v3(0, 0, -1);
-    ls[0].half_angle = 4;
+              "lights[0].disk.normal has zero length");
+    memset(&ls[0], 0, sizeof ls[0]);
+    ls[0].spot.kind = ML_LIGHT_KIND_SPOT;
+    ls[0].spot.position = v3(0, 0, 2);
+    ls[0].spot.axis = v3(0, 0, -1);
+    ls[0].spot.intensity = grey(1);
+    ls[0].spot.half_angle = 4;
     BAD_VALUE(ml_tree_build, ml_tree_build(ls, 4, NULL, NULL, &t), ML_ERR_INVALID_ARGUMENT,
-              "lights[0].half_angle must be in (0, pi] (got 4)");
-    ls[0].half_angle = 0.5f;
+              "lights[0].spot.half_angle must be in (0, pi] (got 4)");
+    ls[0].spot.half_angle = 0.5f;
     BAD_VALUE(ml_tree_build, ml_tree_build(ls, (size_t)-1, NULL, NULL, &t), ML_ERR_INVALID_ARGUMENT,
               "overflow");
     bo.buckets = 5;
@@ -1999,11 +2110,10 @@ static void scenario_bad_input(const ml_tree *tree, size_t n) {
              "`out` is NULL");
     BAD_VALUE(ml_tree_build_parallel, ml_tree_build_parallel(ls, 4, NULL, NULL, 5000, &t),
               ML_ERR_INVALID_ARGUMENT, "threads must be at most 1024 (got 5000)");
-    ls[2].power = rgb(1, -1, 1);
+    ls[2].sphere.radiance = rgb(1, -1, 1);
     BAD_VALUE(ml_tree_build_parallel, ml_tree_build_parallel(ls, 4, NULL, NULL, 2, &t),
-              ML_ERR_INVALID_ARGUMENT,
-              "lights[2].power (the sphere light's radiance) is negative (got -1)");
-    ls[2].power = grey(1);
+              ML_ERR_INVALID_ARGUMENT, "lights[2].sphere.radiance is negative (got -1)");
+    ls[2].sphere.radiance = grey(1);
     CHECK(t == NULL);
     bo.buckets = 32;
     OK(ml_tree_build(ls, 4, NULL, &bo, &t));
@@ -2036,15 +2146,14 @@ static void scenario_bad_input(const ml_tree *tree, size_t n) {
              "`out` is NULL");
     BAD_VALUE(ml_tree_load_with_lights, ml_tree_load_with_lights(bytes, sz, ls, 3, NULL, &t2),
               ML_ERR_FORMAT, "lights: count is 3, the tree was built from 4 lights");
-    ls[1].position.y = (float)NAN;
+    ls[1].sphere.center.y = (float)NAN;
     BAD_VALUE(ml_tree_load_with_lights, ml_tree_load_with_lights(bytes, sz, ls, 4, NULL, &t2),
-              ML_ERR_INVALID_ARGUMENT,
-              "lights[1].position (the sphere light's centre) is NaN or infinite");
-    ls[1].position.y = 0;
-    ls[2].position.z += 5;
+              ML_ERR_INVALID_ARGUMENT, "lights[1].sphere.center is NaN or infinite");
+    ls[1].sphere.center.y = 0;
+    ls[2].sphere.center.z += 5;
     BAD_VALUE(ml_tree_load_with_lights, ml_tree_load_with_lights(bytes, sz, ls, 4, NULL, &t2),
               ML_ERR_FORMAT, "lights[2] lies outside its slot's bounds");
-    ls[2].position.z -= 5;
+    ls[2].sphere.center.z -= 5;
     bytes[sz / 2] ^= 4;
     BAD_VALUE(ml_tree_load_with_lights, ml_tree_load_with_lights(bytes, sz, ls, 4, NULL, &t2),
               ML_ERR_FORMAT, "bytes: tree bytes are corrupt: their checksum is");
@@ -2055,18 +2164,23 @@ static void scenario_bad_input(const ml_tree *tree, size_t n) {
     t2 = NULL;
     free(bytes);
     /* The limits, named by their macros with the field's own value. */
-    ls[0].kind = ML_LIGHT_KIND_POINT;
-    ls[0].power = grey(5e25f / (4 * (float)ML_PI));
-    BAD_VALUE(ml_tree_build, ml_tree_build(ls, 4, NULL, NULL, &t2), ML_ERR_INVALID_ARGUMENT,
-              "lights[0].power (the point light's intensity) gives an energy of 5e25 W, above "
-              "ML_MAX_LIGHT_ENERGY (1e24) (got 3.9788736e24)");
-    CHECK(5e25 > ML_MAX_LIGHT_ENERGY);
-    ls[0].power = grey(1);
-    ls[0].position.x = 2 * ML_MAX_COORDINATE;
-    BAD_VALUE(ml_tree_build, ml_tree_build(ls, 4, NULL, NULL, &t2), ML_ERR_INVALID_ARGUMENT,
-              "lights[0].position exceeds ML_MAX_COORDINATE (1e15) in magnitude (got 2e15)");
-    ls[0].position.x = 0;
-    ls[0].kind = ML_LIGHT_KIND_SPOT;
+    {
+        ml_light spot = ls[0];
+        memset(&ls[0], 0, sizeof ls[0]);
+        ls[0].point.kind = ML_LIGHT_KIND_POINT;
+        ls[0].point.position = v3(0, 0, 2);
+        ls[0].point.intensity = grey(5e25f / (4 * (float)ML_PI));
+        BAD_VALUE(ml_tree_build, ml_tree_build(ls, 4, NULL, NULL, &t2), ML_ERR_INVALID_ARGUMENT,
+                  "lights[0].point.intensity gives an energy of 5e25 W, above "
+                  "ML_MAX_LIGHT_ENERGY (1e24) (got 3.9788736e24)");
+        CHECK(5e25 > ML_MAX_LIGHT_ENERGY);
+        ls[0].point.intensity = grey(1);
+        ls[0].point.position.x = 2 * ML_MAX_COORDINATE;
+        BAD_VALUE(ml_tree_build, ml_tree_build(ls, 4, NULL, NULL, &t2), ML_ERR_INVALID_ARGUMENT,
+                  "lights[0].point.position exceeds ML_MAX_COORDINATE (1e15) in magnitude "
+                  "(got 2e15)");
+        ls[0] = spot;
+    }
     CHECK(t2 == NULL);
 
     /* sampling and pmfs */

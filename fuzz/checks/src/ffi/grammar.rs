@@ -241,46 +241,133 @@ impl Index {
     }
 }
 
-/// A light descriptor (`ml_light`), every field drawn.
+/// A light descriptor (`ml_light`), every field drawn; the fields feed the member of the
+/// kind (`Drawn::ml`).
 #[derive(Arbitrary, Debug, Clone, Copy)]
 pub struct Light {
     /// An `ml_light_kind` (seven values), or 7: the first light of kind 7 of a build's
     /// lights is its environment instead (`EnvSpec::from_light`: bounds, callbacks and values
     /// from the other fields), any further one stays in the array (invalid).
     pub kind: Enum,
-    /// 0 or 1, or out of range.
+    /// 0 or 1, or out of range (disk and triangle lights).
     pub two_sided: Enum,
     /// Position, centre or vertex 0.
     pub position: V3,
-    /// Axis, normal or vertex 1.
+    /// Axis, normal, vertex 1 or a distant light's direction.
     pub direction: V3,
     /// Vertex 2.
     pub vertex2: V3,
-    /// Power.
+    /// Intensity, radiance or irradiance (grey).
     pub power: F,
     /// Radius.
     pub radius: F,
-    /// Spot half-angle.
+    /// Spot half-angle, or a distant light's angular radius.
     pub half_angle: F,
     /// Spot falloff start, as a fraction of the half-angle (or raw).
     pub falloff_start: F,
 }
 
+/// The values a [`Light`] draws, each kind's fields among them.
+#[derive(Debug, Clone, Copy)]
+pub(super) struct Drawn {
+    pub(super) kind: u32,
+    pub(super) two_sided: u32,
+    pub(super) position: ml_vec3,
+    pub(super) direction: ml_vec3,
+    pub(super) vertex2: ml_vec3,
+    pub(super) power: f32,
+    pub(super) radius: f32,
+    pub(super) half_angle: f32,
+    pub(super) falloff_start: f32,
+}
+
 impl Light {
-    pub(super) fn ml(&self) -> ml_light {
-        ml_light {
+    /// The drawn values.
+    pub(super) fn drawn(&self) -> Drawn {
+        Drawn {
             kind: self.kind.value(8),
             two_sided: self.two_sided.value(2),
             position: v3(&self.position),
             direction: v3(&self.direction),
             vertex2: v3(&self.vertex2),
-            power: grey(self.power.value()),
+            power: self.power.value(),
             radius: self.radius.value(),
             half_angle: self.half_angle.value(),
             falloff_start: match self.falloff_start {
                 F::Unit(_) => self.falloff_start.value() * self.half_angle.value(),
                 f => f.value(),
             },
+        }
+    }
+}
+
+impl Drawn {
+    /// The descriptor: the drawn values in the member of the kind (a point, spot or VPL
+    /// light's position, a sphere or disk's centre, vertex 0; a spot's axis, a disk or VPL's
+    /// normal, vertex 1, a distant light's direction; the power its intensity, radiance or
+    /// irradiance; a distant light's angular radius the half-angle); any other kind alone.
+    pub(super) fn ml(&self) -> ml_light {
+        let (kind, p, d, e) = (self.kind, self.position, self.direction, grey(self.power));
+        match kind {
+            0 => ml_point_light {
+                kind,
+                position: p,
+                intensity: e,
+            }
+            .into(),
+            1 => ml_spot_light {
+                kind,
+                position: p,
+                axis: d,
+                intensity: e,
+                half_angle: self.half_angle,
+                falloff_start: self.falloff_start,
+            }
+            .into(),
+            2 => ml_sphere_light {
+                kind,
+                center: p,
+                radius: self.radius,
+                radiance: e,
+            }
+            .into(),
+            3 => ml_disk_light {
+                kind,
+                center: p,
+                normal: d,
+                radius: self.radius,
+                radiance: e,
+                two_sided: self.two_sided,
+            }
+            .into(),
+            4 => ml_triangle_light {
+                kind,
+                v0: p,
+                v1: d,
+                v2: self.vertex2,
+                radiance: e,
+                two_sided: self.two_sided,
+            }
+            .into(),
+            5 => ml_vpl_light {
+                kind,
+                position: p,
+                normal: d,
+                intensity: e,
+            }
+            .into(),
+            6 => ml_distant_light {
+                kind,
+                direction: d,
+                angular_radius: self.half_angle,
+                irradiance: e,
+            }
+            .into(),
+            _ => {
+                let mut l = ml_light::default();
+                l.kind = kind;
+                l
+            }
         }
     }
 }

@@ -4,7 +4,7 @@
 //! (`ml_environment`), whose user data is an [`EnvState`] that lives as long as the harness
 //! (a tree holds its environment, and its estimators call it after the tree is freed).
 
-use super::grammar::{grey, EnvDesc, Uniforms, Visibility, VplVisibility, MAX_LEN};
+use super::grammar::{grey, Drawn, EnvDesc, Uniforms, Visibility, VplVisibility, MAX_LEN};
 use core::ffi::c_void;
 use manylights_ffi::*;
 use std::sync::Mutex;
@@ -176,12 +176,12 @@ impl EnvSpec {
     /// NULL for 248 to 255; radiance from `radius`; radiance and pdf (`half_angle`) as drawn
     /// when `falloff_start` is negative or not finite, else sane (pdf 1/4π); a zero direction
     /// when `position.x` is −1; `misses` from the bits of `position.y`.
-    pub(super) fn from_light(l: &ml_light) -> EnvSpec {
+    pub(super) fn from_light(l: &Drawn) -> EnvSpec {
         let raw = !(l.falloff_start >= 0.0 && l.falloff_start.is_finite());
         let (d, v) = (l.direction, l.vertex2);
         EnvSpec {
             bounds: if l.two_sided % 2 == 0 {
-                [l.power.r; 6]
+                [l.power; 6]
             } else {
                 [d.x, d.y, d.z, v.x, v.y, v.z]
             },

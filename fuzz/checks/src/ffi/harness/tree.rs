@@ -8,8 +8,8 @@
 use super::{message, pick, Env, Harness, Tree};
 use crate::ffi::buffers::{HandleArg, In, Out};
 use crate::ffi::grammar::{
-    indices, numbers, Arg, Bytes, Capacity, Count, Handle, Light, LightsArg, Op, Ptr, Sp, TlPoint,
-    MAX_COMPARE, MAX_LEN,
+    indices, numbers, Arg, Bytes, Capacity, Count, Drawn, Handle, Light, LightsArg, Op, Ptr, Sp,
+    TlPoint, MAX_COMPARE, MAX_LEN,
 };
 use crate::ffi::host::{EnvSpec, EnvState};
 use manylights_ffi::*;
@@ -496,7 +496,7 @@ impl Harness<'_> {
                 for (i, e) in edits.iter().take(MAX_LEN) {
                     if !l.is_empty() {
                         let n = l.len();
-                        l[usize::from(*i) % n] = e.ml();
+                        l[usize::from(*i) % n] = e.drawn().ml();
                         changed = true;
                     }
                 }
@@ -755,12 +755,12 @@ impl BatchOut for f32 {
 /// A build's lights as the harness passes them: the drawn ones (the first [`MAX_LEN`]), the
 /// first of kind 7 taken out as the build's environment ([`EnvSpec::from_light`]).
 fn split_env(lights: &[Light]) -> (Vec<ml_light>, Option<EnvSpec>) {
-    let mut ls: Vec<ml_light> = lights.iter().take(MAX_LEN).map(Light::ml).collect();
+    let mut ls: Vec<Drawn> = lights.iter().take(MAX_LEN).map(Light::drawn).collect();
     let env = ls
         .iter()
         .position(|l| l.kind == 7)
         .map(|i| EnvSpec::from_light(&ls.remove(i)));
-    (ls, env)
+    (ls.iter().map(Drawn::ml).collect(), env)
 }
 
 /// The environment argument of a build or load: `env`'s callbacks passed as `ptr`, NULL
