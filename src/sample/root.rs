@@ -109,6 +109,18 @@ pub(crate) fn tree_floor(p: f32) -> f32 {
     (MIN_PMF / p * (1.0 + 4.0 * f32::EPSILON)).clamp(MIN_PMF, 1.0)
 }
 
+/// `p · pmf` if it is at least [`MIN_PMF`](super::MIN_PMF), else 0: the pmf of a light of the
+/// node tree chosen at the root with probability `p` (a cut's or a sampler's root choice).
+#[inline]
+pub(crate) fn root_product(p: f32, pmf: f32) -> f32 {
+    let q = p * pmf;
+    if q >= super::MIN_PMF {
+        q
+    } else {
+        0.0
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -152,17 +164,5 @@ mod tests {
             assert!((MIN_PMF..=1.0).contains(&f));
             assert!(p * f >= MIN_PMF, "{p}: {f}");
         }
-    }
-}
-
-/// `p · pmf` if it is at least [`MIN_PMF`](super::MIN_PMF), else 0: the pmf of a light of the
-/// node tree chosen at the root with probability `p` (a cut's or a sampler's root choice).
-#[inline]
-pub(crate) fn root_product(p: f32, pmf: f32) -> f32 {
-    let q = p * pmf;
-    if q >= super::MIN_PMF {
-        q
-    } else {
-        0.0
     }
 }
