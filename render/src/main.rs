@@ -51,6 +51,11 @@ enum Command {
         /// The scene in grey (every light and albedo grey, as the scalar scenes were).
         #[arg(long)]
         grey: bool,
+        /// The camera instead of the scene's: `eye,target,up,fov` as ten comma-separated
+        /// numbers (eye x, y, z, the point looked at, the up direction, the vertical field of
+        /// view in degrees). An OBJ file's default frames its bounding sphere from +z.
+        #[arg(long, value_parser = scene::Camera::parse, allow_hyphen_values = true)]
+        camera: Option<scene::Camera>,
         /// The estimators' parameters.
         #[command(flatten)]
         params: ParamArgs,
@@ -140,6 +145,9 @@ struct ImageArgs {
     /// for every estimate, as in a renderer).
     #[arg(long)]
     fixed_point: bool,
+    /// The camera instead of the scene's: `eye,target,up,fov` (see `render --help`).
+    #[arg(long, value_parser = scene::Camera::parse, allow_hyphen_values = true)]
+    camera: Option<scene::Camera>,
     /// The estimators' parameters.
     #[command(flatten)]
     params: ParamArgs,
@@ -148,10 +156,15 @@ struct ImageArgs {
 impl ImageArgs {
     /// The named scene; exits with status 2 on an unknown name or a bad light count.
     fn scene(&self) -> scene::RenderScene {
-        scene::by_name_with(&self.scene, self.lights, palette(self.grey)).unwrap_or_else(|e| {
-            eprintln!("{e}");
-            std::process::exit(2)
-        })
+        let mut s = scene::by_name_with(&self.scene, self.lights, palette(self.grey))
+            .unwrap_or_else(|e| {
+                eprintln!("{e}");
+                std::process::exit(2)
+            });
+        if let Some(c) = self.camera {
+            s.camera = c;
+        }
+        s
     }
 
     /// The render settings at `spp` with a reference of `ref_spp` and an equal-time budget of
@@ -213,6 +226,7 @@ fn main() {
             output,
             fixed_point,
             grey,
+            camera,
             params,
         } => {
             let code = run_render(
@@ -226,6 +240,7 @@ fn main() {
                 seed,
                 &output,
                 protocol(fixed_point),
+                camera,
                 params.params(),
             );
             std::process::exit(code)
@@ -301,15 +316,19 @@ fn run_render(
     seed: u64,
     output: &std::path::Path,
     protocol: render::Protocol,
+    camera: Option<scene::Camera>,
     params: manylights::Params,
 ) -> i32 {
-    let scene = match scene::by_name_with(scene, lights, palette) {
+    let mut scene = match scene::by_name_with(scene, lights, palette) {
         Ok(s) => s,
         Err(e) => {
             eprintln!("{e}");
             return 2;
         }
     };
+    if let Some(c) = camera {
+        scene.camera = c;
+    }
     let img = render::render(
         &scene,
         &render::RenderConfig {

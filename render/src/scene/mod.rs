@@ -120,6 +120,57 @@ pub struct Camera {
 }
 
 impl Camera {
+    /// The camera of `--camera`'s text `eye,target,up,fov`: ten comma-separated numbers, the
+    /// eye position, the point looked at and the up direction (x, y, z each) and the vertical
+    /// field of view in degrees. Errors name what is wrong: not ten numbers, a number that
+    /// does not parse or is not finite, the eye on the target, an up direction along the view
+    /// (or zero), a field of view outside (0, 180).
+    pub fn parse(text: &str) -> Result<Camera, String> {
+        let parts: Vec<&str> = text.split(',').map(str::trim).collect();
+        if parts.len() != 10 {
+            return Err(format!(
+                "--camera: expected ten numbers eye_x,eye_y,eye_z,target_x,target_y,target_z,\
+                 up_x,up_y,up_z,fov (got {} in {text:?})",
+                parts.len()
+            ));
+        }
+        const NAMES: [&str; 10] = [
+            "eye x", "eye y", "eye z", "target x", "target y", "target z", "up x", "up y",
+            "up z", "fov",
+        ];
+        let mut v = [0f32; 10];
+        for (k, (p, name)) in parts.iter().zip(NAMES).enumerate() {
+            v[k] = match p.parse::<f32>() {
+                Ok(x) if x.is_finite() => x,
+                _ => return Err(format!("--camera: {name} must be a finite number (got {p:?})")),
+            };
+        }
+        let eye = Vec3::new(v[0], v[1], v[2]);
+        let target = Vec3::new(v[3], v[4], v[5]);
+        let up = Vec3::new(v[6], v[7], v[8]);
+        let fov_y = v[9];
+        let w = target - eye;
+        if !(w.length_squared() > 0.0) {
+            return Err("--camera: the eye is on the target (no view direction)".into());
+        }
+        if !(w.normalize().cross(up).length_squared() > 1e-12) {
+            return Err(format!(
+                "--camera: the up direction {up} is zero or along the view direction"
+            ));
+        }
+        if !(fov_y > 0.0 && fov_y < 180.0) {
+            return Err(format!(
+                "--camera: fov must be in (0, 180) degrees (got {fov_y})"
+            ));
+        }
+        Ok(Camera {
+            eye,
+            target,
+            up,
+            fov_y,
+        })
+    }
+
     /// The unit direction through image position (`sx`, `sy`) in `[0, 1]²` (y down).
     pub fn direction(&self, sx: f32, sy: f32, aspect: f32) -> Vec3 {
         let w = (self.target - self.eye).normalize();
