@@ -428,7 +428,15 @@ fn a_camera_from_the_command_line() {
     let c = s.camera;
     let text = format!(
         "{:?},{:?},{:?},{:?},{:?},{:?},{:?},{:?},{:?},{:?}",
-        c.eye.x, c.eye.y, c.eye.z, c.target.x, c.target.y, c.target.z, c.up.x, c.up.y, c.up.z,
+        c.eye.x,
+        c.eye.y,
+        c.eye.z,
+        c.target.x,
+        c.target.y,
+        c.target.z,
+        c.up.x,
+        c.up.y,
+        c.up.z,
         c.fov_y
     );
     let parsed = scene::Camera::parse(&text).expect("the default camera parses");
@@ -440,7 +448,11 @@ fn a_camera_from_the_command_line() {
     s.camera = parsed;
     let given = render(&s, &cfg(Technique::TlMis, 4, 5));
     let bits = |m: &[[f32; 3]]| m.iter().flatten().map(|v| v.to_bits()).collect::<Vec<_>>();
-    assert_eq!(bits(&own.mean), bits(&given.mean), "the same camera, the same bits");
+    assert_eq!(
+        bits(&own.mean),
+        bits(&given.mean),
+        "the same camera, the same bits"
+    );
     // From the side, looking at the box's centre from +x, with a narrower field of view.
     let side = format!(
         "{},{},{},{},{},{},0,1,0,30",
@@ -453,7 +465,11 @@ fn a_camera_from_the_command_line() {
     );
     s.camera = scene::Camera::parse(&side).expect("a side view parses");
     let moved = render(&s, &cfg(Technique::TlMis, 4, 5));
-    assert_ne!(bits(&own.mean), bits(&moved.mean), "another view, another image");
+    assert_ne!(
+        bits(&own.mean),
+        bits(&moved.mean),
+        "another view, another image"
+    );
     assert!(moved.average() > 0.0, "the side view is lit");
     for (bad, says) in [
         ("0,0,1,0,0,0,0,1,0", "ten numbers"),

@@ -135,14 +135,18 @@ impl Camera {
             ));
         }
         const NAMES: [&str; 10] = [
-            "eye x", "eye y", "eye z", "target x", "target y", "target z", "up x", "up y",
-            "up z", "fov",
+            "eye x", "eye y", "eye z", "target x", "target y", "target z", "up x", "up y", "up z",
+            "fov",
         ];
         let mut v = [0f32; 10];
         for (k, (p, name)) in parts.iter().zip(NAMES).enumerate() {
             v[k] = match p.parse::<f32>() {
                 Ok(x) if x.is_finite() => x,
-                _ => return Err(format!("--camera: {name} must be a finite number (got {p:?})")),
+                _ => {
+                    return Err(format!(
+                        "--camera: {name} must be a finite number (got {p:?})"
+                    ))
+                }
             };
         }
         let eye = Vec3::new(v[0], v[1], v[2]);
@@ -150,15 +154,15 @@ impl Camera {
         let up = Vec3::new(v[6], v[7], v[8]);
         let fov_y = v[9];
         let w = target - eye;
-        if !(w.length_squared() > 0.0) {
+        if w.length_squared() == 0.0 {
             return Err("--camera: the eye is on the target (no view direction)".into());
         }
-        if !(w.normalize().cross(up).length_squared() > 1e-12) {
+        if w.normalize().cross(up).length_squared() <= 1e-12 {
             return Err(format!(
                 "--camera: the up direction {up} is zero or along the view direction"
             ));
         }
-        if !(fov_y > 0.0 && fov_y < 180.0) {
+        if fov_y <= 0.0 || fov_y >= 180.0 {
             return Err(format!(
                 "--camera: fov must be in (0, 180) degrees (got {fov_y})"
             ));
