@@ -157,6 +157,13 @@ impl Camera {
         if w.length_squared() == 0.0 {
             return Err("--camera: the eye is on the target (no view direction)".into());
         }
+        if !w.length_squared().is_finite() || !up.length_squared().is_finite() {
+            return Err(
+                "--camera: the eye and the target, or the up direction, are too large \
+                        for f32 arithmetic"
+                    .into(),
+            );
+        }
         if w.normalize().cross(up).length_squared() <= 1e-12 {
             return Err(format!(
                 "--camera: the up direction {up} is zero or along the view direction"
