@@ -334,14 +334,35 @@ fn compare_writes_every_output() {
                 "{}: {at}",
                 t["name"]
             );
+            // At equal time the ratios are of the RMSEs scaled to the budget,
+            // RMSE × √(t / budget), so that a render that overshot its budget gains nothing.
+            let scale = |x: &serde_json::Value| {
+                if at == "equal_time" {
+                    let t = x["seconds_equal_time"].as_f64().unwrap();
+                    (t / j["time_budget_s"].as_f64().unwrap()).sqrt()
+                } else {
+                    1.0
+                }
+            };
+            if at == "equal_time" {
+                let b = t["rmse_equal_time_at_budget"].as_f64().unwrap();
+                assert!(
+                    (b - rmse * scale(t)).abs() <= 1e-12 * b.max(1e-300),
+                    "{}",
+                    t["name"]
+                );
+                assert!((t["budget_scale"].as_f64().unwrap() - scale(t)).abs() <= 1e-12);
+            }
             let ratio = t[format!("rmse_{at}_vs_tl_mis")].as_f64().unwrap();
             let mis_rmse = mis[format!("rmse_{at}")].as_f64().unwrap();
-            assert!((ratio - rmse / mis_rmse).abs() <= 1e-12 * ratio);
+            let want = (rmse * scale(t)) / (mis_rmse * scale(mis));
+            assert!((ratio - want).abs() <= 1e-12 * ratio, "{}: {at}", t["name"]);
             let key = format!("rmse_{at}_corrected_vs_tl_mis");
             let mis_c = mis[format!("rmse_{at}_corrected")].as_f64().unwrap();
             if mis_c > 0.0 {
                 let r = t[key.as_str()].as_f64().unwrap();
-                assert!((r - corrected / mis_c).abs() <= 1e-12 * r.max(1e-300));
+                let want = (corrected * scale(t)) / (mis_c * scale(mis));
+                assert!((r - want).abs() <= 1e-12 * r.max(1e-300));
             }
             assert!(t["mean_rel_diff_sigma"].as_f64().is_some());
             assert!(t[format!("mse_{at}_se")].as_f64().is_some_and(|x| x >= 0.0));

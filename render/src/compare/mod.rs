@@ -26,7 +26,13 @@
 //!   `spp_t = max(1, round((budget − fixed) / per_spp))` ([`equal_time_spp`]; `full` gets `spp`
 //!   back when the budget is its own time) and its RMSE is `rmse_equal_time`; the render's
 //!   actual busy time is reported beside it (`seconds_equal_time`), so a budget missed because
-//!   of a noisy timing is visible.
+//!   of a noisy timing is visible. A render rarely takes its budget exactly (the cost model
+//!   is fitted on a loaded machine), and one that overshoots has had more time: beside each
+//!   equal-time RMSE is the RMSE scaled to the budget, `RMSE × √(t / budget)`
+//!   (`rmse_equal_time_at_budget`; the MSE of an unbiased estimate falls as 1/time), and every
+//!   equal-time ratio to another technique (×tl-split, ×tl-mis, in every table and JSON key
+//!   `*_equal_time_*vs_tl_mis`) is taken between the scaled RMSEs, so that an overshoot cannot
+//!   favour one technique.
 //! - `mean_rel_diff`: |average of the image − average of the reference| / average of the
 //!   reference, for the technique's image with the most spp among its equal-spp, equal-time and
 //!   convergence renders (`mean_rel_diff_spp`); `mean_rel_diff_signed` is the same without the
@@ -249,6 +255,28 @@ impl TechReport {
     pub fn rmse_equal_time_corrected(&self) -> f64 {
         self.errors_equal_time.rmse_corrected()
     }
+
+    /// `√(t / budget)` of the equal-time render, `t` its busy seconds: what its errors are
+    /// multiplied by to be those of a render of exactly `budget` seconds (NaN unless both are
+    /// positive and finite).
+    pub fn budget_scale(&self, budget: f64) -> f64 {
+        let t = self.seconds_equal_time;
+        if t > 0.0 && t.is_finite() && budget > 0.0 && budget.is_finite() {
+            (t / budget).sqrt()
+        } else {
+            f64::NAN
+        }
+    }
+
+    /// The equal-time RMSE scaled to `budget` seconds: `RMSE × √(t / budget)`.
+    pub fn rmse_equal_time_at(&self, budget: f64) -> f64 {
+        self.rmse_equal_time * self.budget_scale(budget)
+    }
+
+    /// [`TechReport::rmse_equal_time_corrected`] scaled to `budget` seconds.
+    pub fn rmse_equal_time_corrected_at(&self, budget: f64) -> f64 {
+        self.rmse_equal_time_corrected() * self.budget_scale(budget)
+    }
 }
 
 /// The comparison.
@@ -339,6 +367,9 @@ impl Report {
                 "name": t.technique.name(),
                 "rmse_equal_spp": num(t.rmse_equal_spp),
                 "rmse_equal_time": num(t.rmse_equal_time),
+                "rmse_equal_time_at_budget": num(t.rmse_equal_time_at(self.time_budget)),
+                "rmse_equal_time_corrected_at_budget": num(t.rmse_equal_time_corrected_at(self.time_budget)),
+                "budget_scale": num(t.budget_scale(self.time_budget)),
                 "spp_equal_time": t.spp_equal_time,
                 "seconds_equal_time": num(t.seconds_equal_time),
                 "ms_per_spp": num(t.ms_per_spp),
@@ -355,18 +386,22 @@ impl Report {
                 "rmse_equal_spp_corrected": num(t.rmse_equal_spp_corrected()),
                 "rmse_equal_time_corrected": num(t.rmse_equal_time_corrected()),
                 "rmse_equal_spp_vs_tl_mis": num(ratio(t.rmse_equal_spp, mis.rmse_equal_spp)),
-                "rmse_equal_time_vs_tl_mis": num(ratio(t.rmse_equal_time, mis.rmse_equal_time)),
+                "rmse_equal_time_vs_tl_mis": num(ratio(
+                    t.rmse_equal_time_at(self.time_budget),
+                    mis.rmse_equal_time_at(self.time_budget)
+                )),
                 "rmse_equal_spp_corrected_vs_tl_mis": num(ratio(
                     t.rmse_equal_spp_corrected(),
                     mis.rmse_equal_spp_corrected()
                 )),
                 "rmse_equal_time_corrected_vs_tl_mis": num(ratio(
-                    t.rmse_equal_time_corrected(),
-                    mis.rmse_equal_time_corrected()
+                    t.rmse_equal_time_corrected_at(self.time_budget),
+                    mis.rmse_equal_time_corrected_at(self.time_budget)
                 )),
                 "errors": self.classes.iter().enumerate().map(|(k, c)| {
                     let n = self.resolution.0 * self.resolution.1;
-                    let per = |e: &ErrorSummary, m: &ErrorSummary| {
+                    // `scale`: the technique's budget scale over tl-mis's (1 at equal spp).
+                    let per = |e: &ErrorSummary, m: &ErrorSummary, scale: f64| {
                         c.names.iter().enumerate().map(|(i, (name, _))| {
                             let (x, y) = (e.splits[k][i], m.splits[k][i]);
                             json!({
@@ -376,13 +411,13 @@ impl Report {
                                 "mse_se": num(x.mse_part_se(n)),
                                 "rmse": num(x.rmse()),
                                 "rmse_corrected": num(x.rmse_corrected()),
-                                "rmse_corrected_vs_tl_mis": num(ratio(x.rmse_corrected(), y.rmse_corrected())),
+                                "rmse_corrected_vs_tl_mis": num(scale * ratio(x.rmse_corrected(), y.rmse_corrected())),
                             })
                         }).collect::<Vec<_>>()
                     };
                     (c.what.to_string(), json!({
-                        "equal_spp": per(&t.errors_equal_spp, &mis.errors_equal_spp),
-                        "equal_time": per(&t.errors_equal_time, &mis.errors_equal_time),
+                        "equal_spp": per(&t.errors_equal_spp, &mis.errors_equal_spp, 1.0),
+                        "equal_time": per(&t.errors_equal_time, &mis.errors_equal_time, self.scale_over_mis(t)),
                     }))
                 }).collect::<serde_json::Map<_, _>>(),
             })).collect::<Vec<_>>(),
@@ -421,6 +456,15 @@ impl Report {
         self.of(Technique::TlMis)
     }
 
+    /// `t`'s budget scale over tl-mis's: what a ratio of their equal-time errors is
+    /// multiplied by to be the ratio of the errors scaled to the budget.
+    fn scale_over_mis(&self, t: &TechReport) -> f64 {
+        ratio(
+            t.budget_scale(self.time_budget),
+            self.tl_mis().budget_scale(self.time_budget),
+        )
+    }
+
     /// The Markdown table.
     pub fn table(&self) -> String {
         let rmse_of = |t: Technique| {
@@ -428,7 +472,7 @@ impl Report {
                 .iter()
                 .find(|r| r.technique == t)
                 .map_or((f64::NAN, f64::NAN), |r| {
-                    (r.rmse_equal_spp, r.rmse_equal_time)
+                    (r.rmse_equal_spp, r.rmse_equal_time_at(self.time_budget))
                 })
         };
         let (split, mis) = (rmse_of(Technique::TlSplit), rmse_of(Technique::TlMis));
@@ -442,7 +486,8 @@ impl Report {
         };
         let mut s = format!(
             "{} ({} lights, {}x{}, {} spp, {} protocol; reference: full at {} spp)\n\
-             equal time: {budget}; times are busy time summed over threads\n\n",
+             equal time: {budget}; times are busy time summed over threads; the equal-time ratios \
+             are of the RMSEs scaled to the budget, RMSE × √(t / budget)\n\n",
             self.scene,
             self.lights,
             self.resolution.0,
@@ -451,18 +496,20 @@ impl Report {
             self.protocol.name(),
             self.ref_spp
         );
-        s.push_str("| technique | RMSE equal spp | ×tl-split | ×tl-mis | RMSE equal time | ×tl-split | ×tl-mis | spp at equal time | s at equal time | ms/spp | mean rel. diff | ± (1 se) | at spp |\n");
-        s.push_str("|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|\n");
+        s.push_str("| technique | RMSE equal spp | ×tl-split | ×tl-mis | RMSE equal time | at budget | ×tl-split | ×tl-mis | spp at equal time | s at equal time | ms/spp | mean rel. diff | ± (1 se) | at spp |\n");
+        s.push_str("|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|\n");
         for t in &self.techniques {
+            let at_budget = t.rmse_equal_time_at(self.time_budget);
             s.push_str(&format!(
-                "| {} | {:.5} | {:.3} | {:.3} | {:.5} | {:.3} | {:.3} | {} | {:.3} | {:.2} | {:+.2} % | {:.2} % | {} |\n",
+                "| {} | {:.5} | {:.3} | {:.3} | {:.5} | {:.5} | {:.3} | {:.3} | {} | {:.3} | {:.2} | {:+.2} % | {:.2} % | {} |\n",
                 t.technique.name(),
                 t.rmse_equal_spp,
                 t.rmse_equal_spp / split.0,
                 t.rmse_equal_spp / mis.0,
                 t.rmse_equal_time,
-                t.rmse_equal_time / split.1,
-                t.rmse_equal_time / mis.1,
+                at_budget,
+                at_budget / split.1,
+                at_budget / mis.1,
                 t.spp_equal_time,
                 t.seconds_equal_time,
                 t.ms_per_spp,
@@ -519,15 +566,21 @@ impl Report {
             s.push_str(&format!("| {} | {} |", c.names[i].0, pixels[i]));
             for &t in &shown {
                 let r = self.of(t);
-                for (e, m) in [
-                    (&r.errors_equal_spp, &mis.errors_equal_spp),
-                    (&r.errors_equal_time, &mis.errors_equal_time),
+                for (e, m, scale) in [
+                    (&r.errors_equal_spp, &mis.errors_equal_spp, 1.0),
+                    (
+                        &r.errors_equal_time,
+                        &mis.errors_equal_time,
+                        self.scale_over_mis(r),
+                    ),
                 ] {
                     let x = e.splits[k][i];
                     s.push_str(&format!(
                         " {:.1} % | {} |",
                         100.0 * ratio(x.mse_part_corrected(n), e.mse - e.ref_variance),
-                        fmt_ratio(ratio(x.rmse_corrected(), m.splits[k][i].rmse_corrected()))
+                        fmt_ratio(
+                            scale * ratio(x.rmse_corrected(), m.splits[k][i].rmse_corrected())
+                        )
                     ));
                 }
             }
@@ -564,10 +617,13 @@ impl Report {
                 t.rmse_equal_time,
                 rel(&t.errors_equal_time),
                 t.rmse_equal_time_corrected(),
-                fmt_ratio(ratio(t.rmse_equal_time, mis.rmse_equal_time)),
                 fmt_ratio(ratio(
-                    t.rmse_equal_time_corrected(),
-                    mis.rmse_equal_time_corrected()
+                    t.rmse_equal_time_at(self.time_budget),
+                    mis.rmse_equal_time_at(self.time_budget)
+                )),
+                fmt_ratio(ratio(
+                    t.rmse_equal_time_corrected_at(self.time_budget),
+                    mis.rmse_equal_time_corrected_at(self.time_budget)
                 )),
             ));
         }
@@ -613,9 +669,14 @@ impl Report {
                 let e = errors(t, equal_time);
                 let x = e.splits[k][i];
                 let total = e.mse - e.ref_variance;
+                let scale = if equal_time {
+                    self.scale_over_mis(t)
+                } else {
+                    1.0
+                };
                 s.push_str(&format!(
                     " {} ({:.0} %) |",
-                    fmt_ratio(ratio(x.rmse_corrected(), mis.splits[k][i].rmse_corrected())),
+                    fmt_ratio(scale * ratio(x.rmse_corrected(), mis.splits[k][i].rmse_corrected())),
                     100.0 * ratio(x.mse_part_corrected(n), total)
                 ));
             }
