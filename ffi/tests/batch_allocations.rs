@@ -4,8 +4,8 @@
 //! calling thread (a host calls them millions of times). The counting allocator of this test
 //! binary counts the allocations of each thread; the batches run on the calling thread.
 
-#[path = "common/counting.rs"]
-mod counting;
+mod common;
+use common::{mixed_light, ok};
 
 use manylights_ffi::*;
 use manylights_testkit::SplitMix64 as Rng;
@@ -23,7 +23,7 @@ fn count() {
 }
 
 #[global_allocator]
-static COUNTING: counting::Counting = counting::Counting(count);
+static COUNTING: common::counting::Counting = common::counting::Counting(count);
 
 /// The allocations this thread makes in `f`.
 fn allocations(f: impl FnOnce()) -> u64 {
@@ -34,12 +34,6 @@ fn allocations(f: impl FnOnce()) -> u64 {
 
 fn v3(x: f32, y: f32, z: f32) -> ml_vec3 {
     ml_vec3 { x, y, z }
-}
-
-fn ok(s: ml_status) {
-    assert_eq!(s, ML_OK, "{:?}", unsafe {
-        std::ffi::CStr::from_ptr(ml_last_error_message())
-    });
 }
 
 /// More points than one chunk of the batches holds, so that several chunks run.
@@ -55,30 +49,7 @@ fn tree(r: &mut Rng, sky: bool) -> *mut ml_tree {
                 g: r.range(0.5, 3.0),
                 b: r.range(0.5, 3.0),
             };
-            match i % 3 {
-                0 => ml_point_light {
-                    kind: ml_light_kind::Point as u32,
-                    position: p,
-                    intensity: e,
-                }
-                .into(),
-                1 => ml_sphere_light {
-                    kind: ml_light_kind::Sphere as u32,
-                    center: p,
-                    radius: r.range(0.05, 0.4),
-                    radiance: e,
-                }
-                .into(),
-                _ => ml_disk_light {
-                    kind: ml_light_kind::Disk as u32,
-                    center: p,
-                    normal: v3(0.0, 0.0, -1.0),
-                    radius: r.range(0.1, 0.5),
-                    radiance: e,
-                    two_sided: 0,
-                }
-                .into(),
-            }
+            mixed_light(i, p, e, r)
         })
         .collect();
     if sky {

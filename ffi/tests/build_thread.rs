@@ -5,8 +5,8 @@
 //! the thread that watches; the binary runs without the test harness (`harness = false`), so
 //! that no other thread of its own allocates meanwhile.
 
-#[path = "common/counting.rs"]
-mod counting;
+mod common;
+use common::ok;
 
 use manylights_ffi::*;
 use manylights_testkit::SplitMix64 as Rng;
@@ -30,13 +30,7 @@ fn count() {
 }
 
 #[global_allocator]
-static COUNTING: counting::Counting = counting::Counting(count);
-
-fn ok(s: ml_status) {
-    assert_eq!(s, ML_OK, "{:?}", unsafe {
-        std::ffi::CStr::from_ptr(ml_last_error_message())
-    });
-}
+static COUNTING: common::counting::Counting = common::counting::Counting(count);
 
 fn bytes(t: *const ml_tree) -> Vec<u8> {
     let mut n = 0;

@@ -12,6 +12,9 @@
 //!
 //! The bounds checked are the f32 rounding those differences allow (derived below).
 
+mod common;
+use common::{mixed_light, ok};
+
 use manylights_ffi::*;
 // The host's generator.
 use manylights_testkit::SplitMix64 as Rng;
@@ -51,30 +54,7 @@ fn lights(r: &mut Rng) -> Vec<ml_light> {
         .map(|i| {
             let p = v3(r.range(-4.0, 4.0), r.range(-4.0, 4.0), r.range(0.5, 4.0));
             let e = grey(r.range(0.5, 3.0));
-            match i % 3 {
-                0 => ml_point_light {
-                    kind: ml_light_kind::Point as u32,
-                    position: p,
-                    intensity: e,
-                }
-                .into(),
-                1 => ml_sphere_light {
-                    kind: ml_light_kind::Sphere as u32,
-                    center: p,
-                    radius: r.range(0.05, 0.4),
-                    radiance: e,
-                }
-                .into(),
-                _ => ml_disk_light {
-                    kind: ml_light_kind::Disk as u32,
-                    center: p,
-                    normal: v3(0.0, 0.0, -1.0),
-                    radius: r.range(0.1, 0.5),
-                    radiance: e,
-                    two_sided: 0,
-                }
-                .into(),
-            }
+            mixed_light(i, p, e, r)
         })
         .collect()
 }
@@ -117,12 +97,6 @@ unsafe extern "C" fn on_hit(user: *mut c_void, hit: *const ml_light_hit) {
             h.sum[c] += f64::from(value * hit.weighted.scale);
         }
     }
-}
-
-fn ok(s: ml_status) {
-    assert_eq!(s, ML_OK, "{:?}", unsafe {
-        std::ffi::CStr::from_ptr(ml_last_error_message())
-    });
 }
 
 /// The host's estimate through the lower level with the library's BRDF, per channel: its own

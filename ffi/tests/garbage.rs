@@ -3,10 +3,12 @@
 //! outputs untouched and names the function, and a success never gives a NaN or a light of
 //! pmf 0. Seeded, so deterministic.
 
+mod common;
+use common::message;
+
 use manylights::Rgb;
 use manylights_ffi::*;
 use manylights_testkit::SplitMix64;
-use std::ffi::CStr;
 use std::ptr;
 
 /// Bit patterns from testkit's SplitMix64 (from a raw state).
@@ -60,12 +62,6 @@ impl Bits {
             (self.next() % n) as u32
         }
     }
-}
-
-fn message() -> String {
-    unsafe { CStr::from_ptr(ml_last_error_message()) }
-        .to_string_lossy()
-        .into_owned()
 }
 
 fn expect_ok_or_invalid(s: ml_status, function: &str) -> bool {

@@ -2,24 +2,14 @@
 //! for every kind builds, through `ml_tree_build`, the tree `LightTree::build` builds from the
 //! same lights, byte for byte; errors name the kind's member and field.
 
+mod common;
+use common::{message, ok};
+
 use glam::Vec3;
 use manylights::{Light, LightTree, Rgb};
 use manylights_ffi::*;
 use manylights_testkit::SplitMix64 as Rng;
-use std::ffi::CStr;
 use std::ptr;
-
-fn ok(s: ml_status) {
-    assert_eq!(s, ML_OK, "{:?}", unsafe {
-        CStr::from_ptr(ml_last_error_message())
-    });
-}
-
-fn message() -> String {
-    unsafe { CStr::from_ptr(ml_last_error_message()) }
-        .to_string_lossy()
-        .into_owned()
-}
 
 fn point(r: &mut Rng) -> Vec3 {
     Vec3::new(r.range(-5.0, 5.0), r.range(-5.0, 5.0), r.range(-5.0, 5.0))

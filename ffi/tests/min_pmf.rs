@@ -1,15 +1,11 @@
 //! The bound `ML_MIN_PMF`'s documentation gives: of two lights a point sees alike, the weaker
 //! keeps pmf > 0 while E_strong / E_weak ≤ 2¹²⁶ and gets pmf 0 beyond it.
 
-use manylights_ffi::*;
-use std::ffi::CStr;
-use std::ptr;
+mod common;
+use common::ok;
 
-fn ok(s: ml_status) {
-    assert_eq!(s, ML_OK, "{:?}", unsafe {
-        CStr::from_ptr(ml_last_error_message())
-    });
-}
+use manylights_ffi::*;
+use std::ptr;
 
 fn v3(x: f32, y: f32, z: f32) -> ml_vec3 {
     ml_vec3 { x, y, z }

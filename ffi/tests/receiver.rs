@@ -2,28 +2,18 @@
 //! call that takes an `ml_tl_point` (TL sample and pmf, their batches, the split cut), and a
 //! value that is no `ml_receiver` is an error naming `point.receiver`.
 
+mod common;
+use common::{message, ok};
+
 use glam::Vec3;
 use manylights::importance::Receiver;
 use manylights::{Light, LightTree, Rgb, TlImportance};
 use manylights_ffi::*;
 use manylights_testkit::SplitMix64 as Rng;
-use std::ffi::CStr;
 use std::ptr;
 
 fn v3(x: f32, y: f32, z: f32) -> ml_vec3 {
     ml_vec3 { x, y, z }
-}
-
-fn ok(s: ml_status) {
-    assert_eq!(s, ML_OK, "{:?}", unsafe {
-        CStr::from_ptr(ml_last_error_message())
-    });
-}
-
-fn message() -> String {
-    unsafe { CStr::from_ptr(ml_last_error_message()) }
-        .to_string_lossy()
-        .into_owned()
 }
 
 /// The core's receiver of each `ml_receiver`.
