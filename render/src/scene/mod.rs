@@ -40,6 +40,7 @@ mod cornell;
 mod exhibition;
 mod geometry;
 pub mod obj;
+pub mod pbrt;
 mod stairs;
 
 pub use city::{city, city_sun, city_with, CITY_LIGHTS, CITY_SUN_DIRECTION};
@@ -305,8 +306,20 @@ pub fn by_name_with(
         "city-sun" => Ok(city_sun(palette)),
         "stairs" => Ok(stairs()),
         _ if is_obj_path(name) => obj::load(Path::new(name)),
+        // A pbrt-v4 file: its warnings (what it uses that is not mapped) go to stderr.
+        _ if Path::new(name)
+            .extension()
+            .is_some_and(|e| e.eq_ignore_ascii_case("pbrt")) =>
+        {
+            pbrt::load(Path::new(name)).map(|p| {
+                for w in &p.warnings {
+                    eprintln!("warning: {w}");
+                }
+                p.scene
+            })
+        }
         _ => Err(format!(
-            "unknown scene {name:?} (known: {}, or a path to an .obj file)",
+            "unknown scene {name:?} (known: {}, or a path to an .obj or .pbrt file)",
             SCENES.join(", ")
         )),
     }
