@@ -70,6 +70,9 @@ const SPHERE_SEGMENTS: usize = 48;
 const SPHERE_RINGS: usize = 24;
 const DISK_SEGMENTS: usize = 48;
 
+/// Object-space points, in double precision and as the file's single-precision numbers.
+type Points = Vec<(DVec3, [f32; 3])>;
+
 /// Deepest `Include` nesting.
 const MAX_INCLUDE_DEPTH: usize = 32;
 
@@ -831,7 +834,7 @@ impl Reader {
 
     /// `P` and `indices` of a mesh shape: the points, and the index list (checked against
     /// the points; `implicit` is the index list when `indices` is absent).
-    fn points_indices(st: &Stmt, per: usize) -> Result<(Vec<(DVec3, [f32; 3])>, Vec<u32>), String> {
+    fn points_indices(st: &Stmt, per: usize) -> Result<(Points, Vec<u32>), String> {
         let p = Self::nums(st, "P", &["point3", "point"])?.ok_or_else(|| {
             format!(
                 "{}: Shape \"{}\": \"point3 P\" is missing",
@@ -1575,7 +1578,7 @@ impl Reader {
 
 /// A sphere of radius `r` about the origin as triangles (object space), the zero-area
 /// halves at the poles left out.
-fn sphere_mesh(r: f64) -> (Vec<(DVec3, [f32; 3])>, Vec<[u32; 3]>) {
+fn sphere_mesh(r: f64) -> (Points, Vec<[u32; 3]>) {
     let (nu, nv) = (SPHERE_SEGMENTS, SPHERE_RINGS);
     let mut pos = Vec::new();
     for j in 0..=nv {
@@ -1607,7 +1610,7 @@ fn sphere_mesh(r: f64) -> (Vec<(DVec3, [f32; 3])>, Vec<[u32; 3]>) {
 }
 
 /// A disk of radius `r` at height `h` on z as a triangle fan (object space).
-fn disk_mesh(r: f64, h: f64) -> (Vec<(DVec3, [f32; 3])>, Vec<[u32; 3]>) {
+fn disk_mesh(r: f64, h: f64) -> (Points, Vec<[u32; 3]>) {
     let n = DISK_SEGMENTS;
     let mut pos = vec![(
         DVec3::new(0.0, 0.0, h),
