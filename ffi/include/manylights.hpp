@@ -704,7 +704,8 @@ struct Version {
 [[nodiscard]] inline Result<ml_brdf_draw> try_brdf_sample(const ml_shading_point &sp, float u0,
                                                           float u1) {
     ml_brdf_draw d{};
-    return detail::result(ml_brdf_sample(&sp, u0, u1, &d), d);
+    const ml_status s = ml_brdf_sample(&sp, u0, u1, &d);
+    return detail::result(s, d);
 }
 /** `ml_brdf_sample`, throwing. */
 [[nodiscard]] inline ml_brdf_draw brdf_sample(const ml_shading_point &sp, float u0, float u1) {
@@ -714,7 +715,8 @@ struct Version {
 /** `ml_brdf_pdf`: the solid-angle pdf of `wi`. */
 [[nodiscard]] inline Result<float> try_brdf_pdf(const ml_shading_point &sp, ml_vec3 wi) {
     float p = 0.0f;
-    return detail::result(ml_brdf_pdf(&sp, wi, &p), p);
+    const ml_status s = ml_brdf_pdf(&sp, wi, &p);
+    return detail::result(s, p);
 }
 /** `ml_brdf_pdf`, throwing. */
 [[nodiscard]] inline float brdf_pdf(const ml_shading_point &sp, ml_vec3 wi) {
@@ -724,7 +726,8 @@ struct Version {
 /** `ml_brdf_eval`: f(ωo, ωi) per channel. */
 [[nodiscard]] inline Result<ml_rgb> try_brdf_eval(const ml_shading_point &sp, ml_vec3 wi) {
     ml_rgb f{};
-    return detail::result(ml_brdf_eval(&sp, wi, &f), f);
+    const ml_status s = ml_brdf_eval(&sp, wi, &f);
+    return detail::result(s, f);
 }
 /** `ml_brdf_eval`, throwing. */
 [[nodiscard]] inline ml_rgb brdf_eval(const ml_shading_point &sp, ml_vec3 wi) {
@@ -826,7 +829,8 @@ class Tree {
     /** `ml_tree_load`: a tree from `serialize`'s bytes, without its lights. */
     [[nodiscard]] static Result<Tree> try_load(Span<const uint8_t> bytes) {
         ml_tree *t = nullptr;
-        return detail::result(ml_tree_load(bytes.data(), bytes.size(), &t), Tree(t));
+        const ml_status s = ml_tree_load(bytes.data(), bytes.size(), &t);
+        return detail::result(s, Tree(t));
     }
     /** `ml_tree_load`, throwing. */
     [[nodiscard]] static Tree load(Span<const uint8_t> bytes) { return try_load(bytes).value(); }
@@ -862,7 +866,8 @@ class Tree {
     /** `ml_tree_stats`. */
     [[nodiscard]] Result<ml_tree_statistics> try_stats() const {
         ml_tree_statistics st{};
-        return detail::result(ml_tree_stats(tree_, &st), st);
+        const ml_status s = ml_tree_stats(tree_, &st);
+        return detail::result(s, st);
     }
     /** `ml_tree_stats`, throwing. */
     [[nodiscard]] ml_tree_statistics stats() const { return try_stats().value(); }
@@ -870,7 +875,8 @@ class Tree {
     /** `ml_tree_serialized_size`. */
     [[nodiscard]] Result<std::size_t> try_serialized_size() const {
         std::size_t n = 0;
-        return detail::result(ml_tree_serialized_size(tree_, &n), n);
+        const ml_status s = ml_tree_serialized_size(tree_, &n);
+        return detail::result(s, n);
     }
     /** `ml_tree_serialized_size`, throwing. */
     [[nodiscard]] std::size_t serialized_size() const { return try_serialized_size().value(); }
@@ -878,7 +884,8 @@ class Tree {
     /** `ml_tree_serialize` into `buffer`: the number of bytes written. */
     [[nodiscard]] Result<std::size_t> try_serialize(Span<uint8_t> buffer) const {
         std::size_t n = 0;
-        return detail::result(ml_tree_serialize(tree_, buffer.data(), buffer.size(), &n), n);
+        const ml_status s = ml_tree_serialize(tree_, buffer.data(), buffer.size(), &n);
+        return detail::result(s, n);
     }
     /** `ml_tree_serialize` into `buffer`, throwing. */
     std::size_t serialize(Span<uint8_t> buffer) const { return try_serialize(buffer).value(); }
@@ -898,8 +905,9 @@ class Tree {
     /** `ml_tree_sample_tl`: a light by TL importance at `point` with `u` in [0, 1). */
     [[nodiscard]] Result<ml_sampled_light> try_sample_tl(const ml_tl_point &point,
                                                          float u) const {
-        ml_sampled_light s = ML_SAMPLED_LIGHT_NONE;
-        return detail::result(ml_tree_sample_tl(tree_, &point, u, &s), s);
+        ml_sampled_light out = ML_SAMPLED_LIGHT_NONE;
+        const ml_status s = ml_tree_sample_tl(tree_, &point, u, &out);
+        return detail::result(s, out);
     }
     /** `ml_tree_sample_tl`, throwing. */
     [[nodiscard]] ml_sampled_light sample_tl(const ml_tl_point &point, float u) const {
@@ -908,7 +916,8 @@ class Tree {
     /** `ml_tree_pmf_tl`: the probability that `sample_tl` returns `light`. */
     [[nodiscard]] Result<float> try_pmf_tl(const ml_tl_point &point, uint32_t light) const {
         float p = 0.0f;
-        return detail::result(ml_tree_pmf_tl(tree_, &point, light, &p), p);
+        const ml_status s = ml_tree_pmf_tl(tree_, &point, light, &p);
+        return detail::result(s, p);
     }
     /** `ml_tree_pmf_tl`, throwing. */
     [[nodiscard]] float pmf_tl(const ml_tl_point &point, uint32_t light) const {
@@ -917,8 +926,9 @@ class Tree {
     /** `ml_tree_sample_bl`: a light by BRDF-oriented importance at `sp`. */
     [[nodiscard]] Result<ml_sampled_light> try_sample_bl(const ml_shading_point &sp,
                                                          float u) const {
-        ml_sampled_light s = ML_SAMPLED_LIGHT_NONE;
-        return detail::result(ml_tree_sample_bl(tree_, &sp, u, &s), s);
+        ml_sampled_light out = ML_SAMPLED_LIGHT_NONE;
+        const ml_status s = ml_tree_sample_bl(tree_, &sp, u, &out);
+        return detail::result(s, out);
     }
     /** `ml_tree_sample_bl`, throwing. */
     [[nodiscard]] ml_sampled_light sample_bl(const ml_shading_point &sp, float u) const {
@@ -927,7 +937,8 @@ class Tree {
     /** `ml_tree_pmf_bl`: the probability that `sample_bl` returns `light`. */
     [[nodiscard]] Result<float> try_pmf_bl(const ml_shading_point &sp, uint32_t light) const {
         float p = 0.0f;
-        return detail::result(ml_tree_pmf_bl(tree_, &sp, light, &p), p);
+        const ml_status s = ml_tree_pmf_bl(tree_, &sp, light, &p);
+        return detail::result(s, p);
     }
     /** `ml_tree_pmf_bl`, throwing. */
     [[nodiscard]] float pmf_bl(const ml_shading_point &sp, uint32_t light) const {
@@ -1168,7 +1179,8 @@ class Cut {
     /** `ml_cut_create`: an empty cut, never built. */
     [[nodiscard]] static Result<Cut> try_create() {
         ml_cut *c = nullptr;
-        return detail::result(ml_cut_create(&c), Cut(c));
+        const ml_status s = ml_cut_create(&c);
+        return detail::result(s, Cut(c));
     }
     /** `ml_cut_create`, throwing. */
     [[nodiscard]] static Cut create() { return try_create().value(); }
@@ -1201,35 +1213,40 @@ class Cut {
     /** `ml_cut_size`: its clusters. */
     [[nodiscard]] Result<std::size_t> try_size() const {
         std::size_t n = 0;
-        return detail::result(ml_cut_size(cut_, &n), n);
+        const ml_status s = ml_cut_size(cut_, &n);
+        return detail::result(s, n);
     }
     /** `ml_cut_size`, throwing. */
     [[nodiscard]] std::size_t size() const { return try_size().value(); }
     /** `ml_cut_ib`: IB(x) of a BRDF-oriented cut. */
     [[nodiscard]] Result<float> try_ib() const {
         float v = 0.0f;
-        return detail::result(ml_cut_ib(cut_, &v), v);
+        const ml_status s = ml_cut_ib(cut_, &v);
+        return detail::result(s, v);
     }
     /** `ml_cut_ib`, throwing. */
     [[nodiscard]] float ib() const { return try_ib().value(); }
     /** `ml_cut_max_variance`: the largest normalised variance of a split cut. */
     [[nodiscard]] Result<float> try_max_variance() const {
         float v = 0.0f;
-        return detail::result(ml_cut_max_variance(cut_, &v), v);
+        const ml_status s = ml_cut_max_variance(cut_, &v);
+        return detail::result(s, v);
     }
     /** `ml_cut_max_variance`, throwing. */
     [[nodiscard]] float max_variance() const { return try_max_variance().value(); }
     /** `ml_cut_sample`: one light of the whole cut with `u` in [0, 1). */
     [[nodiscard]] Result<ml_sampled_light> try_sample(float u) const {
-        ml_sampled_light s = ML_SAMPLED_LIGHT_NONE;
-        return detail::result(ml_cut_sample(cut_, u, &s), s);
+        ml_sampled_light out = ML_SAMPLED_LIGHT_NONE;
+        const ml_status s = ml_cut_sample(cut_, u, &out);
+        return detail::result(s, out);
     }
     /** `ml_cut_sample`, throwing. */
     [[nodiscard]] ml_sampled_light sample(float u) const { return try_sample(u).value(); }
     /** `ml_cut_pmf`: the probability that `sample` returns `light`. */
     [[nodiscard]] Result<float> try_pmf(uint32_t light) const {
         float p = 0.0f;
-        return detail::result(ml_cut_pmf(cut_, light, &p), p);
+        const ml_status s = ml_cut_pmf(cut_, light, &p);
+        return detail::result(s, p);
     }
     /** `ml_cut_pmf`, throwing. */
     [[nodiscard]] float pmf(uint32_t light) const { return try_pmf(light).value(); }
@@ -1248,7 +1265,8 @@ class Cut {
     /** `ml_cut_pmf_in`: the cluster holding `light` and its pmf within it. */
     [[nodiscard]] Result<ClusterPmf> try_pmf_in(uint32_t light) const {
         ClusterPmf c{ML_NO_CLUSTER, 0.0f};
-        return detail::result(ml_cut_pmf_in(cut_, light, &c.cluster, &c.pmf), c);
+        const ml_status s = ml_cut_pmf_in(cut_, light, &c.cluster, &c.pmf);
+        return detail::result(s, c);
     }
     /** `ml_cut_pmf_in`, throwing. */
     [[nodiscard]] ClusterPmf pmf_in(uint32_t light) const { return try_pmf_in(light).value(); }
@@ -1357,7 +1375,8 @@ class Estimator {
     /** `ml_estimator_weigh`: the last light step's weight given the host's BSDF pdf. */
     [[nodiscard]] Result<ml_weighted> try_weigh(float bsdf_pdf) {
         ml_weighted w{};
-        return detail::result(ml_estimator_weigh(est_, bsdf_pdf, &w), w);
+        const ml_status s = ml_estimator_weigh(est_, bsdf_pdf, &w);
+        return detail::result(s, w);
     }
     /** `ml_estimator_weigh`, throwing. */
     [[nodiscard]] ml_weighted weigh(float bsdf_pdf) { return try_weigh(bsdf_pdf).value(); }
@@ -1429,7 +1448,8 @@ class Acceptor {
     /** `ml_acceptor_create` (see `ml::acceptor_options`). */
     [[nodiscard]] static Result<Acceptor> try_create(const ml_acceptor_options &options) {
         ml_acceptor *a = nullptr;
-        return detail::result(ml_acceptor_create(&options, &a), Acceptor(a));
+        const ml_status s = ml_acceptor_create(&options, &a);
+        return detail::result(s, Acceptor(a));
     }
     /** `ml_acceptor_create`, throwing. */
     [[nodiscard]] static Acceptor create(const ml_acceptor_options &options) {
@@ -1459,7 +1479,8 @@ class Acceptor {
     /** `ml_acceptor_accept` with every importon visible. */
     [[nodiscard]] Result<ml_vpl_decision> try_accept(const ml_vpl &candidate, float xi) {
         ml_vpl_decision d{};
-        return detail::result(ml_acceptor_accept(acc_, &candidate, xi, nullptr, &d), d);
+        const ml_status s = ml_acceptor_accept(acc_, &candidate, xi, nullptr, &d);
+        return detail::result(s, d);
     }
     /** `ml_acceptor_accept` with the host's `visible(importon, vpl)`. */
     template <class F>
@@ -1485,7 +1506,8 @@ class Acceptor {
     /** `ml_acceptor_probability` with every importon visible. */
     [[nodiscard]] Result<float> try_probability(const ml_vpl &candidate) const {
         float p = 0.0f;
-        return detail::result(ml_acceptor_probability(acc_, &candidate, nullptr, &p), p);
+        const ml_status s = ml_acceptor_probability(acc_, &candidate, nullptr, &p);
+        return detail::result(s, p);
     }
     /** `ml_acceptor_probability` with the host's `visible(importon, vpl)`. */
     template <class F>
@@ -1510,7 +1532,8 @@ class Acceptor {
     /** `ml_acceptor_stats`: the decisions counted. */
     [[nodiscard]] Result<ml_accept_stats> try_stats() const {
         ml_accept_stats st{};
-        return detail::result(ml_acceptor_stats(acc_, &st), st);
+        const ml_status s = ml_acceptor_stats(acc_, &st);
+        return detail::result(s, st);
     }
     /** `ml_acceptor_stats`, throwing. */
     [[nodiscard]] ml_accept_stats stats() const { return try_stats().value(); }
