@@ -174,7 +174,11 @@ Result<T> failure(ml_status status) {
     return Result<T>(status, std::string(ml_last_error_message()));
 }
 
-/** `value` on `ML_OK`, else the failure. */
+/**
+ * `value` on `ML_OK`, else the failure. The C call is made before, in a statement of its
+ * own: as an argument beside `value` it could run after `value` was copied (the order in
+ * which arguments are evaluated is unspecified).
+ */
 template <class T>
 Result<T> result(ml_status status, T value) {
     if (status != ML_OK) return failure<T>(status);

@@ -451,7 +451,9 @@ fn cpp17_wrapper() {
         }
     }
     for t in &tries {
-        let thrown = [".", "::"].iter().any(|p| source.contains(&format!("{p}{t}(")));
+        let thrown = [".", "::"]
+            .iter()
+            .any(|p| source.contains(&format!("{p}{t}(")));
         if !source.contains(&format!("try_{t}(")) || !thrown {
             missing.push(format!("{t} / try_{t}"));
         }
