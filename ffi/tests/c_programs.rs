@@ -1,13 +1,16 @@
-//! The C ABI from C and C++: compiles `tests/c/test_abi.c` (C99) and `tests/c/test_abi.cpp`
-//! (C++17) with `-Wall -Wextra -Werror -pedantic` against the static library and the
-//! committed header, runs them (under valgrind with `--error-exitcode=1 --leak-check=full
+//! The C ABI from C and C++: compiles `tests/c/test_abi.c` (C99), `tests/c/test_abi.cpp`
+//! (C++17) and `tests/c/test_hpp.cpp` (C++17, the wrapper `include/manylights.hpp`) with
+//! `-Wall -Wextra -Werror -pedantic` against the static library and the committed headers,
+//! runs them (under valgrind with `--error-exitcode=1 --leak-check=full
 //! --errors-for-leak-kinds=definite,indirect` when `ML_FFI_VALGRIND=1`), and then
 //!
 //! - replays their dump with the Rust core: the same lights built into a tree, the same
 //!   samples and pmfs (TL points of every `ml_receiver`), bit for bit, and the BRDF values
 //!   of RGB albedos (`ml_brdf_eval`, `ml_brdf_sample`'s draw) those of `Material::eval_rgb`;
 //! - checks that every function the header declares got a bad-input check with NULL and one
-//!   with an invalid value (the `cover` lines they print).
+//!   with an invalid value (the `cover` lines they print);
+//! - checks that `test_hpp.cpp` uses every class, every free function and every method of
+//!   the wrapper (the throwing and the `try_` form of each fallible call).
 //!
 //! The compilers are `$CC` / `$CXX` (default `cc` / `c++`).
 
@@ -72,8 +75,13 @@ fn compile(source: &str, cpp: bool, out: &Path) {
     assert!(status.success(), "{compiler} failed on {source}");
 }
 
-/// Runs a test program (under valgrind if asked); returns its stdout.
+/// Runs a test program with the dump's path (under valgrind if asked); returns its stdout.
 fn run(exe: &Path, dump: &Path) -> String {
+    run_args(exe, &[dump])
+}
+
+/// Runs a test program with `args` (under valgrind if asked); returns its stdout.
+fn run_args(exe: &Path, args: &[&Path]) -> String {
     let valgrind = std::env::var("ML_FFI_VALGRIND").is_ok_and(|v| v == "1");
     let mut cmd = if valgrind {
         let mut c = Command::new("valgrind");
@@ -88,7 +96,7 @@ fn run(exe: &Path, dump: &Path) -> String {
     } else {
         Command::new(exe)
     };
-    let out = cmd.arg(dump).output().expect("the test program runs");
+    let out = cmd.args(args).output().expect("the test program runs");
     if valgrind {
         eprintln!(
             "{}: ran under valgrind, exit status {}",
@@ -341,4 +349,120 @@ fn c99_program() {
 #[test]
 fn cpp17_program() {
     program("test_abi.cpp", true);
+}
+
+/// What the wrapper declares in `namespace ml` (outside `detail`): its classes, its free
+/// functions and the names of its `try_` calls (each also has a throwing form of the name
+/// without `try_`). Read from the header's layout: namespace-scope declarations start in
+/// column 0, members are indented.
+fn wrapper_names() -> (Vec<String>, Vec<String>, Vec<String>) {
+    let header = std::fs::read_to_string(manifest_dir().join("include/manylights.hpp")).unwrap();
+    let ident = |s: &str| -> String {
+        s.chars()
+            .rev()
+            .take_while(|c| c.is_ascii_alphanumeric() || *c == '_')
+            .collect::<Vec<_>>()
+            .into_iter()
+            .rev()
+            .collect()
+    };
+    let (mut classes, mut functions, mut tries) = (Vec::new(), Vec::new(), Vec::new());
+    let mut in_detail = false;
+    for line in header.lines() {
+        if line.starts_with("namespace detail") {
+            in_detail = true;
+        } else if line.starts_with("}  // namespace detail") {
+            in_detail = false;
+        }
+        let code = line.trim_start();
+        if code.starts_with('*') || code.starts_with("/*") || code.starts_with("//") {
+            continue;
+        }
+        let mut rest = line;
+        while let Some(i) = rest.find("try_") {
+            let name = ident(&rest[..i]);
+            let tail: String = rest[i + 4..]
+                .chars()
+                .take_while(|c| c.is_ascii_alphanumeric() || *c == '_')
+                .collect();
+            if name.is_empty() && rest[i + 4 + tail.len()..].starts_with('(') {
+                tries.push(tail.clone());
+            }
+            rest = &rest[i + 4..];
+        }
+        if in_detail || line.starts_with(' ') || line.starts_with('/') || line.starts_with('#') {
+            continue;
+        }
+        let decl = line.replace("[[nodiscard]] ", "");
+        if let Some(c) = decl
+            .strip_prefix("class ")
+            .or_else(|| decl.strip_prefix("struct "))
+        {
+            let name: String = c
+                .chars()
+                .take_while(|c| c.is_ascii_alphanumeric() || *c == '_')
+                .collect();
+            // Not a forward declaration.
+            if !name.is_empty() && (c.contains('{') || !c.trim_end().ends_with(';')) {
+                classes.push(name);
+            }
+        } else if let Some(open) = decl.find('(') {
+            if decl.starts_with("template") || decl.starts_with("namespace") {
+                continue;
+            }
+            let name = ident(decl[..open].trim_end());
+            if !name.is_empty() && !name.starts_with("try_") {
+                functions.push(name);
+            }
+        }
+    }
+    for v in [&mut classes, &mut functions, &mut tries] {
+        v.sort();
+        v.dedup();
+    }
+    (classes, functions, tries)
+}
+
+#[test]
+fn cpp17_wrapper() {
+    let dir = PathBuf::from(env!("CARGO_TARGET_TMPDIR"));
+    let exe = dir.join("test_hpp");
+    compile("test_hpp.cpp", true, &exe);
+    let stdout = run_args(&exe, &[]);
+    assert!(
+        stdout.contains("test_hpp: ") && stdout.contains(" checks, 0 failures"),
+        "{stdout}"
+    );
+    let source = std::fs::read_to_string(manifest_dir().join("tests/c/test_hpp.cpp")).unwrap();
+    let (classes, functions, tries) = wrapper_names();
+    assert!(
+        classes.len() >= 10 && functions.len() >= 20 && tries.len() >= 40,
+        "the wrapper parse found {classes:?} {functions:?} {tries:?}"
+    );
+    let mut missing = Vec::new();
+    for c in &classes {
+        if !source.contains(&format!("ml::{c}")) && !source.contains(&format!("ml::{c}<")) {
+            missing.push(format!("class ml::{c}"));
+        }
+    }
+    for f in &functions {
+        if !source.contains(&format!("ml::{f}(")) {
+            missing.push(format!("function ml::{f}"));
+        }
+    }
+    for t in &tries {
+        let thrown = [".", "::"]
+            .iter()
+            .any(|p| source.contains(&format!("{p}{t}(")));
+        if !source.contains(&format!("try_{t}(")) || !thrown {
+            missing.push(format!("{t} / try_{t}"));
+        }
+    }
+    assert!(missing.is_empty(), "test_hpp.cpp does not use: {missing:?}");
+    eprintln!(
+        "test_hpp.cpp: {} classes, {} free functions, {} calls in both forms",
+        classes.len(),
+        functions.len(),
+        tries.len()
+    );
 }
