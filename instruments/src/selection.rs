@@ -260,12 +260,13 @@ pub fn unshadowed_floor(ts: &[LightTerms]) -> [f64; 2] {
     variances(ts, |t| t.u / total)
 }
 
-/// [`variances`] of the shadowed floor: `p_l = c_l / Σ c` (its `V` is 0; its `V1` is the
-/// variance within the lights alone).
+/// [`variances`] of the shadowed floor, `p_l = c_l / Σ c`: its `V` is 0 (`Σ c_l · Σ c − (Σ c)²`,
+/// given as 0 rather than as the rounding of that difference); its `V1` is the variance within
+/// the lights alone.
 #[must_use]
 pub fn shadowed_floor(ts: &[LightTerms]) -> [f64; 2] {
     let total: f64 = ts.iter().map(|t| t.c).sum();
-    variances(ts, |t| t.c / total)
+    [0.0, variances(ts, |t| t.c / total)[1]]
 }
 
 /// The summary of per-point `V` (`v`) and `V1` (`v1`).
@@ -607,6 +608,19 @@ mod tests {
             }
         }
         assert!(near_nodes > 0 && far_nodes > 0, "{near_nodes} {far_nodes}");
+    }
+
+    /// A point where `V` is infinite makes the mean infinite, is counted, and its share is 1.
+    #[test]
+    fn an_infinite_point_is_reported() {
+        let mut v = vec![1.0; 99];
+        v.push(f64::INFINITY);
+        let c = choice(&v, &v);
+        assert_eq!(c.mean_variance, f64::INFINITY);
+        assert_eq!(c.mean_variance_one_sample, f64::INFINITY);
+        assert_eq!((c.infinite_points, c.worst_1pc_share), (1, 1.0));
+        assert_eq!(fmt_num(c.mean_variance, 4), "inf");
+        assert!(ratio(c.mean_variance, 2.0).is_infinite() && ratio(1.0, 0.0).is_nan());
     }
 
     #[test]

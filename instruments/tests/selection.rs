@@ -133,7 +133,7 @@ fn floors_at_points_of_a_floor_under_a_ceiling() {
             let closed = a.c * u1;
             assert!((v - closed).abs() <= 1e-4 * closed, "{v} against {closed}");
             let [sv, sv1] = shadowed_floor(&ts);
-            assert!(sv.abs() <= 1e-12 * a.c * a.c, "{sv}");
+            assert_eq!(sv, 0.0);
             // V1 of p ∝ c with one contributing light: m − c².
             assert!((sv1 - (a.m - a.c * a.c)).abs() <= 1e-9 * a.m, "{sv1}");
             assert!(v1 >= sv1 && v1 > v, "{v1} {sv1} {v}");
@@ -160,10 +160,8 @@ fn report_and_json_have_the_floors() {
     assert!(r.points > 40, "{r:?}");
     assert!(r.mean_unshadowed_light > r.mean_light, "{r:?}");
     let scale = r.mean_light * r.mean_light;
-    assert!(
-        r.shadowed_floor.mean_variance.abs() <= 1e-12 * scale,
-        "{r:?}"
-    );
+    assert_eq!(r.shadowed_floor.mean_variance, 0.0);
+    assert_eq!(r.shadowed_floor.worst_1pc_share, 0.0);
     assert!(r.unshadowed_floor.mean_variance > 1e-6 * scale, "{r:?}");
     assert!(
         r.unshadowed_floor.mean_variance_one_sample >= r.shadowed_floor.mean_variance_one_sample
