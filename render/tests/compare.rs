@@ -657,8 +657,8 @@ fn check_summary(summary: &str, dir: &Path) {
     for (line, n) in lines[2..2 + NAMES.len()].iter().zip(NAMES) {
         let f: Vec<&str> = line.split_whitespace().collect();
         assert_eq!(f[0], n, "{summary}");
-        for k in 1..3 {
-            assert!(f[k].parse::<f64>().is_ok_and(|v| v >= 0.0), "{line}");
+        for x in &f[1..3] {
+            assert!(x.parse::<f64>().is_ok_and(|v| v >= 0.0), "{line}");
         }
         assert!(f[3].parse::<f64>().is_ok_and(|v| v > 0.0), "{line}");
         if n == "tl-mis" {
