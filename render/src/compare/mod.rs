@@ -471,6 +471,7 @@ impl Report {
 
     /// The file [`run`] writes the full tables to ([`Report::table`]): `table.md` in
     /// [`Report::dir`].
+    #[must_use]
     pub fn table_path(&self) -> PathBuf {
         self.dir.join(TABLE_FILE)
     }
@@ -480,6 +481,7 @@ impl Report {
     /// budget, that over tl-mis's, and the image mean's signed relative difference to the
     /// reference with its standard error), and a line saying where the full tables and the
     /// images are. `2 + techniques + 1` lines.
+    #[must_use]
     pub fn summary(&self) -> String {
         let mis = self.tl_mis().rmse_equal_time_at(self.time_budget);
         let budget = if self.time_given {
