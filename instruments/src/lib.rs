@@ -7,7 +7,8 @@
 //! - [`estimator`]: unbiasedness, variance and cost per estimate against exact values
 //!   (`mlmeasure estimator`);
 //! - [`selection`]: the variance of the light choice of the BRDF-oriented cut and of TL at a
-//!   scene's shading points (`mlmeasure selection`);
+//!   scene's shading points, beside the floors of a choice proportional to each light's
+//!   unshadowed and shadowed contribution (`mlmeasure selection`);
 //! - [`sptd_accuracy`]: the accuracy of the fitted SPTD table (`mlmeasure sptd-accuracy`), with
 //!   the f64 GGX reference [`manylights_testkit::ggx`];
 //! - [`vpl`]: instant radiosity with and without probabilistic VPL acceptance against a

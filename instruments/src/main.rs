@@ -70,7 +70,8 @@ enum Command {
     Estimator(estimator::EstimatorArgs),
     /// The variance of the light choice (BRDF-oriented cut, TL descent, and two descents
     /// without a cut) at a scene's shading points, from every light's contribution and
-    /// probability: where a cut fails.
+    /// probability: where a cut fails; beside them the floors of a choice proportional to each
+    /// light's unshadowed and to its shadowed contribution.
     Selection {
         /// Scene: cornell, exhibition, city, city-sun, stairs, or a path to an .obj file.
         #[arg(long, default_value = "city")]

@@ -61,7 +61,8 @@ enum Command {
         params: ParamArgs,
     },
     /// Compute (or load) the cached reference of a scene under out/reference/ and check that
-    /// tl-split at a quarter of its spp converges to the same image average.
+    /// tl-split at a quarter of its spp converges to the same image average (a progress bar
+    /// with the time left on stderr when it is a terminal).
     Reference {
         #[command(flatten)]
         image: ImageArgs,
@@ -72,7 +73,9 @@ enum Command {
     },
     /// Every technique on a built-in scene at equal spp and equal time against a cached
     /// reference (out/reference/): PNG and linear EXR images, side-by-side images with crops,
-    /// convergence plot (SVG) and RMSE table (Markdown) under `out/compare/<scene>-<lights>/`.
+    /// convergence plot (SVG) and RMSE tables (Markdown, table.md) under
+    /// `out/compare/<scene>-<lights>/`. Prints a short summary (one line per technique; the
+    /// full tables with --full).
     ///
     /// Times are busy CPU time summed over the render threads (each image row timed by its
     /// thread's CPU clock; about wall time × threads on idle cores, and not inflated by other
@@ -107,6 +110,10 @@ enum Command {
         /// tl-mis, bl and the default, and full unless --time gives the budget.
         #[arg(long, value_enum, value_delimiter = ',')]
         techniques: Vec<TechniqueArg>,
+        /// Print the full tables (those of table.md: per-class splits, the RMSEs with the
+        /// reference's variance removed) before the short summary.
+        #[arg(long)]
+        full: bool,
         /// Print one JSON object as the last line of stdout.
         #[arg(long)]
         json: bool,
@@ -282,6 +289,7 @@ fn main() {
             ref_spp,
             no_plot,
             techniques,
+            full,
             json,
         } => {
             let scene = image.scene();
@@ -290,7 +298,10 @@ fn main() {
             cfg.techniques = techniques.iter().map(|t| t.0).collect();
             match compare::run(&scene, &cfg) {
                 Ok(report) => {
-                    println!("{}", report.table());
+                    if full {
+                        println!("{}", report.table());
+                    }
+                    print!("{}", report.summary());
                     if json {
                         println!("{}", report.json());
                     }

@@ -254,6 +254,16 @@ fn pixel(
 
 /// Renders `scene` with `cfg`.
 pub fn render(scene: &RenderScene, cfg: &RenderConfig) -> Image {
+    render_with(scene, cfg, None)
+}
+
+/// [`render`], calling `on_row` (if any) from the rendering thread after each image row:
+/// a host's own progress report.
+pub fn render_with(
+    scene: &RenderScene,
+    cfg: &RenderConfig,
+    on_row: Option<&(dyn Fn() + Sync)>,
+) -> Image {
     let (w, h) = (cfg.width, cfg.height);
     let params = cfg.params;
     let bar = if cfg.progress {
@@ -295,6 +305,9 @@ pub fn render(scene: &RenderScene, cfg: &RenderConfig) -> Image {
                 }
             });
             bar.inc(1);
+            if let Some(f) = on_row {
+                f();
+            }
             (t, failed)
         })
         .reduce(|| (0.0, 0), |a, b| (a.0 + b.0, a.1 + b.1));

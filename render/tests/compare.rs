@@ -2,7 +2,8 @@
 //! convergence plot up to 8 spp): every output file is written and readable (EXR values equal
 //! to the rendered means), the JSON lists every technique in order with finite numbers;
 //! the equal-time arithmetic; bad input is an error, not a panic; the `mlrender` binary's
-//! `--time` checks and EXR output.
+//! `--time` checks and EXR output; the short summary `mlrender compare` prints (the full
+//! tables with `--full`) and no progress bar when stderr is not a terminal.
 
 use manylights::Technique;
 use manylights_render::compare::{self, check_time, equal_time_spp, CompareConfig, Cost};
@@ -218,6 +219,9 @@ fn compare_writes_every_output() {
     for n in NAMES {
         assert!(table.contains(&format!("| {n} |")), "{table}");
     }
+    assert_eq!(report.table_path(), dir.join("table.md"));
+    assert_eq!(table, report.table());
+    check_summary(&report.summary(), &dir);
 
     // EXR: the rendered means exactly (renders are deterministic for a seed).
     for t in Technique::ALL {
@@ -638,6 +642,92 @@ fn bad_input_is_an_error() {
     cfg.time = None;
     cfg.width = 0;
     assert!(compare::run(&s, &cfg).is_err());
+    std::fs::remove_dir_all(&out).ok();
+}
+
+/// The short summary: a title line, a header, one line per technique in order (its name,
+/// two RMSEs, the ratio to tl-mis, the signed mean difference in %), and a last line naming
+/// the full tables' file and the folder of the images; 13 lines, none longer than 100
+/// characters but for the paths, no Markdown table.
+fn check_summary(summary: &str, dir: &Path) {
+    let lines: Vec<&str> = summary.lines().collect();
+    assert_eq!(lines.len(), 2 + NAMES.len() + 1, "{summary}");
+    assert!(lines[0].starts_with("stairs, 20 lights, "), "{summary}");
+    assert!(lines[1].starts_with("technique"), "{summary}");
+    for (line, n) in lines[2..2 + NAMES.len()].iter().zip(NAMES) {
+        let f: Vec<&str> = line.split_whitespace().collect();
+        assert_eq!(f[0], n, "{summary}");
+        for x in &f[1..3] {
+            assert!(x.parse::<f64>().is_ok_and(|v| v >= 0.0), "{line}");
+        }
+        assert!(f[3].parse::<f64>().is_ok_and(|v| v > 0.0), "{line}");
+        if n == "tl-mis" {
+            assert_eq!(f[3], "1.000", "{line}");
+        }
+        assert!(f[4].parse::<f64>().is_ok() && f[5] == "%", "{line}");
+    }
+    let last = lines.last().unwrap();
+    assert!(
+        last.contains(&dir.join("table.md").display().to_string())
+            && last.contains(&format!("{}/*.png", dir.display())),
+        "{last}"
+    );
+    let paths = 2 * dir.display().to_string().chars().count();
+    assert!(last.chars().count() <= 100 + paths, "{last}");
+    assert!(
+        lines[..lines.len() - 1]
+            .iter()
+            .all(|l| l.chars().count() <= 100),
+        "{summary}"
+    );
+    assert!(!summary.contains("|---"), "{summary}");
+}
+
+#[test]
+fn cli_compare_prints_a_summary() {
+    let out = temp_dir("cli-summary");
+    let (w, h) = (W.to_string(), H.to_string());
+    let args = [
+        "compare",
+        "--scene",
+        "stairs",
+        "--width",
+        &w,
+        "--height",
+        &h,
+        "--spp",
+        "2",
+        "--ref-spp",
+        "16",
+        "--seed",
+        "3",
+        "--no-plot",
+        "--out",
+        out.to_str().unwrap(),
+    ];
+    let dir = out.join("compare").join("stairs-20");
+    let o = mlrender(&args);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let stdout = String::from_utf8_lossy(&o.stdout);
+    check_summary(&stdout, &dir);
+    let table = std::fs::read_to_string(dir.join("table.md")).unwrap();
+    assert!(table.contains("| bl-mis |"), "{table}");
+    // stderr is not a terminal here: no progress bar, a few plain lines.
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(!err.contains("left") && !err.contains("rows"), "{err}");
+    assert!(err.lines().count() <= 3, "{err}");
+    // --full prints the tables of table.md (rewritten: the equal-time renders follow the
+    // timings), then the summary; --json keeps its last line.
+    let o = mlrender(&[&args[..], &["--full", "--json"]].concat());
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let stdout = String::from_utf8_lossy(&o.stdout);
+    let table = std::fs::read_to_string(dir.join("table.md")).unwrap();
+    let (before, json) = stdout.trim_end().rsplit_once('\n').unwrap();
+    assert!(before.starts_with(table.trim_end()), "{before}");
+    let summary = &before[table.trim_end().len()..].trim_start();
+    check_summary(summary, &dir);
+    let j: serde_json::Value = serde_json::from_str(json).unwrap();
+    assert_eq!(j["techniques"].as_array().unwrap().len(), NAMES.len());
     std::fs::remove_dir_all(&out).ok();
 }
 

@@ -2,7 +2,8 @@
 //! time, against a cached reference.
 //!
 //! - **Reference**: the `full` technique at `ref_spp` estimates per pixel (default 64 × the
-//!   compared spp), with its own seed, cached as raw f32 (per pixel the mean and the
+//!   compared spp), with its own seed (a progress bar with the time left on stderr while it
+//!   renders, when stderr is a terminal), cached as raw f32 (per pixel the mean and the
 //!   per-estimate sample variance of its estimates) under
 //!   `out/reference/<scene>-<lights>-<fingerprint>-<W>x<H>-<ref_spp>-<seed>.bin`, the fingerprint
 //!   being [`RenderScene::fingerprint`] (a changed scene never reuses a stale reference; delete
@@ -64,10 +65,12 @@
 //! below, each one's lower middle quarter, outlined on the image above, magnified 2×: see
 //! [`side_by_side_labelled`]), `side_by_side_equal_time.png` (the same with the equal-time
 //! images and their RMSE), `convergence.svg` (unless `--no-plot`: RMSE against busy time,
-//! log-log, from renders at 1, 2, 4, … 4 × spp), `table.md` (the Markdown tables, also
-//! printed: the main one, the RMSEs with the reference's variance removed, the splits by
+//! log-log, from renders at 1, 2, 4, … 4 × spp), `table.md` (the Markdown tables of
+//! [`Report::table`]: the main one, the RMSEs with the reference's variance removed, the splits by
 //! material and view angle at equal spp and equal time, and the [`JOINT_ROWS`] classes of
-//! material and view angle that hold most of the default technique's error). Error maps: per technique
+//! material and view angle that hold most of the default technique's error; `mlrender compare`
+//! prints them with `--full`, and otherwise the short [`Report::summary`], one line per
+//! technique, ending with where `table.md` and the images are). Error maps: per technique
 //! `<technique>-error.png` / `.exr` and `<technique>-equal-time-error.png` / `.exr`,
 //! `reference-error.png` / `.exr` (the reference's own variance of its pixel means): the EXR
 //! holds the per-pixel squared error against the reference (linear), the PNG the absolute
@@ -96,9 +99,10 @@ use crate::image::{
     convergence_svg, read_raw, side_by_side_labelled, warn_failed, write_exr, write_png, write_raw,
     Image,
 };
-use crate::render::{centre_hits, render, Protocol, RenderConfig};
+use crate::render::{centre_hits, render, render_with, Protocol, RenderConfig};
 use crate::scene::RenderScene;
 use error_split::{error_map, map_image, Classes, ErrorSummary};
+use indicatif::{ProgressBar, ProgressStyle};
 use manylights::{Params, Technique};
 use serde_json::json;
 use std::io::{Error, ErrorKind};
@@ -465,6 +469,64 @@ impl Report {
         )
     }
 
+    /// The file [`run`] writes the full tables to ([`Report::table`]): `table.md` in
+    /// [`Report::dir`].
+    #[must_use]
+    pub fn table_path(&self) -> PathBuf {
+        self.dir.join(TABLE_FILE)
+    }
+
+    /// The short summary `mlrender compare` prints: a line naming the scene and the budget,
+    /// a header, one line per technique (its RMSE at equal spp, at equal time scaled to the
+    /// budget, that over tl-mis's, and the image mean's signed relative difference to the
+    /// reference with its standard error), and a line saying where the full tables and the
+    /// images are. `2 + techniques + 1` lines.
+    #[must_use]
+    pub fn summary(&self) -> String {
+        let mis = self.tl_mis().rmse_equal_time_at(self.time_budget);
+        let budget = if self.time_given {
+            "--time".to_string()
+        } else {
+            format!("full at {} spp", self.spp)
+        };
+        let mut s = format!(
+            "{}, {} lights, {}x{}, {} spp (reference {} spp); equal time {:.3} busy s ({budget})\n",
+            self.scene,
+            self.lights,
+            self.resolution.0,
+            self.resolution.1,
+            self.spp,
+            self.ref_spp,
+            self.time_budget,
+        );
+        s.push_str(&format!(
+            "{:<12}{:>16}{:>17}{:>9}{:>21}\n",
+            "technique", "RMSE equal spp", "RMSE equal time", "×tl-mis", "mean vs reference"
+        ));
+        for t in &self.techniques {
+            let at_budget = t.rmse_equal_time_at(self.time_budget);
+            let se = if t.mean_rel_diff_se.is_finite() {
+                format!("± {:.2} %", 100.0 * t.mean_rel_diff_se)
+            } else {
+                String::new()
+            };
+            s.push_str(&format!(
+                "{:<12}{:>16.5}{:>17.5}{:>9}{:>21}\n",
+                t.technique.name(),
+                t.rmse_equal_spp,
+                at_budget,
+                fmt_ratio(ratio(at_budget, mis)),
+                format!("{:+.2} % {se}", 100.0 * t.mean_rel_diff_signed).trim_end(),
+            ));
+        }
+        s.push_str(&format!(
+            "full tables: {}; images: {}/*.png, *.exr\n",
+            self.table_path().display(),
+            self.dir.display()
+        ));
+        s
+    }
+
     /// The Markdown table.
     pub fn table(&self) -> String {
         let rmse_of = |t: Technique| {
@@ -752,7 +814,41 @@ pub fn output_dir(scene: &RenderScene, cfg: &CompareConfig) -> PathBuf {
         .join(format!("{}-{}", scene.name, scene.lights.len()))
 }
 
-/// The cached reference of `scene` (computed and stored if missing).
+/// A long render's progress bar on stderr, with the time left: `rows` rows, drawn only when
+/// `shown` and stderr is a terminal (indicatif hides it otherwise), so that logs stay clean.
+fn long_bar(label: &str, rows: usize, shown: bool) -> ProgressBar {
+    if !shown {
+        return ProgressBar::hidden();
+    }
+    let b = ProgressBar::new(rows as u64);
+    b.set_style(
+        ProgressStyle::with_template(
+            "{msg} [{bar:30}] {pos}/{len} rows, {elapsed} elapsed, {eta} left",
+        )
+        .expect("valid template")
+        .progress_chars("=> "),
+    );
+    b.set_message(label.to_string());
+    b
+}
+
+/// Renders `rc` with [`long_bar`] in place of the render's own bar.
+fn render_long(scene: &RenderScene, rc: &RenderConfig, label: &str) -> Image {
+    let bar = long_bar(label, rc.height, rc.progress);
+    let img = render_with(
+        scene,
+        &RenderConfig {
+            progress: false,
+            ..*rc
+        },
+        Some(&|| bar.inc(1)),
+    );
+    bar.finish_and_clear();
+    img
+}
+
+/// The cached reference of `scene` (computed and stored if missing), with a progress bar
+/// and the time left when `cfg.progress` and stderr is a terminal.
 pub fn reference(scene: &RenderScene, cfg: &CompareConfig) -> std::io::Result<Image> {
     validate(cfg)?;
     let path = reference_path(scene, cfg);
@@ -770,7 +866,7 @@ pub fn reference(scene: &RenderScene, cfg: &CompareConfig) -> std::io::Result<Im
         cfg.ref_spp,
         path.display()
     );
-    let img = render(
+    let img = render_long(
         scene,
         &RenderConfig {
             width: cfg.width,
@@ -782,6 +878,7 @@ pub fn reference(scene: &RenderScene, cfg: &CompareConfig) -> std::io::Result<Im
             protocol: cfg.protocol,
             params: Params::default(),
         },
+        "reference",
     );
     warn_failed("the reference", img.failed);
     write_raw(&path, &img)?;
@@ -797,7 +894,7 @@ pub fn check_reference(
     cfg: &CompareConfig,
 ) -> std::io::Result<(Image, f64, f64, f64)> {
     let reference = reference(scene, cfg)?;
-    let other = render(
+    let other = render_long(
         scene,
         &RenderConfig {
             width: cfg.width,
@@ -809,6 +906,7 @@ pub fn check_reference(
             protocol: cfg.protocol,
             params: cfg.params,
         },
+        "tl-split check",
     );
     let a = reference.average();
     let rel = (other.average() - a).abs() / a;
@@ -872,6 +970,9 @@ fn write_both(dir: &Path, stem: &str, img: &Image) -> std::io::Result<()> {
         &img.mean,
     )
 }
+
+/// The name of the full tables' file in the output folder.
+pub const TABLE_FILE: &str = "table.md";
 
 /// The number of classes of material and view angle in the table of the largest parts.
 pub const JOINT_ROWS: usize = 10;
@@ -1110,9 +1211,8 @@ pub fn run(scene: &RenderScene, cfg: &CompareConfig) -> std::io::Result<Report> 
         class_reference_means,
         error_map_scale,
     };
-    let path = dir.join("table.md");
+    let path = report.table_path();
     std::fs::write(&path, report.table())
         .map_err(|e| Error::new(e.kind(), format!("{}: {e}", path.display())))?;
-    eprintln!("images and table.md in {}", dir.display());
     Ok(report)
 }
