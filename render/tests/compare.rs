@@ -49,6 +49,7 @@ fn config(out: &Path, plot: bool, time: Option<f64>) -> CompareConfig {
         time,
         protocol: Protocol::Jittered,
         params: Default::default(),
+        learn: None,
         techniques: Vec::new(),
     }
 }
@@ -232,6 +233,7 @@ fn compare_writes_every_output() {
                 progress: false,
                 protocol: cfg.protocol,
                 params: cfg.params,
+                learn: None,
             },
         );
         assert_same(&dir.join(format!("{}.exr", t.name())), &img.mean);
@@ -257,6 +259,7 @@ fn compare_writes_every_output() {
             progress: false,
             protocol: cfg.protocol,
             params: cfg.params,
+            learn: None,
         },
     );
     let sq = tl_mis.squared_errors(&reference);
