@@ -283,58 +283,38 @@ fn estimate(
     })
 }
 
-/// One pixel's mean and variance under `cfg`'s protocol, with its own generator, `spp`
-/// estimates (`visibility`: the learned visibility its estimators use); the core's refusals
-/// (each counted as black) added to `failed`.
-#[allow(clippy::too_many_arguments)]
+/// One pixel's mean and variance under `cfg`'s protocol, with its own generator; the core's
+/// refusals (each counted as black) added to `failed`.
 fn pixel(
     scene: &RenderScene,
     cfg: &RenderConfig,
     params: &Params,
-    visibility: Option<&VisibilityCache>,
-    spp: usize,
     (px, py): (usize, usize),
     rng: &mut Pcg64Mcg,
     failed: &mut u64,
 ) -> (Pixel, Pixel) {
     let (w, h) = (cfg.width, cfg.height);
-    let set = &scene.lights;
     match cfg.protocol {
         Protocol::FixedPoint => {
             let Some(sp) = primary(scene, px, py, w, h) else {
                 return BLACK;
             };
-            let est = match visibility {
-                Some(v) => Estimator::with_visibility(set, v, &sp, cfg.technique, params),
-                None => Estimator::new(set, &sp, cfg.technique, params),
-            };
-            let Ok(mut est) = est else {
-                *failed += spp as u64;
+            let Ok(mut est) = Estimator::new(&scene.lights, &sp, cfg.technique, params) else {
+                *failed += cfg.spp as u64;
                 return BLACK;
             };
-            moments(spp, || estimate(scene, &mut est, rng, failed))
+            moments(cfg.spp, || estimate(scene, &mut est, rng, failed))
         }
         Protocol::Jittered => {
             // One estimator per pixel, moved to each new shading point (`reset`: the same
             // estimator as a new one, without copying it).
             let mut slot: Option<Estimator<'_>> = None;
-            moments(spp, || {
+            moments(cfg.spp, || {
                 let offset = [rng.random::<f32>(), rng.random::<f32>()];
                 let Some(sp) = primary_at(scene, px, py, w, h, offset) else {
                     return [0.0; 3];
                 };
-                let est = match visibility {
-                    Some(v) => Estimator::reuse_with_visibility(
-                        &mut slot,
-                        set,
-                        v,
-                        &sp,
-                        cfg.technique,
-                        params,
-                    ),
-                    None => Estimator::reuse(&mut slot, set, &sp, cfg.technique, params),
-                };
-                match est {
+                match Estimator::reuse(&mut slot, &scene.lights, &sp, cfg.technique, params) {
                     Ok(est) => estimate(scene, est, rng, failed),
                     Err(_) => {
                         *failed += 1;
@@ -343,6 +323,49 @@ fn pixel(
                 }
             })
         }
+    }
+}
+
+/// [`pixel`] with learned visibility: `spp` estimates with estimators of `visibility`, set
+/// up in the thread's `slot` (moved from point to point in place: [`Estimator::reset`]).
+#[allow(clippy::too_many_arguments)]
+fn pixel_learning<'a>(
+    scene: &'a RenderScene,
+    cfg: &RenderConfig,
+    visibility: &'a VisibilityCache,
+    slot: &mut Option<Estimator<'a>>,
+    spp: usize,
+    (px, py): (usize, usize),
+    rng: &mut Pcg64Mcg,
+    failed: &mut u64,
+) -> (Pixel, Pixel) {
+    let (w, h) = (cfg.width, cfg.height);
+    let (set, t, params) = (&scene.lights, cfg.technique, &cfg.params);
+    match cfg.protocol {
+        Protocol::FixedPoint => {
+            let Some(sp) = primary(scene, px, py, w, h) else {
+                return BLACK;
+            };
+            let Ok(est) = Estimator::reuse_with_visibility(slot, set, visibility, &sp, t, params)
+            else {
+                *failed += spp as u64;
+                return BLACK;
+            };
+            moments(spp, || estimate(scene, est, rng, failed))
+        }
+        Protocol::Jittered => moments(spp, || {
+            let offset = [rng.random::<f32>(), rng.random::<f32>()];
+            let Some(sp) = primary_at(scene, px, py, w, h, offset) else {
+                return [0.0; 3];
+            };
+            match Estimator::reuse_with_visibility(slot, set, visibility, &sp, t, params) {
+                Ok(est) => estimate(scene, est, rng, failed),
+                Err(_) => {
+                    *failed += 1;
+                    [0.0; 3]
+                }
+            }
+        }),
     }
 }
 
@@ -366,7 +389,6 @@ fn pass_seed(cfg: &RenderConfig, i: usize, pass: usize, tech_index: u64) -> u64 
 /// [`render`] learning visibility ([`Learn`]): passes, each committed into the cache.
 fn render_learning(scene: &RenderScene, cfg: &RenderConfig, learn: &Learn) -> Image {
     let (w, h) = (cfg.width, cfg.height);
-    let params = cfg.params;
     let tech_index = Technique::ALL
         .iter()
         .position(|&t| t == cfg.technique)
@@ -394,34 +416,38 @@ fn render_learning(scene: &RenderScene, cfg: &RenderConfig, learn: &Learn) -> Im
         let (t, f): (f64, u64) = acc
             .par_chunks_mut(w.max(1))
             .enumerate()
-            .map(|(py, row)| {
-                let mut failed = 0u64;
-                let t = busy_time(|| {
-                    for (px, a) in row.iter_mut().enumerate() {
-                        let seed = pass_seed(cfg, py * w + px, pass, tech_index);
-                        let mut rng = Pcg64Mcg::seed_from_u64(seed);
-                        let (m, v) = pixel(
-                            scene,
-                            cfg,
-                            &params,
-                            Some(c),
-                            k,
-                            (px, py),
-                            &mut rng,
-                            &mut failed,
-                        );
-                        // Back to sums: k·m and (k − 1)·v + k·m².
-                        for ch in 0..3 {
-                            let (m, v) = (f64::from(m[ch]), f64::from(v[ch]));
-                            a.1[ch] += k as f64 * m;
-                            a.2[ch] += (k as f64 - 1.0) * v + k as f64 * m * m;
+            // One estimator per worker, moved from point to point.
+            .map_init(
+                || None,
+                |slot, (py, row)| {
+                    let mut failed = 0u64;
+                    let t = busy_time(|| {
+                        for (px, a) in row.iter_mut().enumerate() {
+                            let seed = pass_seed(cfg, py * w + px, pass, tech_index);
+                            let mut rng = Pcg64Mcg::seed_from_u64(seed);
+                            let (m, v) = pixel_learning(
+                                scene,
+                                cfg,
+                                c,
+                                slot,
+                                k,
+                                (px, py),
+                                &mut rng,
+                                &mut failed,
+                            );
+                            // Back to sums: k·m and (k − 1)·v + k·m².
+                            for ch in 0..3 {
+                                let (m, v) = (f64::from(m[ch]), f64::from(v[ch]));
+                                a.1[ch] += k as f64 * m;
+                                a.2[ch] += (k as f64 - 1.0) * v + k as f64 * m * m;
+                            }
+                            a.0 += k;
                         }
-                        a.0 += k;
-                    }
-                });
-                bar.inc(1);
-                (t, failed)
-            })
+                    });
+                    bar.inc(1);
+                    (t, failed)
+                },
+            )
             .reduce(|| (0.0, 0), |a, b| (a.0 + b.0, a.1 + b.1));
         busy += t;
         failed += f;
@@ -495,16 +521,8 @@ fn render_plain(scene: &RenderScene, cfg: &RenderConfig) -> Image {
                         .wrapping_add(((py * w + px) as u64) << 8)
                         .wrapping_add(tech_index);
                     let mut rng = Pcg64Mcg::seed_from_u64(seed);
-                    (row_m[px], row_v[px]) = pixel(
-                        scene,
-                        cfg,
-                        &params,
-                        None,
-                        cfg.spp,
-                        (px, py),
-                        &mut rng,
-                        &mut failed,
-                    );
+                    (row_m[px], row_v[px]) =
+                        pixel(scene, cfg, &params, (px, py), &mut rng, &mut failed);
                 }
             });
             bar.inc(1);

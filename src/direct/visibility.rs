@@ -26,7 +26,8 @@
 //! factor = floor + (1 − floor) · v̂,   v̂ = min(1, (v + 1) / (n + 1))
 //! ```
 //!
-//! With no data `v̂ = 1` and the cut is the one without a cache. The factor is a
+//! (`v̂` rounded to 255ths at the commit: a set-up reads one byte per cluster, a cell's in a
+//! few cache lines). With no data `v̂ = 1` and the cut is the one without a cache. The factor is a
 //! function of the cache's *committed* state only, and the cut's sampling and pmf queries both
 //! use the scaled weights, so the pmf of every light stays exact (sampled = queried, bit for
 //! bit) and the estimators stay unbiased whatever the cache learned; a factor is at least
@@ -47,8 +48,8 @@
 //!
 //! # Memory
 //!
-//! `cells × slots × 16` bytes (8 committed, 8 pending per slot; 4 KiB per cell with the
-//! default 256 slots, 16 MiB with the default 4096 cells), allocated once by
+//! `cells × slots × 17` bytes (8 committed, 8 pending and the share in 255ths per slot; 4.25
+//! KiB per cell with the default 256 slots, 17 MiB with the default 4096 cells), allocated once by
 //! [`VisibilityCache::new`]; nothing in the per-sample path allocates.
 //! [`VisibilityCache::bytes`] reports it.
 
@@ -57,7 +58,7 @@ use crate::light_set::LightSet;
 use crate::tree::LightTree;
 use alloc::vec::Vec;
 use core::fmt;
-use core::sync::atomic::{AtomicBool, AtomicU32, AtomicU64, Ordering};
+use core::sync::atomic::{AtomicBool, AtomicU32, AtomicU64, AtomicU8, Ordering};
 use glam::Vec3;
 
 /// The most slots a cell can have.
@@ -190,6 +191,11 @@ pub struct VisibilityCache {
     committed: Vec<AtomicU32>,
     /// Two per (cell, slot): n, then v.
     pending: Vec<AtomicU32>,
+    /// One per (cell, slot): the visible share of the committed counts, `(v + 1) / (n + 1)`,
+    /// in 255ths (255 with no data): what the set-ups read, a cell's in a few cache lines.
+    shares: Vec<AtomicU8>,
+    /// One per cell: whether it has pending records (what a commit visits).
+    dirty: Vec<AtomicBool>,
     recording: AtomicBool,
     commits: AtomicU64,
 }
@@ -244,6 +250,16 @@ impl VisibilityCache {
             made_for: VisibilityCache::identity(set.tree()),
             committed: zeros(),
             pending: zeros(),
+            shares: {
+                let mut v = Vec::with_capacity(len);
+                v.resize_with(len, || AtomicU8::new(255));
+                v
+            },
+            dirty: {
+                let mut v = Vec::with_capacity(options.cells as usize);
+                v.resize_with(options.cells as usize, || AtomicBool::new(false));
+                v
+            },
             recording: AtomicBool::new(true),
             commits: AtomicU64::new(0),
         })
@@ -274,6 +290,8 @@ impl VisibilityCache {
     #[must_use]
     pub fn bytes(&self) -> usize {
         (self.committed.len() + self.pending.len()) * core::mem::size_of::<AtomicU32>()
+            + self.shares.len()
+            + self.dirty.len()
     }
 
     /// How many times [`VisibilityCache::commit`] ran.
@@ -343,6 +361,11 @@ impl VisibilityCache {
             return;
         }
         let i = 2 * self.index(cell, cluster);
+        if let Some(d) = self.dirty.get(cell as usize) {
+            if !d.load(Ordering::Relaxed) {
+                d.store(true, Ordering::Relaxed);
+            }
+        }
         if let Some(n) = self.pending.get(i) {
             n.fetch_add(1, Ordering::Relaxed);
         }
@@ -362,11 +385,27 @@ impl VisibilityCache {
     /// while threads render is safe, but which of their records and set-ups see it is not
     /// determined).
     pub fn commit(&self) {
-        for (c, p) in self
+        let slots = self.options.slots as usize;
+        let cells = self
             .committed
-            .chunks_exact(2)
-            .zip(self.pending.chunks_exact(2))
-        {
+            .chunks_exact(2 * slots)
+            .zip(self.pending.chunks_exact(2 * slots))
+            .zip(self.shares.chunks_exact(slots))
+            .zip(&self.dirty);
+        for (((c, p), q), d) in cells {
+            if d.swap(false, Ordering::Relaxed) {
+                commit_cell(c, p, q);
+            }
+        }
+        self.commits.fetch_add(1, Ordering::Relaxed);
+    }
+}
+
+/// Adds a cell's pending counts `p` into its committed counts `c` and shares `q`
+/// ([`VisibilityCache::commit`]).
+fn commit_cell(c: &[AtomicU32], p: &[AtomicU32], q: &[AtomicU8]) {
+    {
+        for ((c, p), q) in c.chunks_exact(2).zip(p.chunks_exact(2)).zip(q) {
             let pn = p[0].swap(0, Ordering::Relaxed);
             let pv = p[1].swap(0, Ordering::Relaxed);
             if pn == 0 && pv == 0 {
@@ -380,15 +419,20 @@ impl VisibilityCache {
             }
             c[0].store(n as u32, Ordering::Relaxed);
             c[1].store(v as u32, Ordering::Relaxed);
+            q.store(share_255(n, v), Ordering::Relaxed);
         }
-        self.commits.fetch_add(1, Ordering::Relaxed);
     }
+}
 
+impl VisibilityCache {
     /// Forgets everything learned and pending (every factor 1 again); as for
     /// [`VisibilityCache::commit`], between passes.
     pub fn clear(&self) {
         for c in self.committed.iter().chain(&self.pending) {
             c.store(0, Ordering::Relaxed);
+        }
+        for q in &self.shares {
+            q.store(255, Ordering::Relaxed);
         }
     }
 
@@ -425,12 +469,20 @@ impl VisibilityCache {
         if cell >= self.options.cells {
             return 1.0;
         }
-        let c = self.counts(self.index(cell, cluster));
-        if c.n == 0 {
+        let q = self
+            .shares
+            .get(self.index(cell, cluster))
+            .map_or(255, |q| q.load(Ordering::Relaxed));
+        if q == 255 {
             return 1.0;
         }
-        let share = ((f64::from(c.v) + 1.0) / (f64::from(c.n) + 1.0)).min(1.0) as f32;
         let floor = self.options.floor;
-        (floor + (1.0 - floor) * share).clamp(floor, 1.0)
+        (floor + (1.0 - floor) * (f32::from(q) / 255.0)).clamp(floor, 1.0)
     }
+}
+
+/// `min(1, (v + 1) / (n + 1))` in 255ths, rounded to nearest (`v ≤ n`).
+fn share_255(n: u64, v: u64) -> u8 {
+    let q = (255 * (v + 1) + (n + 1) / 2) / (n + 1);
+    q.min(255) as u8
 }
