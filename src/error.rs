@@ -596,6 +596,9 @@ pub enum DirectError {
         /// The channel's value.
         value: f32,
     },
+    /// The visibility cache was made for another light set
+    /// ([`crate::direct::VisibilityCache::fits`]).
+    VisibilityCache,
 }
 
 impl From<ShadingError> for DirectError {
@@ -631,6 +634,9 @@ impl fmt::Display for DirectError {
             DirectError::EnvironmentRadiance { value } => write!(
                 f,
                 "the environment's radiance (of its sample or eval): every channel must be finite and non-negative (got {value})"
+            ),
+            DirectError::VisibilityCache => f.write_str(
+                "visibility: the cache was made for another light set (its light count, tree depth or lights at infinity differ)"
             ),
         }
     }

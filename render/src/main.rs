@@ -196,6 +196,7 @@ impl ImageArgs {
             time,
             protocol: protocol(self.fixed_point),
             params: self.params.params(),
+            learn: self.params.learn(),
             techniques: Vec::new(),
         }
     }
@@ -236,6 +237,7 @@ fn main() {
             camera,
             params,
         } => {
+            let learn = params.learn();
             let code = run_render(
                 &scene,
                 lights,
@@ -249,6 +251,7 @@ fn main() {
                 protocol(fixed_point),
                 camera,
                 params.params(),
+                learn,
             );
             std::process::exit(code)
         }
@@ -329,6 +332,7 @@ fn run_render(
     protocol: render::Protocol,
     camera: Option<scene::Camera>,
     params: manylights::Params,
+    learn: Option<render::Learn>,
 ) -> i32 {
     let mut scene = match scene::by_name_with(scene, lights, palette) {
         Ok(s) => s,
@@ -351,6 +355,7 @@ fn run_render(
             progress: true,
             protocol,
             params,
+            learn,
         },
     );
     if let Err(e) = image::write_image(output, width, height, &img.mean) {

@@ -46,9 +46,46 @@ pub struct ParamArgs {
     /// The MIS heuristic between the techniques.
     #[arg(long, value_enum, default_value_t = HeuristicArg::default())]
     pub heuristic: HeuristicArg,
+    /// Learn visibility while rendering (a `VisibilityCache`, committed between passes of
+    /// 1, 1, 2, 4, … samples per pixel) for the techniques with a BRDF-oriented cut.
+    #[arg(long)]
+    pub learn: bool,
+    /// The learning's grid cell, as a fraction of the scene's extent (with --learn).
+    #[arg(long)]
+    pub learn_cell: Option<f32>,
+    /// The learning's table size in cells, a power of two (with --learn).
+    #[arg(long)]
+    pub learn_cells: Option<u32>,
+    /// The counters per cell, a power of two (with --learn).
+    #[arg(long)]
+    pub learn_slots: Option<u32>,
+    /// The smallest factor learning may scale a cluster's weight by (with --learn).
+    #[arg(long)]
+    pub learn_floor: Option<f32>,
 }
 
 impl ParamArgs {
+    /// The learned visibility of `--learn` (`None` without it).
+    pub fn learn(&self) -> Option<crate::render::Learn> {
+        if !self.learn {
+            return None;
+        }
+        let mut l = crate::render::Learn::default();
+        if let Some(v) = self.learn_cell {
+            l.cell = v;
+        }
+        if let Some(v) = self.learn_cells {
+            l.cells = v;
+        }
+        if let Some(v) = self.learn_slots {
+            l.slots = v;
+        }
+        if let Some(v) = self.learn_floor {
+            l.floor = v;
+        }
+        Some(l)
+    }
+
     /// The parameters: the core's defaults with the given options applied.
     pub fn params(&self) -> Params {
         let mut p = Params::default();

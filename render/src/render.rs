@@ -32,7 +32,7 @@ use crate::scene::RenderScene;
 use crate::uniforms::RngUniforms;
 use indicatif::{ProgressBar, ProgressStyle};
 use manylights::ShadingPoint;
-use manylights::{Estimator, Params, Technique};
+use manylights::{Estimator, Params, Technique, VisibilityCache};
 use rand::{Rng, SeedableRng};
 use rand_pcg::Pcg64Mcg;
 use rayon::prelude::*;
@@ -77,6 +77,80 @@ pub struct RenderConfig {
     pub protocol: Protocol,
     /// The estimators' parameters.
     pub params: Params,
+    /// Learned visibility ([`Learn`]; `None`: none, the estimators as they are).
+    pub learn: Option<Learn>,
+}
+
+/// Learned visibility in a render ([`manylights::VisibilityCache`]): the samples of each
+/// pixel are taken in passes of 1, 1, 2, 4, … (doubling, the last one what is left), every
+/// pixel in each pass, and the cache is committed after each pass, so pass k samples with
+/// what passes 0..k recorded. Only the techniques with a BRDF-oriented cut (`bl`, `bl-mis`,
+/// `mis-equal`, `full`) are given the cache; the others render as without it. The learning's
+/// cost (recording, commits) is in the render's time, and every pass's samples are in the
+/// image.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Learn {
+    /// The grid cell's side as a fraction of the scene's extent (the diagonal of its
+    /// geometry's bounding box).
+    pub cell: f32,
+    /// Cells of the cache's table.
+    pub cells: u32,
+    /// Counters per cell.
+    pub slots: u32,
+    /// The factors' floor.
+    pub floor: f32,
+}
+
+impl Default for Learn {
+    fn default() -> Self {
+        Learn {
+            cell: 1.0 / 64.0,
+            cells: manylights::VisibilityOptions::DEFAULT_CELLS,
+            slots: manylights::VisibilityOptions::DEFAULT_SLOTS,
+            floor: manylights::VisibilityOptions::DEFAULT_FLOOR,
+        }
+    }
+}
+
+impl Learn {
+    /// Whether `technique` is given the cache (it has a BRDF-oriented cut).
+    pub fn applies_to(technique: Technique) -> bool {
+        matches!(
+            technique,
+            Technique::Bl | Technique::BlMis | Technique::MisEqual | Technique::Full
+        )
+    }
+
+    /// The sample counts of the passes of an `spp` render: 1, 1, 2, 4, … , what is left.
+    pub fn passes(spp: usize) -> Vec<usize> {
+        let mut out = Vec::new();
+        let (mut done, mut next) = (0usize, 1usize);
+        while done < spp {
+            let k = next.min(spp - done);
+            out.push(k);
+            done += k;
+            if out.len() > 1 {
+                next *= 2;
+            }
+        }
+        out
+    }
+
+    /// The cache's options for `scene`.
+    pub fn options(&self, scene: &RenderScene) -> manylights::VisibilityOptions {
+        let extent = scene.geometry.extent();
+        let size = if extent > 0.0 && extent.is_finite() {
+            extent * self.cell
+        } else {
+            1.0
+        };
+        manylights::VisibilityOptions {
+            cell_size: size,
+            cells: self.cells,
+            slots: self.slots,
+            floor: self.floor,
+        }
+    }
 }
 
 /// CPU time of the calling thread, in seconds.
@@ -252,14 +326,185 @@ fn pixel(
     }
 }
 
+/// [`pixel`] with learned visibility: `spp` estimates with estimators of `visibility`, set
+/// up in the thread's `slot` (moved from point to point in place: [`Estimator::reset`]).
+#[allow(clippy::too_many_arguments)]
+fn pixel_learning<'a>(
+    scene: &'a RenderScene,
+    cfg: &RenderConfig,
+    visibility: &'a VisibilityCache,
+    slot: &mut Option<Estimator<'a>>,
+    spp: usize,
+    (px, py): (usize, usize),
+    rng: &mut Pcg64Mcg,
+    failed: &mut u64,
+) -> (Pixel, Pixel) {
+    let (w, h) = (cfg.width, cfg.height);
+    let (set, t, params) = (&scene.lights, cfg.technique, &cfg.params);
+    match cfg.protocol {
+        Protocol::FixedPoint => {
+            let Some(sp) = primary(scene, px, py, w, h) else {
+                return BLACK;
+            };
+            let Ok(est) = Estimator::reuse_with_visibility(slot, set, visibility, &sp, t, params)
+            else {
+                *failed += spp as u64;
+                return BLACK;
+            };
+            moments(spp, || estimate(scene, est, rng, failed))
+        }
+        Protocol::Jittered => moments(spp, || {
+            let offset = [rng.random::<f32>(), rng.random::<f32>()];
+            let Some(sp) = primary_at(scene, px, py, w, h, offset) else {
+                return [0.0; 3];
+            };
+            match Estimator::reuse_with_visibility(slot, set, visibility, &sp, t, params) {
+                Ok(est) => estimate(scene, est, rng, failed),
+                Err(_) => {
+                    *failed += 1;
+                    [0.0; 3]
+                }
+            }
+        }),
+    }
+}
+
 /// Renders `scene` with `cfg`.
 pub fn render(scene: &RenderScene, cfg: &RenderConfig) -> Image {
     render_with(scene, cfg, None)
 }
 
-/// [`render`], calling `on_row` (if any) from the rendering thread after each image row:
-/// a host's own progress report.
+/// [`render`], calling `on_row` (if any) from the rendering thread after each image row (of
+/// each pass, when learning): a host's own progress report.
 pub fn render_with(
+    scene: &RenderScene,
+    cfg: &RenderConfig,
+    on_row: Option<&(dyn Fn() + Sync)>,
+) -> Image {
+    match cfg.learn {
+        Some(learn) if Learn::applies_to(cfg.technique) => {
+            render_learning(scene, cfg, &learn, on_row)
+        }
+        _ => render_plain(scene, cfg, on_row),
+    }
+}
+
+/// The seed of pixel `i`'s generator in pass `pass` of a render learning visibility.
+fn pass_seed(cfg: &RenderConfig, i: usize, pass: usize, tech_index: u64) -> u64 {
+    cfg.seed
+        .wrapping_mul(0x9e37_79b9_7f4a_7c15)
+        .wrapping_add((i as u64) << 8)
+        .wrapping_add(tech_index)
+        ^ (pass as u64).wrapping_mul(0xd1b5_4a32_d192_ed03)
+}
+
+/// [`render`] learning visibility ([`Learn`]): passes, each committed into the cache.
+fn render_learning(
+    scene: &RenderScene,
+    cfg: &RenderConfig,
+    learn: &Learn,
+    on_row: Option<&(dyn Fn() + Sync)>,
+) -> Image {
+    let (w, h) = (cfg.width, cfg.height);
+    let tech_index = Technique::ALL
+        .iter()
+        .position(|&t| t == cfg.technique)
+        .unwrap_or(0) as u64;
+    let start = Instant::now();
+    let mut busy = 0.0f64;
+    let mut failed = 0u64;
+    let mut cache = None;
+    busy += busy_time(|| cache = VisibilityCache::new(&scene.lights, learn.options(scene)).ok());
+    let Some(cache) = cache else {
+        return render_plain(scene, cfg, on_row);
+    };
+    // Per pixel: estimates so far, their sums and sums of squares (f64, per channel).
+    let mut acc = vec![(0usize, [0f64; 3], [0f64; 3]); w * h];
+    let passes = Learn::passes(cfg.spp);
+    let bar = if cfg.progress {
+        let b = ProgressBar::new((h * passes.len()) as u64);
+        b.set_message(format!("{}+learn", cfg.technique.name()));
+        b
+    } else {
+        ProgressBar::hidden()
+    };
+    for (pass, &k) in passes.iter().enumerate() {
+        let c = &cache;
+        let (t, f): (f64, u64) = acc
+            .par_chunks_mut(w.max(1))
+            .enumerate()
+            // One estimator per worker, moved from point to point.
+            .map_init(
+                || None,
+                |slot, (py, row)| {
+                    let mut failed = 0u64;
+                    let t = busy_time(|| {
+                        for (px, a) in row.iter_mut().enumerate() {
+                            let seed = pass_seed(cfg, py * w + px, pass, tech_index);
+                            let mut rng = Pcg64Mcg::seed_from_u64(seed);
+                            let (m, v) = pixel_learning(
+                                scene,
+                                cfg,
+                                c,
+                                slot,
+                                k,
+                                (px, py),
+                                &mut rng,
+                                &mut failed,
+                            );
+                            // Back to sums: k·m and (k − 1)·v + k·m².
+                            for ch in 0..3 {
+                                let (m, v) = (f64::from(m[ch]), f64::from(v[ch]));
+                                a.1[ch] += k as f64 * m;
+                                a.2[ch] += (k as f64 - 1.0) * v + k as f64 * m * m;
+                            }
+                            a.0 += k;
+                        }
+                    });
+                    bar.inc(1);
+                    if let Some(f) = on_row {
+                        f();
+                    }
+                    (t, failed)
+                },
+            )
+            .reduce(|| (0.0, 0), |a, b| (a.0 + b.0, a.1 + b.1));
+        busy += t;
+        failed += f;
+        if pass + 1 < passes.len() {
+            busy += busy_time(|| cache.commit());
+        }
+    }
+    let wall_seconds = start.elapsed().as_secs_f64();
+    bar.finish_and_clear();
+    let mut mean = vec![[0f32; 3]; w * h];
+    let mut var = vec![[0f32; 3]; w * h];
+    for ((n, s, s2), (m, v)) in acc.iter().zip(mean.iter_mut().zip(var.iter_mut())) {
+        let n = *n as f64;
+        for ch in 0..3 {
+            let mu = s[ch] / n;
+            m[ch] = mu as f32;
+            v[ch] = if n > 1.0 {
+                ((s2[ch] - n * mu * mu) / (n - 1.0)).max(0.0) as f32
+            } else {
+                0.0
+            };
+        }
+    }
+    Image {
+        width: w,
+        height: h,
+        mean,
+        var,
+        spp: cfg.spp,
+        seconds: busy,
+        wall_seconds,
+        failed,
+    }
+}
+
+/// [`render`] without learning.
+fn render_plain(
     scene: &RenderScene,
     cfg: &RenderConfig,
     on_row: Option<&(dyn Fn() + Sync)>,

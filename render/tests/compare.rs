@@ -50,6 +50,7 @@ fn config(out: &Path, plot: bool, time: Option<f64>) -> CompareConfig {
         time,
         protocol: Protocol::Jittered,
         params: Default::default(),
+        learn: None,
         techniques: Vec::new(),
     }
 }
@@ -236,6 +237,7 @@ fn compare_writes_every_output() {
                 progress: false,
                 protocol: cfg.protocol,
                 params: cfg.params,
+                learn: None,
             },
         );
         assert_same(&dir.join(format!("{}.exr", t.name())), &img.mean);
@@ -261,6 +263,7 @@ fn compare_writes_every_output() {
             progress: false,
             protocol: cfg.protocol,
             params: cfg.params,
+            learn: None,
         },
     );
     let sq = tl_mis.squared_errors(&reference);

@@ -27,6 +27,7 @@ fn cfg(technique: Technique, spp: usize, seed: u64) -> RenderConfig {
         progress: false,
         protocol: Protocol::Jittered,
         params: Default::default(),
+        learn: None,
     }
 }
 

@@ -417,6 +417,42 @@ impl LightCut {
         cut.finish();
     }
 
+    /// Multiplies each cluster's weight by `factor(cluster)` (the node tree's clusters and the
+    /// lights at infinity alike) and makes [`LightCut::sample`], [`LightCut::pmf`] and the
+    /// root choice follow the new weights: afterwards the cut is what its build would have
+    /// given had the importance returned the scaled weights, its pmfs exact for them. A factor
+    /// outside (0, 1] (NaN included) counts as 1, so no cluster that could be chosen before
+    /// becomes impossible (though one whose share falls below `2 · MIN_PMF` is left out, as
+    /// in any cut). The scores ([`LightCut::max_score`]) are unchanged. `tree` must be the
+    /// tree the cut was built on.
+    pub fn scale_weights(&mut self, tree: &LightTree, mut factor: impl FnMut(&Cluster) -> f32) {
+        let n = self.len + self.infinite;
+        let mut total = 0.0f32;
+        let mut infinite = [0f32; MAX_INFINITE_LIGHTS];
+        for (i, c) in self.clusters[..n].iter_mut().enumerate() {
+            let f = factor(c);
+            if f > 0.0 && f < 1.0 {
+                c.weight *= f;
+            }
+            if i < self.len {
+                total += c.weight;
+            } else if let Some(slot) = infinite.get_mut(usize::from(c.slot)) {
+                *slot = c.weight;
+            }
+        }
+        self.total = total;
+        if self.root.is_some() {
+            let m = tree.infinite.len().min(MAX_INFINITE_LIGHTS);
+            let w: f64 = self
+                .tree_clusters()
+                .iter()
+                .map(|c| f64::from(c.weight))
+                .sum();
+            self.root = Some(RootChoice::new(w, infinite[..m].iter().copied()));
+        }
+        self.finish();
+    }
+
     /// Empties the cut: what [`LightCut::new`] gives, but for the arrays' contents beyond
     /// the (zero) length, which nothing reads.
     fn clear(&mut self) {

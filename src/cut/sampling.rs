@@ -216,6 +216,13 @@ impl LightCut {
         self.clusters.get(found).map(|c| (found, c, path))
     }
 
+    /// The cluster of the cut holding `light` (the node tree's cluster on its path, or its
+    /// own cluster for a light at infinity); `None` where no cluster holds it.
+    #[must_use]
+    pub fn cluster_holding(&self, tree: &LightTree, light: u32) -> Option<&Cluster> {
+        self.cluster_of(tree, light).map(|(_, c, _)| c)
+    }
+
     /// The cluster holding `light` and the light's pmf within it (what
     /// [`LightCut::sample_in`] reports for it); `None` if no cluster of the cut holds it.
     pub fn pmf_in<I: Importance + ?Sized>(

@@ -169,6 +169,7 @@
 
 mod estimator;
 mod sampler;
+pub mod visibility;
 
 pub use estimator::{BsdfDraw, Estimator, LightDraw, LightHit, Step, Weighted};
 pub use sampler::{
@@ -176,6 +177,9 @@ pub use sampler::{
 };
 
 pub use crate::error::DirectError;
+pub use visibility::{
+    VisibilityCache, VisibilityError, VisibilityField, VisibilityOptions, VisibilityStats,
+};
 
 use crate::cut::{BlCutOptions, SplitCutOptions};
 use crate::mis::{Heuristic, N_MAX};

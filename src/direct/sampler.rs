@@ -125,6 +125,12 @@ impl<'a> CutSampler<'a> {
         self.importance = importance;
     }
 
+    /// Scales the cut's cluster weights ([`LightCut::scale_weights`]): sampling and pmfs
+    /// follow the scaled weights, exactly.
+    pub(crate) fn scale_weights(&mut self, factor: impl FnMut(&crate::cut::Cluster) -> f32) {
+        self.cut.scale_weights(self.tree, factor);
+    }
+
     /// [`CutSampler::reset`] to the importance of [`BlImportance::with_directions`], set up in
     /// place.
     #[inline]

@@ -135,6 +135,8 @@ pub struct CompareConfig {
     pub protocol: Protocol,
     /// The estimators' parameters (the reference's are the defaults).
     pub params: Params,
+    /// Learned visibility for the techniques it applies to (not the reference's).
+    pub learn: Option<crate::render::Learn>,
     /// The techniques to render, reported in [`Technique::ALL`] order (empty: all of them).
     /// They must include `tl-mis` (every ratio's denominator), `bl` and the default, and
     /// `full` unless `time` gives the budget.
@@ -877,6 +879,7 @@ pub fn reference(scene: &RenderScene, cfg: &CompareConfig) -> std::io::Result<Im
             progress: cfg.progress,
             protocol: cfg.protocol,
             params: Params::default(),
+            learn: None,
         },
         "reference",
     );
@@ -905,6 +908,7 @@ pub fn check_reference(
             progress: cfg.progress,
             protocol: cfg.protocol,
             params: cfg.params,
+            learn: None,
         },
         "tl-split check",
     );
@@ -1016,6 +1020,7 @@ pub fn run(scene: &RenderScene, cfg: &CompareConfig) -> std::io::Result<Report> 
         progress: cfg.progress,
         protocol: cfg.protocol,
         params: cfg.params,
+        learn: cfg.learn,
     };
     // Equal spp, and the cost model of each technique.
     let chosen = cfg.chosen();

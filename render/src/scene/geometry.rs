@@ -123,6 +123,23 @@ impl Geometry {
         bvh::ray::Ray::new(Point3::new(o.x, o.y, o.z), Vector3::new(d.x, d.y, d.z))
     }
 
+    /// The diagonal of the triangles' bounding box (0 without triangles).
+    pub fn extent(&self) -> f32 {
+        let mut lo = Vec3::splat(f32::INFINITY);
+        let mut hi = Vec3::splat(f32::NEG_INFINITY);
+        for t in &self.triangles {
+            for v in t.v {
+                lo = lo.min(v);
+                hi = hi.max(v);
+            }
+        }
+        if lo.x <= hi.x {
+            (hi - lo).length()
+        } else {
+            0.0
+        }
+    }
+
     /// The nearest hit along the ray from `o` along the unit `d`, beyond `t_min`.
     pub fn nearest(&self, o: Vec3, d: Vec3, t_min: f32) -> Option<Hit> {
         let ray = Self::ray(o, d);

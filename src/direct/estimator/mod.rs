@@ -15,6 +15,7 @@ pub use draws::{BsdfDraw, LightDraw, LightHit, Step, Weighted};
 use mixture::PmfCache;
 
 use super::sampler::{CutSampler, PinfSampler, TreeSampler};
+use super::visibility::VisibilityCache;
 use super::{DirectError, Occluder, Params, Technique, Uniforms};
 use crate::brdf::{Brdf, Frame};
 use crate::colour::Rgb;
@@ -107,6 +108,10 @@ pub struct Estimator<'a> {
     bl_in_full: bool,
     pmfs: PmfCache,
     run: Run,
+    /// The learned visibility the BRDF-oriented cut's weights are scaled by, and the cell of
+    /// the shading point in it.
+    visibility: Option<&'a VisibilityCache>,
+    cell: u32,
 }
 
 /// Checks a host's uniform number.
@@ -433,11 +438,33 @@ impl<'a> Estimator<'a> {
         (self.material.eval_rgb(self.wo, wi) * lp.radiance * wi.z, wi)
     }
 
+    /// Records the host's shadow ray for the light sample `draw` of this estimator: whether
+    /// it was `visible`, into the estimator's [`VisibilityCache`] (nothing without one, or
+    /// with its recording off). Call it once per light sample whose unshadowed value is
+    /// positive, as [`Estimator::estimate`] does for its own; what is recorded changes the
+    /// cut's weights only after the cache's [`commit`](VisibilityCache::commit).
+    #[inline]
+    pub fn record(&self, draw: &LightDraw, visible: bool) {
+        if let (Some(v), Some(b)) = (self.visibility, &self.bl) {
+            if let Some(c) = b.cut().cluster_holding(self.set.tree(), draw.light) {
+                v.record(self.cell, c, visible);
+            }
+        }
+    }
+
+    /// The visibility cache the estimator uses, if any.
+    #[inline]
+    #[must_use]
+    pub fn visibility(&self) -> Option<&'a VisibilityCache> {
+        self.visibility
+    }
+
     /// One estimate of the reflected radiance with the core's material and the host's
     /// occluder (and the set's environment, if it has one): the lower level's loop
     /// ([`Estimator::start`], [`Estimator::next`], [`Estimator::weigh`],
     /// [`Estimator::bsdf_hits`]), summed in f64 per channel (red, green, blue). Finite and
-    /// non-negative.
+    /// non-negative. With a [`VisibilityCache`], every shadow ray of a light sample is
+    /// recorded in it ([`Estimator::record`]).
     pub fn estimate<O: Occluder + ?Sized>(
         &mut self,
         occluder: &O,
@@ -474,7 +501,12 @@ impl<'a> Estimator<'a> {
                 }
             };
             let (g, wi) = self.value(&d.point);
-            if g.max_channel() <= 0.0 || occluder.occluded(x, d.point.direction, d.point.distance) {
+            if g.max_channel() <= 0.0 {
+                continue;
+            }
+            let blocked = occluder.occluded(x, d.point.direction, d.point.distance);
+            self.record(&d, !blocked);
+            if blocked {
                 continue;
             }
             let pdf_tb = if d.needs_bsdf_pdf {

@@ -6,6 +6,7 @@ use super::{Estimator, Phase, PmfCache, Run, SPLIT_CAPACITY};
 use crate::brdf::Frame;
 use crate::cut::{BlCutOptions, LightCut};
 use crate::direct::sampler::{CutSampler, PinfSampler, TreeSampler};
+use crate::direct::visibility::VisibilityCache;
 use crate::direct::{DirectError, LambertMode, Params, Technique};
 use crate::error::Problem;
 use crate::importance::{BlImportance, TlImportance};
@@ -98,21 +99,16 @@ impl Plan {
 }
 
 impl<'a> Estimator<'a> {
-    /// What `technique` needs at `sp` (only that: the split cut for the split techniques, the
-    /// BRDF-oriented cut where BL or the budget needs it).
-    ///
-    /// The estimator holds its cuts in place (several kilobytes): a host that sets one up at
-    /// every shading point of a thread can keep one estimator per thread and move it to each
-    /// new point with [`Estimator::reset`], which gives the same estimator without copying it.
-    pub fn new(
+    /// An estimator for `set`, `technique` and `params` at `sp` with nothing set up but
+    /// `plan`'s frame: what [`Estimator::set_up`] starts from in `new` and `with_visibility`.
+    fn empty(
         set: &'a LightSet,
         sp: &ShadingPoint,
         technique: Technique,
         params: &Params,
-    ) -> Result<Estimator<'a>, DirectError> {
-        let plan = Plan::new(sp, technique, params)?;
-        // Empty but for the light set, technique and parameters; `set_up` does the rest.
-        let mut e = Estimator {
+        plan: &Plan,
+    ) -> Estimator<'a> {
+        Estimator {
             set,
             technique,
             params: *params,
@@ -127,6 +123,8 @@ impl<'a> Estimator<'a> {
             n_mix: 0,
             bl_in_full: false,
             pmfs: PmfCache::EMPTY,
+            visibility: None,
+            cell: 0,
             run: Run {
                 phase: Phase::Done,
                 tl: [(0, 0.0, [0.0; 2]); SPLIT_CAPACITY],
@@ -137,7 +135,49 @@ impl<'a> Estimator<'a> {
                 sw: SequentialWeights::new(0, 1.0, params.heuristic),
                 pending_tb: None,
             },
-        };
+        }
+    }
+
+    /// What `technique` needs at `sp` (only that: the split cut for the split techniques, the
+    /// BRDF-oriented cut where BL or the budget needs it).
+    ///
+    /// The estimator holds its cuts in place (several kilobytes): a host that sets one up at
+    /// every shading point of a thread can keep one estimator per thread and move it to each
+    /// new point with [`Estimator::reset`], which gives the same estimator without copying it.
+    pub fn new(
+        set: &'a LightSet,
+        sp: &ShadingPoint,
+        technique: Technique,
+        params: &Params,
+    ) -> Result<Estimator<'a>, DirectError> {
+        let plan = Plan::new(sp, technique, params)?;
+        let mut e = Estimator::empty(set, sp, technique, params, &plan);
+        e.set_up(sp, plan);
+        Ok(e)
+    }
+
+    /// [`Estimator::new`] with learned visibility: the BRDF-oriented cut's cluster weights are
+    /// scaled by `visibility`'s committed factors at `sp` (see [`VisibilityCache`]), and
+    /// [`Estimator::estimate`] records its shadow rays in it. Pmfs stay exact and every
+    /// technique unbiased; the techniques without a BRDF-oriented cut (`uniform`, `energy`,
+    /// `tl`, `tl-mis`, `tl-mis-pinf`, `tl-split`) sample as without it but still record.
+    /// [`Estimator::reset`] keeps the cache.
+    ///
+    /// Errors: those of `new`, and [`DirectError::VisibilityCache`] for a cache made for
+    /// another light set.
+    pub fn with_visibility(
+        set: &'a LightSet,
+        visibility: &'a VisibilityCache,
+        sp: &ShadingPoint,
+        technique: Technique,
+        params: &Params,
+    ) -> Result<Estimator<'a>, DirectError> {
+        if !visibility.fits(set.tree()) {
+            return Err(DirectError::VisibilityCache);
+        }
+        let plan = Plan::new(sp, technique, params)?;
+        let mut e = Estimator::empty(set, sp, technique, params, &plan);
+        e.visibility = Some(visibility);
         e.set_up(sp, plan);
         Ok(e)
     }
@@ -176,6 +216,13 @@ impl<'a> Estimator<'a> {
                 })
             }
         }
+        if let (Some(v), Some(b)) = (self.visibility, self.bl.as_mut()) {
+            let cell = v.cell(sp.position, plan.frame.normal);
+            self.cell = cell;
+            b.scale_weights(|c| v.factor(cell, c));
+        } else if let Some(v) = self.visibility {
+            self.cell = v.cell(sp.position, plan.frame.normal);
+        }
         self.n_mix = plan.budget(self.technique, &params, self.bl.as_ref());
         if self.technique == Technique::TlMisPinf {
             self.pinf = Some(PinfSampler::with_importance(tree, *self.tl.importance()));
@@ -194,7 +241,7 @@ impl<'a> Estimator<'a> {
     }
 
     /// The estimator at `sp` from a per-thread `slot`: the one in it moved there by
-    /// [`Estimator::reset`] when it was made for `set`, `technique` and `params`, else a new
+    /// [`Estimator::reset`] when it was made by `new` for `set`, `technique` and `params`, else a new
     /// one put in it. Either way what [`Estimator::new`] gives at `sp`. On error (an invalid
     /// `sp`, `new`'s error) the slot keeps what it held.
     pub fn reuse<'s>(
@@ -204,17 +251,53 @@ impl<'a> Estimator<'a> {
         technique: Technique,
         params: &Params,
     ) -> Result<&'s mut Estimator<'a>, DirectError> {
+        Estimator::reuse_in(slot, set, None, sp, technique, params)
+    }
+
+    /// [`Estimator::reuse`] for [`Estimator::with_visibility`]: the slot's estimator is moved
+    /// to `sp` when it was made for `set`, `visibility`, `technique` and `params`, else a new
+    /// one is put in it.
+    pub fn reuse_with_visibility<'s>(
+        slot: &'s mut Option<Estimator<'a>>,
+        set: &'a LightSet,
+        visibility: &'a VisibilityCache,
+        sp: &ShadingPoint,
+        technique: Technique,
+        params: &Params,
+    ) -> Result<&'s mut Estimator<'a>, DirectError> {
+        Estimator::reuse_in(slot, set, Some(visibility), sp, technique, params)
+    }
+
+    fn reuse_in<'s>(
+        slot: &'s mut Option<Estimator<'a>>,
+        set: &'a LightSet,
+        visibility: Option<&'a VisibilityCache>,
+        sp: &ShadingPoint,
+        technique: Technique,
+        params: &Params,
+    ) -> Result<&'s mut Estimator<'a>, DirectError> {
         let same = slot.as_ref().is_some_and(|e| {
-            core::ptr::eq(e.set, set) && e.technique == technique && e.params == *params
+            core::ptr::eq(e.set, set)
+                && e.technique == technique
+                && e.params == *params
+                && match (e.visibility, visibility) {
+                    (None, None) => true,
+                    (Some(a), Some(b)) => core::ptr::eq(a, b),
+                    _ => false,
+                }
         });
+        let fresh = |set, sp: &ShadingPoint| match visibility {
+            Some(v) => Estimator::with_visibility(set, v, sp, technique, params),
+            None => Estimator::new(set, sp, technique, params),
+        };
         match slot {
             Some(e) if same => e.reset(sp)?,
-            _ => return Ok(slot.insert(Estimator::new(set, sp, technique, params)?)),
+            _ => return Ok(slot.insert(fresh(set, sp)?)),
         }
         // Reset in place; `same` held, so the slot holds it.
         match slot {
             Some(e) => Ok(e),
-            None => Ok(slot.insert(Estimator::new(set, sp, technique, params)?)),
+            None => Ok(slot.insert(fresh(set, sp)?)),
         }
     }
 }
