@@ -16,6 +16,11 @@
 //!   [`Estimator::bsdf_hits`], which returns the lights reached with their weights. The
 //!   adaptive allocation (Liu et al. 2019, Algorithm 1) learns from those reports. The one
 //!   call is this loop with the core's materials (see "What is exact" below).
+//! - **Learned visibility** ([`VisibilityCache`], optional): an estimator made by
+//!   [`Estimator::with_visibility`] scales its BRDF-oriented cut's cluster weights by the share
+//!   of shadow rays that got through at nearby points, as the cache counted them up to its
+//!   last [`commit`](VisibilityCache::commit); the one call records its shadow rays, the lower
+//!   level with [`Estimator::record`]. The pmfs stay exact, so every technique stays unbiased.
 //!
 //! ```
 //! use glam::Vec3;

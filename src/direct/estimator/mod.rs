@@ -439,8 +439,9 @@ impl<'a> Estimator<'a> {
     }
 
     /// Records the host's shadow ray for the light sample `draw` of this estimator: whether
-    /// it was `visible`, into the estimator's [`VisibilityCache`] (nothing without one, or
-    /// with its recording off). Call it once per light sample whose unshadowed value is
+    /// it was `visible`, into the estimator's [`VisibilityCache`], counted for the cluster of
+    /// the BRDF-oriented cut that holds the light (nothing without a cache or such a cut, or
+    /// with the cache's recording off). Call it once per light sample whose unshadowed value is
     /// positive, as [`Estimator::estimate`] does for its own; what is recorded changes the
     /// cut's weights only after the cache's [`commit`](VisibilityCache::commit).
     #[inline]

@@ -160,8 +160,8 @@ impl<'a> Estimator<'a> {
     /// scaled by `visibility`'s committed factors at `sp` (see [`VisibilityCache`]), and
     /// [`Estimator::estimate`] records its shadow rays in it. Pmfs stay exact and every
     /// technique unbiased; the techniques without a BRDF-oriented cut (`uniform`, `energy`,
-    /// `tl`, `tl-mis`, `tl-mis-pinf`, `tl-split`) sample as without it but still record.
-    /// [`Estimator::reset`] keeps the cache.
+    /// `tl`, `tl-mis`, `tl-mis-pinf`, `tl-split`) sample as without it and record nothing
+    /// (the cache counts clusters of that cut). [`Estimator::reset`] keeps the cache.
     ///
     /// Errors: those of `new`, and [`DirectError::VisibilityCache`] for a cache made for
     /// another light set.
@@ -241,8 +241,8 @@ impl<'a> Estimator<'a> {
     }
 
     /// The estimator at `sp` from a per-thread `slot`: the one in it moved there by
-    /// [`Estimator::reset`] when it was made by `new` for `set`, `technique` and `params`, else a new
-    /// one put in it. Either way what [`Estimator::new`] gives at `sp`. On error (an invalid
+    /// [`Estimator::reset`] when it was made by `new` for `set`, `technique` and `params`,
+    /// else a new one put in it. Either way what [`Estimator::new`] gives at `sp`. On error (an invalid
     /// `sp`, `new`'s error) the slot keeps what it held.
     pub fn reuse<'s>(
         slot: &'s mut Option<Estimator<'a>>,
