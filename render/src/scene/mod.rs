@@ -35,13 +35,17 @@
 //! light's colour has the luminance its grey power had (its energy in the tree is the same up
 //! to rounding). The other scenes are grey in both palettes.
 
+mod billboard;
 mod city;
 mod cornell;
 mod exhibition;
 mod geometry;
+mod market;
 pub mod obj;
+mod office;
 mod stairs;
 
+pub use billboard::{billboard, billboard_with, BILLBOARD_LIGHTS, BILLBOARD_SCREEN_TRIANGLES};
 pub use city::{city, city_sun, city_with, CITY_LIGHTS, CITY_SUN_DIRECTION};
 pub use cornell::{
     cornell, cornell_light_radius, cornell_with, CORNELL_DEFAULT_LIGHTS, CORNELL_LIGHT_RADIUS,
@@ -50,6 +54,8 @@ pub use cornell::{
 pub use exhibition::{exhibition, EXHIBITION_DISKS, EXHIBITION_PANEL_TRIANGLES};
 pub use geometry::{disk_light, sphere_light};
 pub use geometry::{Geometry, Hit, Triangle};
+pub use market::{market, market_with, MARKET_LIGHTS};
+pub use office::{office, office_with, OFFICE_LIGHTS};
 pub use stairs::stairs;
 
 use glam::Vec3;
@@ -58,7 +64,16 @@ use manylights::{LightSet, Material, Rgb};
 use std::path::Path;
 
 /// The built-in scene names, in help order (`by_name` also takes a path to an `.obj` file).
-pub const SCENES: [&str; 5] = ["cornell", "exhibition", "city", "city-sun", "stairs"];
+pub const SCENES: [&str; 8] = [
+    "cornell",
+    "exhibition",
+    "city",
+    "city-sun",
+    "stairs",
+    "office",
+    "market",
+    "billboard",
+];
 
 /// Colour or grey (see the module documentation).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Default)]
@@ -304,6 +319,9 @@ pub fn by_name_with(
         "city" => Ok(city_with(palette)),
         "city-sun" => Ok(city_sun(palette)),
         "stairs" => Ok(stairs()),
+        "office" => Ok(office_with(palette)),
+        "market" => Ok(market_with(palette)),
+        "billboard" => Ok(billboard_with(palette)),
         _ if is_obj_path(name) => obj::load(Path::new(name)),
         _ => Err(format!(
             "unknown scene {name:?} (known: {}, or a path to an .obj file)",
