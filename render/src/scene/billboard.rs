@@ -80,12 +80,12 @@ fn picture(u: f32, v: f32) -> Rgb {
 /// A plaza at night before a video wall, in colour (see [`billboard_with`]): a 12 × 9 m wall
 /// of 64 × 48 quads ([`BILLBOARD_SCREEN_TRIANGLES`] one-sided triangle lights, 2.5 m above
 /// the ground, facing the plaza) showing a picture (a sunset over mountains above a ticker;
-/// mean radiance about 1.5), on a dark backing box. Before it a glossy GGX plaza (α 0.05),
-/// two glossy cars (plastic paint, GGX α 0.05, on dark wheels) with two headlights each
-/// (one-sided disks, power 30), a row of low concrete blocks and [`LAMPS`] street lamps
-/// (spheres of radius 0.2 at 5 m, power 150) along the plaza's sides: [`BILLBOARD_LIGHTS`]
-/// lights. The camera looks at the wall across the plaza, its reflection in the ground and
-/// on the cars.
+/// radiance three times the picture's linear colour), on a dark backing box. Before it a
+/// glossy GGX plaza (α 0.02), two glossy cars (plastic paint, GGX α 0.05, on dark wheels)
+/// with two headlights each (one-sided disks, power 30), a row of low concrete blocks and 8
+/// street lamps (spheres of radius 0.2 at 5 m, power 150) along the plaza's sides:
+/// [`BILLBOARD_LIGHTS`] lights. The camera looks at the wall across the plaza, its
+/// reflection in the ground and on the cars.
 pub fn billboard() -> RenderScene {
     billboard_with(Palette::Colour)
 }

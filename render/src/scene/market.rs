@@ -112,19 +112,21 @@ fn quad_light(out: &mut Vec<Light>, [a, b, c, d]: [Vec3; 4], radiance: Rgb) {
 }
 
 /// The market hall, 20 × 34 × 8 m, in colour (see [`market_with`]): a glossy floor
-/// (polished concrete, plastic with GGX α 0.06), Lambert brick walls, two rows of ten stalls
+/// (polished concrete, plastic with GGX α 0.03), Lambert brick walls, two rows of ten stalls
 /// along a 6 m aisle (counters, Lambert or brushed-metal GGX tops, crates of produce, posts,
 /// back boards, slanted awnings, a sign board above each awning).
 ///
-/// Lights, [`MARKET_LIGHTS`] of powers spanning about three decades (0.15 to 100):
+/// Lights, [`MARKET_LIGHTS`] of powers spanning three decades (0.1 to 100):
 /// - 2,688 bulbs, spheres of radius 8 mm, on 48 strings sagging across the hall 0.6 m apart
-///   (56 bulbs each, at 4.3 to 5 m), powers log-uniform in [0.15, 0.6];
+///   (56 bulbs each, at 4.3 to 5 m), powers log-uniform in [0.1, 1]: radiance 50 to 470 times
+///   that of the panels;
 /// - 20 stall lamps, bare bulbs of radius 2.5 cm under the awnings, powers log-uniform in
-///   [30, 100]: radiance about 5,000 times that of the panels;
+///   [30, 100]: radiance 1,400 to 4,800 times that of the panels;
 /// - 20 signs, dim one-sided rectangles (two triangles each, power 3) on the awnings' fronts,
 ///   facing the aisle;
 /// - 24 large dim ceiling panels, one-sided disks of radius 1.2 facing down, power 12 each;
-/// - a window at the far end, 14 × 5 m facing in, power 600 as 64 one-sided triangle lights.
+/// - a window at the far end, 14 × 5 m facing in, power 1,500 as 64 one-sided triangle
+///   lights.
 ///
 /// The camera stands at the near end and looks down the aisle to the window. Everything is
 /// placed with a fixed seed.

@@ -21,6 +21,16 @@
 //!   8,000 lamps: light at infinity in the same scene as thousands of local lights.
 //! - `stairs` ([`stairs()`]): a staircase between two walls with 18 small sphere lights along
 //!   the walls and two large disk lights under the ceiling (20 lights).
+//! - `office` ([`office()`]): an office floor, twelve rooms off a corridor, each lit by a grid
+//!   of small ceiling disks ([`OFFICE_LIGHTS`] lights in all); walls and doors block the
+//!   shadow rays, so from any shading point most lights are behind a wall.
+//! - `market` ([`market()`]): a covered night market, lights of very different power side by
+//!   side: strings of tiny bulbs and bare stall lamps beside large dim ceiling panels, dim
+//!   signs and a large window ([`MARKET_LIGHTS`] lights, powers over three decades), over a
+//!   glossy floor.
+//! - `billboard` ([`billboard()`]): a video wall showing a picture, a large emissive mesh of
+//!   [`BILLBOARD_SCREEN_TRIANGLES`] triangle lights of varying colour, over a glossy GGX plaza
+//!   with two glossy cars, street lamps and headlights ([`BILLBOARD_LIGHTS`] lights).
 //! - a path ending in `.obj` ([`obj::load`]): the meshes of the file, with Lambert, plastic or
 //!   GGX materials from its MTL and a triangle light per emissive triangle; automatic camera.
 //!
@@ -33,7 +43,10 @@
 //! number for number. The colours are chosen from each light's or surface's index, never from
 //! the placement generator, so both palettes place everything at the same positions, and a
 //! light's colour has the luminance its grey power had (its energy in the tree is the same up
-//! to rounding). The other scenes are grey in both palettes.
+//! to rounding). `office`, `market` and `billboard` are in colour the same way (tinted room
+//! lights, walls and carpets; coloured bulbs, signs and awnings; the video wall's picture and
+//! the cars), and grey in [`Palette::Grey`]. `exhibition` and `stairs` are grey in both
+//! palettes.
 
 mod billboard;
 mod city;

@@ -14,8 +14,8 @@ const ROOMS_PER_SIDE: usize = 6;
 const ROOM_GRID: (usize, usize) = (10, 10);
 /// Lights along the corridor's ceiling.
 const CORRIDOR_LIGHTS: usize = 12;
-/// Number of lights of `office`: a grid of [`ROOM_GRID`] in each of the 12 rooms and 12 along
-/// the corridor.
+/// Number of lights of `office`: a grid of 10 × 10 in each of the 12 rooms and 12 along the
+/// corridor.
 pub const OFFICE_LIGHTS: usize = 2 * ROOMS_PER_SIDE * ROOM_GRID.0 * ROOM_GRID.1 + CORRIDOR_LIGHTS;
 
 /// Half width of the corridor (x).
@@ -74,18 +74,20 @@ fn slab(t: &mut Vec<Triangle>, lo: Vec3, hi: Vec3, m: Material) {
 /// The office floor: a corridor 3 m wide and 3 m high along −z, with six rooms of 6 × 6 m on
 /// each side (12 rooms), and in colour (see [`office_with`]). Every wall is a 12 cm box
 /// blocking shadow rays; each room opens on the corridor by a door 1.3 m wide and 2.2 m high
-/// at a random place along its wall, one door in four closed by a door leaf (fixed seed).
+/// at a random place along its wall, closed by a door leaf with probability 1/4 (three of the
+/// twelve; fixed seed).
 ///
-/// Lights: [`OFFICE_LIGHTS`] one-sided disks of radius 6 cm, 3 cm under the ceiling and
-/// facing down: a 10 × 10 grid in every room (0.6 m apart, powers log-uniform in [0.5, 2] × 2
-/// times a room scale log-uniform in [0.5, 2]) and 12 along the corridor (power 6). Each room
-/// has four to six desks (boxes with a glossy plastic top) with a dark monitor on each,
-/// Lambert walls and a Lambert carpet; the corridor's floor is glossy plastic (GGX α 0.08).
+/// Lights, [`OFFICE_LIGHTS`] in all: in every room a 10 × 10 grid of one-sided disks of
+/// radius 6 cm, 3 cm under the ceiling and facing down (0.6 m apart, powers log-uniform in
+/// [0.5, 2] × 4 times a room scale log-uniform in [0.5, 2]), and 12 spheres of radius 8 cm
+/// hanging 35 cm under the corridor's ceiling (power 10). Each room has four to six desks
+/// (boxes with a glossy plastic top) with a dark monitor on each, Lambert walls and a Lambert
+/// carpet; the corridor's floor is glossy plastic (GGX α 0.08).
 ///
-/// The camera stands at the corridor's open end and looks down it, into the nearest rooms
-/// through their doors. From a point in the corridor about 95 % of the lights are behind a
-/// wall or a closed door: only the corridor's own and the few seen through open doors are
-/// not.
+/// The camera stands in the corridor by the first rooms and looks down it, and through the
+/// nearest open door into a room. From a point in the corridor 92 to 97 % of the lights (to
+/// their centres) are behind a wall or a closed door: only the corridor's own and those seen
+/// through open doors are not.
 pub fn office() -> RenderScene {
     office_with(Palette::Colour)
 }
