@@ -19,7 +19,8 @@ enum Command {
     /// Render a built-in scene (direct illumination) with one technique to a PNG, or to a
     /// linear OpenEXR file when the output name ends in .exr.
     Render {
-        /// Scene: cornell, exhibition, city, city-sun, stairs, or a path to an .obj file (with its .mtl).
+        /// Scene: cornell, exhibition, city, city-sun, stairs, office, market, billboard, or a path
+        /// to an .obj file (with its .mtl).
         #[arg(long, default_value = "cornell")]
         scene: String,
         /// Number of lights (cornell only; default 1,494).
@@ -123,7 +124,8 @@ enum Command {
 /// The scene and image arguments `reference` and `compare` share.
 #[derive(clap::Args)]
 struct ImageArgs {
-    /// Scene: cornell, exhibition, city, city-sun, stairs, or a path to an .obj file (with its .mtl).
+    /// Scene: cornell, exhibition, city, city-sun, stairs, office, market, billboard, or a path
+    /// to an .obj file (with its .mtl).
     #[arg(long, default_value = "cornell")]
     scene: String,
     /// Number of lights (cornell only; default 1,494).

@@ -21,6 +21,16 @@
 //!   8,000 lamps: light at infinity in the same scene as thousands of local lights.
 //! - `stairs` ([`stairs()`]): a staircase between two walls with 18 small sphere lights along
 //!   the walls and two large disk lights under the ceiling (20 lights).
+//! - `office` ([`office()`]): an office floor, twelve rooms off a corridor, each lit by a grid
+//!   of small ceiling disks ([`OFFICE_LIGHTS`] lights in all); walls and doors block the
+//!   shadow rays, so from any shading point most lights are behind a wall.
+//! - `market` ([`market()`]): a covered night market, lights of very different power side by
+//!   side: strings of tiny bulbs and bare stall lamps beside large dim ceiling panels, dim
+//!   signs and a large window ([`MARKET_LIGHTS`] lights, powers over three decades), over a
+//!   glossy floor.
+//! - `billboard` ([`billboard()`]): a video wall showing a picture, a large emissive mesh of
+//!   [`BILLBOARD_SCREEN_TRIANGLES`] triangle lights of varying colour, over a glossy GGX plaza
+//!   with two glossy cars, street lamps and headlights ([`BILLBOARD_LIGHTS`] lights).
 //! - a path ending in `.obj` ([`obj::load`]): the meshes of the file, with Lambert, plastic or
 //!   GGX materials from its MTL and a triangle light per emissive triangle; automatic camera.
 //!
@@ -33,16 +43,23 @@
 //! number for number. The colours are chosen from each light's or surface's index, never from
 //! the placement generator, so both palettes place everything at the same positions, and a
 //! light's colour has the luminance its grey power had (its energy in the tree is the same up
-//! to rounding). The other scenes are grey in both palettes.
+//! to rounding). `office`, `market` and `billboard` are in colour the same way (tinted room
+//! lights, walls and carpets; coloured bulbs, signs and awnings; the video wall's picture and
+//! the cars), and grey in [`Palette::Grey`]. `exhibition` and `stairs` are grey in both
+//! palettes.
 
+mod billboard;
 mod city;
 mod cornell;
 mod exhibition;
 mod geometry;
+mod market;
 pub mod obj;
+mod office;
 pub mod pbrt;
 mod stairs;
 
+pub use billboard::{billboard, billboard_with, BILLBOARD_LIGHTS, BILLBOARD_SCREEN_TRIANGLES};
 pub use city::{city, city_sun, city_with, CITY_LIGHTS, CITY_SUN_DIRECTION};
 pub use cornell::{
     cornell, cornell_light_radius, cornell_with, CORNELL_DEFAULT_LIGHTS, CORNELL_LIGHT_RADIUS,
@@ -51,6 +68,8 @@ pub use cornell::{
 pub use exhibition::{exhibition, EXHIBITION_DISKS, EXHIBITION_PANEL_TRIANGLES};
 pub use geometry::{disk_light, sphere_light};
 pub use geometry::{Geometry, Hit, Triangle};
+pub use market::{market, market_with, MARKET_LIGHTS};
+pub use office::{office, office_with, OFFICE_LIGHTS};
 pub use stairs::stairs;
 
 use glam::Vec3;
@@ -59,7 +78,16 @@ use manylights::{LightSet, Material, Rgb};
 use std::path::Path;
 
 /// The built-in scene names, in help order (`by_name` also takes a path to an `.obj` file).
-pub const SCENES: [&str; 5] = ["cornell", "exhibition", "city", "city-sun", "stairs"];
+pub const SCENES: [&str; 8] = [
+    "cornell",
+    "exhibition",
+    "city",
+    "city-sun",
+    "stairs",
+    "office",
+    "market",
+    "billboard",
+];
 
 /// Colour or grey (see the module documentation).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Default)]
@@ -305,6 +333,9 @@ pub fn by_name_with(
         "city" => Ok(city_with(palette)),
         "city-sun" => Ok(city_sun(palette)),
         "stairs" => Ok(stairs()),
+        "office" => Ok(office_with(palette)),
+        "market" => Ok(market_with(palette)),
+        "billboard" => Ok(billboard_with(palette)),
         _ if is_obj_path(name) => obj::load(Path::new(name)),
         // A pbrt-v4 file: its warnings (what it uses that is not mapped) go to stderr.
         _ if Path::new(name)
