@@ -73,6 +73,7 @@ fn check(name: &str, lights: usize, by_kind: (usize, usize, usize)) -> RenderSce
             progress: false,
             protocol: Protocol::Jittered,
             params: Default::default(),
+            learn: None,
         },
     );
     assert_eq!(img.failed, 0, "{name}: failed estimates");

@@ -35,6 +35,7 @@ fn cfg(w: usize, h: usize, spp: usize, protocol: Protocol) -> RenderConfig {
         progress: false,
         protocol,
         params: Default::default(),
+        learn: None,
     }
 }
 

@@ -483,6 +483,7 @@ impl VisibilityCache {
 
 /// `min(1, (v + 1) / (n + 1))` in 255ths, rounded to nearest (`v ≤ n`).
 fn share_255(n: u64, v: u64) -> u8 {
-    let q = (255 * (v + 1) + (n + 1) / 2) / (n + 1);
+    let d = n + 1;
+    let q = (255 * (v + 1) + d / 2) / d;
     q.min(255) as u8
 }
