@@ -1694,8 +1694,9 @@ ml_status ml_estimator_free(struct ml_estimator *est);
  * same set-up, and bit for bit the same estimates, without a new estimator's copy): a host
  * keeps one estimator per thread and sets it up at every shading point. With a visibility
  * cache (`ml_estimator_set_visibility_cache`), the BRDF-oriented cut's cluster weights are
- * scaled by the cache's committed state at `sp` (techniques without that cut sample as
- * without a cache; all record). On error the estimator keeps its previous set-up.
+ * scaled by the cache's committed state at `sp` (`bl`, `bl-mis`, `mis-equal`, `full`; the
+ * techniques without that cut neither use nor feed the cache). On error the estimator keeps
+ * its previous set-up.
  *
  * Errors: `ML_ERR_NULL` (`est`, `sp`); `ML_ERR_INVALID_ARGUMENT` (a bad shading point,
  * technique or parameter).
@@ -1736,7 +1737,9 @@ ml_status ml_estimator_record(struct ml_estimator *est, uint32_t visible);
 
 /**
  * One estimate at the estimator's shading point with the core's material: as
- * `ml_direct_estimate`, without the set-up.
+ * `ml_direct_estimate`, without the set-up. With a visibility cache, every shadow ray of a
+ * light sample whose unshadowed value is positive is recorded in it (as
+ * `ml_estimator_record`).
  *
  * Errors: `ML_ERR_NULL` (`est`, `uniforms`, `uniforms->next_f32`, `out`);
  * `ML_ERR_INVALID_ARGUMENT` (a uniform number outside [0, 1), a bad `first_hit`, a bad value

@@ -7,11 +7,11 @@ use crate::cut::{cut_options, ml_bl_cut_options, ml_split_cut_options, split_opt
 use crate::error::{ml_status, Error, Result};
 use crate::ffi_fn;
 use crate::tree::{ml_tree, tree_arg, TreeData};
-use crate::visibility_cache::{cache_arg, ml_visibility_cache, CacheData};
 use crate::types::{
     finite3, ml_light_point, ml_rgb, ml_rgb64, ml_shading_point, ml_vec3, shading_error,
     shading_point,
 };
+use crate::visibility_cache::{cache_arg, ml_visibility_cache, CacheData};
 use core::ffi::c_void;
 use glam::Vec3;
 use manylights::direct::MAX_LIGHT_SAMPLES;
@@ -684,8 +684,9 @@ pub extern "C" fn ml_estimator_free(est: *mut ml_estimator) -> ml_status {
 /// same set-up, and bit for bit the same estimates, without a new estimator's copy): a host
 /// keeps one estimator per thread and sets it up at every shading point. With a visibility
 /// cache (`ml_estimator_set_visibility_cache`), the BRDF-oriented cut's cluster weights are
-/// scaled by the cache's committed state at `sp` (techniques without that cut sample as
-/// without a cache; all record). On error the estimator keeps its previous set-up.
+/// scaled by the cache's committed state at `sp` (`bl`, `bl-mis`, `mis-equal`, `full`; the
+/// techniques without that cut neither use nor feed the cache). On error the estimator keeps
+/// its previous set-up.
 ///
 /// Errors: `ML_ERR_NULL` (`est`, `sp`); `ML_ERR_INVALID_ARGUMENT` (a bad shading point,
 /// technique or parameter).
@@ -799,7 +800,9 @@ fn set_up(h: &mut ml_estimator) -> Result<&mut Estimator<'static>> {
 }
 
 /// One estimate at the estimator's shading point with the core's material: as
-/// `ml_direct_estimate`, without the set-up.
+/// `ml_direct_estimate`, without the set-up. With a visibility cache, every shadow ray of a
+/// light sample whose unshadowed value is positive is recorded in it (as
+/// `ml_estimator_record`).
 ///
 /// Errors: `ML_ERR_NULL` (`est`, `uniforms`, `uniforms->next_f32`, `out`);
 /// `ML_ERR_INVALID_ARGUMENT` (a uniform number outside [0, 1), a bad `first_hit`, a bad value
