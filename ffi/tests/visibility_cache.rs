@@ -666,3 +666,81 @@ fn bad_options_and_arguments_are_named_and_write_nothing() {
     ok(ml_tree_free(loaded));
     ok(ml_tree_free(tree));
 }
+
+/// A tree or cache handle shared by threads (the ABI's contract: the tree's `const` calls
+/// and every cache call are thread-safe).
+struct Shared<T>(*mut T);
+impl<T> Clone for Shared<T> {
+    fn clone(&self) -> Self {
+        *self
+    }
+}
+impl<T> Copy for Shared<T> {}
+// SAFETY: see above.
+unsafe impl<T> Send for Shared<T> {}
+// SAFETY: as above.
+unsafe impl<T> Sync for Shared<T> {}
+
+/// Estimates at points `range` with one estimator of `tree` using `cache`, seeds per point.
+fn render(
+    tree: Shared<ml_tree>,
+    cache: Shared<ml_visibility_cache>,
+    range: std::ops::Range<usize>,
+    seed: u64,
+) -> Vec<[f64; 3]> {
+    let mut est = ptr::null_mut();
+    ok(ml_estimator_create(tree.0, &mut est));
+    ok(ml_estimator_set_visibility_cache(est, cache.0));
+    let mut out = Vec::new();
+    for i in range {
+        let (sp, _) = point(i);
+        ok(ml_estimator_set_point(
+            est,
+            &sp,
+            ML_TECHNIQUE_DEFAULT,
+            ptr::null(),
+        ));
+        let mut r = Rng::new(seed ^ (i as u64) << 20);
+        let u = uniforms(&mut r);
+        for _ in 0..PER_POINT {
+            let mut e = ml_rgb64::default();
+            ok(ml_estimator_estimate(est, &wall(), &u, &mut e));
+            out.push([e.r, e.g, e.b]);
+        }
+    }
+    ok(ml_estimator_free(est));
+    out
+}
+
+#[test]
+fn passes_committed_between_give_the_same_bits_on_one_two_or_three_threads() {
+    let tree = Shared(build(&lights(5)));
+    let run = |threads: usize| {
+        let cache = Shared(create(tree.0));
+        let mut all = Vec::new();
+        for pass in 0..3u64 {
+            let mut images = Vec::new();
+            std::thread::scope(|s| {
+                let per = POINTS.div_ceil(threads);
+                let hs: Vec<_> = (0..threads)
+                    .map(|t| {
+                        let r = t * per..((t + 1) * per).min(POINTS);
+                        s.spawn(move || render(tree, cache, r, 40 + pass))
+                    })
+                    .collect();
+                for h in hs {
+                    images.extend(h.join().unwrap());
+                }
+            });
+            ok(ml_visibility_cache_commit(cache.0));
+            all.push((bits(&images), stats(cache.0)));
+        }
+        ok(ml_visibility_cache_free(cache.0));
+        all
+    };
+    let one = run(1);
+    assert!(one[2].1.samples > 0);
+    assert_eq!(one, run(2));
+    assert_eq!(one, run(3));
+    ok(ml_tree_free(tree.0));
+}
