@@ -154,6 +154,16 @@
 #define ML_NO_LIGHT UINT32_MAX
 
 /**
+ * The most cells of a visibility cache (`ml_visibility_cache_options.cells`).
+ */
+#define ML_MAX_VISIBILITY_CELLS 1048576
+
+/**
+ * The most counters per cell of a visibility cache (`ml_visibility_cache_options.slots`).
+ */
+#define ML_MAX_VISIBILITY_SLOTS 4096
+
+/**
  * The kind of an `ml_light` (the value of its `kind` field, which names the union's member
  * that holds the light). Units: positions in any length unit m (the same as the scene's),
  * intensity in W/sr, radiance in W/(m²·sr), irradiance in W/m², each per channel of linear
@@ -433,7 +443,7 @@ typedef struct ml_cut ml_cut;
 /**
  * A per-point estimator (opaque): per-thread state, set up for one shading point and
  * technique by `ml_estimator_set_point`, then any number of estimates. It keeps its tree
- * alive. Not to be used by two threads at once.
+ * alive, and the visibility cache it was given. Not to be used by two threads at once.
  */
 typedef struct ml_estimator ml_estimator;
 
@@ -443,6 +453,18 @@ typedef struct ml_estimator ml_estimator;
  * from it keep it alive: it may be freed before them.
  */
 typedef struct ml_tree ml_tree;
+
+/**
+ * A visibility cache (opaque), made for one tree's lights by `ml_visibility_cache_create`.
+ * Shared: every thread's estimators may use one cache at once, and every function taking
+ * it may be called from any thread at any time (records are atomic integer additions).
+ * What sampling reads changes only at `ml_visibility_cache_commit` and
+ * `ml_visibility_cache_clear`: for the same bits with fixed seeds on any number of threads,
+ * call them between passes, when no estimate runs, and set estimators up again after them.
+ * It keeps its tree alive, and estimators keep it alive: the handle may be freed while they
+ * use it.
+ */
+typedef struct ml_visibility_cache ml_visibility_cache;
 
 /**
  * What every function returns: `ML_OK` or one of the `ML_ERR_*` codes. On an error,
@@ -1179,6 +1201,53 @@ typedef struct ml_tree_statistics {
 } ml_tree_statistics;
 
 /**
+ * Options of `ml_visibility_cache_create` (`ml_visibility_cache_options_default` fills the
+ * defaults for a cell size). The cache takes `cells · slots · 16` bytes (16 MiB with the
+ * defaults), allocated once at creation.
+ */
+typedef struct ml_visibility_cache_options {
+    /**
+     * The side of a grid cell in the scene's units (finite, > 0): points closer than this
+     * tend to share what they learned; a few hundredths of the scene's extent is usual.
+     */
+    float cell_size;
+    /**
+     * Cells of the table: a power of two in [1, `ML_MAX_VISIBILITY_CELLS`] (default 4096);
+     * grid cells beyond it share blocks.
+     */
+    uint32_t cells;
+    /**
+     * Counters per cell: a power of two in [1, `ML_MAX_VISIBILITY_SLOTS`] (default 256); a
+     * few times the cut's size keeps clusters from sharing one.
+     */
+    uint32_t slots;
+    /**
+     * The smallest factor a cluster's weight is multiplied by, in (0, 1] (default 0.1; 1
+     * learns nothing): where the cache is wrong a cluster's probability falls by at most
+     * 1 / floor, and no light that could be sampled without the cache gets pmf 0.
+     */
+    float floor;
+} ml_visibility_cache_options;
+
+/**
+ * What a cache's committed state holds (`ml_visibility_cache_stats`).
+ */
+typedef struct ml_visibility_cache_counts {
+    /**
+     * Counters (cell, slot) with at least one sample.
+     */
+    uint64_t used;
+    /**
+     * Light samples counted.
+     */
+    uint64_t samples;
+    /**
+     * Of which visible.
+     */
+    uint64_t visible;
+} ml_visibility_cache_counts;
+
+/**
  * Options of `ml_acceptor_create` (`ml_acceptor_options_default` fills them; set `pixels`
  * and `wanted`).
  */
@@ -1623,8 +1692,11 @@ ml_status ml_estimator_free(struct ml_estimator *est);
  * defaults): builds what the technique needs there (its cuts, its budget). With the
  * technique and parameters of its previous set-up the estimator is rebuilt in place (the
  * same set-up, and bit for bit the same estimates, without a new estimator's copy): a host
- * keeps one estimator per thread and sets it up at every shading point. On error the
- * estimator keeps its previous set-up.
+ * keeps one estimator per thread and sets it up at every shading point. With a visibility
+ * cache (`ml_estimator_set_visibility_cache`), the BRDF-oriented cut's cluster weights are
+ * scaled by the cache's committed state at `sp` (`bl`, `bl-mis`, `mis-equal`, `full`; the
+ * techniques without that cut neither use nor feed the cache). On error the estimator keeps
+ * its previous set-up.
  *
  * Errors: `ML_ERR_NULL` (`est`, `sp`); `ML_ERR_INVALID_ARGUMENT` (a bad shading point,
  * technique or parameter).
@@ -1635,8 +1707,39 @@ ml_status ml_estimator_set_point(struct ml_estimator *est,
                                  const struct ml_direct_params *params);
 
 /**
+ * Gives the estimator a visibility cache made for its tree (`ml_visibility_cache_create`),
+ * or none (`cache` NULL): from the next `ml_estimator_set_point` on, the BRDF-oriented cut's
+ * cluster weights are scaled by the cache's committed state, and `ml_estimator_estimate`
+ * records its shadow rays in it (the step loop records with `ml_estimator_record`). Until
+ * then the current set-up is kept, with the cache it was made with. The estimator keeps the
+ * cache alive: the cache's handle may be freed first. Pmfs stay exact (sampled = queried)
+ * and every technique unbiased whatever the cache learned. One cache serves every thread's
+ * estimators at once.
+ *
+ * Errors: `ML_ERR_NULL` (`est`); `ML_ERR_INVALID_ARGUMENT` (`cache` made for another tree).
+ */
+ml_status ml_estimator_set_visibility_cache(struct ml_estimator *est,
+                                            const struct ml_visibility_cache *cache);
+
+/**
+ * Records the host's shadow ray for the last light step (`ML_STEP_KIND_LIGHT`) in the
+ * estimator's visibility cache: `visible` 1 if the light point was unoccluded, 0 if not.
+ * Call it once per light step whose value (f · radiance · cos θi) is positive, before or
+ * after `ml_estimator_weigh`, as `ml_estimator_estimate` does for its own; nothing happens
+ * without a cache or with its recording off, and what is recorded changes sampling only
+ * after `ml_visibility_cache_commit`. Thread-safe with respect to the cache (every thread's
+ * estimators record into it at once).
+ *
+ * Errors: `ML_ERR_NULL` (`est`); `ML_ERR_INVALID_ARGUMENT` (`visible` other than 0 or 1);
+ * `ML_ERR_STATE` (not set up, or no light step yielded since the last start).
+ */
+ml_status ml_estimator_record(struct ml_estimator *est, uint32_t visible);
+
+/**
  * One estimate at the estimator's shading point with the core's material: as
- * `ml_direct_estimate`, without the set-up.
+ * `ml_direct_estimate`, without the set-up. With a visibility cache, every shadow ray of a
+ * light sample whose unshadowed value is positive is recorded in it (as
+ * `ml_estimator_record`).
  *
  * Errors: `ML_ERR_NULL` (`est`, `uniforms`, `uniforms->next_f32`, `out`);
  * `ML_ERR_INVALID_ARGUMENT` (a uniform number outside [0, 1), a bad `first_hit`, a bad value
@@ -1990,6 +2093,77 @@ ml_status ml_light_sample_point_batch(const struct ml_tree *tree,
                                       const float *u1s,
                                       size_t count,
                                       struct ml_light_point *out);
+
+/**
+ * Fills `*out` with the default options (4096 cells, 256 slots, floor 0.1) and `cell_size`
+ * (checked by `ml_visibility_cache_create`).
+ *
+ * Errors: `ML_ERR_NULL` if `out` is NULL.
+ */
+ml_status ml_visibility_cache_options_default(float cell_size,
+                                              struct ml_visibility_cache_options *out);
+
+/**
+ * Creates a visibility cache for the lights of `tree` (built by `ml_tree_build` or loaded by
+ * `ml_tree_load_with_lights`) with nothing learned (every factor 1: estimators sample as
+ * without it) and recording on. Give it to estimators of this tree with
+ * `ml_estimator_set_visibility_cache`; free it with `ml_visibility_cache_free`.
+ *
+ * Errors: `ML_ERR_NULL` (`tree`, `options`, `out`); `ML_ERR_INVALID_ARGUMENT` (a field of
+ * `options` out of its range, named: `options.cell_size`, `options.cells`, `options.slots`,
+ * `options.floor`); `ML_ERR_STATE` (a tree loaded by `ml_tree_load`, without its lights).
+ */
+ml_status ml_visibility_cache_create(const struct ml_tree *tree,
+                                     const struct ml_visibility_cache_options *options,
+                                     struct ml_visibility_cache **out);
+
+/**
+ * Frees a cache handle (NULL: nothing). Estimators given the cache keep it until they are
+ * freed or given another.
+ */
+ml_status ml_visibility_cache_free(struct ml_visibility_cache *cache);
+
+/**
+ * Adds the records made since the last commit into the counts sampling reads, and clears
+ * them: estimators set up after it (`ml_estimator_set_point`) sample with what was learned.
+ * Safe from any thread at any time; for determinism, between passes (see
+ * `ml_visibility_cache`).
+ *
+ * Errors: `ML_ERR_NULL` (`cache`).
+ */
+ml_status ml_visibility_cache_commit(struct ml_visibility_cache *cache);
+
+/**
+ * Forgets everything learned and pending (every factor 1 again). As
+ * `ml_visibility_cache_commit`, between passes.
+ *
+ * Errors: `ML_ERR_NULL` (`cache`).
+ */
+ml_status ml_visibility_cache_clear(struct ml_visibility_cache *cache);
+
+/**
+ * Turns recording on (`on` = 1, as made) or off (0): off, estimators record nothing (a final
+ * pass that no commit follows need not pay for it) and sample with what was committed.
+ *
+ * Errors: `ML_ERR_NULL` (`cache`); `ML_ERR_INVALID_ARGUMENT` (`on` other than 0 or 1).
+ */
+ml_status ml_visibility_cache_set_recording(struct ml_visibility_cache *cache, uint32_t on);
+
+/**
+ * Writes what the committed state holds (the counters with data, the samples and visible
+ * samples counted; a walk over the whole table, for reports) to `*out`.
+ *
+ * Errors: `ML_ERR_NULL` (`cache`, `out`).
+ */
+ml_status ml_visibility_cache_stats(const struct ml_visibility_cache *cache,
+                                    struct ml_visibility_cache_counts *out);
+
+/**
+ * Writes the bytes the cache's tables take (`cells · slots · 16`) to `*out`.
+ *
+ * Errors: `ML_ERR_NULL` (`cache`, `out`).
+ */
+ml_status ml_visibility_cache_bytes(const struct ml_visibility_cache *cache, size_t *out);
 
 /**
  * Fills `*out` with the default options (`pixels` = `wanted` = 0: set them).

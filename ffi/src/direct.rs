@@ -11,6 +11,7 @@ use crate::types::{
     finite3, ml_light_point, ml_rgb, ml_rgb64, ml_shading_point, ml_vec3, shading_error,
     shading_point,
 };
+use crate::visibility_cache::{cache_arg, ml_visibility_cache, CacheData};
 use core::ffi::c_void;
 use glam::Vec3;
 use manylights::direct::MAX_LIGHT_SAMPLES;
@@ -307,12 +308,17 @@ pub type ml_hit_fn = Option<unsafe extern "C" fn(user_data: *mut c_void, hit: *c
 
 /// A per-point estimator (opaque): per-thread state, set up for one shading point and
 /// technique by `ml_estimator_set_point`, then any number of estimates. It keeps its tree
-/// alive. Not to be used by two threads at once.
+/// alive, and the visibility cache it was given. Not to be used by two threads at once.
 pub struct ml_estimator {
-    // Declared before `tree`, so dropped first: it borrows the light set `tree` owns.
+    // Declared before `set_up_cache` and `tree`, so dropped first: it borrows the light set
+    // `tree` owns and the cache `set_up_cache` holds.
     est: Option<Estimator<'static>>,
     last_light: Option<LightDraw>,
     last_bsdf: Option<BsdfDraw>,
+    /// The cache `est` was set up with (and borrows).
+    set_up_cache: Option<Arc<CacheData>>,
+    /// The cache the next `ml_estimator_set_point` sets up with.
+    cache: Option<Arc<CacheData>>,
     tree: Arc<TreeData>,
 }
 
@@ -658,6 +664,8 @@ pub extern "C" fn ml_estimator_create(
             est: None,
             last_light: None,
             last_bsdf: None,
+            set_up_cache: None,
+            cache: None,
             tree: Arc::clone(data),
         }));
         Ok(())
@@ -674,8 +682,11 @@ pub extern "C" fn ml_estimator_free(est: *mut ml_estimator) -> ml_status {
 /// defaults): builds what the technique needs there (its cuts, its budget). With the
 /// technique and parameters of its previous set-up the estimator is rebuilt in place (the
 /// same set-up, and bit for bit the same estimates, without a new estimator's copy): a host
-/// keeps one estimator per thread and sets it up at every shading point. On error the
-/// estimator keeps its previous set-up.
+/// keeps one estimator per thread and sets it up at every shading point. With a visibility
+/// cache (`ml_estimator_set_visibility_cache`), the BRDF-oriented cut's cluster weights are
+/// scaled by the cache's committed state at `sp` (`bl`, `bl-mis`, `mis-equal`, `full`; the
+/// techniques without that cut neither use nor feed the cache). On error the estimator keeps
+/// its previous set-up.
 ///
 /// Errors: `ML_ERR_NULL` (`est`, `sp`); `ML_ERR_INVALID_ARGUMENT` (a bad shading point,
 /// technique or parameter).
@@ -696,11 +707,88 @@ pub extern "C" fn ml_estimator_set_point(
         // replaces; `h.est` is declared before `h.tree` (dropped first) and the reference never
         // leaves the handle.
         let set: &'static LightSet = unsafe { &*(set as *const LightSet) };
-        // The same technique and parameters: the estimator is moved to the point in place
-        // (`reset`, the same set-up as a new one without its copy).
-        Estimator::reuse(&mut h.est, set, &sp, t, &p).map_err(direct_error)?;
+        // The same technique, parameters and cache: the estimator is moved to the point in
+        // place (`reset`, the same set-up as a new one without its copy).
+        match &h.cache {
+            Some(c) => {
+                // SAFETY: the cache lives in the `Arc` that `h.set_up_cache` holds from here
+                // on (it is stored below, once the set-up succeeded, and replaced only by the
+                // cache of a later set-up, which also replaces or resets `h.est`); `h.est` is
+                // declared before `h.set_up_cache` (dropped first) and the reference never
+                // leaves the handle.
+                let cache: &'static manylights::VisibilityCache =
+                    unsafe { &*(&c.cache as *const manylights::VisibilityCache) };
+                Estimator::reuse_with_visibility(&mut h.est, set, cache, &sp, t, &p)
+                    .map_err(direct_error)?;
+            }
+            None => {
+                Estimator::reuse(&mut h.est, set, &sp, t, &p).map_err(direct_error)?;
+            }
+        }
+        h.set_up_cache = h.cache.clone();
         h.last_light = None;
         h.last_bsdf = None;
+        Ok(())
+    })
+}
+
+/// Gives the estimator a visibility cache made for its tree (`ml_visibility_cache_create`),
+/// or none (`cache` NULL): from the next `ml_estimator_set_point` on, the BRDF-oriented cut's
+/// cluster weights are scaled by the cache's committed state, and `ml_estimator_estimate`
+/// records its shadow rays in it (the step loop records with `ml_estimator_record`). Until
+/// then the current set-up is kept, with the cache it was made with. The estimator keeps the
+/// cache alive: the cache's handle may be freed first. Pmfs stay exact (sampled = queried)
+/// and every technique unbiased whatever the cache learned. One cache serves every thread's
+/// estimators at once.
+///
+/// Errors: `ML_ERR_NULL` (`est`); `ML_ERR_INVALID_ARGUMENT` (`cache` made for another tree).
+#[no_mangle]
+pub extern "C" fn ml_estimator_set_visibility_cache(
+    est: *mut ml_estimator,
+    cache: *const ml_visibility_cache,
+) -> ml_status {
+    ffi_fn!("ml_estimator_set_visibility_cache", {
+        let h = arg::get_mut(est, "est")?;
+        let c = match arg::opt(cache, "cache")? {
+            Some(c) => Some(cache_arg(c, "cache")?),
+            None => None,
+        };
+        if let Some(c) = c {
+            if !Arc::ptr_eq(&c.tree, &h.tree) || !c.cache.fits(h.tree.tree()) {
+                return Err(Error::invalid(
+                    "cache: made for another tree (a visibility cache serves the estimators \
+                     of the tree it was created with)",
+                ));
+            }
+        }
+        h.cache = c.cloned();
+        Ok(())
+    })
+}
+
+/// Records the host's shadow ray for the last light step (`ML_STEP_KIND_LIGHT`) in the
+/// estimator's visibility cache: `visible` 1 if the light point was unoccluded, 0 if not.
+/// Call it once per light step whose value (f · radiance · cos θi) is positive, before or
+/// after `ml_estimator_weigh`, as `ml_estimator_estimate` does for its own; nothing happens
+/// without a cache or with its recording off, and what is recorded changes sampling only
+/// after `ml_visibility_cache_commit`. Thread-safe with respect to the cache (every thread's
+/// estimators record into it at once).
+///
+/// Errors: `ML_ERR_NULL` (`est`); `ML_ERR_INVALID_ARGUMENT` (`visible` other than 0 or 1);
+/// `ML_ERR_STATE` (not set up, or no light step yielded since the last start).
+#[no_mangle]
+pub extern "C" fn ml_estimator_record(est: *mut ml_estimator, visible: u32) -> ml_status {
+    ffi_fn!("ml_estimator_record", {
+        let h = arg::get_mut(est, "est")?;
+        if visible > 1 {
+            return Err(Error::invalid(format_args!(
+                "visible must be 0 or 1 (got {visible})"
+            )));
+        }
+        let draw = h.last_light;
+        let e = set_up(h)?;
+        let draw = draw.ok_or_else(|| Error::state("est: no light step to record"))?;
+        e.record(&draw, visible == 1);
         Ok(())
     })
 }
@@ -712,7 +800,9 @@ fn set_up(h: &mut ml_estimator) -> Result<&mut Estimator<'static>> {
 }
 
 /// One estimate at the estimator's shading point with the core's material: as
-/// `ml_direct_estimate`, without the set-up.
+/// `ml_direct_estimate`, without the set-up. With a visibility cache, every shadow ray of a
+/// light sample whose unshadowed value is positive is recorded in it (as
+/// `ml_estimator_record`).
 ///
 /// Errors: `ML_ERR_NULL` (`est`, `uniforms`, `uniforms->next_f32`, `out`);
 /// `ML_ERR_INVALID_ARGUMENT` (a uniform number outside [0, 1), a bad `first_hit`, a bad value

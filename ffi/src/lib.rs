@@ -25,6 +25,7 @@ mod error;
 pub mod limits;
 pub mod tree;
 pub mod types;
+pub mod visibility_cache;
 pub mod vpl;
 
 pub use brdf::*;
@@ -34,6 +35,7 @@ pub use error::*;
 pub use limits::*;
 pub use tree::*;
 pub use types::*;
+pub use visibility_cache::*;
 pub use vpl::*;
 
 /// Major version of the library (the `version` of `ffi/Cargo.toml`).
@@ -125,6 +127,8 @@ mod tests {
             ("ML_MAX_BUDGET", "64"),
             ("ML_MAX_LIGHT_SAMPLES", "64"),
             ("ML_MIN_ALPHA", "5e-3"),
+            ("ML_MAX_VISIBILITY_CELLS", "1048576"),
+            ("ML_MAX_VISIBILITY_SLOTS", "4096"),
             ("ML_SAMPLED_LIGHT_NONE", "{ ML_NO_LIGHT, 0.0f }"),
         ] {
             let line = format!("#define {name} {value}");

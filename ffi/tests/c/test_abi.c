@@ -7,6 +7,7 @@
  */
 #define _POSIX_C_SOURCE 200809L
 #include "scenarios.h"
+#include "visibility_cache.h"
 
 #include <pthread.h>
 
@@ -140,6 +141,8 @@ int main(int argc, char **argv) {
     scenario_environment_points();
     scenario_environment_batch();
     scenario_vpl();
+    scenario_visibility_cache();
+    bad_input_visibility_cache();
     scenario_parallel_build();
     scenario_bad_input(tree, n);
     scenario_designated();

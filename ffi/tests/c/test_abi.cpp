@@ -4,6 +4,7 @@
 //
 // Usage: test_abi_cpp DUMP_PATH
 #include "scenarios.h"
+#include "visibility_cache.h"
 
 #include <cstdio>
 #include <cstdlib>
@@ -76,6 +77,8 @@ int main(int argc, char **argv) {
     scenario_environment_points();
     scenario_environment_batch();
     scenario_vpl();
+    scenario_visibility_cache();
+    bad_input_visibility_cache();
     scenario_parallel_build();
     scenario_bad_input(tree.get(), n);
 

@@ -1241,6 +1241,84 @@ pub enum Op {
         /// Kept as a live estimator.
         keep: bool,
     },
+    /// `ml_visibility_cache_create` (NULL `options`, or the defaults with these fields).
+    CacheCreate {
+        /// The tree.
+        tree: Handle,
+        /// `options`.
+        options: Arg<CacheOpts>,
+        /// `out`.
+        out: Ptr,
+    },
+    /// `ml_visibility_cache_free`.
+    CacheFree(Handle),
+    /// One of the cache's calls.
+    Cache {
+        /// The cache.
+        cache: Handle,
+        /// Which.
+        call: CacheCall,
+    },
+    /// `ml_estimator_set_visibility_cache` (a NULL `cache` detaches).
+    SetCache {
+        /// The estimator.
+        est: Handle,
+        /// The cache.
+        cache: Handle,
+    },
+    /// `ml_estimator_record` (`visible` as drawn: 0, 1 or another value).
+    Record {
+        /// The estimator.
+        est: Handle,
+        /// `visible`.
+        visible: u8,
+    },
+}
+
+/// `ml_visibility_cache_options`, from the defaults: `cell_size` as drawn; `cells` and
+/// `slots` from [`CacheSize`]; `floor` as drawn, or the default's.
+#[derive(Arbitrary, Debug, Clone, Copy)]
+pub struct CacheOpts {
+    /// `cell_size`.
+    pub cell_size: F,
+    /// `cells`.
+    pub cells: CacheSize,
+    /// `slots`.
+    pub slots: CacheSize,
+    /// `floor` (`None`: the default).
+    pub floor: Option<F>,
+}
+
+/// A cache's `cells` or `slots`: `b` for `b` < 200 (a power of two or not, 0 included), else
+/// above its limit (`limit << (b − 199)` in u32, 0 once the bit is shifted out): never a
+/// table above 199 × 199 counters.
+#[derive(Arbitrary, Debug, Clone, Copy)]
+pub struct CacheSize(pub u8);
+
+impl CacheSize {
+    /// The value, for a field whose limit is `limit`.
+    pub fn value(self, limit: u32) -> u32 {
+        if self.0 < 200 {
+            u32::from(self.0)
+        } else {
+            limit.checked_shl(u32::from(self.0 - 199)).unwrap_or(0)
+        }
+    }
+}
+
+/// A call of a visibility cache.
+#[derive(Arbitrary, Debug, Clone, Copy)]
+pub enum CacheCall {
+    /// `ml_visibility_cache_commit`.
+    Commit,
+    /// `ml_visibility_cache_clear`.
+    Clear,
+    /// `ml_visibility_cache_set_recording` (`on` as drawn: 0, 1 or another value).
+    SetRecording(u8),
+    /// `ml_visibility_cache_stats`.
+    Stats(Ptr),
+    /// `ml_visibility_cache_bytes`.
+    Bytes(Ptr),
 }
 
 /// Points and lights compared per operation between a tree loaded with its lights and the

@@ -3,8 +3,9 @@
 //! descriptors of every kind, serially or in parallel, with or without an environment (a
 //! light of kind 7 among the drawn ones stands for it, or a drawn `ml_environment`: bounds,
 //! NULL callbacks and bad values from them included), or loaded from serialized bytes, with
-//! or without their lights, edited or not; cuts; estimators; VPL acceptors), each pointer argument NULL, valid or misaligned, each value raw or in range,
-//! each count at most the length of the buffer behind it (the ABI trusts a pointer and count
+//! or without their lights, edited or not; cuts; estimators; VPL acceptors; visibility
+//! caches, given to estimators), each pointer argument NULL, valid or misaligned, each value
+//! raw or in range, each count at most the length of the buffer behind it (the ABI trusts a pointer and count
 //! the host passes: only NULL pointers go with larger counts), light indices in or out of
 //! range. Freed handles are never used again. After every call:
 //!
@@ -546,5 +547,153 @@ mod tests {
             assert!(ops.len() <= super::grammar::MAX_OPS);
             super::check(&super::Input { ops });
         }
+    }
+    /// A visibility cache on a tree of lights of every kind, given to an estimator: passes of
+    /// set-ups and estimates (one call and step loop, recorded) with commits, statistics and
+    /// sizes, bad options, another tree's cache, the cache freed before the estimator, with
+    /// valid arguments: the checks pass.
+    #[test]
+    fn visibility_caches_pass() {
+        use super::grammar::*;
+        let s = |k: i16| F::Small(k);
+        let light = |kind: u8, z: i16| Light {
+            kind: Enum(kind),
+            two_sided: Enum(0),
+            position: [s(z / 4), s(-32), s(z)],
+            direction: [s(0), s(0), s(-256)],
+            vertex2: [s(256), s(0), s(z)],
+            power: s(256),
+            radius: s(32),
+            half_angle: s(200),
+            falloff_start: F::Unit(32768),
+        };
+        let lights: Vec<Light> = (0..24)
+            .map(|i| light([0, 1, 2, 3, 4, 5][i % 6], 256 + 64 * i as i16))
+            .collect();
+        let sp = Sp {
+            position: [s(0), s(0), s(0)],
+            normal: [s(0), s(0), s(256)],
+            wo: [s(40), s(0), s(256)],
+            material: MaterialDesc {
+                kind: Enum(2),
+                albedo: F::Unit(32768),
+                specular: F::Unit(32768),
+                alpha: F::Unit(20000),
+            },
+        };
+        let uni = Uniforms {
+            no_f32: Rare(0),
+            f64: true,
+            raw: Rare(0),
+            values: vec![],
+        };
+        fn arg<T>(value: T) -> Arg<T> {
+            Arg {
+                ptr: Ptr::Valid,
+                value,
+            }
+        }
+        let opts = |cells: u8, floor: Option<F>| CacheOpts {
+            cell_size: s(256),
+            cells: CacheSize(cells),
+            slots: CacheSize(16),
+            floor,
+        };
+        let build = Op::Build {
+            lights,
+            count: Count::All,
+            ptr: Ptr::Valid,
+            options: None,
+            out: Ptr::Valid,
+        };
+        let create = |tree: u8, o: CacheOpts| Op::CacheCreate {
+            tree: Handle::Live(tree),
+            options: arg(o),
+            out: Ptr::Valid,
+        };
+        let call = |c: u8, call: CacheCall| Op::Cache {
+            cache: Handle::Live(c),
+            call,
+        };
+        let mut ops = vec![
+            build.clone(),
+            build,
+            create(0, opts(3, None)),
+            create(0, opts(255, None)),
+            create(0, opts(32, Some(F::Special(3)))),
+            create(0, opts(32, None)),
+            create(1, opts(8, Some(F::Unit(30000)))),
+            Op::EstimatorCreate {
+                tree: Handle::Live(0),
+                out: Ptr::Valid,
+            },
+            Op::SetCache {
+                est: Handle::Live(0),
+                cache: Handle::Live(1),
+            },
+            Op::SetCache {
+                est: Handle::Live(0),
+                cache: Handle::Live(0),
+            },
+        ];
+        for technique in [8, 6, 4] {
+            ops.push(Op::SetPoint {
+                est: Handle::Live(0),
+                sp: arg(sp),
+                technique: Enum(technique),
+                params: None,
+            });
+            for _ in 0..3 {
+                ops.push(Op::Estimate {
+                    est: Handle::Live(0),
+                    visibility: None,
+                    uniforms: arg(uni.clone()),
+                    out: Ptr::Valid,
+                });
+            }
+            ops.push(Op::Start(Handle::Live(0)));
+            for visible in [2, 1, 0] {
+                ops.push(Op::Next {
+                    est: Handle::Live(0),
+                    uniforms: arg(uni.clone()),
+                    out: Ptr::Valid,
+                });
+                ops.push(Op::Record {
+                    est: Handle::Live(0),
+                    visible,
+                });
+            }
+            ops.push(call(0, CacheCall::Commit));
+            ops.push(call(0, CacheCall::Stats(Ptr::Valid)));
+        }
+        ops.extend([
+            call(0, CacheCall::Bytes(Ptr::Valid)),
+            call(0, CacheCall::Bytes(Ptr::Misaligned)),
+            call(0, CacheCall::SetRecording(2)),
+            call(0, CacheCall::SetRecording(0)),
+            call(0, CacheCall::Clear),
+            call(0, CacheCall::Stats(Ptr::Null)),
+            Op::CacheFree(Handle::Live(0)),
+            Op::SetPoint {
+                est: Handle::Live(0),
+                sp: arg(sp),
+                technique: Enum(8),
+                params: None,
+            },
+            Op::Estimate {
+                est: Handle::Live(0),
+                visibility: None,
+                uniforms: arg(uni),
+                out: Ptr::Valid,
+            },
+            Op::SetCache {
+                est: Handle::Live(0),
+                cache: Handle::Null,
+            },
+            Op::EstimatorFree(Handle::Live(0)),
+            Op::FreeTree(Handle::Live(0)),
+        ]);
+        assert!(ops.len() <= super::grammar::MAX_OPS);
+        super::check(&super::Input { ops });
     }
 }

@@ -2,8 +2,9 @@
 //! and those of the values the ABI writes, and [`check`], which replays the operations. Each
 //! operation is dispatched to the module of its family of the ABI: [`tree`] (`ml_tree_*`),
 //! [`light`] (`ml_light_*`), [`cut`] (`ml_cut_*`), [`brdf`] (`ml_brdf_*`), [`estimator`]
-//! (`ml_direct_estimate`, `ml_estimator_*`), [`acceptor`] (`ml_acceptor_*`) and [`defaults`]
-//! (the `*_default` functions, `ml_version`, `ml_status_name`).
+//! (`ml_direct_estimate`, `ml_estimator_*`), [`acceptor`] (`ml_acceptor_*`),
+//! [`visibility_cache`] (`ml_visibility_cache_*` and the estimator's cache calls) and
+//! [`defaults`] (the `*_default` functions, `ml_version`, `ml_status_name`).
 
 mod acceptor;
 mod brdf;
@@ -12,6 +13,7 @@ mod defaults;
 mod estimator;
 mod light;
 mod tree;
+mod visibility_cache;
 
 use super::buffers::{Buf, HandleArg, Out};
 use super::grammar::{Handle, Input, Op, Ptr, MAX_OPS};
@@ -74,6 +76,7 @@ struct Harness<'a> {
     cuts: Vec<Cut>,
     ests: Vec<Est>,
     accs: Vec<*mut ml_acceptor>,
+    caches: Vec<visibility_cache::Cache>,
     serialized: Option<Vec<u8>>,
     serialized_lights: Option<(Vec<ml_light>, Option<EnvSpec>)>,
     serialized_tree: Option<*mut ml_tree>,
@@ -197,6 +200,12 @@ impl Harness<'_> {
 
     fn acc(&self, h: Handle) -> (Option<usize>, *mut ml_acceptor, HandleArg) {
         let (i, p, mis) = pick(h, &self.accs);
+        (i, p, HandleArg(mis))
+    }
+
+    fn cache(&self, h: Handle) -> (Option<usize>, *mut ml_visibility_cache, HandleArg) {
+        let ptrs: Vec<_> = self.caches.iter().map(|c| c.p).collect();
+        let (i, p, mis) = pick(h, &ptrs);
         (i, p, HandleArg(mis))
     }
 
@@ -395,6 +404,11 @@ impl Harness<'_> {
             | Op::Luminance { .. }
             | Op::Accept { .. }
             | Op::AcceptorStats { .. } => self.acceptor_op(op),
+            Op::CacheCreate { .. }
+            | Op::CacheFree(_)
+            | Op::Cache { .. }
+            | Op::SetCache { .. }
+            | Op::Record { .. } => self.cache_op(op),
             Op::Defaults { out, status } => self.defaults(*out, *status),
         }
     }
@@ -411,6 +425,9 @@ impl Harness<'_> {
         }
         for a in self.accs.drain(..) {
             ml_acceptor_free(a);
+        }
+        for c in self.caches.drain(..) {
+            ml_visibility_cache_free(c.p);
         }
     }
 }
@@ -430,6 +447,7 @@ pub fn check(input: &Input) {
         cuts: Vec::new(),
         ests: Vec::new(),
         accs: Vec::new(),
+        caches: Vec::new(),
         serialized: None,
         serialized_lights: None,
         serialized_tree: None,
