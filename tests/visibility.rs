@@ -332,7 +332,7 @@ fn recording_can_be_turned_off() {
         ..VisibilityOptions::with_cell_size(1.0)
     };
     let cache = VisibilityCache::new(&set, options).unwrap();
-    assert_eq!(cache.bytes(), 8 * 32 * 17);
+    assert_eq!(cache.bytes(), 8 * (32 * 17 + 1));
     cache.set_recording(false);
     let mut est =
         Estimator::with_visibility(&set, &cache, &sp, Technique::BlMis, &Params::default())

@@ -164,6 +164,11 @@
 #define ML_MAX_VISIBILITY_SLOTS 4096
 
 /**
+ * The most counters of a visibility cache (`cells · slots`): 2^24.
+ */
+#define ML_MAX_VISIBILITY_COUNTERS 16777216
+
+/**
  * The kind of an `ml_light` (the value of its `kind` field, which names the union's member
  * that holds the light). Units: positions in any length unit m (the same as the scene's),
  * intensity in W/sr, radiance in W/(m²·sr), irradiance in W/m², each per channel of linear
@@ -1202,8 +1207,9 @@ typedef struct ml_tree_statistics {
 
 /**
  * Options of `ml_visibility_cache_create` (`ml_visibility_cache_options_default` fills the
- * defaults for a cell size). The cache takes `cells · slots · 16` bytes (16 MiB with the
- * defaults), allocated once at creation.
+ * defaults for a cell size). The cache takes `cells · (slots · 17 + 1)` bytes (17 MiB with the
+ * defaults; `cells · slots` at most `ML_MAX_VISIBILITY_COUNTERS`), allocated once at
+ * creation.
  */
 typedef struct ml_visibility_cache_options {
     /**
@@ -2159,7 +2165,7 @@ ml_status ml_visibility_cache_stats(const struct ml_visibility_cache *cache,
                                     struct ml_visibility_cache_counts *out);
 
 /**
- * Writes the bytes the cache's tables take (`cells · slots · 16`) to `*out`.
+ * Writes the bytes the cache's tables take (`cells · (slots · 17 + 1)`) to `*out`.
  *
  * Errors: `ML_ERR_NULL` (`cache`, `out`).
  */

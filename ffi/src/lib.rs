@@ -129,6 +129,7 @@ mod tests {
             ("ML_MIN_ALPHA", "5e-3"),
             ("ML_MAX_VISIBILITY_CELLS", "1048576"),
             ("ML_MAX_VISIBILITY_SLOTS", "4096"),
+            ("ML_MAX_VISIBILITY_COUNTERS", "16777216"),
             ("ML_SAMPLED_LIGHT_NONE", "{ ML_NO_LIGHT, 0.0f }"),
         ] {
             let line = format!("#define {name} {value}");

@@ -7,7 +7,9 @@ use crate::arg;
 use crate::error::{ml_status, Error, Result};
 use crate::ffi_fn;
 use crate::tree::{ml_tree, tree_arg, TreeData};
-use manylights::direct::visibility::{MAX_VISIBILITY_CELLS, MAX_VISIBILITY_SLOTS};
+use manylights::direct::visibility::{
+    MAX_VISIBILITY_CELLS, MAX_VISIBILITY_COUNTERS, MAX_VISIBILITY_SLOTS,
+};
 use manylights::direct::{VisibilityCache, VisibilityError, VisibilityField, VisibilityOptions};
 use std::sync::Arc;
 
@@ -19,9 +21,14 @@ const _: () = assert!(ML_MAX_VISIBILITY_CELLS == MAX_VISIBILITY_CELLS);
 pub const ML_MAX_VISIBILITY_SLOTS: u32 = 4096;
 const _: () = assert!(ML_MAX_VISIBILITY_SLOTS == MAX_VISIBILITY_SLOTS);
 
+/// The most counters of a visibility cache (`cells · slots`): 2^24.
+pub const ML_MAX_VISIBILITY_COUNTERS: u64 = 16_777_216;
+const _: () = assert!(ML_MAX_VISIBILITY_COUNTERS == MAX_VISIBILITY_COUNTERS);
+
 /// Options of `ml_visibility_cache_create` (`ml_visibility_cache_options_default` fills the
-/// defaults for a cell size). The cache takes `cells · slots · 16` bytes (16 MiB with the
-/// defaults), allocated once at creation.
+/// defaults for a cell size). The cache takes `cells · (slots · 17 + 1)` bytes (17 MiB with the
+/// defaults; `cells · slots` at most `ML_MAX_VISIBILITY_COUNTERS`), allocated once at
+/// creation.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct ml_visibility_cache_options {
@@ -232,7 +239,7 @@ pub extern "C" fn ml_visibility_cache_stats(
     })
 }
 
-/// Writes the bytes the cache's tables take (`cells · slots · 16`) to `*out`.
+/// Writes the bytes the cache's tables take (`cells · (slots · 17 + 1)`) to `*out`.
 ///
 /// Errors: `ML_ERR_NULL` (`cache`, `out`).
 #[no_mangle]

@@ -424,7 +424,7 @@ fn a_cache_takes_effect_at_the_next_set_point_and_null_detaches_it() {
     assert_eq!(stats(cache), ml_visibility_cache_counts::default());
     let mut bytes = 0usize;
     ok(ml_visibility_cache_bytes(cache, &mut bytes));
-    assert_eq!(bytes, 256 * 64 * 16);
+    assert_eq!(bytes, 256 * (64 * 17 + 1));
     ok(ml_estimator_free(est));
     ok(ml_visibility_cache_free(cache));
     ok(ml_tree_free(tree));

@@ -184,6 +184,7 @@ pub use sampler::{
 pub use crate::error::DirectError;
 pub use visibility::{
     VisibilityCache, VisibilityError, VisibilityField, VisibilityOptions, VisibilityStats,
+    MAX_VISIBILITY_CELLS, MAX_VISIBILITY_COUNTERS, MAX_VISIBILITY_SLOTS,
 };
 
 use crate::cut::{BlCutOptions, SplitCutOptions};

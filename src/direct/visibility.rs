@@ -48,8 +48,9 @@
 //!
 //! # Memory
 //!
-//! `cells × slots × 17` bytes (8 committed, 8 pending and the share in 255ths per slot; 4.25
-//! KiB per cell with the default 256 slots, 17 MiB with the default 4096 cells), allocated once by
+//! `cells × (slots × 17 + 1)` bytes (8 committed, 8 pending and the share in 255ths per slot,
+//! and a flag per cell; 4.25 KiB per cell with the default 256 slots, 17 MiB with the default
+//! 4096 cells), allocated once by
 //! [`VisibilityCache::new`]; nothing in the per-sample path allocates.
 //! [`VisibilityCache::bytes`] reports it.
 
@@ -67,14 +68,17 @@ pub const MAX_VISIBILITY_SLOTS: u32 = 1 << 12;
 /// The most cells a cache can have.
 pub const MAX_VISIBILITY_CELLS: u32 = 1 << 20;
 
+/// The most counters (cells × slots) a cache can have: 2²⁴, 272 MiB of tables.
+pub const MAX_VISIBILITY_COUNTERS: u64 = 1 << 24;
+
 /// How a [`VisibilityCache`] partitions space and how far it may lower a cluster's weight.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct VisibilityOptions {
     /// The side of a grid cell, in the scene's units (finite, > 0). Points closer than this
     /// tend to share what they learned; a few hundredths of the scene's extent is usual.
     pub cell_size: f32,
-    /// The number of cells of the table (a power of two, 1..=[`MAX_VISIBILITY_CELLS`]): grid
-    /// cells beyond it share blocks.
+    /// The number of cells of the table (a power of two, 1..=[`MAX_VISIBILITY_CELLS`], with
+    /// `cells × slots` ≤ [`MAX_VISIBILITY_COUNTERS`]): grid cells beyond it share blocks.
     pub cells: u32,
     /// The counters per cell (a power of two, 1..=[`MAX_VISIBILITY_SLOTS`]); a few times the
     /// cut's size keeps clusters from sharing one.
@@ -120,7 +124,7 @@ pub enum VisibilityField {
 }
 
 impl VisibilityField {
-    /// The field's name, as in [`VisibilityOptions`] (and the C `ml_visibility_options`).
+    /// The field's name, as in [`VisibilityOptions`] (and the C `ml_visibility_cache_options`).
     #[must_use]
     pub fn name(self) -> &'static str {
         match self {
@@ -145,7 +149,9 @@ impl fmt::Display for VisibilityError {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         let need = match self.field {
             VisibilityField::CellSize => "finite and positive",
-            VisibilityField::Cells => "a power of two in 1..=1048576",
+            VisibilityField::Cells => {
+                "a power of two in 1..=1048576, with cells × slots ≤ 16777216"
+            }
             VisibilityField::Slots => "a power of two in 1..=4096",
             VisibilityField::Floor => "in (0, 1]",
         };
@@ -238,6 +244,9 @@ impl VisibilityCache {
         }
         if !(options.floor > 0.0 && options.floor <= 1.0) {
             return bad(VisibilityField::Floor, f64::from(options.floor));
+        }
+        if u64::from(options.cells) * u64::from(options.slots) > MAX_VISIBILITY_COUNTERS {
+            return bad(VisibilityField::Cells, f64::from(options.cells));
         }
         let len = options.cells as usize * options.slots as usize;
         let zeros = || {

@@ -70,7 +70,7 @@ static void scenario_visibility_cache(void) {
     o.slots = 64;
     OK(ml_visibility_cache_create(tree, &o, &cache));
     OK(ml_visibility_cache_bytes(cache, &bytes));
-    CHECK(bytes == (size_t)64 * 64 * 16);
+    CHECK(bytes == (size_t)64 * (64 * 17 + 1));
     OK(ml_estimator_create(tree, &est));
     OK(ml_estimator_set_visibility_cache(est, cache));
 
