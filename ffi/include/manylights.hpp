@@ -1287,6 +1287,101 @@ class Cut {
 
 // ---- estimators ----------------------------------------------------------------------
 
+// ---- learned visibility --------------------------------------------------------------
+
+/**
+ * A learned visibility cache (`ml_visibility_cache`) made for one tree: shared by every
+ * thread's estimators (`Estimator::set_visibility_cache`), which record into it; `commit`
+ * between passes (when no estimate runs) for the same bits on any number of threads. It keeps
+ * its tree alive; an estimator keeps it alive.
+ */
+class VisibilityCache {
+  public:
+    /** An empty handle (`create` makes a cache). */
+    VisibilityCache() noexcept = default;
+    /** Takes ownership of a C cache. */
+    explicit VisibilityCache(ml_visibility_cache *owned) noexcept : cache_(owned) {}
+    VisibilityCache(const VisibilityCache &) = delete;
+    VisibilityCache &operator=(const VisibilityCache &) = delete;
+    /** Moves the handle; `other` is left empty. */
+    VisibilityCache(VisibilityCache &&other) noexcept
+        : cache_(std::exchange(other.cache_, nullptr)) {}
+    /** Frees this cache, then takes `other`'s handle; `other` is left empty. */
+    VisibilityCache &operator=(VisibilityCache &&other) noexcept {
+        if (this != &other) {
+            reset();
+            cache_ = std::exchange(other.cache_, nullptr);
+        }
+        return *this;
+    }
+    ~VisibilityCache() { reset(); }
+
+    /** The C handle (owned by this object; null when empty). */
+    [[nodiscard]] ml_visibility_cache *get() const noexcept { return cache_; }
+    /** True unless empty. */
+    explicit operator bool() const noexcept { return cache_ != nullptr; }
+
+    /** `ml_visibility_cache_options_default`: the default options for a cell size. */
+    [[nodiscard]] static Result<ml_visibility_cache_options> try_options(float cell_size) {
+        ml_visibility_cache_options o{};
+        const ml_status s = ml_visibility_cache_options_default(cell_size, &o);
+        return detail::result(s, o);
+    }
+    /** `ml_visibility_cache_options_default`, throwing. */
+    [[nodiscard]] static ml_visibility_cache_options options(float cell_size) {
+        return try_options(cell_size).value();
+    }
+    /** `ml_visibility_cache_create`: a cache for `tree` with nothing learned. */
+    [[nodiscard]] static Result<VisibilityCache>
+    try_create(const Tree &tree, const ml_visibility_cache_options &options) {
+        ml_visibility_cache *c = nullptr;
+        const ml_status s = ml_visibility_cache_create(tree.get(), &options, &c);
+        return detail::result(s, VisibilityCache(c));
+    }
+    /** `ml_visibility_cache_create`, throwing. */
+    [[nodiscard]] static VisibilityCache create(const Tree &tree,
+                                                const ml_visibility_cache_options &options) {
+        return try_create(tree, options).value();
+    }
+    /** `ml_visibility_cache_commit`: what was recorded becomes what sampling reads. */
+    Result<void> try_commit() { return detail::result(ml_visibility_cache_commit(cache_)); }
+    /** `ml_visibility_cache_commit`, throwing. */
+    void commit() { try_commit().value(); }
+    /** `ml_visibility_cache_clear`: forgets everything learned and pending. */
+    Result<void> try_clear() { return detail::result(ml_visibility_cache_clear(cache_)); }
+    /** `ml_visibility_cache_clear`, throwing. */
+    void clear() { try_clear().value(); }
+    /** `ml_visibility_cache_set_recording`: recording on or off. */
+    Result<void> try_set_recording(bool on) {
+        return detail::result(ml_visibility_cache_set_recording(cache_, on ? 1u : 0u));
+    }
+    /** `ml_visibility_cache_set_recording`, throwing. */
+    void set_recording(bool on) { try_set_recording(on).value(); }
+    /** `ml_visibility_cache_stats`: the counters with data, samples and visible samples. */
+    [[nodiscard]] Result<ml_visibility_cache_counts> try_stats() const {
+        ml_visibility_cache_counts c{};
+        const ml_status s = ml_visibility_cache_stats(cache_, &c);
+        return detail::result(s, c);
+    }
+    /** `ml_visibility_cache_stats`, throwing. */
+    [[nodiscard]] ml_visibility_cache_counts stats() const { return try_stats().value(); }
+    /** `ml_visibility_cache_bytes`: the bytes of its tables. */
+    [[nodiscard]] Result<size_t> try_bytes() const {
+        size_t n = 0;
+        const ml_status s = ml_visibility_cache_bytes(cache_, &n);
+        return detail::result(s, n);
+    }
+    /** `ml_visibility_cache_bytes`, throwing. */
+    [[nodiscard]] size_t bytes() const { return try_bytes().value(); }
+
+  private:
+    void reset() noexcept {
+        if (cache_ != nullptr) (void)ml_visibility_cache_free(cache_);
+        cache_ = nullptr;
+    }
+    ml_visibility_cache *cache_ = nullptr;
+};
+
 /**
  * A per-point estimator (`ml_estimator`): per-thread state, set up at each shading point by
  * `set_point`, then any number of estimates (one call, or the lower level's steps). It keeps
@@ -1340,6 +1435,24 @@ class Estimator {
                    const ml_direct_params *params = nullptr) {
         try_set_point(sp, technique, params).value();
     }
+    /**
+     * `ml_estimator_set_visibility_cache`: learn with `cache` from the next `set_point` (null:
+     * none). The estimator keeps the cache alive.
+     */
+    Result<void> try_set_visibility_cache(const VisibilityCache *cache) {
+        return detail::result(
+            ml_estimator_set_visibility_cache(est_, cache != nullptr ? cache->get() : nullptr));
+    }
+    /** `ml_estimator_set_visibility_cache`, throwing. */
+    void set_visibility_cache(const VisibilityCache *cache) {
+        try_set_visibility_cache(cache).value();
+    }
+    /** `ml_estimator_record`: the last light step's shadow ray was `visible` or not. */
+    Result<void> try_record(bool visible) {
+        return detail::result(ml_estimator_record(est_, visible ? 1u : 0u));
+    }
+    /** `ml_estimator_record`, throwing. */
+    void record(bool visible) { try_record(visible).value(); }
     /** `ml_estimator_estimate`: one estimate (`visibility`, `uniforms` as `Tree::direct_estimate`). */
     template <class V, class U>
     [[nodiscard]] Result<ml_rgb64> try_estimate(V &&visibility, U &&uniforms) {
