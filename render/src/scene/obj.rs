@@ -100,8 +100,8 @@ const DEFAULT_MATERIAL: Material = Material::Lambert {
     albedo: Rgb::grey(0.5),
 };
 
-/// A file-name-safe scene name from the file's stem.
-fn scene_name(path: &Path) -> String {
+/// A file-name-safe scene name from the file's stem (`fallback` when it has none).
+pub(crate) fn scene_name(path: &Path, fallback: &str) -> String {
     let stem = path
         .file_stem()
         .map(|s| s.to_string_lossy().into_owned())
@@ -117,7 +117,7 @@ fn scene_name(path: &Path) -> String {
         })
         .collect();
     if name.is_empty() {
-        "obj".into()
+        fallback.into()
     } else {
         name
     }
@@ -233,7 +233,7 @@ pub fn load(path: &Path) -> Result<RenderScene, String> {
     let fov_y: f32 = 45.0;
     let distance = radius / (fov_y.to_radians() * 0.5).sin();
     Ok(RenderScene {
-        name: scene_name(path),
+        name: scene_name(path, "obj"),
         geometry: Geometry::new(triangles),
         lights: LightSet::build(lights).map_err(|e| format!("{}: {e}", path.display()))?,
         sky: None,

@@ -202,29 +202,6 @@ const DEFAULT_MATERIAL: Material = Material::Lambert {
     albedo: Rgb::grey(0.5),
 };
 
-/// A file-name-safe scene name from the file's stem.
-fn scene_name(path: &Path) -> String {
-    let stem = path
-        .file_stem()
-        .map(|s| s.to_string_lossy().into_owned())
-        .unwrap_or_default();
-    let name: String = stem
-        .chars()
-        .map(|c| {
-            if c.is_ascii_alphanumeric() || c == '-' || c == '_' {
-                c
-            } else {
-                '_'
-            }
-        })
-        .collect();
-    if name.is_empty() {
-        "pbrt".into()
-    } else {
-        name
-    }
-}
-
 /// The numbers of a statement's positional arguments; `Err` if there are not `n` of them.
 fn numbers(st: &Stmt, n: usize) -> Result<Vec<f64>, String> {
     let v: Vec<f64> = st
@@ -1563,7 +1540,7 @@ impl Reader {
         .map_err(|e| format!("{file}: {e}"))?;
         Ok(PbrtScene {
             scene: RenderScene {
-                name: scene_name(path),
+                name: super::obj::scene_name(path, "pbrt"),
                 geometry: Geometry::new(triangles),
                 lights,
                 sky: None,
