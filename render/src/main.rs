@@ -32,12 +32,12 @@ enum Command {
         /// Estimates per pixel.
         #[arg(long, default_value_t = 16, value_parser = at_least_one())]
         spp: usize,
-        /// Image width.
-        #[arg(long, default_value_t = 256, value_parser = image_size())]
-        width: usize,
-        /// Image height.
-        #[arg(long, default_value_t = 256, value_parser = image_size())]
-        height: usize,
+        /// Image width (default: a pbrt file's `Film` resolution, else 256).
+        #[arg(long, value_parser = image_size())]
+        width: Option<usize>,
+        /// Image height (default: a pbrt file's `Film` resolution, else 256).
+        #[arg(long, value_parser = image_size())]
+        height: Option<usize>,
         /// Seed of the estimates.
         #[arg(long, default_value_t = 1)]
         seed: u64,
@@ -131,10 +131,12 @@ struct ImageArgs {
     /// Number of lights (cornell only; default 1,494).
     #[arg(long)]
     lights: Option<usize>,
-    /// Image width (default 256, 96 with --quick).
+    /// Image width (default 256, 96 with --quick; a pbrt file's `Film` resolution without
+    /// --quick).
     #[arg(long, value_parser = image_size())]
     width: Option<usize>,
-    /// Image height (default 256, 96 with --quick).
+    /// Image height (default 256, 96 with --quick; a pbrt file's `Film` resolution without
+    /// --quick).
     #[arg(long, value_parser = image_size())]
     height: Option<usize>,
     /// Small resolution and sample counts (those of `compare --quick`).
@@ -164,8 +166,8 @@ struct ImageArgs {
 
 impl ImageArgs {
     /// The named scene; exits with status 2 on an unknown name or a bad light count.
-    fn scene(&self) -> scene::RenderScene {
-        let mut s = scene::by_name_with(&self.scene, self.lights, palette(self.grey))
+    fn scene(&self) -> (scene::RenderScene, Option<(usize, usize)>) {
+        let (mut s, film) = scene::by_name_with_film(&self.scene, self.lights, palette(self.grey))
             .unwrap_or_else(|e| {
                 eprintln!("{e}");
                 std::process::exit(2)
@@ -173,7 +175,7 @@ impl ImageArgs {
         if let Some(c) = self.camera {
             s.camera = c;
         }
-        s
+        (s, film)
     }
 
     /// The render settings at `spp` with a reference of `ref_spp` and an equal-time budget of
@@ -184,11 +186,16 @@ impl ImageArgs {
         ref_spp: usize,
         plot: bool,
         time: Option<f64>,
+        film: Option<(usize, usize)>,
     ) -> compare::CompareConfig {
-        let size = if self.quick { 96 } else { 256 };
+        let (w, h) = match film {
+            Some(f) if !self.quick => f,
+            _ if self.quick => (96, 96),
+            _ => (256, 256),
+        };
         compare::CompareConfig {
-            width: self.width.unwrap_or(size),
-            height: self.height.unwrap_or(size),
+            width: self.width.unwrap_or(w),
+            height: self.height.unwrap_or(h),
             spp,
             ref_spp,
             seed: self.seed,
@@ -258,9 +265,9 @@ fn main() {
             std::process::exit(code)
         }
         Command::Reference { image, ref_spp } => {
-            let scene = image.scene();
+            let (scene, film) = image.scene();
             let ref_spp = ref_spp.unwrap_or(if image.quick { 256 } else { 1024 });
-            let cfg = image.config(1, ref_spp, false, None);
+            let cfg = image.config(1, ref_spp, false, None, film);
             match compare::check_reference(&scene, &cfg) {
                 Ok((img, rel, se, rmse)) => {
                     println!(
@@ -297,9 +304,9 @@ fn main() {
             full,
             json,
         } => {
-            let scene = image.scene();
+            let (scene, film) = image.scene();
             let spp = spp.unwrap_or(if image.quick { 4 } else { 16 });
-            let mut cfg = image.config(spp, ref_spp.unwrap_or(64 * spp), !no_plot, time);
+            let mut cfg = image.config(spp, ref_spp.unwrap_or(64 * spp), !no_plot, time, film);
             cfg.techniques = techniques.iter().map(|t| t.0).collect();
             match compare::run(&scene, &cfg) {
                 Ok(report) => {
@@ -327,8 +334,8 @@ fn run_render(
     palette: scene::Palette,
     technique: Technique,
     spp: usize,
-    width: usize,
-    height: usize,
+    width: Option<usize>,
+    height: Option<usize>,
     seed: u64,
     output: &std::path::Path,
     protocol: render::Protocol,
@@ -336,7 +343,7 @@ fn run_render(
     params: manylights::Params,
     learn: Option<render::Learn>,
 ) -> i32 {
-    let mut scene = match scene::by_name_with(scene, lights, palette) {
+    let (mut scene, film) = match scene::by_name_with_film(scene, lights, palette) {
         Ok(s) => s,
         Err(e) => {
             eprintln!("{e}");
@@ -346,6 +353,8 @@ fn run_render(
     if let Some(c) = camera {
         scene.camera = c;
     }
+    let (fw, fh) = film.unwrap_or((256, 256));
+    let (width, height) = (width.unwrap_or(fw), height.unwrap_or(fh));
     let img = render::render(
         &scene,
         &render::RenderConfig {

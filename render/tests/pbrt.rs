@@ -398,3 +398,30 @@ fn binary_and_ascii_ply_load_the_same_triangles() {
     assert_eq!(pos(&be), pos(&a));
     assert!(a.normals.is_some() && le.normals.is_none());
 }
+
+/// Without `--width`/`--height`, `mlrender render` renders a pbrt file at its `Film`
+/// resolution (`every.pbrt`: 20 × 10); given, the command line wins.
+#[test]
+fn the_film_resolution_is_the_default_image_size() {
+    let dir = std::path::PathBuf::from(env!("CARGO_TARGET_TMPDIR"));
+    let size = |extra: &[&str], name: &str| {
+        let out = dir.join(name);
+        let status = std::process::Command::new(env!("CARGO_BIN_EXE_mlrender"))
+            .args(["render", "--scene"])
+            .arg(Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/pbrt/every.pbrt"))
+            .args(["--spp", "1", "-o"])
+            .arg(&out)
+            .args(extra)
+            .stdout(std::process::Stdio::null())
+            .stderr(std::process::Stdio::null())
+            .status()
+            .unwrap();
+        assert!(status.success());
+        let decoder =
+            png::Decoder::new(std::io::BufReader::new(std::fs::File::open(&out).unwrap()));
+        let info = decoder.read_info().unwrap();
+        (info.info().width, info.info().height)
+    };
+    assert_eq!(size(&[], "film.png"), (20, 10));
+    assert_eq!(size(&["--width", "8", "--height", "6"], "cli.png"), (8, 6));
+}

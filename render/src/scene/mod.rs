@@ -324,6 +324,37 @@ pub fn by_name_with(
     lights: Option<usize>,
     palette: Palette,
 ) -> Result<RenderScene, String> {
+    by_name_with_film(name, lights, palette).map(|(s, _)| s)
+}
+
+/// [`by_name_with`], with the image size the scene file asks for: a pbrt-v4 file's `Film`
+/// resolution (`None` for the other scenes and for a pbrt file without a `Film`).
+pub fn by_name_with_film(
+    name: &str,
+    lights: Option<usize>,
+    palette: Palette,
+) -> Result<(RenderScene, Option<(usize, usize)>), String> {
+    if Path::new(name)
+        .extension()
+        .is_some_and(|e| e.eq_ignore_ascii_case("pbrt"))
+    {
+        // A pbrt-v4 file: its warnings (what it uses that is not mapped) go to stderr.
+        return pbrt::load(Path::new(name)).map(|p| {
+            for w in &p.warnings {
+                eprintln!("warning: {w}");
+            }
+            (p.scene, p.film)
+        });
+    }
+    by_name_builtin(name, lights, palette).map(|s| (s, None))
+}
+
+/// A built-in scene or an OBJ file by name.
+fn by_name_builtin(
+    name: &str,
+    lights: Option<usize>,
+    palette: Palette,
+) -> Result<RenderScene, String> {
     match name {
         "cornell" => match lights.unwrap_or(CORNELL_DEFAULT_LIGHTS) {
             0 => Err("cornell needs at least one light".into()),
@@ -337,18 +368,6 @@ pub fn by_name_with(
         "market" => Ok(market_with(palette)),
         "billboard" => Ok(billboard_with(palette)),
         _ if is_obj_path(name) => obj::load(Path::new(name)),
-        // A pbrt-v4 file: its warnings (what it uses that is not mapped) go to stderr.
-        _ if Path::new(name)
-            .extension()
-            .is_some_and(|e| e.eq_ignore_ascii_case("pbrt")) =>
-        {
-            pbrt::load(Path::new(name)).map(|p| {
-                for w in &p.warnings {
-                    eprintln!("warning: {w}");
-                }
-                p.scene
-            })
-        }
         _ => Err(format!(
             "unknown scene {name:?} (known: {}, or a path to an .obj or .pbrt file)",
             SCENES.join(", ")
