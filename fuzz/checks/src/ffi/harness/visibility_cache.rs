@@ -9,10 +9,11 @@ use crate::ffi::buffers::{In, Out};
 use crate::ffi::grammar::{CacheCall, Op, Ptr, F};
 use manylights_ffi::*;
 
-/// A live cache: its handle and its table's counters (cells × slots).
+/// A live cache: its handle, its table's counters (cells × slots) and its cells.
 pub(super) struct Cache {
     pub(super) p: *mut ml_visibility_cache,
     counters: u64,
+    cells: u64,
 }
 
 impl Harness<'_> {
@@ -44,11 +45,13 @@ impl Harness<'_> {
                         && o.slots.is_power_of_two()
                         && o.slots <= ML_MAX_VISIBILITY_SLOTS
                         && o.floor > 0.0
-                        && o.floor <= 1.0;
+                        && o.floor <= 1.0
+                        && u64::from(o.cells) * u64::from(o.slots) <= ML_MAX_VISIBILITY_COUNTERS;
                     self.ensure(ok, || format!("ml_visibility_cache_create accepted {o:?}"));
                     self.caches.push(Cache {
                         p,
                         counters: u64::from(o.cells) * u64::from(o.slots),
+                        cells: u64::from(o.cells),
                     });
                 }
             }
@@ -98,7 +101,8 @@ impl Harness<'_> {
                         if self.status("ml_visibility_cache_bytes", s, &[&ch, &o]) {
                             let b = o.get(0) as u64;
                             if let Some(i) = i {
-                                let want = self.caches[i].counters * 16;
+                                // 17 bytes per counter and a flag per cell.
+                                let want = self.caches[i].counters * 17 + self.caches[i].cells;
                                 self.ensure(b == want, || {
                                     format!("ml_visibility_cache_bytes: {b}, not {want}")
                                 });
