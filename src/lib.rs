@@ -136,10 +136,7 @@ pub use brdf::{Brdf, Frame, Ggx, Lambert};
 pub use build::{BuildOptions, Join, Serial};
 pub use colour::Rgb;
 pub use cut::{BlCutOptions, LightCut, SplitCutOptions};
-pub use direct::{
-    Estimator, LightSampler, Occluder, Params, Technique, Uniforms, VisibilityCache,
-    VisibilityOptions,
-};
+pub use direct::{Estimator, LightSampler, Occluder, Params, Technique, Uniforms};
 pub use error::{
     BuildError, DirectError, FormatError, LengthMismatch, ShadingError, ValidationError, VplError,
 };

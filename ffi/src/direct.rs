@@ -716,8 +716,8 @@ pub extern "C" fn ml_estimator_set_point(
                 // cache of a later set-up, which also replaces or resets `h.est`); `h.est` is
                 // declared before `h.set_up_cache` (dropped first) and the reference never
                 // leaves the handle.
-                let cache: &'static manylights::VisibilityCache =
-                    unsafe { &*(&c.cache as *const manylights::VisibilityCache) };
+                let cache: &'static manylights::direct::VisibilityCache =
+                    unsafe { &*(&c.cache as *const manylights::direct::VisibilityCache) };
                 Estimator::reuse_with_visibility(&mut h.est, set, cache, &sp, t, &p)
                     .map_err(direct_error)?;
             }

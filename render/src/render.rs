@@ -31,8 +31,9 @@ use crate::image::{Image, Pixel};
 use crate::scene::RenderScene;
 use crate::uniforms::RngUniforms;
 use indicatif::{ProgressBar, ProgressStyle};
+use manylights::direct::VisibilityCache;
 use manylights::ShadingPoint;
-use manylights::{Estimator, Params, Technique, VisibilityCache};
+use manylights::{Estimator, Params, Technique};
 use rand::{Rng, SeedableRng};
 use rand_pcg::Pcg64Mcg;
 use rayon::prelude::*;
@@ -81,7 +82,7 @@ pub struct RenderConfig {
     pub learn: Option<Learn>,
 }
 
-/// Learned visibility in a render ([`manylights::VisibilityCache`]): the samples of each
+/// Learned visibility in a render ([`manylights::direct::VisibilityCache`]): the samples of each
 /// pixel are taken in passes of 1, 1, 2, 4, … (doubling, the last one what is left), every
 /// pixel in each pass, and the cache is committed after each pass, so pass k samples with
 /// what passes 0..k recorded. Only the techniques with a BRDF-oriented cut (`bl`, `bl-mis`,
@@ -105,9 +106,9 @@ impl Default for Learn {
     fn default() -> Self {
         Learn {
             cell: 1.0 / 64.0,
-            cells: manylights::VisibilityOptions::DEFAULT_CELLS,
-            slots: manylights::VisibilityOptions::DEFAULT_SLOTS,
-            floor: manylights::VisibilityOptions::DEFAULT_FLOOR,
+            cells: manylights::direct::VisibilityOptions::DEFAULT_CELLS,
+            slots: manylights::direct::VisibilityOptions::DEFAULT_SLOTS,
+            floor: manylights::direct::VisibilityOptions::DEFAULT_FLOOR,
         }
     }
 }
@@ -137,14 +138,14 @@ impl Learn {
     }
 
     /// The cache's options for `scene`.
-    pub fn options(&self, scene: &RenderScene) -> manylights::VisibilityOptions {
+    pub fn options(&self, scene: &RenderScene) -> manylights::direct::VisibilityOptions {
         let extent = scene.geometry.extent();
         let size = if extent > 0.0 && extent.is_finite() {
             extent * self.cell
         } else {
             1.0
         };
-        manylights::VisibilityOptions {
+        manylights::direct::VisibilityOptions {
             cell_size: size,
             cells: self.cells,
             slots: self.slots,
