@@ -13,28 +13,13 @@
 //! The bounds checked are the f32 rounding those differences allow (derived below).
 
 mod common;
-use common::{mixed_light, ok};
+use common::{mixed_light, ok, uniforms};
 
 use manylights_ffi::*;
 // The host's generator.
 use manylights_testkit::SplitMix64 as Rng;
 use std::ffi::c_void;
 use std::ptr;
-
-unsafe extern "C" fn next_f32(user: *mut c_void) -> f32 {
-    (*(user as *mut Rng)).f32()
-}
-unsafe extern "C" fn next_f64(user: *mut c_void) -> f64 {
-    (*(user as *mut Rng)).f64()
-}
-
-fn uniforms(r: &mut Rng) -> ml_uniforms {
-    ml_uniforms {
-        next_f32: Some(next_f32),
-        next_f64: Some(next_f64),
-        user_data: r as *mut Rng as *mut c_void,
-    }
-}
 
 fn v3(x: f32, y: f32, z: f32) -> ml_vec3 {
     ml_vec3 { x, y, z }

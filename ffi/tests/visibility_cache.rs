@@ -5,7 +5,7 @@
 //! refused; the estimator keeps the cache alive.
 
 mod common;
-use common::{message, ok};
+use common::{message, ok, uniforms};
 
 use glam::Vec3;
 use manylights::direct::{
@@ -16,21 +16,6 @@ use manylights_ffi::*;
 use manylights_testkit::SplitMix64 as Rng;
 use std::ffi::c_void;
 use std::ptr;
-
-unsafe extern "C" fn next_f32(user: *mut c_void) -> f32 {
-    (*(user as *mut Rng)).f32()
-}
-unsafe extern "C" fn next_f64(user: *mut c_void) -> f64 {
-    (*(user as *mut Rng)).f64()
-}
-
-fn uniforms(r: &mut Rng) -> ml_uniforms {
-    ml_uniforms {
-        next_f32: Some(next_f32),
-        next_f64: Some(next_f64),
-        user_data: r as *mut Rng as *mut c_void,
-    }
-}
 
 /// The host's generator as the core's uniform numbers (what `ml_uniforms` with both
 /// callbacks gives).

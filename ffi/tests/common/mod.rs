@@ -5,7 +5,7 @@ pub mod counting;
 
 use manylights_ffi::*;
 use manylights_testkit::SplitMix64 as Rng;
-use std::ffi::CStr;
+use std::ffi::{c_void, CStr};
 
 /// The last error message of this thread.
 pub fn message() -> String {
@@ -50,5 +50,21 @@ pub fn mixed_light(i: usize, p: ml_vec3, e: ml_rgb, r: &mut Rng) -> ml_light {
             two_sided: 0,
         }
         .into(),
+    }
+}
+
+unsafe extern "C" fn next_f32(user: *mut c_void) -> f32 {
+    (*(user as *mut Rng)).f32()
+}
+unsafe extern "C" fn next_f64(user: *mut c_void) -> f64 {
+    (*(user as *mut Rng)).f64()
+}
+
+/// The host uniform numbers of `r` through the C callbacks (valid while `r` lives).
+pub fn uniforms(r: &mut Rng) -> ml_uniforms {
+    ml_uniforms {
+        next_f32: Some(next_f32),
+        next_f64: Some(next_f64),
+        user_data: r as *mut Rng as *mut c_void,
     }
 }
